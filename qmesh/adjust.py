@@ -1,0 +1,118 @@
+"""Vertex adjustment: the generalised optimal-Delaunay step (chapter (2.85)–(2.93), MATH.md).
+
+With the connectivity fixed, each vertex moves towards the minimiser of the interpolation energy
+E = ‖s_h − s‖_L1 = ⅓ Σ_i |Ω_i| s(x_i) − ∫ s over its own star:
+
+    H(x_i) d_i = b_i = −(1/|Ω_i|) Σ_{T∋i} ∇_{x_i}|T| Σ_{k∈T, k≠i} [s(x_k) − s(x_i) − ∇s(x_i)·(x_k − x_i)]
+
+(2.91) for constant Q, where the bracket is s(x_k − x_i); (2.93) linearised for a varying s.
+b_i = −3 ∇_{x_i}E / |Ω_i| and ⅓|Ω_i| H is E's Hessian in x_i, so d_i is a Newton step on E.
+For s = ½|x|² this is the ODT update of Alliez et al. (2005) and L. Chen (2004).
+
+Seed boundary vertices never move; other boundary vertices slide along their polygon edge (the
+same Newton step restricted to the edge's direction). The move is relaxed by α (2.92) and capped
+so that no vertex leaves its star: no triangle loses more than half its area to one vertex, and
+moves that would still invert a triangle (neighbours moving together) are halved until none does.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .geometry import area_gradients, signed_areas
+
+STAR_SHRINK = 0.5      # largest fraction of a triangle's area one vertex's move may remove
+MIN_AREA_KEPT = 0.1    # after all moves every triangle keeps at least this fraction of its area
+
+
+def _corner_brackets(P, T, anisotropy):
+    """Σ_{k∈T, k≠i} [s(x_k) − s(x_i) − ∇s(x_i)·(x_k − x_i)] for every corner i of every T: (M, 3)."""
+    X = P[T]
+    if anisotropy.is_constant:
+        E = X[:, [2, 0, 1]] - X[:, [1, 2, 0]]                 # edge opposite each corner
+        w = 0.5 * np.einsum("mki,ij,mkj->mk", E, anisotropy.H, E)   # s(x_k − x_i) of (2.91)
+        return w.sum(axis=1, keepdims=True) - w                # the two edges at the corner
+    s = np.asarray(anisotropy.s(P), dtype=float)[T]
+    g = np.asarray(anisotropy.grad(P), dtype=float)[T]
+    out = np.zeros(T.shape)
+    for shift in (1, 2):
+        k = np.roll(np.arange(3), -shift)
+        out += s[:, k] - s - np.einsum("mci,mci->mc", g, X[:, k] - X)
+    return out
+
+
+def _scatter(T, values, n):
+    """Sum per-corner values (M, 3[, 2]) onto the n vertices."""
+    idx = T.ravel()
+    if values.ndim == 2:
+        return np.bincount(idx, values.ravel(), minlength=n)
+    v = values.reshape(-1, values.shape[-1])
+    return np.column_stack([np.bincount(idx, v[:, j], minlength=n) for j in range(v.shape[1])])
+
+
+def newton_rhs(P, T, anisotropy):
+    """b_i of (2.91)/(2.93) and the star areas |Ω_i|."""
+    n = len(P)
+    G = area_gradients(P, T)                                   # (M, 3, 2)
+    A = signed_areas(P, T)
+    star = np.bincount(T.ravel(), np.repeat(A, 3), minlength=n)
+    B = _scatter(T, G * _corner_brackets(P, T, anisotropy)[..., None], n)
+    return -B / np.where(star > 0, star, 1.0)[:, None], star
+
+
+def energy_gradient(P, T, anisotropy):
+    """∇_{x_i}E straight from E = ⅓ Σ_T |T| Σ_{k∈T} s(x_k) − ∫s (fixed domain), for testing."""
+    n = len(P)
+    G = area_gradients(P, T)
+    A = signed_areas(P, T)
+    s = np.asarray(anisotropy.s(P), dtype=float)
+    star = np.bincount(T.ravel(), np.repeat(A, 3), minlength=n)
+    ssum = s[T].sum(axis=1)
+    grad = _scatter(T, G * ssum[:, None, None], n) + star[:, None] * anisotropy.grad(P)
+    return grad / 3.0
+
+
+def vertex_step(P, T, anisotropy, *, fixed, tangent, alpha=0.5):
+    """New positions after one relaxed adjustment of every vertex (2.92), and the displacements.
+
+    `fixed` marks vertices that never move; `tangent` (N, 2) is the unit direction a sliding
+    boundary vertex may move along (zero rows for interior vertices).
+    """
+    n = len(P)
+    b, _ = newton_rhs(P, T, anisotropy)
+    Hv = (np.broadcast_to(anisotropy.H, (n, 2, 2)) if anisotropy.is_constant
+          else np.asarray(anisotropy.hessian(P), dtype=float))
+    d = np.linalg.solve(Hv, b[..., None])[..., 0]              # interior: H d = b
+    sliding = np.any(tangent != 0, axis=1)
+    tb = np.einsum("ni,ni->n", tangent[sliding], b[sliding])
+    tHt = np.einsum("ni,nij,nj->n", tangent[sliding], Hv[sliding], tangent[sliding])
+    d[sliding] = tangent[sliding] * (tb / tHt)[:, None]
+    d[fixed] = 0.0
+    d *= alpha                                                  # (2.92)
+    d *= _star_cap(P, T, d)[:, None]
+    return _no_inversion(P, T, d)
+
+
+def _star_cap(P, T, d):
+    """Largest factor ≤ 1 per vertex so its move alone keeps every triangle of its star."""
+    G = area_gradients(P, T)
+    A = signed_areas(P, T)
+    rate = np.einsum("mci,mci->mc", G, d[T])                   # dA/dt for each corner's move
+    limit = np.where(rate < 0, STAR_SHRINK * A[:, None] / np.where(rate < 0, -rate, 1.0), np.inf)
+    cap = np.ones(len(P))
+    np.minimum.at(cap, T.ravel(), limit.ravel())
+    return cap
+
+
+def _no_inversion(P, T, d, max_halvings=30):
+    """Halve the moves of vertices whose triangles would lose too much area."""
+    A0 = signed_areas(P, T)
+    for _ in range(max_halvings):
+        Pn = P + d
+        bad = signed_areas(Pn, T) < MIN_AREA_KEPT * A0
+        if not bad.any():
+            return Pn, d
+        v = np.unique(T[bad].ravel())
+        d[v] *= 0.5
+    d[np.unique(T[signed_areas(P + d, T) < MIN_AREA_KEPT * A0].ravel())] = 0.0
+    return P + d, d

@@ -1,0 +1,114 @@
+"""Immutable values the mesher produces: a `Mesh`, and a `Step` snapshot per stage of Algorithm 2.1.
+
+Arrays are read-only so consecutive Steps can share them: an `adjust` stage shares the triangles
+of the step before it, a `triangulate` stage shares its points. Holding the whole history of a
+run therefore costs little more than the final mesh per stage (the GUI scrubs through it).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+
+from .errors import QmeshError
+
+
+def frozen(a: np.ndarray, dtype) -> np.ndarray:
+    """`a` as a read-only array of `dtype` (no copy when it already is one)."""
+    a = np.asarray(a, dtype=dtype)
+    if a.flags.writeable:
+        a = a.copy() if a.base is not None else a
+        a.setflags(write=False)
+    return a
+
+
+@dataclass(frozen=True, eq=False)
+class Mesh:
+    """A triangle mesh: `points (N,2)`, counter-clockwise `triangles (M,3)`, `fixed (N,)` seed mask."""
+
+    points: np.ndarray = field(repr=False)
+    triangles: np.ndarray = field(repr=False)
+    fixed: np.ndarray = field(default=None, repr=False)
+
+    def __post_init__(self):
+        P = frozen(self.points, np.float64)
+        T = frozen(self.triangles, np.int64)
+        if P.ndim != 2 or P.shape[1] != 2:
+            raise QmeshError(f"points must have shape (N, 2), got {P.shape}")
+        if T.ndim != 2 or T.shape[1] != 3:
+            raise QmeshError(f"triangles must have shape (M, 3), got {T.shape}")
+        if T.size and (T.min() < 0 or T.max() >= len(P)):
+            raise QmeshError("triangles refer to points that do not exist")
+        F = np.zeros(len(P), bool) if self.fixed is None else self.fixed
+        F = frozen(F, bool)
+        if F.shape != (len(P),):
+            raise QmeshError(f"fixed must have shape ({len(P)},), got {F.shape}")
+        object.__setattr__(self, "points", P)
+        object.__setattr__(self, "triangles", T)
+        object.__setattr__(self, "fixed", F)
+
+    def __repr__(self):
+        return f"Mesh(N={self.n_vertices}, triangles={self.n_triangles}, fixed={int(self.fixed.sum())})"
+
+    @property
+    def n_vertices(self) -> int:
+        return len(self.points)
+
+    @property
+    def n_triangles(self) -> int:
+        return len(self.triangles)
+
+    @cached_property
+    def boundary_edges(self) -> np.ndarray:
+        """Edges (k, 2) that belong to exactly one triangle."""
+        T = self.triangles
+        e = np.sort(np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]]), axis=1)
+        u, count = np.unique(e, axis=0, return_counts=True)
+        return u[count == 1]
+
+    @cached_property
+    def boundary(self) -> np.ndarray:
+        """Boolean mask of vertices on the mesh boundary (from topology, so any mesh has it)."""
+        m = np.zeros(self.n_vertices, bool)
+        m[self.boundary_edges.ravel()] = True
+        return m
+
+
+@dataclass(frozen=True, eq=False)
+class Stats:
+    """What one stage of Algorithm 2.1 did and where it left the mesh."""
+
+    n_vertices: int
+    n_triangles: int
+    energy: float          # E = ‖s_h − s‖_L1 (MATH.md "Vertex adjustment")
+    min_quality: float     # metric quality (2.94), 1 = equilateral in metric space
+    mean_quality: float
+    max_move: float = 0.0  # largest metric displacement in this stage (adjust)
+    flips: int = 0         # edges flipped to restore the Q-Delaunay property (triangulate)
+    added: int = 0         # points inserted (insert)
+    seconds: float = 0.0   # wall time of this stage
+
+
+@dataclass(frozen=True, eq=False)
+class Step:
+    """A snapshot after one stage of Algorithm 2.1.
+
+    `stage` is "triangulate", "adjust" or "insert"; `iteration` counts the repeat loop
+    (0 = the initial triangulation). `moved` holds per-vertex displacements after an adjust
+    stage; `added` the indices of vertices inserted by an insert stage.
+    """
+
+    stage: str
+    iteration: int
+    mesh: Mesh
+    stats: Stats
+    moved: np.ndarray | None = field(default=None, repr=False)
+    added: np.ndarray | None = field(default=None, repr=False)
+    converged: bool = False
+
+    def __repr__(self):
+        s = self.stats
+        return (f"Step({self.stage!r}, iteration={self.iteration}, N={s.n_vertices}, "
+                f"E={s.energy:.4g}, min_q={s.min_quality:.3f})")

@@ -1,0 +1,213 @@
+"""Algorithm 2.1 of the chapter: build a Q-adapted mesh.
+
+    read the boundary points; select initial interior points
+    construct the Q-weighted Delaunay triangulation
+    repeat
+        adjust vertices                       (adjust.py, (2.85)–(2.93))
+        add new points                        (insert.py, (2.94))
+        construct the Q-Delaunay triangulation (triangulate.py, (2.74)–(2.75))
+    until converged
+
+`iterate` yields a `Step` after every stage, so the CLI's progress, the GUI's stepping and the
+widget all consume this one loop. Only the first triangulation is built from scratch (Qhull);
+later ones restore the Q-Delaunay property by edge flips on the kept connectivity, and the mesh
+grows coarse to fine, so the cost of an iteration is O(N) array work.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Iterator
+
+import numpy as np
+
+from . import sizing, topology
+from .adjust import vertex_step
+from .errors import QmeshError
+from .geometry import metric_hessians, metric_quality
+from .insert import insert, target_area
+from .measure import triangle_energy
+from .mesh import Mesh, Stats, Step
+from .triangulate import lower_hull, restore
+
+BOUNDARY_FACTOR = 1.0   # split boundary edges longer than this many target metric lengths
+MOVE_TOL = 0.02         # converged when no vertex moves more than this fraction of h (metric)
+
+
+def _check_options(target_vertices, size, alpha, quality_threshold, min_area, max_iterations):
+    if target_vertices is not None and size is not None:
+        raise QmeshError("give either target_vertices or size, not both")
+    if target_vertices is not None:
+        if isinstance(target_vertices, bool) or int(target_vertices) != target_vertices:
+            raise QmeshError(f"target_vertices must be an integer, got {target_vertices!r}")
+        sizing.check_vertex_count(target_vertices, f"target_vertices = {target_vertices}")
+    if size is not None and not (np.isfinite(size) and size > 0):
+        raise QmeshError(f"size must be a finite number > 0, got {size!r}")
+    if not (np.isfinite(alpha) and 0 < alpha <= 1):
+        raise QmeshError(f"alpha must be in (0, 1], got {alpha!r}")
+    if not (0 <= quality_threshold < 1):
+        raise QmeshError(f"quality_threshold must be in [0, 1), got {quality_threshold!r}")
+    if min_area is not None and not (np.isfinite(min_area) and min_area >= 0):
+        raise QmeshError(f"min_area must be a finite number >= 0, got {min_area!r}")
+    if int(max_iterations) != max_iterations or max_iterations < 0:
+        raise QmeshError(f"max_iterations must be a non-negative integer, got {max_iterations!r}")
+
+
+def _random_interior(domain, k, rng) -> np.ndarray:
+    """k points uniformly distributed inside the polygon (rejection from its bounding box)."""
+    lo, hi = domain.points.min(axis=0), domain.points.max(axis=0)
+    out = np.empty((0, 2))
+    while len(out) < k:
+        X = rng.uniform(lo, hi, size=(2 * k + 16, 2))
+        A, Tn = domain.edges
+        d = Tn[None, :, 0] * (X[:, None, 1] - A[None, :, 1]) - Tn[None, :, 1] * (X[:, None, 0] - A[None, :, 0])
+        margin = 1e-3 * np.ptp(domain.points, axis=0).max()
+        out = np.concatenate([out, X[np.all(d > margin, axis=1)]])
+    return out[:k]
+
+
+class _State:
+    """The mutable arrays of one run; Steps get read-only snapshots of them."""
+
+    def __init__(self, domain, anisotropy, P, fixed, edge_id):
+        self.domain, self.anisotropy = domain, anisotropy
+        self.P, self.fixed, self.edge_id = P, fixed, edge_id
+        self.T = lower_hull(P, anisotropy)
+        self.twin = topology.twins(self.T)
+        self.mesh = Mesh(P, self.T, fixed)
+
+    def tangents(self) -> np.ndarray:
+        _, tan = self.domain.edges
+        t = np.zeros_like(self.P)
+        on = self.edge_id >= 0
+        t[on] = tan[self.edge_id[on]]
+        t[self.fixed] = 0.0
+        return t
+
+    def corner_edge(self) -> np.ndarray:
+        """Polygon edge that starts at each boundary vertex (seeds: their outgoing edge)."""
+        ce = self.edge_id.copy()
+        ce[self.fixed] = np.arange(int(self.fixed.sum()))
+        return ce
+
+    def stats(self, **extra) -> Stats:
+        P, T = self.mesh.points, self.mesh.triangles
+        q = metric_quality(P, T, metric_hessians(self.anisotropy, P, T))
+        return Stats(n_vertices=len(P), n_triangles=len(T),
+                     energy=float(triangle_energy(P, T, self.anisotropy).sum()),
+                     min_quality=float(q.min()), mean_quality=float(q.mean()), **extra)
+
+
+def iterate(domain, anisotropy, *, target_vertices: int | None = None, size: float | None = None,
+            alpha: float = 0.5, quality_threshold: float = 0.5, min_area: float | None = None,
+            max_iterations: int = 40, seed: int | None = 0,
+            boundary_refinement: bool = True) -> Iterator[Step]:
+    """Run Algorithm 2.1, yielding a `Step` after every stage.
+
+    target_vertices   final vertex count N (lands within a few percent), or
+    size              target metric edge length h (default: the mean metric length of the
+                      domain's edges, so the seed points set the size as in the chapter);
+    alpha             relaxation of the vertex step (2.92); ½ as in the chapter;
+    quality_threshold triangles of metric quality (2.94) below it get a point, unless
+    min_area          their metric area is below this (default: ¼ of the target triangle's);
+    max_iterations    cap on the repeat loop;
+    seed              seed of the random initial interior points (same seed ⇒ same mesh);
+    boundary_refinement  allow vertices on the boundary between the seed points.
+    """
+    _check_options(target_vertices, size, alpha, quality_threshold, min_area, max_iterations)
+    seeds = domain.seeds
+    anisotropy.check_convex(np.concatenate([seeds, seeds.mean(axis=0, keepdims=True)]))
+    area_m = sizing.metric_area(domain, anisotropy)
+    lengths = sizing.metric_edge_lengths(domain, anisotropy)
+    bfac = BOUNDARY_FACTOR if boundary_refinement else None
+    if target_vertices is not None:
+        if target_vertices <= len(seeds):
+            raise QmeshError(f"target_vertices = {target_vertices} must exceed the "
+                             f"{len(seeds)} seed boundary points")
+        h = sizing.size_for_vertices(area_m, lengths, target_vertices, bfac)
+    else:
+        h = float(size) if size is not None else float(lengths.mean())
+        sizing.check_vertex_count(sizing.vertices_for_size(area_m, lengths, h, bfac),
+                                  f"size = {h:.3g}")
+    min_area = 0.25 * target_area(h) if min_area is None else float(min_area)
+    rng = np.random.default_rng(seed)
+
+    # 1. read the boundary points; select about as many random interior points
+    n_int = len(seeds) if target_vertices is None else min(len(seeds), target_vertices - len(seeds))
+    P = np.concatenate([seeds, _random_interior(domain, n_int, rng)])
+    fixed = np.zeros(len(P), bool)
+    fixed[:len(seeds)] = True
+    edge_id = np.full(len(P), -1, np.int64)
+
+    # 2. construct the Q-weighted Delaunay triangulation (lower hull, from scratch)
+    t0 = time.perf_counter()
+    st = _State(domain, anisotropy, P, fixed, edge_id)
+    yield Step("triangulate", 0, st.mesh, st.stats(seconds=time.perf_counter() - t0))
+
+    for it in range(1, max_iterations + 1):
+        # 3. adjust vertices (2.91)–(2.93)
+        t0 = time.perf_counter()
+        Pn, d = vertex_step(st.P, st.T, anisotropy, fixed=st.fixed, tangent=st.tangents(),
+                            alpha=alpha)
+        Pn = _onto_edges(domain, Pn, st.edge_id)
+        Hv = (np.broadcast_to(anisotropy.H, (len(d), 2, 2)) if anisotropy.is_constant
+              else anisotropy.hessian(st.P))
+        max_move = float(np.sqrt(np.einsum("ni,nij,nj->n", d, Hv, d).max()) / h)
+        st.P = Pn
+        st.mesh = Mesh(Pn, st.mesh.triangles, st.fixed)
+        yield Step("adjust", it, st.mesh,
+                   st.stats(max_move=max_move, seconds=time.perf_counter() - t0), moved=d)
+
+        # 4. add new points near bad or oversized triangles (2.94)
+        t0 = time.perf_counter()
+        n_old = len(st.P)
+        if target_vertices is not None:
+            budget = target_vertices - n_old
+            nb = int(st.mesh.boundary.sum())
+            threshold = area_m / max(2 * target_vertices - nb - 2, 1)
+        else:
+            budget = sizing.MAX_VERTICES - n_old
+            threshold = 2.0 * target_area(h)
+        h_eff = np.sqrt(threshold / target_area(1.0))
+        ins = insert(st.P, st.T, st.twin, anisotropy, area_threshold=threshold,
+                     boundary_length=BOUNDARY_FACTOR * h_eff, corner_edge=st.corner_edge(),
+                     quality_threshold=quality_threshold, min_area=min_area, budget=budget,
+                     refine_boundary=boundary_refinement)
+        k = len(ins.points)
+        st.T, st.twin = ins.T, ins.twin
+        st.P = np.concatenate([st.P, ins.points])
+        st.fixed = np.concatenate([st.fixed, np.zeros(k, bool)])
+        st.edge_id = np.concatenate([st.edge_id, ins.edge_id])
+        st.mesh = Mesh(st.P, st.T, st.fixed) if k else st.mesh
+        yield Step("insert", it, st.mesh, st.stats(added=k, seconds=time.perf_counter() - t0),
+                   added=np.arange(n_old, n_old + k))
+
+        # 5. construct the Q-Delaunay triangulation again, by flips on the kept connectivity
+        t0 = time.perf_counter()
+        st.T, st.twin, flips = restore(st.P, st.T, st.twin, anisotropy)
+        st.mesh = Mesh(st.mesh.points, st.T, st.fixed) if flips else st.mesh
+        n_edges = len(st.twin) // 2
+        converged = (k == 0 and flips <= max(2, 1e-3 * n_edges) and max_move < MOVE_TOL)
+        yield Step("triangulate", it, st.mesh,
+                   st.stats(flips=flips, seconds=time.perf_counter() - t0), converged=converged)
+        if converged:
+            return
+
+
+def _onto_edges(domain, P, edge_id):
+    """Put sliding boundary vertices back exactly on their polygon edge (round-off only)."""
+    on = edge_id >= 0
+    if on.any():
+        A, tan = domain.edges
+        a, t = A[edge_id[on]], tan[edge_id[on]]
+        P = P.copy()
+        P[on] = a + np.einsum("ni,ni->n", P[on] - a, t)[:, None] * t
+    return P
+
+
+def mesh(domain, anisotropy, **options) -> Mesh:
+    """Run Algorithm 2.1 to convergence (or `max_iterations`) and return the final mesh."""
+    last = None
+    for last in iterate(domain, anisotropy, **options):
+        pass
+    return last.mesh

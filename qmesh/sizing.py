@@ -1,0 +1,86 @@
+"""How big the mesh should be: metric area and perimeter of the domain, and the size h ↔ N relation.
+
+Lengths and areas are measured in the metric H = ∇²s (MATH.md "Quality"): a mesh of metric
+edge length h has triangles of metric area ≈ √3/4 h², and Euler's relation M = 2N − N_b − 2
+links the triangle count M to the N vertices of which N_b lie on the boundary.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .errors import QmeshError
+
+# Gauss–Legendre points on [0, 1] for the metric length of each boundary edge
+_GL_X, _GL_W = np.polynomial.legendre.leggauss(8)
+_GL_X, _GL_W = 0.5 * (_GL_X + 1.0), 0.5 * _GL_W
+
+MAX_VERTICES = 50_000_000   # about 25 GB of working memory at ~500 bytes per vertex
+
+
+def metric_area(domain, anisotropy) -> float:
+    """∫_Ω √det ∇²s, exact for constant Q, by a 4096-triangle midpoint rule otherwise."""
+    if anisotropy.is_constant:
+        return domain.area * float(np.sqrt(np.linalg.det(anisotropy.H)))
+    P = domain.points
+    c = P.mean(axis=0)
+    # fan triangles (c, P_k, P_k+1) sampled by a uniform barycentric grid of 64 points each
+    m = 8
+    i, j = np.meshgrid(np.arange(m), np.arange(m), indexing="ij")
+    keep = i + j < m
+    up = np.column_stack([(i[keep] + 1 / 3) / m, (j[keep] + 1 / 3) / m])
+    dn = np.column_stack([(i + 2 / 3) / m, (j + 2 / 3) / m])[(i + j < m - 1).ravel()]
+    bary = np.concatenate([up, dn])                       # centroids of the m² sub-triangles
+    A, B = P, np.roll(P, -1, axis=0)
+    X = c + bary[None, :, 0:1] * (A - c)[:, None] + bary[None, :, 1:2] * (B - c)[:, None]
+    Hs = np.asarray(anisotropy.hessian(X.reshape(-1, 2)), dtype=float)
+    dets = np.clip(Hs[:, 0, 0] * Hs[:, 1, 1] - Hs[:, 0, 1] * Hs[:, 1, 0], 0.0, None)
+    fan = 0.5 * np.abs((A - c)[:, 0] * (B - c)[:, 1] - (A - c)[:, 1] * (B - c)[:, 0])
+    return float((np.sqrt(dets).reshape(len(P), -1).mean(axis=1) * fan).sum())
+
+
+def metric_edge_lengths(domain, anisotropy) -> np.ndarray:
+    """Metric length ∫ √(τᵀHτ) of each polygon edge."""
+    A = domain.points
+    E = np.roll(A, -1, axis=0) - A
+    X = A[:, None, :] + _GL_X[None, :, None] * E[:, None, :]
+    Hs = (np.broadcast_to(anisotropy.H, (X.shape[0] * X.shape[1], 2, 2)) if anisotropy.is_constant
+          else np.asarray(anisotropy.hessian(X.reshape(-1, 2)), dtype=float))
+    Ek = np.repeat(E, len(_GL_X), axis=0)
+    dens = np.sqrt(np.einsum("ni,nij,nj->n", Ek, Hs, Ek)).reshape(len(A), -1)
+    return dens @ _GL_W
+
+
+def boundary_vertices(edge_lengths: np.ndarray, h: float, boundary_factor: float | None) -> int:
+    """Boundary vertex count when every edge longer than boundary_factor·h is split evenly."""
+    if boundary_factor is None:
+        return len(edge_lengths)
+    return int(np.maximum(1, np.ceil(edge_lengths / (boundary_factor * h))).sum())
+
+
+def vertices_for_size(area_m: float, edge_lengths: np.ndarray, h: float,
+                      boundary_factor: float | None) -> float:
+    """Expected N for metric edge length h: M·(√3/4)h² = area, M = 2N − N_b − 2."""
+    nb = boundary_vertices(edge_lengths, h, boundary_factor)
+    m = area_m / (np.sqrt(3.0) / 4.0 * h * h)
+    return 0.5 * (m + nb + 2)
+
+
+def size_for_vertices(area_m: float, edge_lengths: np.ndarray, n: int,
+                      boundary_factor: float | None) -> float:
+    """The metric edge length h whose expected vertex count is n (bisection in log h)."""
+    lo, hi = 1e-9 * np.sqrt(area_m), 10.0 * (np.sqrt(area_m) + edge_lengths.sum())
+    for _ in range(200):
+        mid = np.sqrt(lo * hi)
+        if vertices_for_size(area_m, edge_lengths, mid, boundary_factor) > n:
+            lo = mid
+        else:
+            hi = mid
+    return float(np.sqrt(lo * hi))
+
+
+def check_vertex_count(n: float, what: str) -> None:
+    """Refuse a mesh that would need absurd memory, before any work is done."""
+    if not np.isfinite(n) or n > MAX_VERTICES:
+        raise QmeshError(f"{what} asks for about {n:.3g} vertices (~{n * 500 / 2**30:.0f} GiB of "
+                         f"memory); the limit is {MAX_VERTICES:.0e}")

@@ -1,0 +1,118 @@
+"""Half-edge adjacency of a triangle array, and the local edits the mesher makes to it.
+
+Half-edge `h = 3 t + e` runs from `T[t, e]` to `T[t, (e + 1) % 3]`; `twin[h]` is the opposite
+half-edge in the neighbouring triangle, or -1 on the boundary. Edge flips and point splits are
+applied to whole batches at once: each batch first says where every surviving half-edge moves
+(`reloc`), and the twin array is rebuilt from that in O(M) with no sort. This is what lets the
+mesher keep its connectivity between iterations instead of re-triangulating from scratch.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+NXT = np.array([1, 2, 0])
+PRV = np.array([2, 0, 1])
+
+
+def twins(T: np.ndarray) -> np.ndarray:
+    """Twin half-edge of every half-edge (-1 on the boundary); one sort, used once per mesh.
+
+    Raises ValueError if an edge is shared by more than two triangles or a neighbour is
+    inconsistently oriented.
+    """
+    M = len(T)
+    a = T.ravel()
+    b = T[:, NXT].ravel()
+    n = int(T.max()) + 1 if M else 0
+    key = np.minimum(a, b).astype(np.int64) * n + np.maximum(a, b)
+    order = np.argsort(key, kind="stable")
+    k = key[order]
+    same = k[1:] == k[:-1]
+    if np.any(same[1:] & same[:-1]):
+        raise ValueError("an edge is shared by more than two triangles")
+    twin = np.full(3 * M, -1, dtype=np.int64)
+    i = np.flatnonzero(same)
+    h1, h2 = order[i], order[i + 1]
+    if np.any(a[h1] == a[h2]):
+        raise ValueError("two neighbouring triangles have opposite orientations")
+    twin[h1] = h2
+    twin[h2] = h1
+    return twin
+
+
+def _rebuild(twin: np.ndarray, reloc: np.ndarray, size: int) -> np.ndarray:
+    """Twin array after an edit that moved half-edge h to reloc[h] (-1 = destroyed)."""
+    new = np.full(size, -1, dtype=np.int64)
+    keep = reloc >= 0
+    tw = twin[keep]
+    new[reloc[keep]] = np.where(tw >= 0, reloc[np.maximum(tw, 0)], -1)
+    return new
+
+
+def flip(T: np.ndarray, twin: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Flip the edges of half-edges `h` (no two in the same triangle); returns new (T, twin).
+
+    Triangles t1 = (u, v, a) ∋ h and t2 = (v, u, b) ∋ twin[h] become (u, b, a) and (b, v, a);
+    both keep their row numbers.
+    """
+    g = twin[h]
+    t1, e1 = np.divmod(h, 3)
+    t2, e2 = np.divmod(g, 3)
+    u = T[t1, e1]
+    v = T[t1, NXT[e1]]
+    a = T[t1, PRV[e1]]
+    b = T[t2, PRV[e2]]
+    reloc = np.arange(3 * len(T), dtype=np.int64)
+    reloc[h] = -1
+    reloc[g] = -1
+    reloc[3 * t1 + NXT[e1]] = 3 * t2 + 1      # v→a
+    reloc[3 * t1 + PRV[e1]] = 3 * t1 + 2      # a→u
+    reloc[3 * t2 + NXT[e2]] = 3 * t1 + 0      # u→b
+    reloc[3 * t2 + PRV[e2]] = 3 * t2 + 0      # b→v
+    T = T.copy()
+    T[t1] = np.column_stack([u, b, a])
+    T[t2] = np.column_stack([b, v, a])
+    new = _rebuild(twin, reloc, 3 * len(T))
+    new[3 * t1 + 1] = 3 * t2 + 2              # b→a ↔ a→b
+    new[3 * t2 + 2] = 3 * t1 + 1
+    return T, new
+
+
+def split_triangles(T: np.ndarray, twin: np.ndarray, t: np.ndarray, p: np.ndarray):
+    """Split triangles `t` = (a, b, c) at new vertices `p` into (a,b,p), (b,c,p), (c,a,p)."""
+    M, k = len(T), len(t)
+    t1 = M + np.arange(k)
+    t2 = M + k + np.arange(k)
+    a, b, c = T[t, 0], T[t, 1], T[t, 2]
+    reloc = np.arange(3 * M, dtype=np.int64)
+    reloc[3 * t + 1] = 3 * t1                 # b→c
+    reloc[3 * t + 2] = 3 * t2                 # c→a
+    T = np.concatenate([T, np.column_stack([b, c, p]), np.column_stack([c, a, p])])
+    T[t] = np.column_stack([a, b, p])
+    new = _rebuild(twin, reloc, 3 * len(T))
+    for x, y in ((3 * t + 1, 3 * t1 + 2), (3 * t + 2, 3 * t2 + 1), (3 * t1 + 1, 3 * t2 + 2)):
+        new[x] = y
+        new[y] = x
+    return T, new
+
+
+def split_boundary_edges(T: np.ndarray, twin: np.ndarray, h: np.ndarray, p: np.ndarray):
+    """Split boundary half-edges `h` (u→v, at most one per triangle) at new vertices `p`.
+
+    The triangle (u, v, w) becomes (u, p, w) and (p, v, w).
+    """
+    M, k = len(T), len(h)
+    t, e = np.divmod(h, 3)
+    t1 = M + np.arange(k)
+    u, v, w = T[t, e], T[t, NXT[e]], T[t, PRV[e]]
+    reloc = np.arange(3 * M, dtype=np.int64)
+    reloc[h] = -1
+    reloc[3 * t + NXT[e]] = 3 * t1 + 1        # v→w
+    reloc[3 * t + PRV[e]] = 3 * t + 2         # w→u
+    T = np.concatenate([T, np.column_stack([p, v, w])])
+    T[t] = np.column_stack([u, p, w])
+    new = _rebuild(twin, reloc, 3 * len(T))
+    new[3 * t + 1] = 3 * t1 + 2               # p→w ↔ w→p
+    new[3 * t1 + 2] = 3 * t + 1
+    return T, new

@@ -1,0 +1,140 @@
+"""The Q-Delaunay triangulation: the lower convex hull of the points lifted onto z = s(x).
+
+MATH.md "Connectivity" and the chapter's (2.74)–(2.75): the lower hull is the regular triangulation
+with weights w_i = |x_i|² − s(x_i); for constant Q it is the Delaunay triangulation of the points
+mapped by H^{1/2}, and then every interior stiffness off-diagonal q_ij is ≥ 0.
+
+Two constructions:
+- `lower_hull` builds it from scratch with Qhull (scipy.spatial.ConvexHull): the reference, and
+  the mesher's initial triangulation.
+- `restore` repairs a valid triangulation whose vertices moved or were split in, by Lawson flips
+  of locally non-regular edges (Lawson 1977; Edelsbrunner & Shah 1996 for the weighted case),
+  in parallel batches. Because s is strictly convex every lifted point is a hull vertex and
+  every locally non-regular edge has a convex quadrilateral, so flipping terminates at the lower
+  hull. Cost per round is O(M) array work with no sort.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import ConvexHull, QhullError
+
+from . import topology
+from .errors import QmeshError
+from .geometry import signed_areas
+
+FLIP_TOL = 1e-10   # relative violation below which an edge counts as regular (ties stay put)
+
+
+def lifted_heights(P: np.ndarray, anisotropy) -> np.ndarray:
+    """Heights z = s(x) with an affine function removed (the lower hull does not see it)."""
+    c = P.mean(axis=0)
+    if anisotropy.is_constant:
+        d = P - c
+        return 0.5 * np.einsum("ni,ij,nj->n", d, anisotropy.H, d)
+    z = np.asarray(anisotropy.s(P), dtype=float)
+    g = np.asarray(anisotropy.grad(c[None]), dtype=float)[0]
+    return z - (P - c) @ g
+
+
+def orient_ccw(P: np.ndarray, T: np.ndarray) -> np.ndarray:
+    """Triangles reordered counter-clockwise where they were clockwise."""
+    T = np.array(T, dtype=np.int64, copy=True)
+    cw = signed_areas(P, T) < 0
+    T[cw] = T[cw][:, [0, 2, 1]]
+    return T
+
+
+def lower_hull(P: np.ndarray, anisotropy) -> np.ndarray:
+    """The Q-Delaunay triangulation of P from scratch (Qhull), counter-clockwise.
+
+    Every input point stays a vertex: Qhull would drop a point only if it were not on the lower
+    hull, which a strictly convex s rules out; a dropped point therefore means round-off or a
+    duplicate, and is reported as an error.
+    """
+    P = np.asarray(P, dtype=float)
+    scale = np.ptp(P, axis=0).max()
+    z = lifted_heights(P, anisotropy)
+    zs = np.ptp(z)
+    X = np.column_stack([(P - P.mean(axis=0)) / scale, z / (zs if zs > 0 else 1.0)])
+    try:
+        hull = ConvexHull(X, qhull_options="Qt")
+    except QhullError as err:
+        raise QmeshError(f"Qhull could not triangulate the points: {err}") from None
+    lower = hull.equations[:, 2] < -1e-12
+    T = orient_ccw(P, hull.simplices[lower])
+    T = T[signed_areas(P, T) > 0]
+    used = np.zeros(len(P), bool)
+    used[T.ravel()] = True
+    if not used.all():
+        raise QmeshError(f"{int((~used).sum())} points are not vertices of the lower hull "
+                         "(duplicate points, or s is not strictly convex there)")
+    return T
+
+
+def _violation(P, T, twin, h, anisotropy, s, g):
+    """Relative lifted in-circle test of half-edges h: > 0 means locally non-regular."""
+    t1, e1 = np.divmod(h, 3)
+    t2, e2 = np.divmod(twin[h], 3)
+    u = T[t1, e1]
+    v = T[t1, topology.NXT[e1]]
+    a = T[t1, topology.PRV[e1]]
+    b = T[t2, topology.PRV[e2]]
+    xb = P[b]
+    R = np.stack([P[u] - xb, P[v] - xb, P[a] - xb], axis=1)         # (k, 3, 2)
+    if anisotropy.is_constant:
+        z = 0.5 * np.einsum("kri,ij,krj->kr", R, anisotropy.H, R)     # tangent plane at b removed
+    else:
+        z = s[np.stack([u, v, a], axis=1)] - s[b][:, None] - np.einsum("kri,ki->kr", R, g[b])
+    m = R[:, [1, 2, 0], 0] * R[:, [2, 0, 1], 1] - R[:, [2, 0, 1], 0] * R[:, [1, 2, 0], 1]
+    det = np.einsum("kr,kr->k", z, m)
+    scale = np.einsum("kr,kr->k", np.abs(z), np.abs(m))
+    rel = det / np.where(scale > 0, scale, 1.0)
+    # the flip must leave two counter-clockwise triangles (u, b, a) and (b, v, a)
+    cross_ub = R[:, 0, 0] * (P[a] - xb)[:, 1] - R[:, 0, 1] * (P[a] - xb)[:, 0]
+    cross_va = R[:, 1, 0] * (P[a] - xb)[:, 1] - R[:, 1, 1] * (P[a] - xb)[:, 0]
+    convex = (cross_ub < 0) & (cross_va > 0)
+    return np.where(convex, rel, -1.0)
+
+
+def _canonical(twin: np.ndarray, h: np.ndarray) -> np.ndarray:
+    """One half-edge per interior edge among h (the smaller id of each pair), sorted, unique."""
+    tw = twin[h]
+    h = np.where(tw >= 0, np.minimum(h, tw), -1)
+    return np.unique(h[h >= 0])
+
+
+def restore(P: np.ndarray, T: np.ndarray, twin: np.ndarray, anisotropy,
+            candidates: np.ndarray | None = None, max_rounds: int = 500):
+    """Flip locally non-regular edges until the triangulation is Q-Delaunay.
+
+    Returns (T, twin, number of flips). Each round flips the edges that are the most violated
+    in both of their triangles, so no triangle takes part in two flips of one round.
+    """
+    s = g = None
+    if not anisotropy.is_constant:
+        s = np.asarray(anisotropy.s(P), dtype=float)
+        g = np.asarray(anisotropy.grad(P), dtype=float)
+    cand = _canonical(twin, np.arange(3 * len(T)) if candidates is None else candidates)
+    flips = 0
+    for _ in range(max_rounds):
+        if len(cand) == 0:
+            return T, twin, flips
+        viol = _violation(P, T, twin, cand, anisotropy, s, g)
+        bad = cand[viol > FLIP_TOL]
+        if len(bad) == 0:
+            return T, twin, flips
+        rank = np.empty(len(bad))
+        rank[np.argsort(viol[viol > FLIP_TOL], kind="stable")] = np.arange(1, len(bad) + 1)
+        best = np.zeros(3 * len(T))
+        best[bad] = rank
+        best[twin[bad]] = rank
+        tri_best = best.reshape(-1, 3).max(axis=1)
+        sel = (tri_best[bad // 3] == rank) & (tri_best[twin[bad] // 3] == rank)
+        h = bad[sel]
+        tri = np.concatenate([h // 3, twin[h] // 3])
+        T, twin = topology.flip(T, twin, h)
+        flips += len(h)
+        touched = (3 * tri[:, None] + np.arange(3)).ravel()
+        cand = _canonical(twin, np.concatenate([bad[~sel], touched]))
+    raise QmeshError("edge flipping did not converge; please report this mesh")
