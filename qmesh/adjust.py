@@ -72,8 +72,8 @@ def energy_gradient(P, T, anisotropy):
     return grad / 3.0
 
 
-def vertex_step(P, T, anisotropy, *, fixed, tangent, alpha=0.5):
-    """New positions after one relaxed adjustment of every vertex (2.92), and the displacements.
+def newton_step(P, T, anisotropy, *, fixed, tangent, alpha=0.5):
+    """The relaxed displacement α·d_i of every vertex (2.91)–(2.92), before any cap.
 
     `fixed` marks vertices that never move; `tangent` (N, 2) is the unit direction a sliding
     boundary vertex may move along (zero rows for interior vertices).
@@ -88,9 +88,23 @@ def vertex_step(P, T, anisotropy, *, fixed, tangent, alpha=0.5):
     tHt = np.einsum("ni,nij,nj->n", tangent[sliding], Hv[sliding], tangent[sliding])
     d[sliding] = tangent[sliding] * (tb / tHt)[:, None]
     d[fixed] = 0.0
-    d *= alpha                                                  # (2.92)
-    d *= _star_cap(P, T, d)[:, None]
-    return _no_inversion(P, T, d)
+    return alpha * d                                            # (2.92)
+
+
+def limit_moves(P, T, d, keep=None):
+    """Cap moves so no vertex leaves its star and no triangle inverts; returns (P + d, d).
+
+    Vertices in `keep` move exactly by d (their moves were checked already).
+    """
+    d = d * _star_cap(P, T, d)[:, None] if keep is None else np.where(
+        keep[:, None], d, d * _star_cap(P, T, d)[:, None])
+    return _no_inversion(P, T, d, keep)
+
+
+def vertex_step(P, T, anisotropy, *, fixed, tangent, alpha=0.5):
+    """New positions after one relaxed, capped adjustment of every vertex, and the displacements."""
+    return limit_moves(P, T, newton_step(P, T, anisotropy, fixed=fixed, tangent=tangent,
+                                         alpha=alpha))
 
 
 def _star_cap(P, T, d):
@@ -104,15 +118,16 @@ def _star_cap(P, T, d):
     return cap
 
 
-def _no_inversion(P, T, d, max_halvings=30):
+def _no_inversion(P, T, d, keep=None, max_halvings=30):
     """Halve the moves of vertices whose triangles would lose too much area."""
     A0 = signed_areas(P, T)
-    for _ in range(max_halvings):
-        Pn = P + d
-        bad = signed_areas(Pn, T) < MIN_AREA_KEPT * A0
+    d = d.copy()
+    for _ in range(max_halvings + 1):
+        bad = signed_areas(P + d, T) < MIN_AREA_KEPT * A0
         if not bad.any():
-            return Pn, d
+            return P + d, d
         v = np.unique(T[bad].ravel())
-        d[v] *= 0.5
-    d[np.unique(T[signed_areas(P + d, T) < MIN_AREA_KEPT * A0].ravel())] = 0.0
+        if keep is not None:
+            v = v[~keep[v]]
+        d[v] *= 0.5 if _ < max_halvings else 0.0
     return P + d, d

@@ -77,27 +77,61 @@ def insert(P, T, twin, anisotropy, *, area_threshold, boundary_length, corner_ed
 
     want = cand | long_bnd
     prio = np.where(long_bnd, np.maximum(priority, 2.0), priority)
-    chosen = want & (_local_max(T, twin, np.where(want, prio, -np.inf)) | (area > GROSS * At) | long_bnd)
+    gross = (area > GROSS * At) & ~long_bnd
+    chosen = want & (_local_max(T, twin, np.where(want, prio, -np.inf)) | gross | long_bnd)
     idx = np.flatnonzero(chosen)
     idx = idx[np.argsort(-prio[idx], kind="stable")][:budget]
 
-    # boundary splits: the triangle's longest edge if it is a boundary edge, else its longest
-    # boundary edge when that one is too long
+    # each chosen triangle splits an edge: its longest one, or its longest boundary edge when
+    # that one is too long; grossly oversized triangles are split at their centroid instead
     tri_he = (3 * idx[:, None] + np.arange(3))
     bnd_len = np.where(twin[tri_he] < 0, he_len2[tri_he], -1.0)
     longest_bnd = tri_he[np.arange(len(idx)), np.argmax(bnd_len, axis=1)]
-    split_bnd = on_boundary[idx] | long_bnd[idx]
-    he = np.where(on_boundary[idx], longest[idx], longest_bnd)[split_bnd]
-    tri = idx[~split_bnd]
+    edge = np.where(long_bnd[idx] & ~on_boundary[idx], longest_bnd, longest[idx])
+    by_edge = ~gross[idx]
+    he = _independent(T, twin, edge[by_edge], prio[idx[by_edge]])
+    touched = np.zeros(len(T), bool)
+    touched[he // 3] = True
+    touched[twin[he[twin[he] >= 0]] // 3] = True
+    tri = idx[~by_edge & ~touched[idx]]
+    hb, hi = he[twin[he] < 0], he[twin[he] >= 0]
 
-    u = T[he // 3, he % 3]
-    v = T[he // 3, topology.NXT[he % 3]]
-    new_b = 0.5 * (P[u] + P[v])
-    T, twin = topology.split_boundary_edges(T, twin, he, n + np.arange(len(he)))
-    new_i = P[T[tri]].mean(axis=1)
-    T, twin = topology.split_triangles(T, twin, tri, n + len(he) + np.arange(len(tri)))
-    return Insertion(T, twin, np.concatenate([new_b, new_i]),
-                     np.concatenate([corner_edge[u], np.full(len(tri), -1)]))
+    new_b = _midpoints(P, T, hb)
+    new_e = _midpoints(P, T, hi)
+    new_c = P[T[tri]].mean(axis=1)
+    edge_b = corner_edge[T[hb // 3, hb % 3]]
+    k0, k1 = n + len(hb), n + len(hb) + len(hi)
+    T, twin = topology.split_boundary_edges(T, twin, hb, n + np.arange(len(hb)))
+    T, twin = topology.split_edges(T, twin, hi, k0 + np.arange(len(hi)))
+    T, twin = topology.split_triangles(T, twin, tri, k1 + np.arange(len(tri)))
+    return Insertion(T, twin, np.concatenate([new_b, new_e, new_c]),
+                     np.concatenate([edge_b, np.full(len(hi) + len(tri), -1)]))
+
+
+def _midpoints(P, T, h):
+    """Midpoints of half-edges h (also the metric midpoints: the metric map is affine)."""
+    t, e = np.divmod(h, 3)
+    return 0.5 * (P[T[t, e]] + P[T[t, topology.NXT[e]]])
+
+
+def _independent(T, twin, h, prio):
+    """A subset of the half-edges h, one per edge, no two touching the same triangle."""
+    if len(h) == 0:
+        return h
+    tw = twin[h]
+    canon = np.where(tw >= 0, np.minimum(h, tw), h)
+    order = np.lexsort((-prio, canon))
+    canon, prio = canon[order], prio[order]
+    first = np.r_[True, canon[1:] != canon[:-1]]
+    canon, prio = canon[first], prio[first]
+    rank = np.empty(len(canon))
+    rank[np.argsort(prio, kind="stable")] = np.arange(1, len(canon) + 1)
+    best = np.zeros(len(T))
+    t1 = canon // 3
+    t2 = np.where(twin[canon] >= 0, twin[canon] // 3, t1)
+    np.maximum.at(best, t1, rank)
+    np.maximum.at(best, t2, rank)
+    return canon[(best[t1] == rank) & (best[t2] == rank)]
 
 
 def _local_max(T, twin, prio):

@@ -22,7 +22,8 @@ from typing import Iterator
 import numpy as np
 
 from . import sizing, topology
-from .adjust import vertex_step
+from .adjust import limit_moves, newton_step
+from .boundary import snap_to_boundary
 from .errors import QmeshError
 from .geometry import metric_hessians, metric_quality
 from .insert import insert, target_area
@@ -145,18 +146,29 @@ def iterate(domain, anisotropy, *, target_vertices: int | None = None, size: flo
     yield Step("triangulate", 0, st.mesh, st.stats(seconds=time.perf_counter() - t0))
 
     for it in range(1, max_iterations + 1):
-        # 3. adjust vertices (2.91)–(2.93)
+        # 3. adjust vertices (2.91)–(2.93); those sent out of Ω go onto the boundary
         t0 = time.perf_counter()
-        Pn, d = vertex_step(st.P, st.T, anisotropy, fixed=st.fixed, tangent=st.tangents(),
-                            alpha=alpha)
+        P0, T0 = st.P, st.T
+        d = newton_step(P0, T0, anisotropy, fixed=st.fixed, tangent=st.tangents(), alpha=alpha)
+        keep = None
+        if boundary_refinement:
+            snap = snap_to_boundary(P0, T0, st.twin, d, st.mesh.boundary, st.corner_edge())
+            if len(snap.vertices):
+                st.T, st.twin = snap.T, snap.twin
+                d[snap.vertices] = snap.positions - P0[snap.vertices]
+                st.edge_id = st.edge_id.copy()
+                st.edge_id[snap.vertices] = snap.edge_id
+                keep = np.zeros(len(P0), bool)
+                keep[snap.vertices] = True
+        Pn, d = limit_moves(P0, st.T, d, keep)
         Pn = _onto_edges(domain, Pn, st.edge_id)
         Hv = (np.broadcast_to(anisotropy.H, (len(d), 2, 2)) if anisotropy.is_constant
-              else anisotropy.hessian(st.P))
+              else anisotropy.hessian(P0))
         max_move = float(np.sqrt(np.einsum("ni,nij,nj->n", d, Hv, d).max()) / h)
         st.P = Pn
-        st.mesh = Mesh(Pn, st.mesh.triangles, st.fixed)
+        st.mesh = Mesh(Pn, st.T if st.T is not T0 else st.mesh.triangles, st.fixed)
         yield Step("adjust", it, st.mesh,
-                   st.stats(max_move=max_move, seconds=time.perf_counter() - t0), moved=d)
+                   st.stats(max_move=max_move, seconds=time.perf_counter() - t0), moved=Pn - P0)
 
         # 4. add new points near bad or oversized triangles (2.94)
         t0 = time.perf_counter()

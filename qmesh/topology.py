@@ -116,3 +116,43 @@ def split_boundary_edges(T: np.ndarray, twin: np.ndarray, h: np.ndarray, p: np.n
     new[3 * t + 1] = 3 * t1 + 2               # p→w ↔ w→p
     new[3 * t1 + 2] = 3 * t + 1
     return T, new
+
+
+def remove_triangles(T: np.ndarray, twin: np.ndarray, t: np.ndarray):
+    """Delete triangles `t`; their neighbours' shared half-edges become boundary half-edges."""
+    keep = np.ones(len(T), bool)
+    keep[t] = False
+    new_id = np.cumsum(keep) - 1
+    reloc = np.where(np.repeat(keep, 3), 3 * np.repeat(new_id, 3) + np.tile(np.arange(3), len(T)), -1)
+    return T[keep], _rebuild(twin, reloc, 3 * int(keep.sum()))
+
+
+def split_edges(T: np.ndarray, twin: np.ndarray, h: np.ndarray, p: np.ndarray):
+    """Split interior edges (half-edges `h`, no two touching one triangle) at new vertices `p`.
+
+    t1 = (u, v, a) ∋ h and t2 = (v, u, b) ∋ twin[h] become (u, p, a), (p, v, a), (v, p, b)
+    and (p, u, b); the first and third keep the rows of t1 and t2.
+    """
+    M, k = len(T), len(h)
+    g = twin[h]
+    t1, e1 = np.divmod(h, 3)
+    t2, e2 = np.divmod(g, 3)
+    n1, n2 = M + np.arange(k), M + k + np.arange(k)
+    u, v, a = T[t1, e1], T[t1, NXT[e1]], T[t1, PRV[e1]]
+    b = T[t2, PRV[e2]]
+    reloc = np.arange(3 * M, dtype=np.int64)
+    reloc[h] = -1
+    reloc[g] = -1
+    reloc[3 * t1 + NXT[e1]] = 3 * n1 + 1      # v→a
+    reloc[3 * t1 + PRV[e1]] = 3 * t1 + 2      # a→u
+    reloc[3 * t2 + NXT[e2]] = 3 * n2 + 1      # u→b
+    reloc[3 * t2 + PRV[e2]] = 3 * t2 + 2      # b→v
+    T = np.concatenate([T, np.column_stack([p, v, a]), np.column_stack([p, u, b])])
+    T[t1] = np.column_stack([u, p, a])
+    T[t2] = np.column_stack([v, p, b])
+    new = _rebuild(twin, reloc, 3 * len(T))
+    for x, y in ((3 * t1, 3 * n2), (3 * t1 + 1, 3 * n1 + 2), (3 * n1, 3 * t2),
+                 (3 * t2 + 1, 3 * n2 + 2)):
+        new[x] = y
+        new[y] = x
+    return T, new

@@ -1,0 +1,60 @@
+"""Issue 2's quality targets on the chapter's case: Q = diag(0.1, 10) on the unit disk.
+
+For every VB of Tables 2.2/2.3 it meshes with target_vertices = the chapter's adapted N and
+prints N, min quality, fraction of q_ij ≥ 0, κ2, |e_s|_h1 and ‖e_s‖_L2 beside the chapter's
+values, the ratios, and the geometric-mean κ2 ratio over the rows.
+
+    python benchmarks/bench_quality.py [--vb 32 64 ...] [--seed 0] [--alpha 0.5]
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+import qmesh
+from qmesh import measure
+
+# Tables 2.2 / 2.3, adapted columns: VB -> (N, L2, h1, kappa2)
+CHAPTER = {32: (101, 1.13e-2, 3.43e-1, 6.0), 45: (131, 1.01e-2, 3.11e-1, 6.7),
+           64: (212, 4.68e-3, 2.16e-1, 15), 90: (280, 4.04e-3, 1.94e-1, 18),
+           128: (428, 2.43e-3, 1.52e-1, 26), 180: (656, 1.69e-3, 1.21e-1, 35),
+           256: (817, 1.46e-3, 1.13e-1, 46), 360: (1380, 8.97e-4, 8.89e-2, 71),
+           512: (2312, 4.83e-4, 6.56e-2, 132)}
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--vb", type=int, nargs="+", default=sorted(CHAPTER))
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--alpha", type=float, default=0.5)
+    ap.add_argument("--max-iterations", type=int, default=None)
+    args = ap.parse_args(argv)
+    A = qmesh.Anisotropy.constant(qmesh.CHAPTER_Q)
+    opts = {"seed": args.seed, "alpha": args.alpha}
+    if args.max_iterations is not None:
+        opts["max_iterations"] = args.max_iterations
+    print("| VB | N (target) | iters | s | min q | q_ij≥0 | κ2 | κ2/ch | h1 | h1/ch | L2 | L2/ch |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    ratios = []
+    for vb in args.vb:
+        n, l2c, h1c, kc = CHAPTER[vb]
+        t0 = time.perf_counter()
+        last = None
+        for last in qmesh.iterate(qmesh.Disk(vb), A, target_vertices=n, **opts):
+            pass
+        dt = time.perf_counter() - t0
+        r = measure.report(last.mesh, A)
+        ratios.append(r["kappa2"] / kc)
+        print(f"| {vb} | {r['n_vertices']} ({n}) | {last.iteration} | {dt:.2f} | "
+              f"{r['min_quality']:.3f} | {r['q_nonnegative_fraction']:.4f} | {r['kappa2']:.2f} | "
+              f"{r['kappa2'] / kc:.3f} | {r['h1_error']:.3g} | {r['h1_error'] / h1c:.3f} | "
+              f"{r['l2_error']:.3g} | {r['l2_error'] / l2c:.3f} |")
+    print(f"\nκ2 ratio to the chapter: geometric mean {np.exp(np.mean(np.log(ratios))):.3f}, "
+          f"max {max(ratios):.3f}")
+
+
+if __name__ == "__main__":
+    main()

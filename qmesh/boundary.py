@@ -1,0 +1,64 @@
+"""Interior vertices that the adjustment sends out of the domain go onto the boundary.
+
+Chapter Section 2.3.2: "any vertices sent outside the domain by the vertex adjustment step are
+projected back to the domain boundary, where they are allowed to move … along the boundary".
+The energy E keeps pulling a vertex that sits next to a long boundary edge towards that edge;
+held inside, it would end as a sliver. So when the relaxed step of an interior vertex v crosses
+the boundary edge (a, b) of its own triangle (a, b, v), v is projected onto (a, b), the triangle
+(a, b, v) is removed, and v becomes a sliding boundary vertex between a and b. A projection that
+would land too close to a or b, or squash another triangle of v's star, is not made.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import topology
+from .adjust import MIN_AREA_KEPT
+from .geometry import signed_areas
+
+END_MARGIN = 0.2    # the projection must fall within the middle 60% of the boundary edge
+
+
+@dataclass
+class Snap:
+    T: np.ndarray
+    twin: np.ndarray
+    vertices: np.ndarray    # the vertices now on the boundary
+    positions: np.ndarray   # their positions on it
+    edge_id: np.ndarray     # their polygon edge
+
+
+def snap_to_boundary(P, T, twin, d, on_boundary, corner_edge) -> Snap:
+    """Project interior vertices whose move `d` leaves the domain onto the boundary edge crossed."""
+    bh = np.flatnonzero(twin < 0)
+    t, e = np.divmod(bh, 3)
+    a, b, v = T[t, e], T[t, topology.NXT[e]], T[t, topology.PRV[e]]
+    ok = ~on_boundary[v]
+    ab = P[b] - P[a]
+    L2 = np.einsum("ki,ki->k", ab, ab)
+    rel = P[v] + d[v] - P[a]
+    inward = ab[:, 0] * rel[:, 1] - ab[:, 1] * rel[:, 0]        # < 0: the target is outside ab
+    par = np.einsum("ki,ki->k", rel, ab) / L2
+    ok &= (inward < 0) & (par > END_MARGIN) & (par < 1 - END_MARGIN)
+    # one boundary edge per vertex: the first listed
+    idx = np.flatnonzero(ok)
+    _, first = np.unique(v[idx], return_index=True)
+    idx = idx[first]
+    pos = P[a[idx]] + par[idx, None] * ab[idx]
+
+    # no other triangle of a projected vertex may be squashed (all projections together)
+    Pn = P.copy()
+    Pn[v[idx]] = pos
+    others = np.ones(len(T), bool)
+    others[t[idx]] = False
+    squashed = others & (signed_areas(Pn, T) < MIN_AREA_KEPT * signed_areas(P, T))
+    bad_v = np.zeros(len(P), bool)
+    bad_v[T[squashed].ravel()] = True
+    idx = idx[~bad_v[v[idx]]]
+    pos = P[a[idx]] + par[idx, None] * ab[idx]
+
+    T, twin = topology.remove_triangles(T, twin, t[idx])
+    return Snap(T, twin, v[idx], pos, corner_edge[a[idx]])
