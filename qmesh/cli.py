@@ -1,0 +1,224 @@
+"""The `qmesh` command: mesh a domain, report on any mesh file, reproduce the chapter's tables.
+
+    qmesh mesh   [--Q Q11 Q12 Q22 | --principal K1 K2 ANGLE] [--disk VB | --polygon FILE.csv]
+                 [--target-vertices N | --size H] [--alpha A] [--seed S] [--max-iterations K] -o OUT
+    qmesh report MESHFILE [--Q ... | --principal ...] [--json]
+    qmesh table  [--vb VB ...] [--out DIR] [--peers] [--solve]
+
+Defaults are the chapter's case: Q = diag(0.1, 10) (2.95) on the regular 64-gon. Bad input
+(any QmeshError, or an OSError on a file) ends with one line `qmesh: error: ...` on stderr,
+exit status 2 and no output file.
+"""
+
+from __future__ import annotations
+
+import argparse
+import inspect
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from . import CHAPTER_Q, __version__, io, measure
+from .anisotropy import Anisotropy
+from .domain import Disk, Polygon
+from .errors import QmeshError
+from .mesher import iterate
+
+_MESHER_DEFAULTS = {k: v.default for k, v in inspect.signature(iterate).parameters.items()}
+
+
+# --------------------------------------------------------------------------- inputs
+
+def read_polygon_csv(path) -> Polygon:
+    """A polygon from a CSV file of x,y rows (an optional header line; `#` comments allowed)."""
+    path = Path(path)
+    try:
+        lines = [ln for ln in path.read_text().splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+    except (OSError, UnicodeDecodeError) as e:
+        raise QmeshError(f"cannot read polygon file {str(path)!r}: {e}") from e
+    if lines and not _is_numeric_row(lines[0]):
+        lines = lines[1:]  # header
+    if not lines:
+        raise QmeshError(f"polygon file {str(path)!r} has no points")
+    try:
+        P = np.loadtxt(lines, delimiter=",", ndmin=2, dtype=float)
+    except ValueError as e:
+        raise QmeshError(f"polygon file {str(path)!r} is not a CSV of x,y numbers: {e}") from e
+    if P.shape[1] != 2:
+        raise QmeshError(f"polygon file {str(path)!r} must have two columns x,y, got {P.shape[1]}")
+    return Polygon(P)
+
+
+def _is_numeric_row(line: str) -> bool:
+    try:
+        [float(f) for f in line.split(",")]
+    except ValueError:
+        return False
+    return True
+
+
+def _non_negative_int(text: str) -> int:
+    """argparse type for --seed (numpy's generators take no negative seed)."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be a non-negative integer, got {text!r}")
+    return value
+
+
+def anisotropy_from(args) -> Anisotropy:
+    """--Q Q11 Q12 Q22 or --principal K1 K2 ANGLE; the chapter's Q = diag(0.1, 10) by default."""
+    if args.Q is not None:
+        q11, q12, q22 = args.Q
+        return Anisotropy.constant([[q11, q12], [q12, q22]])
+    if args.principal is not None:
+        return Anisotropy.principal(*args.principal)
+    return Anisotropy.constant(CHAPTER_Q)
+
+
+# --------------------------------------------------------------------------- commands
+
+def _progress(step, out) -> None:
+    s = step.stats
+    print(f"iteration {step.iteration:3d}  {step.stage:<11s}  N={s.n_vertices:<8d}  E={s.energy:.4e}  "
+          f"min q={s.min_quality:.3f}", file=out, flush=True)
+
+
+def cmd_mesh(args) -> int:
+    out = io.check_writable(args.output)
+    anisotropy = anisotropy_from(args)
+    domain = read_polygon_csv(args.polygon) if args.polygon else Disk(args.disk)
+    show = not args.quiet and (args.progress or sys.stderr.isatty())
+
+    start = time.perf_counter()
+    last = None
+    # iterate() validates its options (absurd sizes included) before any work.
+    for last in iterate(domain, anisotropy, target_vertices=args.target_vertices, size=args.size,
+                        alpha=args.alpha, max_iterations=args.max_iterations, seed=args.seed):
+        if show:
+            _progress(last, sys.stderr)
+    seconds = time.perf_counter() - start
+    if last is None:
+        raise QmeshError("the mesher produced no mesh")
+    mesh = last.mesh
+    io.write(out, mesh, anisotropy=anisotropy)
+
+    q = measure.quality(mesh, anisotropy)
+    summary = {
+        "output": str(out),
+        "n_vertices": mesh.n_vertices,
+        "n_triangles": mesh.n_triangles,
+        "iterations": last.iteration,
+        "min_quality": float(q.min()),
+        "mean_quality": float(q.mean()),
+        "q_nonnegative_fraction": measure.q_nonnegative_fraction(mesh, anisotropy),
+        "seconds": seconds,
+    }
+    if args.json:
+        print(json.dumps(summary))
+    else:
+        print(f"{out}: N={summary['n_vertices']} triangles={summary['n_triangles']} "
+              f"iterations={summary['iterations']} quality min={summary['min_quality']:.3f} "
+              f"mean={summary['mean_quality']:.3f} q_ij>=0: {100 * summary['q_nonnegative_fraction']:.1f}% "
+              f"time={seconds:.2f}s")
+    return 0
+
+
+def cmd_report(args) -> int:
+    mesh = io.read(args.meshfile)
+    rep = measure.report(mesh, anisotropy_from(args))
+    if args.json:
+        print(json.dumps({"file": str(args.meshfile), **rep}, indent=2))
+        return 0
+    width = max(map(len, rep))
+    print(f"{args.meshfile}")
+    for key, value in rep.items():
+        text = "-" if value is None else f"{value:.6g}" if isinstance(value, float) else str(value)
+        print(f"  {key:<{width}}  {text}")
+    return 0
+
+
+def cmd_table(args) -> int:
+    try:
+        from .compare.table import run_table
+    except ImportError as e:
+        raise QmeshError(f"qmesh table needs the compare extra (pip install qmesh[compare]): {e}") from e
+    print(run_table(vb=args.vb, out=args.out, peers=args.peers, solve=args.solve))
+    return 0
+
+
+# --------------------------------------------------------------------------- parser
+
+def _add_anisotropy(p) -> None:
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--Q", nargs=3, type=float, metavar=("Q11", "Q12", "Q22"),
+                   help="constant SPD conductivity [[Q11, Q12], [Q12, Q22]] (default: 0.1 0 10)")
+    g.add_argument("--principal", nargs=3, type=float, metavar=("K1", "K2", "ANGLE"),
+                   help="principal conductivities K1, K2 > 0 and the angle of K1's axis in degrees")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="qmesh", description="Triangle meshes adapted to an anisotropic "
+                                     "conductivity Q (the Q-adapted meshes of Algorithm 2.1).")
+    parser.add_argument("--version", action="version", version=f"qmesh {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    p = sub.add_parser("mesh", help="mesh a domain and write the mesh file",
+                       description="Mesh a convex domain for the conductivity Q and write OUT "
+                       "(format from the extension: " + ", ".join(io.FORMATS) + ").")
+    _add_anisotropy(p)
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--disk", type=int, default=64, metavar="VB",
+                   help="the regular VB-gon inscribed in the unit circle (default: 64)")
+    g.add_argument("--polygon", metavar="FILE.csv", help="a convex polygon: CSV of x,y rows, counter-clockwise")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--target-vertices", type=int, metavar="N", help="aim for N vertices (within ±10%%)")
+    g.add_argument("--size", type=float, metavar="H", help="target metric edge length")
+    for flag, kind, meta, text in (("--alpha", float, "A", "relaxation of the vertex step"),
+                                   ("--seed", _non_negative_int, "S", "random seed"),
+                                   ("--max-iterations", int, "K", "iteration cap")):
+        default = _MESHER_DEFAULTS[flag[2:].replace("-", "_")]
+        p.add_argument(flag, type=kind, default=default, metavar=meta, help=f"{text} (default: {default})")
+    p.add_argument("-o", "--output", required=True, metavar="OUT", help="output mesh file")
+    p.add_argument("--progress", action="store_true", help="print a line per stage on stderr even when it is not a terminal")
+    p.add_argument("--quiet", action="store_true", help="no progress lines")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    p.set_defaults(handler=cmd_mesh)
+
+    p = sub.add_parser("report", help="measure a mesh file (q_ij, κ2, errors, quality)",
+                       description="Print qmesh.measure.report of a mesh file, written by qmesh or any other program.")
+    p.add_argument("meshfile", metavar="MESHFILE")
+    _add_anisotropy(p)
+    p.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    p.set_defaults(handler=cmd_report)
+
+    p = sub.add_parser("table", help="reproduce the chapter's Tables 2.2 and 2.3",
+                       description="Mesh the chapter's case for each VB and print the comparison table (Markdown).")
+    p.add_argument("--vb", type=int, nargs="+", metavar="VB", help="VB values (default: the chapter's nine)")
+    p.add_argument("--out", default="results", metavar="DIR", help="folder for meshes and figures (default: results)")
+    p.add_argument("--peers", action="store_true", help="also run the optional MMG2D/BAMG peers")
+    p.add_argument("--solve", action="store_true", help="also solve the model problem on every mesh")
+    p.set_defaults(handler=cmd_table)
+    return parser
+
+
+def main(argv=None) -> int:
+    """Run the command line; returns the exit status (2 for bad input, with one error line)."""
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as e:  # argparse already printed usage and its error
+        return e.code if isinstance(e.code, int) else 0
+    try:
+        return args.handler(args)
+    except (QmeshError, OSError) as e:
+        print(f"qmesh: error: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("qmesh: interrupted", file=sys.stderr)
+        return 130

@@ -1,0 +1,185 @@
+"""Mesh files through meshio: write a qmesh `Mesh`, read any triangle mesh back as one.
+
+The format follows the file's extension (`FORMATS`). What travels with the mesh:
+
+- the fixed seed flag as integer point data "fixed" (medit .mesh: the vertex reference
+  "medit:ref", the only per-vertex value that format holds);
+- the metric quality (2.94) as cell data "quality", when `write` is given the anisotropy;
+- any extra `point_data` / `cell_data` the caller passes.
+
+medit keeps only the fixed flag; .obj holds points and triangles only (`KEEPS_FIXED`,
+`KEEPS_DATA` say which formats keep what).
+meshio is an optional dependency (`pip install qmesh[io]`), imported only when a file is used.
+"""
+
+from __future__ import annotations
+
+import os
+import uuid
+from pathlib import Path
+
+import numpy as np
+
+from .errors import QmeshError
+from .geometry import signed_areas
+from .measure import quality
+from .mesh import Mesh
+
+FORMATS = {  # each name is a meshio submodule with read() and write()
+    ".vtu": "vtu",
+    ".vtk": "vtk",
+    ".msh": "gmsh",      # gmsh 4.1
+    ".xdmf": "xdmf",
+    ".mesh": "medit",
+    ".obj": "obj",
+}
+"""Extension → meshio format name."""
+
+KEEPS_FIXED = {".vtu", ".vtk", ".msh", ".xdmf", ".mesh"}
+"""Extensions whose files keep the fixed seed flag."""
+KEEPS_DATA = {".vtu", ".vtk", ".msh", ".xdmf"}
+"""Extensions whose files keep the quality and any extra point and cell data."""
+
+_WRITE_OPTIONS = {
+    # meshio's ASCII gmsh writer prints data as numpy reprs ("np.int32(1)") under NumPy 2.
+    "gmsh": {"binary": True},
+    # One self-contained file: "HDF" would write a side-car .h5 named after the file.
+    "xdmf": {"data_format": "XML"},
+}
+_MEDIT_REF = "medit:ref"
+
+
+def _meshio():
+    try:
+        import meshio
+    except ImportError as e:  # pragma: no cover - depends on the environment
+        raise QmeshError("reading and writing mesh files needs meshio: pip install qmesh[io]") from e
+    return meshio
+
+
+def _extension(path: Path) -> str:
+    ext = path.suffix.lower()
+    if ext not in FORMATS:
+        raise QmeshError(f"unknown mesh file extension {path.suffix or '(none)'!r} of {str(path)!r}; "
+                         f"supported: {', '.join(FORMATS)}")
+    return ext
+
+
+def _per_item(data: dict | None, n: int, what: str) -> dict[str, np.ndarray]:
+    """Validate a name → array mapping whose arrays have one row per vertex/triangle."""
+    out = {}
+    for name, values in (data or {}).items():
+        a = np.asarray(values)
+        if a.ndim == 0 or a.shape[0] != n:
+            raise QmeshError(f"{what} {name!r} must have {n} rows, got shape {a.shape}")
+        if a.dtype == bool:
+            a = a.astype(np.int32)
+        out[str(name)] = a
+    return out
+
+
+def check_writable(path) -> Path:
+    """`path` as a Path, or QmeshError unless its extension is known and its folder exists.
+
+    The CLI calls it before meshing, so a bad output name fails at once, not after the run.
+    """
+    path = Path(path)
+    _extension(path)
+    if not path.parent.is_dir():
+        raise QmeshError(f"cannot write {str(path)!r}: folder {str(path.parent)!r} does not exist")
+    if path.is_dir():
+        raise QmeshError(f"cannot write {str(path)!r}: it is a folder")
+    return path
+
+
+def write(path, mesh: Mesh, *, anisotropy=None, point_data=None, cell_data=None) -> None:
+    """Write `mesh` to `path` in the format of its extension.
+
+    The fixed flag is written as point data "fixed" (int). The metric quality (2.94) is written
+    as cell data "quality" only when `anisotropy` is given: quality is measured in the metric of
+    a particular Q, and writing it for a guessed Q would mislead. Everything is validated before
+    the file is touched, and the file is written under a temporary name and then renamed, so an
+    error leaves no file (and no half-written one) at `path`.
+    """
+    path = check_writable(path)
+    ext = path.suffix.lower()
+    fmt = FORMATS[ext]
+    if not isinstance(mesh, Mesh):
+        raise QmeshError(f"write needs a qmesh.Mesh, got {type(mesh).__name__}")
+    pdata = _per_item(point_data, mesh.n_vertices, "point data")
+    cdata = _per_item(cell_data, mesh.n_triangles, "cell data")
+    reserved = {"fixed", _MEDIT_REF} & pdata.keys() | {"quality"} & cdata.keys()
+    if reserved:
+        raise QmeshError(f"data names {sorted(reserved)} are reserved for qmesh's own fields")
+    pdata["fixed"] = mesh.fixed.astype(np.int32)
+    if fmt == "medit":
+        pdata = {_MEDIT_REF: pdata["fixed"]}
+    if anisotropy is not None:
+        cdata["quality"] = quality(mesh, anisotropy)  # (2.94)
+    points = mesh.points
+    if fmt != "medit":  # medit stores a 2-D mesh as such; the others want x, y, z
+        points = np.column_stack([points, np.zeros(len(points))])
+    meshio = _meshio()
+    m = meshio.Mesh(points, [("triangle", np.asarray(mesh.triangles))],
+                    point_data=pdata, cell_data={k: [v] for k, v in cdata.items()})
+    tmp = path.with_name(f".{path.stem}.{uuid.uuid4().hex[:12]}.part{ext}")
+    try:
+        getattr(meshio, fmt).write(tmp, m, **_WRITE_OPTIONS.get(fmt, {}))
+        os.replace(tmp, path)
+    except Exception as e:
+        tmp.unlink(missing_ok=True)
+        raise QmeshError(f"cannot write {str(path)!r}: {e}") from e
+
+
+def read(path) -> Mesh:
+    """Read the triangles of a mesh file (written by qmesh or by any other program).
+
+    Only triangle cells are kept (an error if there are none); points that no triangle uses
+    are dropped; a z column must be zero and is dropped; triangles are re-oriented
+    counter-clockwise. `fixed` comes from the point data "fixed" (medit: "medit:ref" ≠ 0)
+    and is all False when the file has neither.
+    """
+    path = Path(path)
+    ext = _extension(path)
+    if not path.is_file():
+        raise QmeshError(f"no such mesh file: {str(path)!r}")
+    meshio = _meshio()
+    try:  # the format's own reader: meshio.read() calls sys.exit on a bad file
+        m = getattr(meshio, FORMATS[ext]).read(path)
+    except Exception as e:  # meshio's parsers raise many kinds of error on a bad file
+        raise QmeshError(f"cannot read {str(path)!r} as {FORMATS[ext]}: {str(e) or type(e).__name__}") from e
+
+    P = np.asarray(m.points, dtype=float)
+    if P.ndim != 2 or P.shape[1] not in (2, 3) or not np.all(np.isfinite(P)):
+        raise QmeshError(f"{str(path)!r}: points must be finite with 2 or 3 coordinates, got shape {P.shape}")
+    blocks = [np.asarray(c.data, dtype=np.int64) for c in m.cells if c.type == "triangle"]
+    if not blocks:
+        found = sorted({c.type for c in m.cells}) or ["no cells"]
+        raise QmeshError(f"{str(path)!r} has no triangle cells (found: {', '.join(found)})")
+    T = np.concatenate(blocks)
+    if T.size and (T.min() < 0 or T.max() >= len(P)):
+        raise QmeshError(f"{str(path)!r}: triangles refer to points that do not exist")
+    if P.shape[1] == 3:
+        extent = float(np.ptp(P[:, :2], axis=0).max()) if len(P) else 0.0
+        if np.abs(P[:, 2]).max(initial=0.0) > 1e-9 * extent:
+            raise QmeshError(f"{str(path)!r} is not a planar mesh in the xy plane (z is not 0)")
+        P = P[:, :2]
+
+    flag = m.point_data.get("fixed", m.point_data.get(_MEDIT_REF))
+    fixed = np.zeros(len(P), bool)
+    if flag is not None:
+        flag = np.asarray(flag)
+        if flag.ndim not in (1, 2) or flag.shape[0] != len(P) or flag.size != len(P):
+            raise QmeshError(f"{str(path)!r}: point data 'fixed' has shape {flag.shape}, "
+                             f"expected one value per point ({len(P)})")
+        fixed = flag.ravel() != 0
+
+    used = np.zeros(len(P), bool)
+    used[T.ravel()] = True
+    if not used.all():
+        renumber = np.cumsum(used) - 1
+        P, fixed, T = P[used], fixed[used], renumber[T]
+
+    flip = signed_areas(P, T) < 0
+    T[flip] = T[flip][:, [0, 2, 1]]
+    return Mesh(P, T, fixed)

@@ -1,0 +1,28 @@
+"""Fixtures shared by the test suites: the chapter's anisotropy and a small mesh made without qmesh's mesher."""
+
+import numpy as np
+import pytest
+from scipy.spatial import Delaunay
+
+import qmesh
+
+
+@pytest.fixture
+def chapter_anisotropy():
+    """The chapter's test case (2.95): Q = diag(0.1, 10), s = 5x² + 0.05y²."""
+    return qmesh.Anisotropy.constant(qmesh.CHAPTER_Q)
+
+
+@pytest.fixture
+def delaunay_mesh():
+    """scipy's Delaunay triangulation of the 16-gon's corners (fixed) and 40 random interior points."""
+    rng = np.random.default_rng(7)
+    corners = qmesh.Disk(16).seeds
+    r, t = 0.9 * np.sqrt(rng.random(40)), 2 * np.pi * rng.random(40)
+    P = np.vstack([corners, np.column_stack([r * np.cos(t), r * np.sin(t)])])
+    T = Delaunay(P).simplices
+    a, b, c = P[T[:, 0]], P[T[:, 1]], P[T[:, 2]]
+    cw = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]) < 0
+    T[cw] = T[cw][:, [0, 2, 1]]
+    fixed = np.arange(len(P)) < len(corners)
+    return qmesh.Mesh(P, T, fixed)

@@ -1,0 +1,125 @@
+"""Bad input (issue 2, item 5): one QmeshError type, a message naming the problem, nothing written."""
+
+import re
+
+import numpy as np
+import pytest
+
+import qmesh
+from qmesh import QmeshError
+from qmesh.cli import main
+
+# Corners of simple test polygons, as CSV text (no code under test made them).
+SQUARE = "0,0\n1,0\n1,1\n0,1\n"
+NON_CONVEX = "0,0\n2,0\n2,2\n1,1\n0,2\n"                      # reflex corner at (1, 1)
+PENTAGRAM = "\n".join(f"{np.cos(a):.17g},{np.sin(a):.17g}"           # winds twice, every turn to the left
+                      for a in np.deg2rad([90, 234, 18, 162, 306]))
+CLOCKWISE = "0,0\n0,1\n1,1\n1,0\n"
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--Q", "1", "2", "1"], "positive definite"),
+    (["--Q", "-1", "0", "1"], "positive definite"),
+    (["--Q", "nan", "0", "1"], "non-finite"),
+    (["--Q", "1", "inf", "1"], "non-finite"),
+    (["--principal", "0", "1", "0"], "must be > 0"),
+    (["--principal", "1", "-2", "30"], "must be > 0"),
+    (["--principal", "1", "1", "nan"], "must be finite"),
+    (["--disk", "2"], "VB must be at least 3"),
+    (["--polygon", "{non_convex}"], "not strictly convex; non-convex domains are not supported yet"),
+    (["--polygon", "{pentagram}"], "self-intersecting.*only simple convex polygons are supported"),
+    (["--polygon", "{clockwise}"], "counter-clockwise"),
+    (["--polygon", "{three_columns}"], "two columns"),
+    (["--polygon", "{words}"], "not a CSV of x,y numbers"),
+    (["--polygon", "{missing}"], "cannot read polygon file"),
+    (["--polygon", "{header_only}"], "has no points"),
+    (["--polygon", "{two_points}"], "at least 3 points"),
+    # metric area π·√det Q / (√3/4 · 1e-12) / 2 ≈ 3.6e12 vertices
+    (["--size", "1e-6"], r"about 3\.\d+e\+12 vertices.*of memory"),
+    (["--target-vertices", "1000000000"], r"about 1e\+09 vertices.*of memory"),
+    (["--size", "0"], "size must be a finite number > 0"),
+    (["--size", "nan"], "size must be a finite number > 0"),
+    (["--alpha", "1.5"], r"alpha must be in \(0, 1\]"),
+    (["--target-vertices", "10"], "must exceed the 64 seed boundary points"),
+])
+def test_mesh_bad_input(tmp_path, capsys, args, message):
+    files = {"non_convex": NON_CONVEX, "pentagram": PENTAGRAM, "clockwise": CLOCKWISE,
+             "three_columns": "0,0,0\n1,0,0\n0,1,0\n", "words": "x,y\na,b\nc,d\n",
+             "header_only": "x,y\n", "two_points": "0,0\n1,0\n"}
+    for name, text in files.items():
+        (tmp_path / f"{name}.csv").write_text(text)
+    args = [a.format(missing=tmp_path / "missing.csv", **{k: tmp_path / f"{k}.csv" for k in files}) for a in args]
+    out = tmp_path / "out.vtu"
+    before = sorted(tmp_path.iterdir())
+
+    code = main(["mesh", *args, "-o", str(out)])
+
+    _, err = capsys.readouterr()
+    assert code == 2
+    assert err.startswith("qmesh: error: ") and err.count("\n") == 1, err   # one line, no traceback
+    assert re.search(message, err), err
+    assert sorted(tmp_path.iterdir()) == before                          # nothing written
+
+
+def test_mesh_bad_output_name_fails_before_meshing(tmp_path, capsys):
+    for out, message in [(tmp_path / "m.stl", "unknown mesh file extension '.stl'"),
+                         (tmp_path / "nowhere" / "m.vtu", "does not exist")]:
+        assert main(["mesh", "--disk", "8", "-o", str(out)]) == 2
+        assert message in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("name, content, message", [
+    ("missing.vtu", None, "no such mesh file"),
+    ("broken.vtu", "<VTKFile", "cannot read"),
+    ("binary.msh", b"\x00\xff\x00garbage", "cannot read"),
+    ("mesh.csv", "0,0\n", "unknown mesh file extension"),
+])
+def test_report_unreadable_file(tmp_path, capsys, name, content, message):
+    path = tmp_path / name
+    if isinstance(content, bytes):
+        path.write_bytes(content)
+    elif content is not None:
+        path.write_text(content)
+    assert main(["report", str(path)]) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and err.startswith("qmesh: error: ") and message in err and err.count("\n") == 1
+
+
+def test_argument_errors_exit_2(capsys):
+    assert main(["mesh", "--disk", "8"]) == 2                           # -o is required
+    assert main(["mesh", "--disk", "8", "--polygon", "x.csv", "-o", "m.vtu"]) == 2
+    assert main(["mesh", "--Q", "1", "0", "-o", "m.vtu"]) == 2
+    assert main(["mesh", "--seed", "-1", "-o", "m.vtu"]) == 2
+    assert "error" in capsys.readouterr().err
+
+
+# ----------------------------------------------------------------------------- the API raises the same type
+
+@pytest.mark.parametrize("build, message", [
+    (lambda: qmesh.Anisotropy.constant([[1, 2], [2, 1]]), "positive definite"),
+    (lambda: qmesh.Anisotropy.constant([[1, 0.5], [0, 1]]), "symmetric"),
+    (lambda: qmesh.Anisotropy.constant([[np.nan, 0], [0, 1]]), "non-finite"),
+    (lambda: qmesh.Anisotropy.constant([1, 2, 3]), "2x2"),
+    (lambda: qmesh.Anisotropy.principal(-1, 1, 0), "> 0"),
+    (lambda: qmesh.Anisotropy.principal(1, 1, np.inf), "finite"),
+    (lambda: qmesh.Disk(2), "at least 3"),
+    (lambda: qmesh.Disk(3.5), "integer"),
+    (lambda: qmesh.Disk(8, radius=0), "radius"),
+    (lambda: qmesh.Polygon(np.loadtxt(NON_CONVEX.splitlines(), delimiter=",")), "not supported yet"),
+    (lambda: qmesh.Polygon(np.loadtxt(PENTAGRAM.splitlines(), delimiter=",")), "self-intersecting"),
+    (lambda: qmesh.Polygon(np.loadtxt(CLOCKWISE.splitlines(), delimiter=",")), "counter-clockwise"),
+    (lambda: qmesh.Polygon([[0, 0], [1, 0]]), "at least 3"),
+    (lambda: qmesh.Polygon([[0, 0], [1, 0], [1, 0], [0, 1]]), "repeated"),
+    (lambda: qmesh.Polygon([[0, 0], [1, np.nan], [0, 1]]), "finite"),
+])
+def test_api_errors(build, message):
+    with pytest.raises(QmeshError, match=message) as info:
+        build()
+    assert isinstance(info.value, ValueError)
+
+
+def test_square_csv_is_accepted():
+    """The CSV fixtures above are rejected for their defect, not for their form: a square passes."""
+    P = np.loadtxt(SQUARE.splitlines(), delimiter=",")
+    assert qmesh.Polygon(P).area == pytest.approx(1.0)
