@@ -19,25 +19,24 @@ from __future__ import annotations
 
 import numpy as np
 
-from .geometry import area_gradients, signed_areas
+from .geometry import Frame, quadratic_form_xy, area_gradients, signed_areas
 
 STAR_SHRINK = 0.5      # largest fraction of a triangle's area one vertex's move may remove
 MIN_AREA_KEPT = 0.1    # after all moves every triangle keeps at least this fraction of its area
 
 
-def _corner_brackets(P, T, anisotropy):
+def _corner_brackets(P, T, anisotropy, F: Frame):
     """Σ_{k∈T, k≠i} [s(x_k) − s(x_i) − ∇s(x_i)·(x_k − x_i)] for every corner i of every T: (M, 3)."""
-    X = P[T]
     if anisotropy.is_constant:
-        E = X[:, [2, 0, 1]] - X[:, [1, 2, 0]]                 # edge opposite each corner
-        w = 0.5 * np.einsum("mki,ij,mkj->mk", E, anisotropy.H, E)   # s(x_k − x_i) of (2.91)
+        w = 0.5 * quadratic_form_xy(F.ex, F.ey, anisotropy.H)              # s(x_k − x_i) of (2.91)
         return w.sum(axis=1, keepdims=True) - w                # the two edges at the corner
+    X = np.stack([F.x, F.y], axis=-1)
     s = np.asarray(anisotropy.s(P), dtype=float)[T]
     g = np.asarray(anisotropy.grad(P), dtype=float)[T]
     out = np.zeros(T.shape)
     for shift in (1, 2):
         k = np.roll(np.arange(3), -shift)
-        out += s[:, k] - s - np.einsum("mci,mci->mc", g, X[:, k] - X)
+        out += s[:, k] - s - np.einsum("mci,mci->mc", g, X[:, k] - X)   # (2.93) linearised
     return out
 
 
@@ -50,13 +49,13 @@ def _scatter(T, values, n):
     return np.column_stack([np.bincount(idx, v[:, j], minlength=n) for j in range(v.shape[1])])
 
 
-def newton_rhs(P, T, anisotropy):
+def newton_rhs(P, T, anisotropy, F: Frame | None = None):
     """b_i of (2.91)/(2.93) and the star areas |Ω_i|."""
     n = len(P)
-    G = area_gradients(P, T)                                   # (M, 3, 2)
-    A = signed_areas(P, T)
-    star = np.bincount(T.ravel(), np.repeat(A, 3), minlength=n)
-    B = _scatter(T, G * _corner_brackets(P, T, anisotropy)[..., None], n)
+    F = Frame(P, T) if F is None else F
+    star = np.bincount(T.ravel(), np.repeat(F.A, 3), minlength=n)
+    S = _corner_brackets(P, T, anisotropy, F)
+    B = np.column_stack([_scatter(T, F.gx * S, n), _scatter(T, F.gy * S, n)])
     return -B / np.where(star > 0, star, 1.0)[:, None], star
 
 
@@ -80,9 +79,12 @@ def newton_step(P, T, anisotropy, *, fixed, tangent, alpha=0.5):
     """
     n = len(P)
     b, _ = newton_rhs(P, T, anisotropy)
-    Hv = (np.broadcast_to(anisotropy.H, (n, 2, 2)) if anisotropy.is_constant
-          else np.asarray(anisotropy.hessian(P), dtype=float))
-    d = np.linalg.solve(Hv, b[..., None])[..., 0]              # interior: H d = b
+    if anisotropy.is_constant:
+        d = b @ np.linalg.inv(anisotropy.H).T                  # interior: H d = b
+        Hv = np.broadcast_to(anisotropy.H, (n, 2, 2))
+    else:
+        Hv = np.asarray(anisotropy.hessian(P), dtype=float)
+        d = np.linalg.solve(Hv, b[..., None])[..., 0]
     sliding = np.any(tangent != 0, axis=1)
     tb = np.einsum("ni,ni->n", tangent[sliding], b[sliding])
     tHt = np.einsum("ni,nij,nj->n", tangent[sliding], Hv[sliding], tangent[sliding])
@@ -96,9 +98,11 @@ def limit_moves(P, T, d, keep=None):
 
     Vertices in `keep` move exactly by d (their moves were checked already).
     """
-    d = d * _star_cap(P, T, d)[:, None] if keep is None else np.where(
-        keep[:, None], d, d * _star_cap(P, T, d)[:, None])
-    return _no_inversion(P, T, d, keep)
+    F = Frame(P, T)
+    cap = _star_cap(T, F, d)
+    if keep is not None:
+        cap[keep] = 1.0
+    return _no_inversion(P, T, F.A, d * cap[:, None], keep)
 
 
 def vertex_step(P, T, anisotropy, *, fixed, tangent, alpha=0.5):
@@ -107,27 +111,26 @@ def vertex_step(P, T, anisotropy, *, fixed, tangent, alpha=0.5):
                                          alpha=alpha))
 
 
-def _star_cap(P, T, d):
+def _star_cap(T, F: Frame, d):
     """Largest factor ≤ 1 per vertex so its move alone keeps every triangle of its star."""
-    G = area_gradients(P, T)
-    A = signed_areas(P, T)
-    rate = np.einsum("mci,mci->mc", G, d[T])                   # dA/dt for each corner's move
-    limit = np.where(rate < 0, STAR_SHRINK * A[:, None] / np.where(rate < 0, -rate, 1.0), np.inf)
-    cap = np.ones(len(P))
-    np.minimum.at(cap, T.ravel(), limit.ravel())
+    rate = (F.gx * np.take(np.ascontiguousarray(d[:, 0]), T)
+            + F.gy * np.take(np.ascontiguousarray(d[:, 1]), T))   # dA/dt for each corner's move
+    shrink = rate < -STAR_SHRINK * F.A[:, None]                # would lose over half the area
+    cap = np.ones(len(d))
+    np.minimum.at(cap, T[shrink], -STAR_SHRINK * F.A[:, None].repeat(3, 1)[shrink] / rate[shrink])
     return cap
 
 
-def _no_inversion(P, T, d, keep=None, max_halvings=30):
+def _no_inversion(P, T, A0, d, keep=None, max_halvings=30):
     """Halve the moves of vertices whose triangles would lose too much area."""
-    A0 = signed_areas(P, T)
     d = d.copy()
-    for _ in range(max_halvings + 1):
+    for i in range(max_halvings + 1):
         bad = signed_areas(P + d, T) < MIN_AREA_KEPT * A0
         if not bad.any():
             return P + d, d
-        v = np.unique(T[bad].ravel())
+        v = np.zeros(len(P), bool)
+        v[T[bad].ravel()] = True
         if keep is not None:
-            v = v[~keep[v]]
-        d[v] *= 0.5 if _ < max_halvings else 0.0
+            v &= ~keep
+        d[v] *= 0.5 if i < max_halvings else 0.0
     return P + d, d

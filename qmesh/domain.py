@@ -91,7 +91,8 @@ class Polygon:
         L = np.hypot(*(np.roll(A, -1, axis=0) - A).T)
         diam = np.ptp(self.points, axis=0).max()
         on = (np.abs(d) <= tol * diam) & (t >= -tol * diam) & (t <= L[None, :] + tol * diam)
-        return np.where(on.any(axis=1), on.argmax(axis=1), -1)
+        # a corner lies on two edges: report the one it starts (the smaller distance along it)
+        return np.where(on.any(axis=1), np.where(on, t, np.inf).argmin(axis=1), -1)
 
 
 def Disk(vb: int, radius: float = 1.0, center=(0.0, 0.0)) -> Polygon:

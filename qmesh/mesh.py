@@ -64,9 +64,11 @@ class Mesh:
     def boundary_edges(self) -> np.ndarray:
         """Edges (k, 2) that belong to exactly one triangle."""
         T = self.triangles
-        e = np.sort(np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]]), axis=1)
-        u, count = np.unique(e, axis=0, return_counts=True)
-        return u[count == 1]
+        a, b = T.ravel(), T[:, [1, 2, 0]].ravel()
+        key = np.minimum(a, b) * np.int64(max(self.n_vertices, 1)) + np.maximum(a, b)
+        u, count = np.unique(key, return_counts=True)
+        u = u[count == 1]
+        return np.column_stack([u // self.n_vertices, u % self.n_vertices])
 
     @cached_property
     def boundary(self) -> np.ndarray:
@@ -76,19 +78,62 @@ class Mesh:
         return m
 
 
-@dataclass(frozen=True, eq=False)
 class Stats:
-    """What one stage of Algorithm 2.1 did and where it left the mesh."""
+    """What one stage of Algorithm 2.1 did and where it left the mesh.
 
-    n_vertices: int
-    n_triangles: int
-    energy: float          # E = ‖s_h − s‖_L1 (MATH.md "Vertex adjustment")
-    min_quality: float     # metric quality (2.94), 1 = equilateral in metric space
-    mean_quality: float
-    max_move: float = 0.0  # largest metric displacement in this stage (adjust)
-    flips: int = 0         # edges flipped to restore the Q-Delaunay property (triangulate)
-    added: int = 0         # points inserted (insert)
-    seconds: float = 0.0   # wall time of this stage
+    The energy and the quality figures cost a pass over the triangles, and `qmesh.mesh` never
+    reads them: given a `source` (mesh, anisotropy) instead of values, they are computed on
+    first access and kept.
+    """
+
+    __slots__ = ("n_vertices", "n_triangles", "max_move", "rms_move", "flips", "added",
+                 "seconds", "_energy", "_min_quality", "_mean_quality", "_source")
+
+    def __init__(self, n_vertices: int, n_triangles: int, energy: float | None = None,
+                 min_quality: float | None = None, mean_quality: float | None = None, *,
+                 max_move: float = 0.0, rms_move: float = 0.0, flips: int = 0, added: int = 0,
+                 seconds: float = 0.0, source=None):
+        self.n_vertices, self.n_triangles = int(n_vertices), int(n_triangles)
+        self.max_move = max_move    # largest metric displacement / h in this stage (adjust)
+        self.rms_move = rms_move    # root-mean-square metric displacement / h (adjust)
+        self.flips = flips          # edges flipped to restore the Q-Delaunay property
+        self.added = added          # points inserted (insert)
+        self.seconds = seconds      # wall time of the stage (without these statistics)
+        self._energy, self._min_quality, self._mean_quality = energy, min_quality, mean_quality
+        self._source = source
+
+    def _fill(self):
+        from .geometry import metric_hessians, metric_quality
+        from .measure import triangle_energy
+        mesh, anisotropy = self._source
+        P, T = mesh.points, mesh.triangles
+        q = metric_quality(P, T, metric_hessians(anisotropy, P, T))
+        self._energy = float(triangle_energy(P, T, anisotropy).sum())
+        self._min_quality, self._mean_quality = float(q.min()), float(q.mean())
+
+    @property
+    def energy(self) -> float:
+        """E = ‖s_h − s‖_L1 (MATH.md "Vertex adjustment")."""
+        if self._energy is None:
+            self._fill()
+        return self._energy
+
+    @property
+    def min_quality(self) -> float:
+        """Smallest metric quality (2.94); 1 = equilateral in metric space."""
+        if self._min_quality is None:
+            self._fill()
+        return self._min_quality
+
+    @property
+    def mean_quality(self) -> float:
+        if self._mean_quality is None:
+            self._fill()
+        return self._mean_quality
+
+    def __repr__(self):
+        return (f"Stats(N={self.n_vertices}, triangles={self.n_triangles}, E={self.energy:.4g}, "
+                f"min_q={self.min_quality:.3f}, added={self.added}, flips={self.flips})")
 
 
 @dataclass(frozen=True, eq=False)

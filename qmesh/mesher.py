@@ -25,17 +25,17 @@ from . import sizing, topology
 from .adjust import limit_moves, newton_step
 from .boundary import snap_to_boundary
 from .errors import QmeshError
-from .geometry import metric_hessians, metric_quality
+from .geometry import quadratic_form
 from .insert import insert, target_area
-from .measure import triangle_energy
 from .mesh import Mesh, Stats, Step
 from .triangulate import lower_hull, restore
 
 BOUNDARY_FACTOR = 1.0   # split boundary edges longer than this many target metric lengths
-MOVE_TOL = 0.02         # converged when no vertex moves more than this fraction of h (metric)
+MOVE_TOL = 0.01        # converged when the rms metric move is below this fraction of h
 
 
-def _check_options(target_vertices, size, alpha, quality_threshold, min_area, max_iterations):
+def _check_options(target_vertices, size, alpha, quality_threshold, min_area, max_iterations,
+                   seed):
     if target_vertices is not None and size is not None:
         raise QmeshError("give either target_vertices or size, not both")
     if target_vertices is not None:
@@ -50,21 +50,26 @@ def _check_options(target_vertices, size, alpha, quality_threshold, min_area, ma
         raise QmeshError(f"quality_threshold must be in [0, 1), got {quality_threshold!r}")
     if min_area is not None and not (np.isfinite(min_area) and min_area >= 0):
         raise QmeshError(f"min_area must be a finite number >= 0, got {min_area!r}")
+    if seed is not None and (isinstance(seed, bool) or int(seed) != seed or seed < 0):
+        raise QmeshError(f"seed must be a non-negative integer or None, got {seed!r}")
     if int(max_iterations) != max_iterations or max_iterations < 0:
         raise QmeshError(f"max_iterations must be a non-negative integer, got {max_iterations!r}")
 
 
 def _random_interior(domain, k, rng) -> np.ndarray:
-    """k points uniformly distributed inside the polygon (rejection from its bounding box)."""
-    lo, hi = domain.points.min(axis=0), domain.points.max(axis=0)
-    out = np.empty((0, 2))
-    while len(out) < k:
-        X = rng.uniform(lo, hi, size=(2 * k + 16, 2))
-        A, Tn = domain.edges
-        d = Tn[None, :, 0] * (X[:, None, 1] - A[None, :, 1]) - Tn[None, :, 1] * (X[:, None, 0] - A[None, :, 0])
-        margin = 1e-3 * np.ptp(domain.points, axis=0).max()
-        out = np.concatenate([out, X[np.all(d > margin, axis=1)]])
-    return out[:k]
+    """k points uniformly distributed inside the convex polygon, kept off its boundary.
+
+    Sampled in the fan of triangles (centroid, corner k, corner k+1), chosen by area; the
+    barycentric weight of the boundary edge is capped at 1 − 1e-3 so no point touches it.
+    """
+    A = domain.points
+    B = np.roll(A, -1, axis=0)
+    c = A.mean(axis=0)
+    area = 0.5 * np.abs((A - c)[:, 0] * (B - c)[:, 1] - (A - c)[:, 1] * (B - c)[:, 0])
+    fan = rng.choice(len(A), size=k, p=area / area.sum())
+    r1, r2 = rng.random(k), rng.random(k)
+    s = np.sqrt(r1) * (1.0 - 1e-3)                 # distance from the centroid towards the edge
+    return c + s[:, None] * ((1.0 - r2)[:, None] * (A[fan] - c) + r2[:, None] * (B[fan] - c))
 
 
 class _State:
@@ -85,6 +90,10 @@ class _State:
         t[self.fixed] = 0.0
         return t
 
+    def on_boundary(self) -> np.ndarray:
+        """Boundary vertices: the seeds and the vertices sliding on the polygon's edges."""
+        return self.fixed | (self.edge_id >= 0)
+
     def corner_edge(self) -> np.ndarray:
         """Polygon edge that starts at each boundary vertex (seeds: their outgoing edge)."""
         ce = self.edge_id.copy()
@@ -92,11 +101,8 @@ class _State:
         return ce
 
     def stats(self, **extra) -> Stats:
-        P, T = self.mesh.points, self.mesh.triangles
-        q = metric_quality(P, T, metric_hessians(self.anisotropy, P, T))
-        return Stats(n_vertices=len(P), n_triangles=len(T),
-                     energy=float(triangle_energy(P, T, self.anisotropy).sum()),
-                     min_quality=float(q.min()), mean_quality=float(q.mean()), **extra)
+        return Stats(self.mesh.n_vertices, self.mesh.n_triangles,
+                     source=(self.mesh, self.anisotropy), **extra)
 
 
 def iterate(domain, anisotropy, *, target_vertices: int | None = None, size: float | None = None,
@@ -115,7 +121,7 @@ def iterate(domain, anisotropy, *, target_vertices: int | None = None, size: flo
     seed              seed of the random initial interior points (same seed ⇒ same mesh);
     boundary_refinement  allow vertices on the boundary between the seed points.
     """
-    _check_options(target_vertices, size, alpha, quality_threshold, min_area, max_iterations)
+    _check_options(target_vertices, size, alpha, quality_threshold, min_area, max_iterations, seed)
     seeds = domain.seeds
     anisotropy.check_convex(np.concatenate([seeds, seeds.mean(axis=0, keepdims=True)]))
     area_m = sizing.metric_area(domain, anisotropy)
@@ -152,7 +158,7 @@ def iterate(domain, anisotropy, *, target_vertices: int | None = None, size: flo
         d = newton_step(P0, T0, anisotropy, fixed=st.fixed, tangent=st.tangents(), alpha=alpha)
         keep = None
         if boundary_refinement:
-            snap = snap_to_boundary(P0, T0, st.twin, d, st.mesh.boundary, st.corner_edge())
+            snap = snap_to_boundary(P0, T0, st.twin, d, st.on_boundary(), st.corner_edge())
             if len(snap.vertices):
                 st.T, st.twin = snap.T, snap.twin
                 d[snap.vertices] = snap.positions - P0[snap.vertices]
@@ -162,20 +168,21 @@ def iterate(domain, anisotropy, *, target_vertices: int | None = None, size: flo
                 keep[snap.vertices] = True
         Pn, d = limit_moves(P0, st.T, d, keep)
         Pn = _onto_edges(domain, Pn, st.edge_id)
-        Hv = (np.broadcast_to(anisotropy.H, (len(d), 2, 2)) if anisotropy.is_constant
-              else anisotropy.hessian(P0))
-        max_move = float(np.sqrt(np.einsum("ni,nij,nj->n", d, Hv, d).max()) / h)
+        Hv = anisotropy.H if anisotropy.is_constant else np.asarray(anisotropy.hessian(P0))
+        move2 = quadratic_form(d[:, None], Hv)
+        max_move = float(np.sqrt(move2.max()) / h)
+        rms_move = float(np.sqrt(move2.mean()) / h)
         st.P = Pn
         st.mesh = Mesh(Pn, st.T if st.T is not T0 else st.mesh.triangles, st.fixed)
         yield Step("adjust", it, st.mesh,
-                   st.stats(max_move=max_move, seconds=time.perf_counter() - t0), moved=Pn - P0)
+                   st.stats(max_move=max_move, rms_move=rms_move, seconds=time.perf_counter() - t0), moved=Pn - P0)
 
         # 4. add new points near bad or oversized triangles (2.94)
         t0 = time.perf_counter()
         n_old = len(st.P)
         if target_vertices is not None:
             budget = target_vertices - n_old
-            nb = int(st.mesh.boundary.sum())
+            nb = int(st.on_boundary().sum())
             threshold = area_m / max(2 * target_vertices - nb - 2, 1)
         else:
             budget = sizing.MAX_VERTICES - n_old
@@ -199,7 +206,7 @@ def iterate(domain, anisotropy, *, target_vertices: int | None = None, size: flo
         st.T, st.twin, flips = restore(st.P, st.T, st.twin, anisotropy)
         st.mesh = Mesh(st.mesh.points, st.T, st.fixed) if flips else st.mesh
         n_edges = len(st.twin) // 2
-        converged = (k == 0 and flips <= max(2, 1e-3 * n_edges) and max_move < MOVE_TOL)
+        converged = (k == 0 and flips <= max(2, 1e-3 * n_edges) and rms_move < MOVE_TOL)
         yield Step("triangulate", it, st.mesh,
                    st.stats(flips=flips, seconds=time.perf_counter() - t0), converged=converged)
         if converged:

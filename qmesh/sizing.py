@@ -29,7 +29,8 @@ def metric_area(domain, anisotropy) -> float:
     i, j = np.meshgrid(np.arange(m), np.arange(m), indexing="ij")
     keep = i + j < m
     up = np.column_stack([(i[keep] + 1 / 3) / m, (j[keep] + 1 / 3) / m])
-    dn = np.column_stack([(i + 2 / 3) / m, (j + 2 / 3) / m])[(i + j < m - 1).ravel()]
+    low = i + j < m - 1
+    dn = np.column_stack([(i[low] + 2 / 3) / m, (j[low] + 2 / 3) / m])
     bary = np.concatenate([up, dn])                       # centroids of the m² sub-triangles
     A, B = P, np.roll(P, -1, axis=0)
     X = c + bary[None, :, 0:1] * (A - c)[:, None] + bary[None, :, 1:2] * (B - c)[:, None]

@@ -50,6 +50,23 @@ def _rebuild(twin: np.ndarray, reloc: np.ndarray, size: int) -> np.ndarray:
     return new
 
 
+def _moved(twin: np.ndarray, src: np.ndarray, dst: np.ndarray, size: int) -> np.ndarray:
+    """Twin array after half-edges `src` moved to slots `dst`; cost O(len(src)) beyond a copy.
+
+    Slots vacated and not refilled must be set by the caller (they hold stale values).
+    """
+    new = np.full(size, -1, dtype=np.int64)
+    new[:len(twin)] = twin
+    reloc = np.arange(len(twin), dtype=np.int64)
+    reloc[src] = dst
+    tw = twin[src]
+    tw_new = np.where(tw >= 0, reloc[np.maximum(tw, 0)], -1)
+    new[dst] = tw_new
+    ok = tw_new >= 0
+    new[tw_new[ok]] = dst[ok]
+    return new
+
+
 def flip(T: np.ndarray, twin: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Flip the edges of half-edges `h` (no two in the same triangle); returns new (T, twin).
 
@@ -63,17 +80,12 @@ def flip(T: np.ndarray, twin: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, np
     v = T[t1, NXT[e1]]
     a = T[t1, PRV[e1]]
     b = T[t2, PRV[e2]]
-    reloc = np.arange(3 * len(T), dtype=np.int64)
-    reloc[h] = -1
-    reloc[g] = -1
-    reloc[3 * t1 + NXT[e1]] = 3 * t2 + 1      # v→a
-    reloc[3 * t1 + PRV[e1]] = 3 * t1 + 2      # a→u
-    reloc[3 * t2 + NXT[e2]] = 3 * t1 + 0      # u→b
-    reloc[3 * t2 + PRV[e2]] = 3 * t2 + 0      # b→v
+    src = np.concatenate([3 * t1 + NXT[e1], 3 * t1 + PRV[e1], 3 * t2 + NXT[e2], 3 * t2 + PRV[e2]])
+    dst = np.concatenate([3 * t2 + 1, 3 * t1 + 2, 3 * t1, 3 * t2])   # v→a, a→u, u→b, b→v
     T = T.copy()
     T[t1] = np.column_stack([u, b, a])
     T[t2] = np.column_stack([b, v, a])
-    new = _rebuild(twin, reloc, 3 * len(T))
+    new = _moved(twin, src, dst, 3 * len(T))
     new[3 * t1 + 1] = 3 * t2 + 2              # b→a ↔ a→b
     new[3 * t2 + 2] = 3 * t1 + 1
     return T, new
@@ -85,12 +97,10 @@ def split_triangles(T: np.ndarray, twin: np.ndarray, t: np.ndarray, p: np.ndarra
     t1 = M + np.arange(k)
     t2 = M + k + np.arange(k)
     a, b, c = T[t, 0], T[t, 1], T[t, 2]
-    reloc = np.arange(3 * M, dtype=np.int64)
-    reloc[3 * t + 1] = 3 * t1                 # b→c
-    reloc[3 * t + 2] = 3 * t2                 # c→a
     T = np.concatenate([T, np.column_stack([b, c, p]), np.column_stack([c, a, p])])
     T[t] = np.column_stack([a, b, p])
-    new = _rebuild(twin, reloc, 3 * len(T))
+    new = _moved(twin, np.concatenate([3 * t + 1, 3 * t + 2]),       # b→c, c→a
+                 np.concatenate([3 * t1, 3 * t2]), 3 * len(T))
     for x, y in ((3 * t + 1, 3 * t1 + 2), (3 * t + 2, 3 * t2 + 1), (3 * t1 + 1, 3 * t2 + 2)):
         new[x] = y
         new[y] = x
@@ -106,13 +116,11 @@ def split_boundary_edges(T: np.ndarray, twin: np.ndarray, h: np.ndarray, p: np.n
     t, e = np.divmod(h, 3)
     t1 = M + np.arange(k)
     u, v, w = T[t, e], T[t, NXT[e]], T[t, PRV[e]]
-    reloc = np.arange(3 * M, dtype=np.int64)
-    reloc[h] = -1
-    reloc[3 * t + NXT[e]] = 3 * t1 + 1        # v→w
-    reloc[3 * t + PRV[e]] = 3 * t + 2         # w→u
     T = np.concatenate([T, np.column_stack([p, v, w])])
     T[t] = np.column_stack([u, p, w])
-    new = _rebuild(twin, reloc, 3 * len(T))
+    new = _moved(twin, np.concatenate([3 * t + NXT[e], 3 * t + PRV[e]]),   # v→w, w→u
+                 np.concatenate([3 * t1 + 1, 3 * t + 2]), 3 * len(T))
+    new[3 * t] = -1                           # u→p is on the boundary
     new[3 * t + 1] = 3 * t1 + 2               # p→w ↔ w→p
     new[3 * t1 + 2] = 3 * t + 1
     return T, new
@@ -140,17 +148,12 @@ def split_edges(T: np.ndarray, twin: np.ndarray, h: np.ndarray, p: np.ndarray):
     n1, n2 = M + np.arange(k), M + k + np.arange(k)
     u, v, a = T[t1, e1], T[t1, NXT[e1]], T[t1, PRV[e1]]
     b = T[t2, PRV[e2]]
-    reloc = np.arange(3 * M, dtype=np.int64)
-    reloc[h] = -1
-    reloc[g] = -1
-    reloc[3 * t1 + NXT[e1]] = 3 * n1 + 1      # v→a
-    reloc[3 * t1 + PRV[e1]] = 3 * t1 + 2      # a→u
-    reloc[3 * t2 + NXT[e2]] = 3 * n2 + 1      # u→b
-    reloc[3 * t2 + PRV[e2]] = 3 * t2 + 2      # b→v
     T = np.concatenate([T, np.column_stack([p, v, a]), np.column_stack([p, u, b])])
     T[t1] = np.column_stack([u, p, a])
     T[t2] = np.column_stack([v, p, b])
-    new = _rebuild(twin, reloc, 3 * len(T))
+    src = np.concatenate([3 * t1 + NXT[e1], 3 * t1 + PRV[e1], 3 * t2 + NXT[e2], 3 * t2 + PRV[e2]])
+    dst = np.concatenate([3 * n1 + 1, 3 * t1 + 2, 3 * n2 + 1, 3 * t2 + 2])  # v→a a→u u→b b→v
+    new = _moved(twin, src, dst, 3 * len(T))
     for x, y in ((3 * t1, 3 * n2), (3 * t1 + 1, 3 * n1 + 2), (3 * n1, 3 * t2),
                  (3 * t2 + 1, 3 * n2 + 2)):
         new[x] = y

@@ -73,27 +73,33 @@ def lower_hull(P: np.ndarray, anisotropy) -> np.ndarray:
 
 
 def _violation(P, T, twin, h, anisotropy, s, g):
-    """Relative lifted in-circle test of half-edges h: > 0 means locally non-regular."""
-    t1, e1 = np.divmod(h, 3)
-    t2, e2 = np.divmod(twin[h], 3)
-    u = T[t1, e1]
-    v = T[t1, topology.NXT[e1]]
-    a = T[t1, topology.PRV[e1]]
-    b = T[t2, topology.PRV[e2]]
-    xb = P[b]
-    R = np.stack([P[u] - xb, P[v] - xb, P[a] - xb], axis=1)         # (k, 3, 2)
+    """Relative lifted in-circle test of half-edges h: > 0 means locally non-regular.
+
+    For the edge u→v of triangle (u, v, a) with b opposite across it, the sign of
+    det[[x_r − x_b, y_r − y_b, z_r]]_{r = u, v, a}, with z the lifted height minus b's tangent
+    plane, says whether b lies below the plane through the lifted u, v, a ((2.74)–(2.75)).
+    """
+    Tf = T.ravel()
+    g2 = twin[h]
+    base1, base2 = h - h % 3, g2 - g2 % 3
+    b = Tf[base2 + topology.PRV[g2 - base2]]
+    cols = (Tf[h], Tf[base1 + topology.NXT[h - base1]], Tf[base1 + topology.PRV[h - base1]])
+    Px, Py = np.ascontiguousarray(P[:, 0]), np.ascontiguousarray(P[:, 1])
+    xb, yb = Px[b], Py[b]
+    dx = [Px[c] - xb for c in cols]                                       # u, v, a
+    dy = [Py[c] - yb for c in cols]
     if anisotropy.is_constant:
-        z = 0.5 * np.einsum("kri,ij,krj->kr", R, anisotropy.H, R)     # tangent plane at b removed
+        (h00, h01), (_, h11) = anisotropy.H
+        z = [0.5 * (h00 * x * x + 2.0 * h01 * x * y + h11 * y * y) for x, y in zip(dx, dy)]
     else:
-        z = s[np.stack([u, v, a], axis=1)] - s[b][:, None] - np.einsum("kri,ki->kr", R, g[b])
-    m = R[:, [1, 2, 0], 0] * R[:, [2, 0, 1], 1] - R[:, [2, 0, 1], 0] * R[:, [1, 2, 0], 1]
-    det = np.einsum("kr,kr->k", z, m)
-    scale = np.einsum("kr,kr->k", np.abs(z), np.abs(m))
+        gb = g[b]
+        z = [s[c] - s[b] - gb[:, 0] * x - gb[:, 1] * y for c, x, y in zip(cols, dx, dy)]
+    m = [dx[(r + 1) % 3] * dy[(r + 2) % 3] - dx[(r + 2) % 3] * dy[(r + 1) % 3] for r in range(3)]
+    det = z[0] * m[0] + z[1] * m[1] + z[2] * m[2]
+    scale = np.abs(z[0] * m[0]) + np.abs(z[1] * m[1]) + np.abs(z[2] * m[2])
     rel = det / np.where(scale > 0, scale, 1.0)
     # the flip must leave two counter-clockwise triangles (u, b, a) and (b, v, a)
-    cross_ub = R[:, 0, 0] * (P[a] - xb)[:, 1] - R[:, 0, 1] * (P[a] - xb)[:, 0]
-    cross_va = R[:, 1, 0] * (P[a] - xb)[:, 1] - R[:, 1, 1] * (P[a] - xb)[:, 0]
-    convex = (cross_ub < 0) & (cross_va > 0)
+    convex = (dx[0] * dy[2] - dy[0] * dx[2] < 0) & (dx[1] * dy[2] - dy[1] * dx[2] > 0)
     return np.where(convex, rel, -1.0)
 
 
@@ -101,7 +107,9 @@ def _canonical(twin: np.ndarray, h: np.ndarray) -> np.ndarray:
     """One half-edge per interior edge among h (the smaller id of each pair), sorted, unique."""
     tw = twin[h]
     h = np.where(tw >= 0, np.minimum(h, tw), -1)
-    return np.unique(h[h >= 0])
+    mark = np.zeros(len(twin), bool)
+    mark[h[h >= 0]] = True
+    return np.flatnonzero(mark)
 
 
 def restore(P: np.ndarray, T: np.ndarray, twin: np.ndarray, anisotropy,

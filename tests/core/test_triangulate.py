@@ -1,0 +1,181 @@
+"""The Q-Delaunay triangulation (MATH.md "Connectivity", chapter (2.74)–(2.75)).
+
+Checked against an independent construction: for constant Q, the lower hull of the lifted
+points is the Delaunay triangulation (scipy.spatial.Delaunay) of the points mapped by F with
+FᵀF = H = ∇²s. The flip-based `restore` must reach the same triangulation from a wrong one, and
+meshes the mesher produces must have q_ij ≥ 0 on every interior edge.
+"""
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from scipy.spatial import Delaunay
+
+import qmesh
+from qmesh import topology
+from qmesh.geometry import signed_areas
+from qmesh.measure import edge_weights, q_nonnegative_fraction
+from qmesh.triangulate import lower_hull, orient_ccw, restore
+
+# strategies: the smaller principal conductivity, the anisotropy ratio, the angle, a point-set seed
+k1s = st.floats(min_value=-2.0, max_value=2.0).map(lambda e: 10.0 ** e)
+ratios = st.floats(min_value=0.0, max_value=3.0).map(lambda e: 10.0 ** e)
+angles = st.floats(min_value=0.0, max_value=180.0)
+seeds = st.integers(min_value=0, max_value=2**32 - 1)
+sizes = st.integers(min_value=20, max_value=200)
+
+FAST = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+
+
+def disk_points(n: int, seed: int) -> np.ndarray:
+    """n points uniformly distributed in the unit disk, from a seeded generator."""
+    rng = np.random.default_rng(seed)
+    r, t = np.sqrt(rng.random(n)), 2 * np.pi * rng.random(n)
+    return np.column_stack([r * np.cos(t), r * np.sin(t)])
+
+
+def triples(T) -> set:
+    """A triangulation as a set of sorted vertex triples (orientation and order ignored)."""
+    return set(map(tuple, np.sort(np.asarray(T), axis=1).tolist()))
+
+
+def mapped_delaunay(P: np.ndarray, H: np.ndarray) -> np.ndarray:
+    """Delaunay triangulation of x' = Lᵀx with L Lᵀ = H (Cholesky), i.e. |x'|² = xᵀHx."""
+    L = np.linalg.cholesky(H)
+    return Delaunay(P @ L).simplices       # row x ↦ xᵀL = (Lᵀx)ᵀ
+
+
+def euclidean_delaunay(P: np.ndarray) -> np.ndarray:
+    """The plain Delaunay triangulation, counter-clockwise: valid, but not Q-Delaunay in general."""
+    return orient_ccw(P, Delaunay(P).simplices)
+
+
+def locally_regular(P, T, anisotropy) -> np.ndarray:
+    """Relative lifted in-circle margin of every interior edge: ≥ 0 where it is locally regular.
+
+    Written from the definition, independently of qmesh.triangulate: a lower-hull facet (u, v, a)
+    has the lifted opposite vertex b on or above its plane, i.e. det[X_u − X_b; X_v − X_b;
+    X_a − X_b] ≤ 0 with X = (x, y, s(x)) and (u, v, a) counter-clockwise. The tangent plane of s
+    at b is subtracted first (a column operation: the determinant is unchanged, the round-off
+    smaller), and the margin is divided by the product of the row norms.
+    """
+    twin = topology.twins(T)
+    h = np.flatnonzero(twin >= 0)
+    t1, e1 = np.divmod(h, 3)
+    t2, e2 = np.divmod(twin[h], 3)
+    u, v, a = T[t1, e1], T[t1, (e1 + 1) % 3], T[t1, (e1 + 2) % 3]
+    b = T[t2, (e2 + 2) % 3]
+    s, g = anisotropy.s(P), anisotropy.grad(P)
+    rows = []
+    for k in (u, v, a):
+        d = P[k] - P[b]
+        rows.append(np.column_stack([d, s[k] - s[b] - np.einsum("ni,ni->n", g[b], d)]))
+    R = np.stack(rows, axis=1)                                            # (k, 3, 3)
+    return -np.linalg.det(R) / np.prod(np.linalg.norm(R, axis=2), axis=1)
+
+
+@FAST
+@given(k1=k1s, ratio=ratios, angle=angles, n=sizes, seed=seeds)
+def test_lower_hull_equals_delaunay_of_mapped_points(k1, ratio, angle, n, seed):
+    P = disk_points(n, seed)
+    A = qmesh.Anisotropy.principal(k1, k1 * ratio, angle)
+    T = lower_hull(P, A)
+    assert triples(T) == triples(mapped_delaunay(P, A.H))
+    assert np.array_equal(np.unique(T), np.arange(n)), "every point must be a vertex"
+    assert np.all(signed_areas(P, T) > 0), "triangles must be counter-clockwise"
+
+
+@FAST
+@given(k1=k1s, ratio=ratios, angle=angles, n=sizes, seed=seeds)
+def test_lower_hull_of_random_spd_matrix(k1, ratio, angle, n, seed):
+    """Built from Q directly (constant), with any factor F, FᵀF = H: the symmetric square root."""
+    t = np.deg2rad(angle)
+    R = np.array([[np.cos(t), -np.sin(t)], [np.sin(t), np.cos(t)]])
+    Q = R @ np.diag([k1, k1 * ratio]) @ R.T
+    A = qmesh.Anisotropy.constant(0.5 * (Q + Q.T))
+    w, V = np.linalg.eigh(A.H)
+    F = V @ np.diag(np.sqrt(w)) @ V.T                      # H^{1/2}: FᵀF = H
+    P = disk_points(n, seed)
+    T = lower_hull(P, A)
+    assert triples(T) == triples(Delaunay(P @ F.T).simplices)
+    assert len(np.unique(T)) == n
+    assert np.all(signed_areas(P, T) > 0)
+
+
+def test_strong_anisotropy_changes_the_triangulation():
+    """The restore tests below start from a triangulation that really is wrong."""
+    P = disk_points(100, 1)
+    A = qmesh.Anisotropy.constant(qmesh.CHAPTER_Q)
+    assert triples(euclidean_delaunay(P)) != triples(lower_hull(P, A))
+
+
+@FAST
+@given(k1=k1s, ratio=st.floats(min_value=1.0, max_value=3.0).map(lambda e: 10.0 ** e),
+       angle=angles, n=sizes, seed=seeds)
+def test_restore_from_euclidean_delaunay_reaches_lower_hull(k1, ratio, angle, n, seed):
+    P = disk_points(n, seed)
+    A = qmesh.Anisotropy.principal(k1, k1 * ratio, angle)
+    T0 = euclidean_delaunay(P)
+    T, twin, flips = restore(P, T0, topology.twins(T0), A)
+    assert triples(T) == triples(lower_hull(P, A))
+    assert flips >= 0
+    assert np.all(signed_areas(P, T) > 0)
+    np.testing.assert_array_equal(twin, topology.twins(T))
+
+
+def test_restore_leaves_a_q_delaunay_triangulation_alone():
+    P = disk_points(150, 3)
+    A = qmesh.Anisotropy.principal(1.0, 300.0, 17.0)
+    T0 = lower_hull(P, A)
+    T, twin, flips = restore(P, T0, topology.twins(T0), A)
+    assert flips == 0
+    np.testing.assert_array_equal(T, T0)
+
+
+def exp_plus_y2() -> qmesh.Anisotropy:
+    """s = exp(x) + y²: a varying Hessian diag(eˣ, 2)."""
+    return qmesh.Anisotropy.from_s(
+        lambda P: np.exp(P[:, 0]) + P[:, 1] ** 2,
+        lambda P: np.column_stack([np.exp(P[:, 0]), 2 * P[:, 1]]),
+        lambda P: np.stack([np.column_stack([np.exp(P[:, 0]), np.zeros(len(P))]),
+                            np.column_stack([np.zeros(len(P)), np.full(len(P), 2.0)])], axis=1),
+    )
+
+
+@pytest.mark.parametrize("scale", [1.0, 3.0])
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_varying_s_lower_hull_and_restore_agree(seed, scale):
+    """s = exp(x) + y² on points of a disk of radius `scale` (larger: stronger variation)."""
+    P = scale * disk_points(150, seed)
+    A = exp_plus_y2()
+    T_hull = lower_hull(P, A)
+    assert len(np.unique(T_hull)) == len(P)
+    assert np.all(signed_areas(P, T_hull) > 0)
+    # the lower hull is locally regular on every interior edge (checked from the definition)
+    assert locally_regular(P, T_hull, A).min() > -1e-12
+    T0 = euclidean_delaunay(P)
+    assert triples(T0) != triples(T_hull)
+    T, twin, _ = restore(P, T0, topology.twins(T0), A)
+    assert triples(T) == triples(T_hull)
+    np.testing.assert_array_equal(twin, topology.twins(T))
+
+
+def test_euclidean_delaunay_is_not_locally_regular_for_strong_anisotropy():
+    """The independent check above can fail: it flags the wrong triangulation."""
+    P = disk_points(100, 5)
+    A = qmesh.Anisotropy.constant(qmesh.CHAPTER_Q)
+    assert locally_regular(P, euclidean_delaunay(P), A).min() < -1e-6
+    assert locally_regular(P, lower_hull(P, A), A).min() > -1e-12
+
+
+@settings(max_examples=8, deadline=None)
+@given(k1=k1s, ratio=ratios, angle=angles, n=st.integers(60, 150),
+       vb=st.integers(8, 32), seed=st.integers(0, 1000))
+def test_mesher_output_has_nonnegative_q_ij(k1, ratio, angle, n, vb, seed):
+    A = qmesh.Anisotropy.principal(k1, k1 * ratio, angle)
+    m = qmesh.mesh(qmesh.Disk(vb), A, target_vertices=n, seed=seed)
+    _, q, interior = edge_weights(m, A)
+    assert interior.any()
+    assert (q[interior] / np.abs(q).max()).min() >= -1e-9
+    assert q_nonnegative_fraction(m, A) == 1.0
