@@ -50,13 +50,15 @@ def snap_to_boundary(P, T, twin, d, on_boundary, corner_edge) -> Snap:
     pos = P[a[idx]] + par[idx, None] * ab[idx]
 
     # no other triangle of a projected vertex may be squashed (all projections together)
+    moving = np.zeros(len(P), bool)
+    moving[v[idx]] = True
+    near = np.flatnonzero(moving[T].any(axis=1))
+    near = near[~np.isin(near, t[idx])]
     Pn = P.copy()
     Pn[v[idx]] = pos
-    others = np.ones(len(T), bool)
-    others[t[idx]] = False
-    squashed = others & (signed_areas(Pn, T) < MIN_AREA_KEPT * signed_areas(P, T))
+    squashed = signed_areas(Pn, T[near]) < MIN_AREA_KEPT * signed_areas(P, T[near])
     bad_v = np.zeros(len(P), bool)
-    bad_v[T[squashed].ravel()] = True
+    bad_v[T[near[squashed]].ravel()] = True
     idx = idx[~bad_v[v[idx]]]
     pos = P[a[idx]] + par[idx, None] * ab[idx]
 

@@ -37,8 +37,11 @@ class Frame:
     def __init__(self, P: np.ndarray, T: np.ndarray):
         x, y = corners(P, T)
         self.x, self.y = x, y
-        self.ex = x[:, [2, 0, 1]] - x[:, [1, 2, 0]]
-        self.ey = y[:, [2, 0, 1]] - y[:, [1, 2, 0]]
+        self.ex, self.ey = np.empty_like(x), np.empty_like(y)
+        for e, c in ((self.ex, x), (self.ey, y)):
+            np.subtract(c[:, 2], c[:, 1], out=e[:, 0])
+            np.subtract(c[:, 0], c[:, 2], out=e[:, 1])
+            np.subtract(c[:, 1], c[:, 0], out=e[:, 2])
         self.A = 0.5 * (self.ex[:, 1] * self.ey[:, 2] - self.ey[:, 1] * self.ex[:, 2])
         self.gx = -0.5 * self.ey
         self.gy = 0.5 * self.ex

@@ -31,7 +31,7 @@ from .mesh import Mesh, Stats, Step
 from .triangulate import lower_hull, restore
 
 BOUNDARY_FACTOR = 1.0   # split boundary edges longer than this many target metric lengths
-MOVE_TOL = 0.01        # converged when the rms metric move is below this fraction of h
+MOVE_TOL = 0.02        # converged when the rms metric move is below this fraction of h
 
 
 def _check_options(target_vertices, size, alpha, quality_threshold, min_area, max_iterations,

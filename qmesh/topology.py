@@ -56,7 +56,7 @@ def _moved(twin: np.ndarray, src: np.ndarray, dst: np.ndarray, size: int) -> np.
     Slots vacated and not refilled must be set by the caller (they hold stale values).
     """
     new = np.full(size, -1, dtype=np.int64)
-    new[:len(twin)] = twin
+    new[:min(size, len(twin))] = twin[:size]
     reloc = np.arange(len(twin), dtype=np.int64)
     reloc[src] = dst
     tw = twin[src]
@@ -127,12 +127,27 @@ def split_boundary_edges(T: np.ndarray, twin: np.ndarray, h: np.ndarray, p: np.n
 
 
 def remove_triangles(T: np.ndarray, twin: np.ndarray, t: np.ndarray):
-    """Delete triangles `t`; their neighbours' shared half-edges become boundary half-edges."""
-    keep = np.ones(len(T), bool)
-    keep[t] = False
-    new_id = np.cumsum(keep) - 1
-    reloc = np.where(np.repeat(keep, 3), 3 * np.repeat(new_id, 3) + np.tile(np.arange(3), len(T)), -1)
-    return T[keep], _rebuild(twin, reloc, 3 * int(keep.sum()))
+    """Delete triangles `t`; their neighbours' shared half-edges become boundary half-edges.
+
+    The last rows fill the holes, so only O(len(t)) half-edges move.
+    """
+    M, k = len(T), len(t)
+    if k == 0:
+        return T, twin
+    gone = np.zeros(M, bool)
+    gone[t] = True
+    hr = (3 * t[:, None] + np.arange(3)).ravel()
+    tw = twin[hr]
+    twin = twin.copy()
+    twin[tw[tw >= 0]] = -1
+    tail = np.arange(M - k, M)
+    tail = tail[~gone[tail]]
+    holes = np.sort(t[t < M - k])
+    T = T.copy()
+    T[holes] = T[tail]
+    src = (3 * tail[:, None] + np.arange(3)).ravel()
+    dst = (3 * holes[:, None] + np.arange(3)).ravel()
+    return T[:M - k], _moved(twin, src, dst, 3 * (M - k))
 
 
 def split_edges(T: np.ndarray, twin: np.ndarray, h: np.ndarray, p: np.ndarray):

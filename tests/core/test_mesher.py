@@ -256,7 +256,7 @@ def test_history_shares_arrays(name):
 
     The one exception: an adjust step that put vertices onto the boundary removed the
     triangles between them and the boundary, so its triangles are a strict subset of the
-    previous ones (rows in the same order) and must be a new array.
+    previous ones and must be a new array.
     """
     _, _, steps = history(name)
     shared = 0

@@ -245,6 +245,7 @@ def test_remove_triangles_keeps_twins(n, seed, frac):
     keep = np.ones(len(T), bool)
     keep[t] = False
     T2, twin2 = topology.remove_triangles(T, twin, t)
-    np.testing.assert_array_equal(T2, T[keep])                    # order kept, rows unchanged
+    # the same rows, unchanged (the last rows fill the holes, so the order may differ)
+    assert sorted(map(tuple, T2.tolist())) == sorted(map(tuple, T[keep].tolist()))
     np.testing.assert_array_equal(twin2, topology.twins(T2))
     assert signed_areas(P, T2).sum() == pytest.approx(signed_areas(P, T[keep]).sum(), rel=1e-12)
