@@ -49,7 +49,7 @@ def _area_gradients(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarra
     """
     gx = 0.5 * (y[:, [1, 2, 0]] - y[:, [2, 0, 1]])
     gy = 0.5 * (x[:, [2, 0, 1]] - x[:, [1, 2, 0]])
-    area = (x * gx).sum(axis=1)                     # Σ_a x_a ∂|T|/∂x_a = |T| (Euler, degree 1)
+    area = 0.5 * ((x[:, 1] - x[:, 0]) * (y[:, 2] - y[:, 0]) - (y[:, 1] - y[:, 0]) * (x[:, 2] - x[:, 0]))
     return gx, gy, area
 
 
