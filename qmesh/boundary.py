@@ -6,7 +6,9 @@ The energy E keeps pulling a vertex that sits next to a long boundary edge towar
 held inside, it would end as a sliver. So when the relaxed step of an interior vertex v crosses
 the boundary edge (a, b) of its own triangle (a, b, v), v is projected onto (a, b), the triangle
 (a, b, v) is removed, and v becomes a sliding boundary vertex between a and b. A projection that
-would land too close to a or b, or squash another triangle of v's star, is not made.
+would land too close to a or b, or squash another triangle of v's star, is not made. A vertex
+that stays inside but would leave (a, b, v) a sliver goes onto (a, b) too: the vertex step alone
+can hold it there, a hair's breadth from the edge.
 """
 
 from __future__ import annotations
@@ -17,9 +19,10 @@ import numpy as np
 
 from . import topology
 from .adjust import MIN_AREA_KEPT
-from .geometry import signed_areas
+from .geometry import metric_hessians, metric_quality, signed_areas
 
-END_MARGIN = 0.2    # the projection must fall within the middle 60% of the boundary edge
+END_MARGIN = 0.02   # the projection must not fall on an end of the boundary edge
+SLIVER = 0.2        # a boundary triangle below this metric quality hands its apex to the boundary
 
 
 @dataclass
@@ -31,8 +34,12 @@ class Snap:
     edge_id: np.ndarray     # their polygon edge
 
 
-def snap_to_boundary(P, T, twin, d, on_boundary, corner_edge) -> Snap:
-    """Project interior vertices whose move `d` leaves the domain onto the boundary edge crossed."""
+def snap_to_boundary(P, T, twin, d, on_boundary, corner_edge, anisotropy) -> Snap:
+    """Project interior vertices whose move `d` leaves the domain onto the boundary edge crossed.
+
+    A vertex whose move keeps it inside but so close to the edge that its boundary triangle
+    would be a sliver (metric quality below SLIVER) joins the boundary the same way.
+    """
     bh = np.flatnonzero(twin < 0)
     t, e = np.divmod(bh, 3)
     a, b, v = T[t, e], T[t, topology.NXT[e]], T[t, topology.PRV[e]]
@@ -42,7 +49,10 @@ def snap_to_boundary(P, T, twin, d, on_boundary, corner_edge) -> Snap:
     rel = P[v] + d[v] - P[a]
     inward = ab[:, 0] * rel[:, 1] - ab[:, 1] * rel[:, 0]        # < 0: the target is outside ab
     par = np.einsum("ki,ki->k", rel, ab) / L2
-    ok &= (inward < 0) & (par > END_MARGIN) & (par < 1 - END_MARGIN)
+    tri = np.column_stack([a, b, v])
+    Pd = P + d
+    sliver = metric_quality(Pd, tri, metric_hessians(anisotropy, Pd, tri)) < SLIVER
+    ok &= ((inward < 0) | sliver) & (par > END_MARGIN) & (par < 1 - END_MARGIN)
     # one boundary edge per vertex: the first listed
     idx = np.flatnonzero(ok)
     _, first = np.unique(v[idx], return_index=True)

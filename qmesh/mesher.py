@@ -26,7 +26,7 @@ from .adjust import limit_moves, newton_step
 from .boundary import snap_to_boundary
 from .errors import QmeshError
 from .geometry import quadratic_form
-from .insert import insert, target_area
+from .insert import insert, relocate_degree3, target_area
 from .mesh import Mesh, Stats, Step
 from .triangulate import lower_hull, restore
 
@@ -158,7 +158,8 @@ def iterate(domain, anisotropy, *, target_vertices: int | None = None, size: flo
         d = newton_step(P0, T0, anisotropy, fixed=st.fixed, tangent=st.tangents(), alpha=alpha)
         keep = None
         if boundary_refinement:
-            snap = snap_to_boundary(P0, T0, st.twin, d, st.on_boundary(), st.corner_edge())
+            snap = snap_to_boundary(P0, T0, st.twin, d, st.on_boundary(), st.corner_edge(),
+                                    anisotropy)
             if len(snap.vertices):
                 st.T, st.twin = snap.T, snap.twin
                 d[snap.vertices] = snap.positions - P0[snap.vertices]
@@ -188,6 +189,8 @@ def iterate(domain, anisotropy, *, target_vertices: int | None = None, size: flo
             budget = sizing.MAX_VERTICES - n_old
             threshold = 2.0 * target_area(h)
         h_eff = np.sqrt(threshold / target_area(1.0))
+        st.T, st.twin, st.P, relocated = relocate_degree3(st.P, st.T, st.twin, anisotropy,
+                                                          st.on_boundary())
         ins = insert(st.P, st.T, st.twin, anisotropy, area_threshold=threshold,
                      boundary_length=BOUNDARY_FACTOR * h_eff, corner_edge=st.corner_edge(),
                      quality_threshold=quality_threshold, min_area=min_area, budget=budget,
@@ -197,16 +200,17 @@ def iterate(domain, anisotropy, *, target_vertices: int | None = None, size: flo
         st.P = np.concatenate([st.P, ins.points])
         st.fixed = np.concatenate([st.fixed, np.zeros(k, bool)])
         st.edge_id = np.concatenate([st.edge_id, ins.edge_id])
-        st.mesh = Mesh(st.P, st.T, st.fixed) if k else st.mesh
-        yield Step("insert", it, st.mesh, st.stats(added=k, seconds=time.perf_counter() - t0),
-                   added=np.arange(n_old, n_old + k))
+        added = np.concatenate([relocated, np.arange(n_old, n_old + k)])
+        st.mesh = Mesh(st.P, st.T, st.fixed) if len(added) else st.mesh
+        yield Step("insert", it, st.mesh,
+                   st.stats(added=len(added), seconds=time.perf_counter() - t0), added=added)
 
         # 5. construct the Q-Delaunay triangulation again, by flips on the kept connectivity
         t0 = time.perf_counter()
         st.T, st.twin, flips = restore(st.P, st.T, st.twin, anisotropy)
         st.mesh = Mesh(st.mesh.points, st.T, st.fixed) if flips else st.mesh
         n_edges = len(st.twin) // 2
-        converged = (k == 0 and flips <= max(2, 1e-3 * n_edges) and rms_move < MOVE_TOL)
+        converged = (len(added) == 0 and flips <= max(2, 1e-3 * n_edges) and rms_move < MOVE_TOL)
         yield Step("triangulate", it, st.mesh,
                    st.stats(flips=flips, seconds=time.perf_counter() - t0), converged=converged)
         if converged:

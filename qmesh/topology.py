@@ -174,3 +174,42 @@ def split_edges(T: np.ndarray, twin: np.ndarray, h: np.ndarray, p: np.ndarray):
         new[x] = y
         new[y] = x
     return T, new
+
+
+def relocate_vertices(T: np.ndarray, twin: np.ndarray, v: np.ndarray, star: np.ndarray,
+                      target: np.ndarray):
+    """Move degree-3 vertices `v` into triangles `target`, keeping the triangle count.
+
+    `star` (k, 3) holds the three triangles around each v (stars and targets all disjoint).
+    The star is merged into one triangle (a, b, c) in the first star row; the target triangle
+    (x, y, z) becomes (x, y, v), and the two freed rows take (y, z, v) and (z, x, v).
+    """
+    k = len(v)
+    if k == 0:
+        return T, twin
+    rows = star.ravel()
+    local = np.argmax(T[rows] == np.repeat(v, 3)[:, None], axis=1)     # v's corner in each row
+    first = T[rows, NXT[local]].reshape(k, 3)                          # a, b, c (unordered)
+    second = T[rows, PRV[local]].reshape(k, 3)
+    outer = (3 * rows + NXT[local]).reshape(k, 3)                      # outer half-edges
+    # chain the three outer edges counter-clockwise: next one starts where this one ends
+    order = np.zeros((k, 3), np.int64)
+    for j in (1, 2):
+        prev_end = second[np.arange(k), order[:, j - 1]]
+        order[:, j] = np.argmax(first == prev_end[:, None], axis=1)
+    pick = lambda a: np.take_along_axis(a, order, axis=1)             # noqa: E731
+    first, outer, srow = pick(first), pick(outer), pick(star)
+    r1, r2, r3 = srow[:, 0], srow[:, 1], srow[:, 2]
+    x, y, z = T[target, 0], T[target, 1], T[target, 2]
+    T = T.copy()
+    T[r1] = first
+    T[target] = np.column_stack([x, y, v])
+    T[r2] = np.column_stack([y, z, v])
+    T[r3] = np.column_stack([z, x, v])
+    src = np.concatenate([outer[:, 0], outer[:, 1], outer[:, 2], 3 * target + 1, 3 * target + 2])
+    dst = np.concatenate([3 * r1, 3 * r1 + 1, 3 * r1 + 2, 3 * r2, 3 * r3])
+    new = _moved(twin, src, dst, len(twin))
+    for p, q in ((3 * target + 1, 3 * r2 + 2), (3 * target + 2, 3 * r3 + 1), (3 * r2 + 1, 3 * r3 + 2)):
+        new[p] = q
+        new[q] = p
+    return T, new

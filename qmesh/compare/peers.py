@@ -1,0 +1,188 @@
+"""Anisotropic peers: gmsh's BAMG and MMG2D (through mmgpy), driven to the same N as qmesh.
+
+Both receive the metric a user of those tools would give: the constant tensor ∇²s (MATH.md:
+lengths are measured in H = ∇²s) divided by h², with h calibrated by a few runs until the
+vertex count lands near the target. The VB-gon's sides are kept whole (no boundary point
+added), as in the chapter's adapted meshes:
+- BAMG (Borouchaki, Hecht et al.) via gmsh, `Mesh.Algorithm = 7`, the metric as a tensor
+  post-processing view used as background field, every boundary line transfinite with 2 nodes;
+- MMG2D (Dapogny, Dobrzynski, Frey) via mmgpy: required boundary edges and vertices, a tensor
+  metric, and `nosizreq` (without it MMG overwrites the metric at required vertices with an
+  isotropic size and the mesh is barely anisotropic; issue 3).
+Both are optional: `available()` says which import here, and why not.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from ..errors import QmeshError
+from ..geometry import signed_areas
+from ..mesh import Mesh
+from . import require
+
+PEERS = ("bamg", "mmg2d")
+_MODULE = {"bamg": "gmsh", "mmg2d": "mmgpy"}
+
+
+@dataclass(frozen=True)
+class PeerMesh:
+    """A peer's mesh, the wall time of its final (calibrated) run, and how many runs it took."""
+
+    mesh: Mesh
+    seconds: float
+    runs: int
+    h: float
+
+
+def available() -> dict[str, str | None]:
+    """{peer: None if it imports here, else the reason it does not}."""
+    out = {}
+    for peer in PEERS:
+        try:
+            require(_MODULE[peer], peer)
+            out[peer] = None
+        except QmeshError as exc:
+            out[peer] = str(exc)
+    return out
+
+
+def _constant_metric(anisotropy) -> np.ndarray:
+    if not anisotropy.is_constant:
+        raise QmeshError("the peers are driven with a constant metric; this anisotropy varies")
+    return np.asarray(anisotropy.H, dtype=float)
+
+
+def _with_fixed(P: np.ndarray, T: np.ndarray, seeds: np.ndarray) -> Mesh:
+    """A Mesh with counter-clockwise triangles and the seed points marked fixed."""
+    P = np.ascontiguousarray(P[:, :2], dtype=float)
+    T = np.asarray(T, dtype=np.int64).copy()
+    cw = signed_areas(P, T) < 0
+    T[cw] = T[cw][:, [0, 2, 1]]
+    dist, idx = cKDTree(P).query(seeds)
+    if np.any(dist > 1e-9 * max(1.0, np.abs(seeds).max())):
+        raise QmeshError("the peer moved or dropped a seed boundary point")
+    fixed = np.zeros(len(P), bool)
+    fixed[idx] = True
+    return Mesh(P, T, fixed)
+
+
+def _fan(seeds: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A valid start mesh of a convex polygon: its corners fanned around their mean."""
+    n = len(seeds)
+    P = np.vstack([seeds, seeds.mean(axis=0)])
+    i = np.arange(n)
+    return P, np.column_stack([i, (i + 1) % n, np.full(n, n)])
+
+
+# --------------------------------------------------------------------------- BAMG (gmsh)
+
+def _bamg_once(seeds: np.ndarray, M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    gmsh = require("gmsh", "the BAMG peer")
+    own = not gmsh.isInitialized()
+    if own:
+        gmsh.initialize(readConfigFiles=False, interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("qmesh-peer")
+        geo = gmsh.model.geo
+        pts = [geo.addPoint(x, y, 0.0) for x, y in seeds]
+        n = len(pts)
+        lines = [geo.addLine(pts[i], pts[(i + 1) % n]) for i in range(n)]
+        geo.addPlaneSurface([geo.addCurveLoop(lines)])
+        for line in lines:                       # keep every side whole: 2 nodes, no new point
+            geo.mesh.setTransfiniteCurve(line, 2)
+        geo.synchronize()
+        # The metric as a tensor view on two triangles covering the polygon's bounding box.
+        lo, hi = seeds.min(axis=0) - 1.0, seeds.max(axis=0) + 1.0
+        tensor = [M[0, 0], M[0, 1], 0.0, M[1, 0], M[1, 1], 0.0, 0.0, 0.0, 1.0] * 3
+        cover = [[lo[0], hi[0], hi[0], lo[1], lo[1], hi[1], 0, 0, 0],
+                 [lo[0], hi[0], lo[0], lo[1], hi[1], hi[1], 0, 0, 0]]
+        view = gmsh.view.add("metric")
+        gmsh.view.addListData(view, "TT", 2, [v for xyz in cover for v in xyz + tensor])
+        field = gmsh.model.mesh.field.add("PostView")
+        gmsh.model.mesh.field.setNumber(field, "ViewTag", view)
+        gmsh.model.mesh.field.setAsBackgroundMesh(field)
+        for name, value in (("Mesh.MeshSizeExtendFromBoundary", 0), ("Mesh.MeshSizeFromPoints", 0),
+                            ("Mesh.MeshSizeFromCurvature", 0), ("Mesh.AnisoMax", 1e6),
+                            ("Mesh.Algorithm", 7)):
+            gmsh.option.setNumber(name, value)
+        gmsh.model.mesh.generate(2)
+        tags, xyz, _ = gmsh.model.mesh.getNodes()
+        _, nodes = gmsh.model.mesh.getElementsByType(2)
+        index = np.zeros(int(tags.max()) + 1, np.int64)
+        index[tags.astype(np.int64)] = np.arange(len(tags))
+        gmsh.view.remove(view)
+        gmsh.model.remove()
+        return xyz.reshape(-1, 3)[:, :2], index[nodes.astype(np.int64).reshape(-1, 3)]
+    finally:
+        if own:
+            gmsh.finalize()
+
+
+# --------------------------------------------------------------------------- MMG2D (mmgpy)
+
+def _mmg_once(seeds: np.ndarray, M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    mmgpy = require("mmgpy", "the MMG2D peer")
+    P, T = _fan(seeds)
+    n = len(seeds)
+    edges = np.column_stack([np.arange(n), (np.arange(n) + 1) % n]).astype(np.int32)
+    m = mmgpy.MmgMesh2D()
+    m.set_mesh_size(vertices=len(P), triangles=len(T), edges=n)
+    m.set_vertices(P)
+    m.set_triangles(T.astype(np.int32))
+    m.set_edges(edges)
+    m.set_required_vertices(np.arange(n, dtype=np.int32))
+    m.set_required_edges(np.arange(n, dtype=np.int32))
+    m.set_field("tensor", np.tile([M[0, 0], M[0, 1], M[1, 1]], (len(P), 1)))
+    m.remesh(nosizreq=1, hgradreq=-1, verbose=-1)
+    return m.get_vertices(), m.get_triangles()
+
+
+# --------------------------------------------------------------------------- calibration
+
+_ONCE = {"bamg": _bamg_once, "mmg2d": _mmg_once}
+
+
+def peer_mesh(peer: str, domain, anisotropy, target_vertices: int, *, rtol: float = 0.03,
+              max_runs: int = 8) -> PeerMesh:
+    """Mesh `domain` with a peer, scaling the metric ∇²s / h² until N is within rtol of the target.
+
+    The interior vertex count scales like h⁻²; each run refits that exponent from the last two
+    runs (a secant step in log-log) and the closest run is returned.
+    """
+    if peer not in _ONCE:
+        raise QmeshError(f"unknown peer {peer!r}; choose from {PEERS}")
+    H = _constant_metric(anisotropy)
+    seeds = np.asarray(domain.seeds, dtype=float)
+    n_b = len(seeds)
+    want = int(target_vertices) - n_b
+    if want < 1:
+        raise QmeshError(f"target_vertices must exceed the {n_b} boundary points")
+    metric_area = np.sqrt(np.linalg.det(H)) * domain.area
+    h = np.sqrt(2.0 * metric_area / (np.sqrt(3.0) * want))   # equilateral metric triangles
+    history, best = [], None
+    for run in range(1, max_runs + 1):
+        t0 = time.perf_counter()
+        P, T = _ONCE[peer](seeds, H / h**2)
+        seconds = time.perf_counter() - t0
+        got = max(len(P) - n_b, 1)
+        result = PeerMesh(_with_fixed(P, T, seeds), seconds, run, float(h))
+        miss = abs(len(P) - target_vertices) / target_vertices
+        if best is None or miss < best[0]:
+            best = (miss, result)
+        if miss <= rtol:
+            break
+        history.append((np.log(h), np.log(got)))
+        slope = -2.0
+        if len(history) >= 2:
+            (x0, y0), (x1, y1) = history[-2:]
+            if abs(x1 - x0) > 1e-9:
+                slope = float(np.clip((y1 - y0) / (x1 - x0), -4.0, -0.5))
+        h *= float(np.exp(np.log(want / got) / slope))
+    miss, result = best
+    return PeerMesh(result.mesh, result.seconds, run, result.h)
