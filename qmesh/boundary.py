@@ -46,13 +46,17 @@ def snap_to_boundary(P, T, twin, d, on_boundary, corner_edge, anisotropy) -> Sna
     ok = ~on_boundary[v]
     ab = P[b] - P[a]
     L2 = np.einsum("ki,ki->k", ab, ab)
-    rel = P[v] + d[v] - P[a]
-    inward = ab[:, 0] * rel[:, 1] - ab[:, 1] * rel[:, 0]        # < 0: the target is outside ab
-    par = np.einsum("ki,ki->k", rel, ab) / L2
+    now, dv = P[v] - P[a], d[v]
+    inside_now = ab[:, 0] * now[:, 1] - ab[:, 1] * now[:, 0]     # > 0: v is inside, left of ab
+    inside_then = inside_now + ab[:, 0] * dv[:, 1] - ab[:, 1] * dv[:, 0]
+    crosses = inside_then < 0
+    # where the move leaves the domain through ab; a sliver apex goes to its projection
+    frac = np.where(crosses, inside_now / np.where(crosses, inside_now - inside_then, 1.0), 1.0)
+    par = np.einsum("ki,ki->k", now + frac[:, None] * dv, ab) / L2
     tri = np.column_stack([a, b, v])
     Pd = P + d
     sliver = metric_quality(Pd, tri, metric_hessians(anisotropy, Pd, tri)) < SLIVER
-    ok &= ((inward < 0) | sliver) & (par > END_MARGIN) & (par < 1 - END_MARGIN)
+    ok &= (crosses | sliver) & (par > END_MARGIN) & (par < 1 - END_MARGIN)
     # one boundary edge per vertex: the first listed
     idx = np.flatnonzero(ok)
     _, first = np.unique(v[idx], return_index=True)

@@ -21,16 +21,17 @@ from typing import Iterator
 
 import numpy as np
 
-from . import sizing, topology
+from . import seeding, sizing, topology
 from .adjust import limit_moves, newton_step
 from .boundary import snap_to_boundary
 from .errors import QmeshError
 from .geometry import quadratic_form
 from .insert import insert, relocate_degree3, target_area
 from .mesh import Mesh, Stats, Step
-from .triangulate import lower_hull, restore
+from .triangulate import q_delaunay, restore
 
 BOUNDARY_FACTOR = 1.0   # split boundary edges longer than this many target metric lengths
+LATTICE_FILL = 0.97     # the initial lattice holds this share of the expected interior vertices
 MOVE_TOL = 0.02        # converged when the rms metric move is below this fraction of h
 
 
@@ -56,29 +57,13 @@ def _check_options(target_vertices, size, alpha, quality_threshold, min_area, ma
         raise QmeshError(f"max_iterations must be a non-negative integer, got {max_iterations!r}")
 
 
-def _random_interior(domain, k, rng) -> np.ndarray:
-    """k points uniformly distributed inside the convex polygon, kept off its boundary.
-
-    Sampled in the fan of triangles (centroid, corner k, corner k+1), chosen by area; the
-    barycentric weight of the boundary edge is capped at 1 − 1e-3 so no point touches it.
-    """
-    A = domain.points
-    B = np.roll(A, -1, axis=0)
-    c = A.mean(axis=0)
-    area = 0.5 * np.abs((A - c)[:, 0] * (B - c)[:, 1] - (A - c)[:, 1] * (B - c)[:, 0])
-    fan = rng.choice(len(A), size=k, p=area / area.sum())
-    r1, r2 = rng.random(k), rng.random(k)
-    s = np.sqrt(r1) * (1.0 - 1e-3)                 # distance from the centroid towards the edge
-    return c + s[:, None] * ((1.0 - r2)[:, None] * (A[fan] - c) + r2[:, None] * (B[fan] - c))
-
-
 class _State:
     """The mutable arrays of one run; Steps get read-only snapshots of them."""
 
     def __init__(self, domain, anisotropy, P, fixed, edge_id):
         self.domain, self.anisotropy = domain, anisotropy
         self.P, self.fixed, self.edge_id = P, fixed, edge_id
-        self.T = lower_hull(P, anisotropy)
+        self.T = q_delaunay(P, anisotropy)
         self.twin = topology.twins(self.T)
         self.mesh = Mesh(P, self.T, fixed)
 
@@ -139,14 +124,25 @@ def iterate(domain, anisotropy, *, target_vertices: int | None = None, size: flo
     min_area = 0.25 * target_area(h) if min_area is None else float(min_area)
     rng = np.random.default_rng(seed)
 
-    # 1. read the boundary points; select about as many random interior points
-    n_int = len(seeds) if target_vertices is None else min(len(seeds), target_vertices - len(seeds))
-    P = np.concatenate([seeds, _random_interior(domain, n_int, rng)])
+    # 1. read the boundary points; select initial interior points: the metric lattice for a
+    #    constant Q, else about as many random points as boundary points (seeding.py)
+    if anisotropy.is_constant:
+        if target_vertices is None:
+            inner = seeding.metric_lattice(domain, anisotropy.H, h, rng)
+        else:
+            n_b = sizing.boundary_vertices(lengths, h, bfac)
+            inner = seeding.lattice_for_count(domain, anisotropy.H,
+                                              LATTICE_FILL * (target_vertices - n_b), rng)
+    else:
+        n_int = len(seeds) if target_vertices is None else min(len(seeds),
+                                                                target_vertices - len(seeds))
+        inner = seeding.random_interior(domain, n_int, rng)
+    P = np.concatenate([seeds, inner])
     fixed = np.zeros(len(P), bool)
     fixed[:len(seeds)] = True
     edge_id = np.full(len(P), -1, np.int64)
 
-    # 2. construct the Q-weighted Delaunay triangulation (lower hull, from scratch)
+    # 2. construct the Q-weighted Delaunay triangulation from scratch (Qhull)
     t0 = time.perf_counter()
     st = _State(domain, anisotropy, P, fixed, edge_id)
     yield Step("triangulate", 0, st.mesh, st.stats(seconds=time.perf_counter() - t0))
