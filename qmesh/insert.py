@@ -59,7 +59,9 @@ def insert(P, T, twin, anisotropy, *, area_threshold, boundary_length, corner_ed
     L2 = metric_edge_lengths2(P, T, Hm)                        # edge opposite each corner
     At = area_threshold
     cand = (area > At) | ((quality < quality_threshold) & (area > min_area))
-    priority = area / At / np.maximum(quality, 1e-3)
+    # badly shaped triangles first (they have a budget only while N is below its target),
+    # then the largest
+    priority = area / At / np.maximum(quality, 1e-3) + np.where(quality < quality_threshold, 10.0, 0.0)
 
     # the longest metric edge of each triangle, as a half-edge (edge opposite corner c is c+1→c+2)
     c = np.argmax(L2, axis=1)

@@ -101,7 +101,7 @@ def iterate(domain, anisotropy, *, target_vertices: int | None = None, size: flo
                       domain's edges, so the seed points set the size as in the chapter);
     alpha             relaxation of the vertex step (2.92); ½ as in the chapter;
     quality_threshold triangles of metric quality (2.94) below it get a point, unless
-    min_area          their metric area is below this (default: ¼ of the target triangle's);
+    min_area          their metric area is below this (default: 1/16 of the target triangle's);
     max_iterations    cap on the repeat loop;
     seed              seed of the random initial interior points (same seed ⇒ same mesh);
     boundary_refinement  allow vertices on the boundary between the seed points.
@@ -121,7 +121,7 @@ def iterate(domain, anisotropy, *, target_vertices: int | None = None, size: flo
         h = float(size) if size is not None else float(lengths.mean())
         sizing.check_vertex_count(sizing.vertices_for_size(area_m, lengths, h, bfac),
                                   f"size = {h:.3g}")
-    min_area = 0.25 * target_area(h) if min_area is None else float(min_area)
+    min_area = target_area(h) / 16 if min_area is None else float(min_area)
     rng = np.random.default_rng(seed)
 
     # 1. read the boundary points; select initial interior points: the metric lattice for a

@@ -139,7 +139,12 @@ def _mmg_once(seeds: np.ndarray, M: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     m.set_required_vertices(np.arange(n, dtype=np.int32))
     m.set_required_edges(np.arange(n, dtype=np.int32))
     m.set_field("tensor", np.tile([M[0, 0], M[0, 1], M[1, 1]], (len(P), 1)))
-    m.remesh(nosizreq=1, hgradreq=-1, verbose=-1)
+    # MMG's default hmin/hmax derive from the bounding box and clip a fine metric (N saturated
+    # near 5e4 here); set them around the metric's own sizes 1/√eig instead.
+    sizes = 1.0 / np.sqrt(np.linalg.eigvalsh(M))
+    diameter = float(np.ptp(seeds, axis=0).max())
+    m.remesh(nosizreq=1, hgradreq=-1, hmin=0.1 * sizes.min(), hmax=max(10 * sizes.max(), diameter),
+             verbose=-1)
     return m.get_vertices(), m.get_triangles()
 
 
