@@ -11,6 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import qmesh
+from cases import exp_plus_y2
 from qmesh import adjust
 from qmesh.geometry import signed_areas
 from qmesh.measure import energy, triangle_energy
@@ -20,14 +21,6 @@ RING = np.column_stack([np.cos(np.pi / 3 * np.arange(6)), np.sin(np.pi / 3 * np.
 STAR = np.array([[0, 1 + k, 1 + (k + 1) % 6] for k in range(6)])      # centre 0, CCW
 
 
-def exp_plus_y2() -> qmesh.Anisotropy:
-    """s = exp(x) + y²."""
-    return qmesh.Anisotropy.from_s(
-        lambda P: np.exp(P[:, 0]) + P[:, 1] ** 2,
-        lambda P: np.column_stack([np.exp(P[:, 0]), 2 * P[:, 1]]),
-        lambda P: np.stack([np.column_stack([np.exp(P[:, 0]), np.zeros(len(P))]),
-                            np.column_stack([np.zeros(len(P)), np.full(len(P), 2.0)])], axis=1),
-    )
 
 
 def inverse_sqrt(H: np.ndarray) -> np.ndarray:

@@ -12,20 +12,12 @@ import numpy as np
 import pytest
 
 import qmesh
+from cases import exp_plus_y2, locally_regular
 from qmesh import topology
 from qmesh.geometry import signed_areas
 from qmesh.measure import edge_weights, interpolation_errors
 
 
-def exp_plus_y2() -> qmesh.Anisotropy:
-    """s = exp(x) + y²: the Hessian diag(eˣ, 2) varies in size across the domain."""
-    return qmesh.Anisotropy.from_s(
-        lambda P: np.exp(P[:, 0]) + P[:, 1] ** 2,
-        lambda P: np.column_stack([np.exp(P[:, 0]), 2 * P[:, 1]]),
-        lambda P: np.stack([np.column_stack([np.exp(P[:, 0]), np.zeros(len(P))]),
-                            np.column_stack([np.zeros(len(P)), np.full(len(P), 2.0)])], axis=1),
-        label="exp(x) + y^2",
-    )
 
 
 def rotating(eps: float = 0.05) -> qmesh.Anisotropy:
@@ -145,17 +137,7 @@ def test_final_mesh_is_q_delaunay(name):
         _, q, interior = edge_weights(m, A)
         assert (q[interior] / np.abs(q).max()).min() >= -1e-9
     else:
-        P, T = m.points, m.triangles
-        twin = topology.twins(T)
-        h = np.flatnonzero(twin >= 0)
-        t1, e1 = np.divmod(h, 3)
-        t2, e2 = np.divmod(twin[h], 3)
-        u, v, a = T[t1, e1], T[t1, (e1 + 1) % 3], T[t1, (e1 + 2) % 3]
-        b = T[t2, (e2 + 2) % 3]
-        s, g = A.s(P), A.grad(P)
-        R = np.stack([np.column_stack([P[k] - P[b], s[k] - s[b] - np.einsum("ni,ni->n", g[b], P[k] - P[b])])
-                      for k in (u, v, a)], axis=1)
-        margin = -np.linalg.det(R) / np.prod(np.linalg.norm(R, axis=2), axis=1)
+        margin = locally_regular(m.points, m.triangles, A)
         assert margin.min() >= -1e-9
 
 
