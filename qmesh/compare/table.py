@@ -205,7 +205,9 @@ def markdown(rows: list[dict], skipped: dict, solve: bool, seconds: float) -> st
     if peer_meshers.PEERS and any(r["mesher"] in peer_meshers.PEERS for r in rows):
         notes.append("- Peers get the constant metric ∇²s / h², h scaled to reach the same N; "
                      "the VB-gon's sides are kept whole (BAMG: 2-node transfinite lines; MMG2D: "
-                     "required edges and vertices, `nosizreq`).")
+                     "required edges and vertices, `nosizreq`, re-run on its own output until the median "
+                     "metric edge length is within 10% of 1). BAMG via gmsh is not deterministic: "
+                     "its rows vary slightly between runs.")
     for name, reason in skipped.items():
         notes.append(f"- Peer **{name}** skipped: {reason}")
     if solve:

@@ -1,0 +1,245 @@
+"""The app's logic without a server: parameters, one `qmesh.iterate` run, and its history.
+
+Algorithm 2.1 runs as one generator (`qmesh.iterate`); every Step it yields is kept, so the
+history slider scrubs through stages already computed and Step/Iterate replay them before asking
+the generator for more. Any parameter change restarts the run from its first triangulation.
+The trame app (`qmesh_view.app`) and the Jupyter widget drive this class; it knows neither.
+"""
+
+from __future__ import annotations
+
+import threading
+from dataclasses import dataclass
+
+import numpy as np
+
+import qmesh
+from qmesh import measure
+from qmesh.errors import QmeshError
+
+PARAMS = ("k1", "k2", "angle", "vb", "target_vertices", "alpha", "seed")
+Q_PARAMS = ("k1", "k2", "angle")
+
+
+@dataclass(frozen=True)
+class Params:
+    """What defines one run. The chapter's case (2.95): Q = diag(0.1, 10), VB = 64, N ≈ 212.
+
+    Q is given by its principal conductivities and the angle of k1's axis, so it is SPD by
+    construction: k1 = 0.1 along x (angle 0) and k2 = 10 along y.
+    """
+
+    k1: float = 0.1
+    k2: float = 10.0
+    angle: float = 0.0
+    vb: int = 64
+    target_vertices: int = 212
+    alpha: float = 0.5
+    seed: int = 0
+
+
+def q_matrix(k1: float, k2: float, angle: float) -> np.ndarray:
+    """Q = R diag(k1, k2) Rᵀ, R the rotation by `angle` degrees; round-off below 1e-12·max zeroed."""
+    t = np.deg2rad(angle)
+    R = np.array([[np.cos(t), -np.sin(t)], [np.sin(t), np.cos(t)]])
+    Q = R @ np.diag([k1, k2]) @ R.T
+    Q[np.abs(Q) < 1e-12 * np.abs(Q).max()] = 0.0
+    return 0.5 * (Q + Q.T)
+
+
+def _checked(p: Params) -> Params:
+    """Coerce integer fields and reject bad values with QmeshError before anything changes."""
+    try:
+        vb, target, seed = int(p.vb), int(p.target_vertices), int(p.seed)
+        k1, k2, angle, alpha = float(p.k1), float(p.k2), float(p.angle), float(p.alpha)
+    except (TypeError, ValueError) as e:
+        raise QmeshError(f"bad parameter value: {e}") from None
+    if vb != p.vb or target != p.target_vertices or seed != p.seed:
+        raise QmeshError("vb, target_vertices and seed must be integers")
+    if not (0.0 < alpha <= 1.0):
+        raise QmeshError(f"alpha must be in (0, 1], got {alpha}")
+    if target < vb:
+        raise QmeshError(f"target_vertices ({target}) must be at least VB ({vb})")
+    qmesh.Anisotropy.principal(k1, k2, angle)   # raises QmeshError for k ≤ 0 or non-finite
+    qmesh.Disk(vb)                              # raises QmeshError for VB < 3
+    return Params(k1, k2, angle, vb, target, alpha, seed)
+
+
+class Controller:
+    """Holds the parameters, the Steps computed so far and which one is shown.
+
+    `step()` shows the next stage, `iterate()` the end of the next iteration, `run()` goes on
+    until convergence or `stop()`, `scrub(i)` shows stage i, `set_params(...)` restarts.
+    Not thread-safe except `stop()`: callers run one method at a time (the app does this with
+    its busy flag).
+    """
+
+    def __init__(self, **params):
+        self.params = _checked(Params(**params))
+        self._stop = threading.Event()
+        self._cache: dict[int, dict] = {}
+        self.reset()
+
+    # ------------------------------------------------------------------ the run
+    @property
+    def anisotropy(self) -> qmesh.Anisotropy:
+        return self._anisotropy
+
+    @property
+    def domain(self) -> qmesh.Polygon:
+        return self._domain
+
+    @property
+    def q(self) -> np.ndarray:
+        """The 2×2 conductivity Q of the current parameters."""
+        p = self.params
+        return q_matrix(p.k1, p.k2, p.angle)
+
+    @property
+    def readout(self) -> dict:
+        """Q11, Q12, Q22 of the current parameters."""
+        Q = self.q
+        return {"q11": float(Q[0, 0]), "q12": float(Q[0, 1]), "q22": float(Q[1, 1])}
+
+    def reset(self) -> None:
+        """Start the run again from its initial triangulation with the current parameters."""
+        p = self.params
+        self._anisotropy = qmesh.Anisotropy.constant(self.q)
+        self._domain = qmesh.Disk(p.vb)
+        self._gen = qmesh.iterate(self._domain, self._anisotropy,
+                                  target_vertices=p.target_vertices, alpha=p.alpha, seed=p.seed)
+        self.history: list[qmesh.Step] = []
+        self._cache.clear()
+        self.done = False
+        self.index = 0
+        self._pull()
+
+    def _pull(self) -> bool:
+        """Ask the generator for one more Step; False once the run has ended."""
+        if self.done:
+            return False
+        try:
+            self.history.append(next(self._gen))
+        except StopIteration:
+            self.done = True
+            return False
+        return True
+
+    @property
+    def current(self) -> qmesh.Step:
+        return self.history[self.index]
+
+    @property
+    def at_end(self) -> bool:
+        """True when the last stage is shown and the run has converged or hit its cap."""
+        return self.index == len(self.history) - 1 and (self.done or self.current.converged)
+
+    # ------------------------------------------------------------------ moving through it
+    def step(self) -> bool:
+        """Show the next stage (replayed from the history, or computed). False at the end."""
+        if self.index + 1 < len(self.history) or self._pull():
+            self.index += 1
+            return True
+        return False
+
+    def iterate(self) -> bool:
+        """Show stages up to and including the next triangulate stage. False if none was left."""
+        moved = False
+        while self.step():
+            moved = True
+            if self.current.stage == "triangulate":
+                break
+        return moved
+
+    def run(self, on_step=None, max_stages: int | None = None) -> int:
+        """Step until the run ends, `stop()` is called or `max_stages`; returns stages shown.
+
+        `on_step(step)` is called after each stage (the app redraws there).
+        """
+        self._stop.clear()
+        n = 0
+        while not self._stop.is_set() and (max_stages is None or n < max_stages):
+            if not self.step():
+                break
+            n += 1
+            if on_step is not None:
+                on_step(self.current)
+        return n
+
+    def stop(self) -> None:
+        """Ask a `run()` in another thread to return after its current stage."""
+        self._stop.set()
+
+    def scrub(self, index: int) -> qmesh.Step:
+        """Show stage `index` of the history (clamped to the stages computed so far)."""
+        self.index = int(np.clip(int(index), 0, len(self.history) - 1))
+        return self.current
+
+    def set_params(self, **changes) -> bool:
+        """Change parameters; any change restarts the run. False (and no restart) if nothing changed.
+
+        Bad names or values raise QmeshError and leave the controller as it was.
+        """
+        unknown = set(changes) - set(PARAMS)
+        if unknown:
+            raise QmeshError(f"unknown parameter(s) {sorted(unknown)}; known: {PARAMS}")
+        new = _checked(Params(**{**self.params.__dict__, **changes}))
+        if new == self.params:
+            return False
+        self.params = new
+        self.reset()
+        return True
+
+    # ------------------------------------------------------------------ measurements
+    def status(self, index: int | None = None, *, quick: bool = False) -> dict:
+        """The status line's numbers for stage `index` (default: the one shown).
+
+        `quick=True` answers at once from the Step's own statistics, with the fraction of
+        q_ij ≥ 0 and κ2 only if they were measured before (else None); measured rows are cached.
+        """
+        i = self.index if index is None else int(index)
+        row = self._cache.get(i)
+        if row is None:
+            step = self.history[i]
+            row = _stats_row(step)
+            if not quick:
+                try:
+                    row["q_nonnegative"] = measure.q_nonnegative_fraction(step.mesh,
+                                                                          self._anisotropy)
+                    row["kappa2"] = measure.condition_number(step.mesh, self._anisotropy)
+                except QmeshError:          # degenerate triangles mid-run: no stiffness matrix
+                    pass
+                self._cache[i] = row
+        return dict(row, history_length=len(self.history), done=self.done)
+
+    def convergence(self) -> dict:
+        """E, κ2 and N at the end of every iteration computed so far (its triangulate stages)."""
+        idx = [i for i, s in enumerate(self.history) if s.stage == "triangulate"]
+        rows = [self.status(i) for i in idx]
+        return {"iteration": [r["iteration"] for r in rows],
+                "energy": [r["energy"] for r in rows],
+                "kappa2": [r["kappa2"] for r in rows],
+                "n_vertices": [r["n_vertices"] for r in rows]}
+
+
+def _stats_row(step) -> dict:
+    """The status numbers a Step carries itself (no stiffness matrix needed)."""
+    st = step.stats
+    return {"iteration": step.iteration, "stage": step.stage,
+            "n_vertices": st.n_vertices, "n_triangles": st.n_triangles,
+            "energy": st.energy, "min_quality": st.min_quality,
+            "mean_quality": st.mean_quality, "q_nonnegative": None, "kappa2": None,
+            "added": 0 if step.added is None else len(step.added),
+            "converged": step.converged}
+
+
+def status_text(s: dict) -> str:
+    """One status line: iteration, stage, N, E, min/mean quality, fraction q_ij ≥ 0, κ2."""
+    def num(x, fmt):
+        return "–" if x is None else format(x, fmt)
+    return (f"iteration {s['iteration']} · {s['stage']} · N = {s['n_vertices']} · "
+            f"E = {num(s['energy'], '.4g')} · quality min {num(s['min_quality'], '.3f')} "
+            f"mean {num(s['mean_quality'], '.3f')} · q_ij ≥ 0: "
+            f"{num(None if s['q_nonnegative'] is None else 100 * s['q_nonnegative'], '.1f')}% · "
+            f"κ2 = {num(s['kappa2'], '.3g')}"
+            + (" · converged" if s["converged"] else ""))

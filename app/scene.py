@@ -1,0 +1,288 @@
+"""The three views of one mesher `Step` as PyVista meshes: lifted, projected, quality.
+
+Pure functions, no plotter, no server, no widgets, so they run off-screen in tests and are shared
+by the trame app and the Jupyter widget (ARCHITECTURE.md "qmesh_view.scene").
+
+- `lifted`: the chapter's picture of the Q-Delaunay connectivity (Section 2.3.1, (2.74)–(2.75)):
+  the smooth convex s(x) over the domain, the vertices lifted onto it, and the facets of the
+  piecewise-linear interpolant s_h (one facet per mesh triangle; after a triangulate stage they
+  are the lower convex hull of the lifted vertices).
+- `projected`: the mesh in the plane, the fixed seed vertices, the points the last insert stage
+  added and the displacements of the last adjust stage ((2.90)–(2.91)).
+- `quality`: triangles coloured by the metric quality (2.94) or the metric area, and optionally
+  every edge coloured by the sign of q_ij = −K_ij (Glickenstein 2007).
+
+Every array operation is vectorised over vertices, triangles or edges.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+import pyvista as pv
+from scipy.spatial import ConvexHull, Delaunay
+
+from qmesh import measure
+from qmesh.errors import QmeshError
+from qmesh.geometry import metric_areas, metric_hessians, metric_quality
+
+COLOUR_BY = ("quality", "metric_area")
+"""What the quality view can colour triangles by."""
+
+SURFACE_RESOLUTION = 41
+"""Grid points across the domain's bounding box used to sample the smooth s(x)."""
+
+
+# --------------------------------------------------------------------------- helpers
+
+def _faces(T: np.ndarray) -> np.ndarray:
+    """VTK's flat face array [3, a, b, c, 3, …] for triangles (M, 3)."""
+    return np.column_stack([np.full(len(T), 3, dtype=np.int64), T]).ravel()
+
+
+def _lines(E: np.ndarray) -> np.ndarray:
+    """VTK's flat line array [2, a, b, …] for segments (k, 2)."""
+    return np.column_stack([np.full(len(E), 2, dtype=np.int64), E]).ravel()
+
+
+def _xyz(P: np.ndarray, z: np.ndarray | float = 0.0) -> np.ndarray:
+    out = np.zeros((len(P), 3))
+    out[:, :2] = P
+    out[:, 2] = z
+    return out
+
+
+def triangles_polydata(P: np.ndarray, T: np.ndarray, z: np.ndarray | float = 0.0) -> pv.PolyData:
+    """Triangles (M, 3) on points P (N, 2) at heights z as a PolyData."""
+    return pv.PolyData(_xyz(P, z), faces=_faces(T))
+
+
+def points_polydata(P: np.ndarray, z: np.ndarray | float = 0.0) -> pv.PolyData:
+    """Points (n, 2) at heights z as a vertex-only PolyData (empty arrays give an empty PolyData)."""
+    if len(P) == 0:
+        return pv.PolyData()
+    return pv.PolyData(_xyz(P, z))
+
+
+def segments_polydata(A: np.ndarray, B: np.ndarray, z: float = 0.0) -> pv.PolyData:
+    """Line segments A[k] → B[k] as a PolyData of lines."""
+    if len(A) == 0:
+        return pv.PolyData()
+    k = len(A)
+    pts = _xyz(np.concatenate([A, B]), z)
+    E = np.column_stack([np.arange(k), np.arange(k, 2 * k)])
+    return pv.PolyData(pts, lines=_lines(E))
+
+
+def arrows_polydata(start: np.ndarray, vec: np.ndarray, head: float = 0.3,
+                    z: float = 0.0) -> pv.PolyData:
+    """Flat 2-D arrows start → start + vec (shaft plus two head strokes), all as line cells.
+
+    Cheap at 1e4 vertices (four points and three lines per arrow), unlike 3-D arrow glyphs.
+    """
+    if len(start) == 0:
+        return pv.PolyData()
+    tip = start + vec
+    back = -head * vec
+    side = head * 0.5 * np.column_stack([-vec[:, 1], vec[:, 0]])
+    k = len(start)
+    pts = _xyz(np.concatenate([start, tip, tip + back + side, tip + back - side]), z)
+    i = np.arange(k)
+    E = np.concatenate([np.column_stack([i, i + k]),
+                        np.column_stack([i + k, i + 2 * k]),
+                        np.column_stack([i + k, i + 3 * k])])
+    poly = pv.PolyData(pts, lines=_lines(E))
+    poly.cell_data["length"] = np.tile(np.hypot(vec[:, 0], vec[:, 1]), 3)
+    return poly
+
+
+def domain_outline(step, domain=None) -> np.ndarray:
+    """The boundary polygon (n, 2), counter-clockwise: the domain's corners, or the mesh's hull.
+
+    Every domain qmesh supports is convex, so the convex hull of the mesh's points is the domain.
+    """
+    if domain is not None:
+        return np.asarray(domain.points, dtype=float)
+    P = step.mesh.points
+    return P[ConvexHull(P).vertices]
+
+
+def sample_domain(outline: np.ndarray,
+                  resolution: int = SURFACE_RESOLUTION) -> tuple[np.ndarray, np.ndarray]:
+    """A triangulation (points, triangles) filling the convex polygon `outline`.
+
+    Boundary points on every edge plus the grid points strictly inside, Delaunay-triangulated:
+    the smooth surface is drawn on it. Cached: the domain stays the same for a whole run.
+    """
+    outline = np.ascontiguousarray(outline, dtype=float)
+    return _sample_domain(outline.tobytes(), len(outline), int(resolution))
+
+
+@lru_cache(maxsize=8)
+def _sample_domain(key: bytes, n: int, resolution: int) -> tuple[np.ndarray, np.ndarray]:
+    outline = np.frombuffer(key, dtype=float).reshape(n, 2)
+    lo, hi = outline.min(axis=0), outline.max(axis=0)
+    h = (hi - lo).max() / (resolution - 1)
+    nxt = np.roll(outline, -1, axis=0)
+    counts = np.maximum(1, np.ceil(np.hypot(*(nxt - outline).T) / h).astype(int))
+    seg = np.repeat(np.arange(len(outline)), counts)
+    starts = np.repeat(np.cumsum(counts) - counts, counts)
+    t = (np.arange(counts.sum()) - starts) / counts[seg]     # 0 ≤ t < 1 along each edge
+    boundary = outline[seg] + t[:, None] * (nxt - outline)[seg]
+    gx, gy = np.meshgrid(np.arange(lo[0] + h, hi[0], h), np.arange(lo[1] + h, hi[1], h))
+    G = np.column_stack([gx.ravel(), gy.ravel()])
+    # keep grid points at least h/3 inside every edge (the outline is counter-clockwise)
+    tangent = (nxt - outline) / np.hypot(*(nxt - outline).T)[:, None]
+    inside = (tangent[None, :, 0] * (G[:, None, 1] - outline[None, :, 1])
+              - tangent[None, :, 1] * (G[:, None, 0] - outline[None, :, 0]))
+    G = G[np.all(inside > h / 3, axis=1)]
+    P = np.concatenate([boundary, G])
+    T = Delaunay(P).simplices
+    P.setflags(write=False)
+    T.setflags(write=False)
+    return P, T
+
+
+# --------------------------------------------------------------------------- lifted view
+
+@dataclass(frozen=True)
+class LiftedScene:
+    """The lifted view: smooth s(x) (translucent), lifted vertices, the facets of s_h."""
+
+    surface: pv.PolyData      # s(x) sampled over the domain
+    vertices: pv.PolyData     # (x_i, y_i, s(x_i))
+    facets: pv.PolyData       # one lifted facet per mesh triangle: the piecewise-linear s_h
+    z_scale: float
+
+
+def height_map(s_values: np.ndarray, s_min: float, s_max: float, width: float,
+               z_scale: float) -> np.ndarray:
+    """Displayed height: s mapped so that z_scale = 1 spans half the domain's width.
+
+    s is defined up to an affine function and its range varies by orders of magnitude with Q,
+    so the lifted view normalises it; only the shape matters to the lower hull (MATH.md).
+    """
+    span = s_max - s_min
+    return z_scale * 0.5 * width * (s_values - s_min) / (span if span > 0 else 1.0)
+
+
+def lifted(step, anisotropy, z_scale: float = 1.0, *, domain=None,
+           resolution: int = SURFACE_RESOLUTION) -> LiftedScene:
+    """The lifted view of `step`: s over the domain, lifted vertices and the s_h facets.
+
+    `z_scale` multiplies the displayed height (1 = the surface rises half the domain's width).
+    """
+    if not np.isfinite(z_scale) or z_scale <= 0:
+        raise QmeshError(f"z_scale must be finite and > 0, got {z_scale}")
+    P, T = step.mesh.points, step.mesh.triangles
+    outline = domain_outline(step, domain)
+    SP, ST = sample_domain(outline, resolution)
+    s_surface = np.asarray(anisotropy.s(SP), dtype=float)
+    s_vertex = np.asarray(anisotropy.s(P), dtype=float)
+    s_min = min(s_surface.min(), s_vertex.min())
+    s_max = max(s_surface.max(), s_vertex.max())
+    width = float(np.ptp(outline, axis=0).max())
+    z_surface = height_map(s_surface, s_min, s_max, width, z_scale)
+    z_vertex = height_map(s_vertex, s_min, s_max, width, z_scale)
+    # faces oriented downwards: the lower hull is seen from below, through the translucent s
+    surface = triangles_polydata(SP, ST[:, ::-1], z_surface)
+    surface.point_data["s"] = s_surface
+    facets = triangles_polydata(P, T[:, ::-1], z_vertex)  # s_h: linear on every triangle
+    facets.point_data["s"] = s_vertex
+    return LiftedScene(surface, points_polydata(P, z_vertex), facets, float(z_scale))
+
+
+# --------------------------------------------------------------------------- projected view
+
+@dataclass(frozen=True)
+class ProjectedScene:
+    """The plane view: mesh with edges, fixed seeds, points just added, displacement arrows."""
+
+    mesh: pv.PolyData
+    fixed: pv.PolyData
+    added: pv.PolyData        # empty unless the step is an insert stage that added points
+    arrows: pv.PolyData       # empty unless the step is an adjust stage that moved points
+    n_added: int
+    n_moved: int
+
+
+def projected(step, *, arrow_scale: float = 1.0, min_move: float = 0.0) -> ProjectedScene:
+    """The projected Q-Delaunay mesh of `step` with what its stage fixed, added or moved.
+
+    Arrows run from each vertex's position before the adjust stage to its new one, scaled by
+    `arrow_scale`; moves no longer than `min_move` are left out.
+    """
+    m = step.mesh
+    P = m.points
+    added = np.asarray(step.added if step.added is not None else [], dtype=np.int64)
+    if step.moved is not None:
+        D = np.asarray(step.moved, dtype=float)
+        length = np.hypot(D[:, 0], D[:, 1])
+        keep = length > min_move
+        arrows = arrows_polydata(P[keep] - D[keep], arrow_scale * D[keep])
+        n_moved = int(keep.sum())
+    else:
+        arrows, n_moved = pv.PolyData(), 0
+    return ProjectedScene(triangles_polydata(P, m.triangles), points_polydata(P[m.fixed]),
+                          points_polydata(P[added]), arrows, len(added), n_moved)
+
+
+# --------------------------------------------------------------------------- quality view
+
+@dataclass(frozen=True)
+class QualityScene:
+    """The quality view: triangles with one cell scalar, optional edges by sign of q_ij."""
+
+    triangles: pv.PolyData
+    scalars: str              # name of the cell array the triangles are coloured by
+    clim: tuple[float, float]
+    edges: pv.PolyData | None  # cell array "q_sign": interior +1 (q_ij ≥ 0) / −1 (< 0), boundary 0
+    n_negative: int           # interior edges with q_ij < 0
+
+
+def q_signs(step, anisotropy, rtol: float = 1e-9) -> tuple[np.ndarray, np.ndarray]:
+    """Every edge (k, 2) and its sign: +1 interior with q_ij ≥ 0, −1 interior with q_ij < 0,
+    0 on the boundary (where the M-matrix property says nothing). Round-off counts as ≥ 0."""
+    edges, q, interior = measure.edge_weights(step.mesh, anisotropy)
+    scale = np.abs(q).max() if len(q) else 1.0
+    return edges, np.where(interior, np.where(q >= -rtol * scale, 1, -1), 0)
+
+
+def quality(step, anisotropy, colour_by: str = "quality",
+            q_sign_edges: bool = False) -> QualityScene:
+    """Triangles coloured by metric quality (2.94) or metric area, and optionally q_ij signs."""
+    if colour_by not in COLOUR_BY:
+        raise QmeshError(f"colour_by must be one of {COLOUR_BY}, got {colour_by!r}")
+    P, T = step.mesh.points, step.mesh.triangles
+    H = metric_hessians(anisotropy, P, T)
+    tri = triangles_polydata(P, T)
+    if colour_by == "quality":
+        values = metric_quality(P, T, H)                   # (2.94)
+        clim = (0.0, 1.0)
+    else:
+        values = metric_areas(P, T, H)
+        clim = (float(values.min()), float(values.max())) if len(values) else (0.0, 1.0)
+        if clim[0] == clim[1]:
+            clim = (clim[0], clim[0] + 1.0)
+    tri.cell_data[colour_by] = values
+    edges, n_negative = None, 0
+    if q_sign_edges:
+        E, sign = q_signs(step, anisotropy)
+        edges = pv.PolyData(_xyz(P, 0.0), lines=_lines(E))
+        edges.cell_data["q_sign"] = sign
+        n_negative = int(np.sum(sign < 0))
+    return QualityScene(tri, colour_by, clim, edges, n_negative)
+
+
+# --------------------------------------------------------------------------- images
+
+def render_views(step, anisotropy, **options) -> dict:
+    """The three views drawn off-screen: {"lifted", "mesh", "quality"} → RGB arrays (h, w, 3).
+
+    Options as `qmesh_view.draw.render_views` (window_size, z_scale, colour_by, q_sign_edges,
+    domain); imported here so callers need only this module.
+    """
+    from .draw import render_views as _render
+    return _render(step, anisotropy, **options)

@@ -1,0 +1,127 @@
+"""Speed and memory of qmesh.mesh against MMG2D (mmgpy) on the chapter's case (issue 2).
+
+    python benchmarks/bench_mesher.py                 # ~1e5 vertices
+    python benchmarks/bench_mesher.py --big           # ~1e5 and ~1e6 vertices
+    python benchmarks/bench_mesher.py --sizes 2e5 --vb 1024
+
+Every case runs in its own subprocess, so peak memory (ru_maxrss) does not mix between cases;
+the baseline (interpreter + imports) is printed beside the peak. qmesh is timed over the whole
+`qmesh.iterate` run to convergence, with the per-stage breakdown summed from `step.stats.seconds`;
+MMG2D gets the constant metric ∇²s/h² with h calibrated to the same N (qmesh.compare.peers),
+and its time is that of the final, calibrated run (calibration runs are counted and timed
+separately). The case: Q = diag(0.1, 10) on Disk(VB); the mesher adds boundary points between
+the VB seeds, so one VB (default 512) serves every size. Prints figures only: no assertion.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import resource
+import subprocess
+import sys
+import time
+from collections import defaultdict
+
+CHAPTER_Q = [[0.1, 0.0], [0.0, 10.0]]
+
+
+def _rss_mb() -> float:
+    """Peak resident set size of this process so far (Linux reports KiB)."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def child_qmesh(n: int, vb: int) -> dict:
+    import qmesh
+    domain, aniso = qmesh.Disk(vb), qmesh.Anisotropy.constant(CHAPTER_Q)
+    base = _rss_mb()
+    stages, iterations, last = defaultdict(float), 0, None
+    t0 = time.perf_counter()
+    for step in qmesh.iterate(domain, aniso, target_vertices=n, seed=0):
+        stages[step.stage] += step.stats.seconds
+        iterations = max(iterations, step.iteration)
+        last = step
+    seconds = time.perf_counter() - t0
+    m = last.mesh
+    return {"mesher": "qmesh", "seconds": seconds, "n_vertices": m.n_vertices,
+            "n_triangles": m.n_triangles, "iterations": iterations, "converged": last.converged,
+            "stages": dict(stages), "baseline_mb": base, "peak_mb": _rss_mb()}
+
+
+def child_mmg(n: int, vb: int) -> dict:
+    import qmesh
+    from qmesh.compare import peers
+    reason = peers.available()["mmg2d"]
+    if reason:
+        return {"mesher": "mmg2d", "skipped": reason}
+    domain, aniso = qmesh.Disk(vb), qmesh.Anisotropy.constant(CHAPTER_Q)
+    base = _rss_mb()
+    t0 = time.perf_counter()
+    pm = peers.peer_mesh("mmg2d", domain, aniso, n, rtol=0.05, max_runs=3)
+    total = time.perf_counter() - t0
+    return {"mesher": "mmg2d", "seconds": pm.seconds, "n_vertices": pm.mesh.n_vertices,
+            "n_triangles": pm.mesh.n_triangles, "runs": pm.runs, "calibration_seconds": total,
+            "baseline_mb": base, "peak_mb": _rss_mb()}
+
+
+def run_case(kind: str, n: int, vb: int, timeout: float) -> dict:
+    """One case in a fresh interpreter; its JSON result (or why it failed)."""
+    cmd = [sys.executable, __file__, "--child", kind, str(n), str(vb)]
+    try:
+        out = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
+    except subprocess.TimeoutExpired:
+        return {"mesher": kind, "failed": f"timed out after {timeout:.0f} s"}
+    if out.returncode != 0:
+        return {"mesher": kind, "failed": out.stderr.strip().splitlines()[-1:] or out.returncode}
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def report(n: int, vb: int, q: dict, m: dict) -> None:
+    print(f"\n== target N = {n:,}  (Disk(VB = {vb}), Q = diag(0.1, 10)) ==")
+    for r in (q, m):
+        name = r["mesher"]
+        if "skipped" in r or "failed" in r:
+            print(f"{name:>6}: {'skipped' if 'skipped' in r else 'FAILED'}: "
+                  f"{r.get('skipped', r.get('failed'))}")
+            continue
+        extra = (f", {r['iterations']} iterations, converged={r['converged']}" if name == "qmesh"
+                 else f", final of {r['runs']} calibration runs ({r['calibration_seconds']:.1f} s in all)")
+        print(f"{name:>6}: {r['seconds']:8.2f} s   N = {r['n_vertices']:,}   "
+              f"{r['n_vertices'] / r['seconds']:,.0f} vertices/s   peak {r['peak_mb']:,.0f} MB "
+              f"(baseline {r['baseline_mb']:,.0f} MB){extra}")
+    if "stages" in q:
+        total = sum(q["stages"].values())
+        print("  qmesh stages: " + ", ".join(
+            f"{k} {v:.2f} s ({100 * v / total:.0f}%)" for k, v in sorted(q["stages"].items())))
+    if "seconds" in q and "seconds" in m:
+        print(f"  time ratio qmesh / MMG2D = {q['seconds'] / m['seconds']:.2f}")
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--sizes", type=float, nargs="+", default=None,
+                   help="target vertex counts (default 1e5; with --big also 1e6)")
+    p.add_argument("--big", action="store_true", help="add the ~1e6-vertex case")
+    p.add_argument("--vb", type=int, default=512, help="boundary seed points of the disk")
+    p.add_argument("--no-mmg", action="store_true", help="time qmesh only")
+    p.add_argument("--timeout", type=float, default=3600.0, help="seconds per case")
+    p.add_argument("--child", nargs=3, metavar=("KIND", "N", "VB"), help=argparse.SUPPRESS)
+    args = p.parse_args(argv)
+    if args.child:
+        kind, n, vb = args.child[0], int(args.child[1]), int(args.child[2])
+        print(json.dumps((child_qmesh if kind == "qmesh" else child_mmg)(n, vb)))
+        return 0
+    sizes = args.sizes or ([1e5, 1e6] if args.big else [1e5])
+    if args.big and args.sizes:
+        sizes = sorted(set(sizes) | {1e6})
+    print(f"python {sys.version.split()[0]}; each case in its own process; VB = {args.vb}")
+    for n in (int(s) for s in sizes):
+        q = run_case("qmesh", n, args.vb, args.timeout)
+        m = ({"mesher": "mmg2d", "skipped": "--no-mmg"} if args.no_mmg
+             else run_case("mmg2d", n, args.vb, args.timeout))
+        report(n, args.vb, q, m)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,59 @@
+"""Write the screenshot baselines into screenshots/ (and, with --app, the README's app.png).
+
+    python tests/view/make_baselines.py          # the off-screen view baselines
+    python tests/view/make_baselines.py --app    # also a browser screenshot of the whole app
+
+Run it only when the drawing or the mesher changed on purpose, then LOOK at every image written.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+
+os.environ.setdefault("PYVISTA_OFF_SCREEN", "true")
+os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from PIL import Image  # noqa: E402
+
+import view_cases as cases  # noqa: E402
+
+
+def write_views() -> None:
+    run = cases.finished_run()
+    cases.BASELINES.mkdir(exist_ok=True)
+    for name in cases.CASES:
+        path = cases.BASELINES / f"{name}.png"
+        Image.fromarray(cases.render_case(run, name)).save(path)
+        print("wrote", path)
+
+
+def write_app(path: Path) -> None:
+    """The whole app in Chromium after Run has taken the chapter's case to convergence."""
+    import view_browser as browser
+    with browser.qmesh_view_server() as url, browser.chromium_page(url, (1600, 900)) as page:
+        browser.wait_drawn(page)
+        browser.wait_idle(page)
+        page.get_by_role("button", name="Run", exact=True).click()
+        browser.until(lambda: "converged" in browser.status(page) or None, 180,
+                      "the run to converge")
+        browser.wait_idle(page)
+        page.wait_for_timeout(1500)                   # the last images reach the browser
+        page.screenshot(path=str(path))
+    print("wrote", path)
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--app", action="store_true", help="also write screenshots/app.png")
+    args = p.parse_args()
+    write_views()
+    if args.app:
+        write_app(cases.BASELINES / "app.png")
+
+
+if __name__ == "__main__":
+    main()

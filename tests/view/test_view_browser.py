@@ -1,0 +1,104 @@
+"""The real app in a real browser: `qmesh-view --server` on 127.0.0.1, driven by Debian's Chromium.
+
+One test walks the whole session (starting the server and the browser costs more than the
+clicks): the three views get drawn, Step, Iterate, the history slider, a Q slider, Run and Stop
+each change the status line and the views. Screenshots go to test-artifacts/.
+"""
+
+import re
+
+import view_browser as b
+from view_cases import drawn
+
+
+def _iteration_stage(line):
+    m = re.match(r"iteration (\d+) · (\w+) · N = (\d+)", line)
+    assert m, f"unexpected status line {line!r}"
+    return int(m.group(1)), m.group(2), int(m.group(3))
+
+
+def test_app_session_in_chromium():
+    with b.qmesh_view_server() as url, b.chromium_page(url) as page:
+        start = b.wait_drawn(page)
+        b.wait_idle(page)
+        b.save(page, "browser-0-start")
+        s0 = b.status(page)
+        assert _iteration_stage(s0)[:2] == (0, "triangulate")
+        for part in ("E = ", "quality min", "q_ij ≥ 0: 100.0%", "κ2 = "):
+            assert part in s0
+        assert b.page_text(page, "#q-readout") == "Q11 = 0.1 · Q12 = 0 · Q22 = 10"
+
+        # Step: one stage, the adjust of iteration 1, drawn with its displacement arrows
+        page.get_by_role("button", name="Step", exact=True).click()
+        s1 = b.settled_status(page, s0)
+        assert _iteration_stage(s1)[:2] == (1, "adjust")
+        b.wait_view_change(page, "mesh", start["mesh"])
+        b.save(page, "browser-1-step")
+
+        # Iterate: to the end of iteration 1 (points inserted, re-triangulated)
+        page.get_by_role("button", name="Iterate", exact=True).click()
+        s2 = b.settled_status(page, s1)
+        it, stage, n = _iteration_stage(s2)
+        assert (it, stage) == (1, "triangulate") and n > _iteration_stage(s0)[2]
+        after_iterate = {name: b.wait_view_change(page, name, start[name]) for name in b.VIEWS}
+        b.save(page, "browser-2-iterate")
+
+        # the history slider scrubs back to the first triangulation, and forward again
+        b.wait_idle(page)
+        thumb = page.locator("#slider-history_index .v-slider-thumb")
+        thumb.focus()
+        page.keyboard.press("Home")
+        assert b.settled_status(page, s2) == s0
+        page.keyboard.press("End")
+        assert b.settled_status(page, s0) == s2
+
+        # a Q slider: k2 10 → 9.95 re-meshes from the start with the new Q and redraws
+        b.wait_idle(page)
+        page.locator("#slider-k2 .v-slider-thumb").focus()
+        page.keyboard.press("ArrowLeft")
+        s3 = b.settled_status(page, s2)
+        assert _iteration_stage(s3)[:2] == (0, "triangulate") and s3 != s0
+        assert b.page_text(page, "#q-readout") == "Q11 = 0.1 · Q12 = 0 · Q22 = 9.95"
+        for name in b.VIEWS:
+            b.wait_view_change(page, name, after_iterate[name])
+        b.save(page, "browser-3-q-changed")
+
+        # view options redraw without re-meshing: q_ij-sign edges, colour by metric area, z-scale
+        shown = b.views(page)
+        page.locator("#switch-q-sign input").check()
+        shown["quality"] = b.wait_view_change(page, "quality", shown["quality"])
+        page.locator("#select-colour-by .v-field").click()
+        page.get_by_role("option", name="metric area").click()
+        b.wait_view_change(page, "quality", shown["quality"])
+        page.locator("#slider-z_scale .v-slider-thumb").focus()
+        page.keyboard.press("PageUp")
+        b.wait_view_change(page, "lifted", shown["lifted"])
+        assert b.status(page) == s3                         # same stage, nothing re-meshed
+        b.save(page, "browser-4-view-options")
+
+        # Run animates stage after stage until Stop
+        b.wait_idle(page)
+        page.get_by_role("button", name="Run", exact=True).click()
+        b.until(lambda: _iteration_stage(b.status(page))[0] >= 2, 30,
+                "the run to reach iteration 2")
+        page.get_by_role("button", name="Stop", exact=True).click()
+        page.get_by_role("button", name="Run", exact=True).wait_for(timeout=30_000)
+        b.wait_idle(page)
+        stopped = b.status(page)
+        page.wait_for_timeout(1000)
+        assert b.status(page) == stopped                     # nothing runs after Stop
+        assert _iteration_stage(stopped)[0] >= 2
+        final = b.views(page)
+        assert all(drawn(img) for img in final.values())
+        b.save(page, "browser-5-run-stopped")
+
+        # the mesh and quality cameras are linked: zooming the mesh view zooms the quality view
+        box = page.locator("#view-mesh").bounding_box()
+        page.mouse.move(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
+        for _ in range(4):
+            page.mouse.wheel(0, -240)
+            page.wait_for_timeout(150)
+        b.wait_view_change(page, "mesh", final["mesh"], min_diff=3.0)
+        b.wait_view_change(page, "quality", final["quality"], min_diff=3.0)
+        assert b.mean_diff(b.view_image(page, "lifted"), final["lifted"]) < 1.0
+        b.save(page, "browser-6-zoomed")

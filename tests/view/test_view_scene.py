@@ -1,0 +1,156 @@
+"""qmesh_view.scene: the meshes of the three views hold what the Step says, counted independently."""
+
+import numpy as np
+import pytest
+from scipy.spatial import ConvexHull
+
+import qmesh
+from qmesh import measure
+from qmesh.errors import QmeshError
+from qmesh_view import scene
+
+
+def _triangle_set(T):
+    return {tuple(sorted(t)) for t in np.asarray(T).tolist()}
+
+
+def _faces(poly):
+    return poly.faces.reshape(-1, 4)[:, 1:]
+
+
+def test_lifted_has_one_facet_per_triangle_and_every_vertex(steps, chapter_run):
+    for step in steps.values():
+        view = scene.lifted(step, chapter_run.anisotropy, domain=chapter_run.domain)
+        assert view.facets.n_cells == step.mesh.n_triangles
+        assert view.vertices.n_points == step.mesh.n_vertices
+        assert _triangle_set(_faces(view.facets)) == _triangle_set(step.mesh.triangles)
+        np.testing.assert_allclose(view.vertices.points[:, :2], step.mesh.points)
+        np.testing.assert_allclose(view.facets.points[:, 2], view.vertices.points[:, 2])
+
+
+def test_lifted_facets_are_the_lower_hull_after_triangulate(steps, chapter_run):
+    """After a triangulate stage the drawn facets form the lower convex hull (2.74): no lifted
+    vertex lies below the plane of any facet (up to round-off, so co-planar ties may go either way)."""
+    for name in ("triangulate0", "final"):
+        view = scene.lifted(steps[name], chapter_run.anisotropy, domain=chapter_run.domain)
+        X = view.vertices.points
+        F = _faces(view.facets)
+        a, b, c = X[F[:, 0]], X[F[:, 1]], X[F[:, 2]]
+        n = np.cross(b - a, c - a)                                  # (M, 3), n_z ≠ 0
+        assert np.all(np.abs(n[:, 2]) > 0)
+        # height of every vertex above every facet's plane, along z
+        above = ((X[None, :, :] - a[:, None, :]) @ (n / n[:, 2:3])[:, :, None])[..., 0]
+        scale = np.ptp(X[:, 2])
+        assert above.min() > -1e-9 * scale, name
+        # and the facets tile the same area as the lower hull Qhull finds
+        hull = ConvexHull(X)
+        lower = hull.simplices[hull.equations[:, 2] < -1e-12]
+        assert len(lower) == len(F), name
+
+
+def test_lifted_surface_lies_under_the_facets_and_scales(steps, chapter_run):
+    step, A = steps["final"], chapter_run.anisotropy
+    one = scene.lifted(step, A, 1.0, domain=chapter_run.domain)
+    two = scene.lifted(step, A, 2.0, domain=chapter_run.domain)
+    np.testing.assert_allclose(two.facets.points[:, 2], 2 * one.facets.points[:, 2])
+    # s is convex, so s ≤ s_h: sample the surface's points and compare with s_h there
+    S = one.surface.points
+    assert np.all(qmesh.Disk(64).contains(S[:, :2], tol=1e-9))
+    probe = one.facets.copy()
+    probe.points[:, 2] = 0.0
+    found = probe.find_containing_cell(np.column_stack([S[:, :2], np.zeros(len(S))]))
+    inside = found >= 0
+    assert inside.mean() > 0.95
+    tri = _faces(one.facets)[found[inside]]
+    P = one.facets.points
+    a, b, c = P[tri[:, 0]], P[tri[:, 1]], P[tri[:, 2]]
+    x = S[inside]
+    det = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+    l1 = ((x[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (x[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])) / det
+    l2 = ((b[:, 0] - a[:, 0]) * (x[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (x[:, 0] - a[:, 0])) / det
+    s_h = (1 - l1 - l2) * a[:, 2] + l1 * b[:, 2] + l2 * c[:, 2]
+    assert np.all(x[:, 2] <= s_h + 1e-9)
+
+
+def test_lifted_rejects_bad_z_scale(steps, chapter_run):
+    for bad in (0.0, -1.0, float("nan")):
+        with pytest.raises(QmeshError):
+            scene.lifted(steps["final"], chapter_run.anisotropy, bad)
+
+
+def test_projected_marks_fixed_seeds(steps):
+    step = steps["final"]
+    view = scene.projected(step)
+    assert view.mesh.n_cells == step.mesh.n_triangles
+    assert view.fixed.n_points == int(step.mesh.fixed.sum()) == 64
+    np.testing.assert_allclose(view.fixed.points[:, :2], qmesh.Disk(64).seeds, atol=1e-12)
+
+
+def test_projected_highlights_inserted_points(steps):
+    step = steps["insert1"]
+    assert step.added is not None and len(step.added) > 0
+    view = scene.projected(step)
+    assert view.n_added == view.added.n_points == len(step.added)
+    np.testing.assert_allclose(view.added.points[:, :2], step.mesh.points[step.added])
+    assert view.arrows.n_points == 0
+
+
+def test_projected_draws_a_move_arrow_per_moved_vertex(steps):
+    step = steps["adjust1"]
+    D = np.asarray(step.moved)
+    moved = np.hypot(D[:, 0], D[:, 1]) > 0
+    view = scene.projected(step)
+    assert view.n_moved == moved.sum() > 0
+    assert view.arrows.n_cells == 3 * moved.sum()           # shaft + two head strokes each
+    assert view.added.n_points == 0
+    # shafts run from the old position to the new one
+    k = int(moved.sum())
+    np.testing.assert_allclose(view.arrows.points[:k, :2], (step.mesh.points - D)[moved])
+    np.testing.assert_allclose(view.arrows.points[k:2 * k, :2], step.mesh.points[moved])
+
+
+def test_triangulate_step_has_no_arrows_or_added_points(steps):
+    view = scene.projected(steps["triangulate0"])
+    assert view.arrows.n_points == 0 and view.added.n_points == 0
+
+
+def test_quality_is_the_metric_quality_in_0_1(steps, chapter_run):
+    A = chapter_run.anisotropy
+    for name in ("triangulate0", "final"):
+        step = steps[name]
+        view = scene.quality(step, A)
+        q = view.triangles.cell_data["quality"]
+        assert len(q) == step.mesh.n_triangles
+        assert np.all(q > 0) and np.all(q <= 1 + 1e-12)
+        np.testing.assert_allclose(q, measure.quality(step.mesh, A))
+        assert view.edges is None
+
+
+def test_quality_metric_area_sums_to_the_metric_area_of_the_domain(steps, chapter_run):
+    """det ∇²s = 0.1 · 10 = 1 for the chapter's Q, so the metric areas add up to |Ω|."""
+    view = scene.quality(steps["final"], chapter_run.anisotropy, colour_by="metric_area")
+    a = view.triangles.cell_data["metric_area"]
+    assert view.scalars == "metric_area"
+    assert np.all(a > 0)
+    assert a.sum() == pytest.approx(qmesh.Disk(64).area, rel=1e-12)
+
+
+def test_q_sign_edges_cover_every_edge_and_count_negative_weights(steps, chapter_run):
+    A = chapter_run.anisotropy
+    for name in ("final", "adjust1"):
+        step = steps[name]
+        view = scene.quality(step, A, q_sign_edges=True)
+        m = step.mesh
+        assert view.edges.n_cells == m.n_vertices + m.n_triangles - 1        # Euler, a disk
+        sign = view.edges.cell_data["q_sign"]
+        assert np.sum(sign == 0) == len(m.boundary_edges)
+        interior = np.sum(sign != 0)
+        frac = measure.q_nonnegative_fraction(m, A)
+        assert view.n_negative == np.sum(sign < 0) == round((1 - frac) * interior)
+    # a Q-Delaunay mesh has every interior q_ij ≥ 0
+    assert scene.quality(steps["final"], A, q_sign_edges=True).n_negative == 0
+
+
+def test_quality_rejects_unknown_colouring(steps, chapter_run):
+    with pytest.raises(QmeshError):
+        scene.quality(steps["final"], chapter_run.anisotropy, colour_by="area")

@@ -1,0 +1,187 @@
+"""Start `qmesh-view --server` and drive Debian's Chromium with Playwright (HEADLESS.md).
+
+Every wait is bounded; the server started here is always stopped, and Chromium gets a fresh
+profile directory. Never `playwright install`: the browser is /usr/bin/chromium.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import os
+import shutil
+import socket
+import subprocess
+import tempfile
+import time
+import urllib.error
+import urllib.request
+from pathlib import Path
+
+import numpy as np
+from PIL import Image
+from playwright.sync_api import sync_playwright
+
+from view_cases import ARTIFACTS, drawn
+
+CHROMIUM = "/usr/bin/chromium"
+CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
+                  "--no-first-run", "--disable-background-networking",
+                  "--disable-component-update", "--disable-sync"]
+VIEWS = ("lifted", "mesh", "quality")
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _answers(url: str) -> bool:
+    try:
+        with urllib.request.urlopen(url, timeout=2):
+            return True
+    except (urllib.error.URLError, ConnectionError, OSError):
+        return False
+
+
+@contextlib.contextmanager
+def qmesh_view_server(start_timeout: float = 60.0):
+    """Run `qmesh-view --server --port <free>` on 127.0.0.1; yield its URL; always stop it."""
+    exe = shutil.which("qmesh-view")
+    if exe is None:
+        raise RuntimeError("the qmesh-view command is not installed (pip install -e '.[view]')")
+    port = free_port()
+    ARTIFACTS.mkdir(exist_ok=True)
+    log = open(ARTIFACTS / f"qmesh-view-server-{port}.log", "wb")
+    env = dict(os.environ, PYVISTA_OFF_SCREEN="true",
+               VTK_DEFAULT_OPENGL_WINDOW="vtkEGLRenderWindow")
+    proc = subprocess.Popen([exe, "--server", "--port", str(port)], stdout=log,
+                            stderr=subprocess.STDOUT, env=env)
+    url = f"http://127.0.0.1:{port}/"
+    try:
+        deadline = time.monotonic() + start_timeout
+        while not _answers(url):
+            if proc.poll() is not None:
+                raise RuntimeError(f"qmesh-view exited with {proc.returncode}; see {log.name}")
+            if time.monotonic() > deadline:
+                raise TimeoutError(f"qmesh-view did not answer on {url} in {start_timeout} s")
+            time.sleep(0.25)
+        yield url
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait(timeout=10)
+        log.close()
+
+
+@contextlib.contextmanager
+def chromium_page(url: str, viewport=(1600, 900)):
+    """A Playwright page in headless Debian Chromium with a fresh profile, opened at `url`."""
+    if not os.path.exists(CHROMIUM):
+        raise RuntimeError(f"{CHROMIUM} is missing: apt-get install chromium")
+    profile = tempfile.mkdtemp(prefix="qmesh-view-chromium-")
+    try:
+        with sync_playwright() as p:
+            ctx = p.chromium.launch_persistent_context(
+                profile, executable_path=CHROMIUM, headless=True, args=CHROMIUM_FLAGS,
+                viewport={"width": viewport[0], "height": viewport[1]})
+            try:
+                page = ctx.new_page()
+                page.set_default_timeout(30_000)
+                page.goto(url)
+                yield page
+            finally:
+                ctx.close()
+    finally:
+        shutil.rmtree(profile, ignore_errors=True)
+
+
+def view_image(page, name: str) -> np.ndarray:
+    """What the browser shows in view `name` right now, as RGB (h, w, 3)."""
+    png = page.locator(f"#view-{name}").screenshot()
+    return np.asarray(Image.open(io.BytesIO(png)).convert("RGB"))
+
+
+def views(page) -> dict:
+    return {name: view_image(page, name) for name in VIEWS}
+
+
+def until(predicate, timeout: float, what: str, interval: float = 0.25):
+    """Poll `predicate` until it returns something other than None/False, or raise TimeoutError."""
+    deadline = time.monotonic() + timeout
+    while True:
+        value = predicate()
+        if value is not None and value is not False:
+            return value
+        if time.monotonic() > deadline:
+            raise TimeoutError(f"waited {timeout} s for {what}")
+        time.sleep(interval)
+
+
+def wait_drawn(page, timeout: float = 60.0) -> dict:
+    """Wait until all three views show a drawn scene (not blank, not a splash); return them."""
+    page.wait_for_selector("#status-line", timeout=timeout * 1000)
+
+    def all_drawn():
+        imgs = views(page)
+        return imgs if all(drawn(img) for img in imgs.values()) else None
+    return until(all_drawn, timeout, "all three views to be drawn")
+
+
+def status(page) -> str:
+    return page.inner_text("#status-line").strip()
+
+
+def wait_status_change(page, old: str, timeout: float = 30.0) -> str:
+    def changed():
+        line = status(page)
+        return line if line and line != old else None
+    return until(changed, timeout, f"the status line to change from {old!r}")
+
+
+def settled_status(page, old: str, timeout: float = 30.0) -> str:
+    """After an action: wait for the status line to change, then for the work to finish.
+
+    The app shows a stage's quick numbers first and κ2 and the q_ij signs when measured, so the
+    line can change twice; this returns the final one.
+    """
+    wait_status_change(page, old, timeout)
+    wait_idle(page, timeout)
+    return status(page)
+
+
+def wait_idle(page, timeout: float = 30.0) -> None:
+    """Wait until the busy bar is hidden (no mesher work running)."""
+    page.wait_for_function(
+        "() => { const b = document.querySelector('#busy');"
+        " return !b || getComputedStyle(b).display === 'none'; }", timeout=timeout * 1000)
+
+
+def wait_view_change(page, name: str, old: np.ndarray, timeout: float = 20.0,
+                     min_diff: float = 1.0) -> np.ndarray:
+    """Wait until view `name` differs from `old` by a mean absolute pixel difference ≥ min_diff."""
+    def changed():
+        img = view_image(page, name)
+        same_shape = img.shape == old.shape
+        return img if (not same_shape or mean_diff(img, old) >= min_diff) and drawn(img) else None
+    return until(changed, timeout, f"view {name!r} to change")
+
+
+def mean_diff(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.abs(a.astype(int) - b.astype(int)).mean())
+
+
+def save(page, name: str) -> Path:
+    """Save a full-page screenshot under test-artifacts/ and return its path."""
+    ARTIFACTS.mkdir(exist_ok=True)
+    path = ARTIFACTS / f"{name}.png"
+    page.screenshot(path=str(path))
+    return path
+
+
+def page_text(page, selector: str) -> str:
+    return page.inner_text(selector).strip()
