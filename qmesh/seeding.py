@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-MARGIN = 0.5        # lattice points keep this many metric edge lengths from the boundary
+MARGIN = 0.3        # lattice points keep this many metric edge lengths from the boundary
 JITTER = 1e-3       # random perturbation of lattice points, in metric edge lengths
 
 
@@ -72,16 +72,23 @@ def _inside_by(corners, X, margin) -> np.ndarray:
 
 
 def lattice_for_count(domain, H, n, rng) -> np.ndarray:
-    """A metric lattice with about n points (two passes: estimate the spacing, then correct it)."""
+    """A metric lattice with at most, and about, n points.
+
+    The spacing first comes from the metric area less the boundary band the margin leaves
+    empty, then from one count; a last step widens it by 1% while there are too many points.
+    """
+    corners = domain.points @ np.linalg.cholesky(H)
+    E = np.roll(corners, -1, axis=0) - corners
     area_m = domain.area * np.sqrt(np.linalg.det(H))
-    h = np.sqrt(2.0 * area_m / (np.sqrt(3.0) * max(n, 1)))
-    for _ in range(3):
-        X = metric_lattice(domain, H, h, rng)
-        if len(X) == 0:
-            h *= 0.5
-            continue
-        h *= np.sqrt(len(X) / n)
+    perimeter_m = np.hypot(E[:, 0], E[:, 1]).sum()
+    cell = np.sqrt(3.0) / 2.0                      # lattice area per point is cell·h²
+    # area_m − perimeter_m·MARGIN·h = n·cell·h², solved for h > 0
+    b = perimeter_m * MARGIN
+    h = (-b + np.sqrt(b * b + 4.0 * cell * max(n, 1) * area_m)) / (2.0 * cell * max(n, 1))
     X = metric_lattice(domain, H, h, rng)
+    if len(X):
+        h *= np.sqrt(len(X) / n)
+        X = metric_lattice(domain, H, h, rng)
     while len(X) > n:                              # never more than asked: insertion tops up
         h *= 1.01
         X = metric_lattice(domain, H, h, rng)
