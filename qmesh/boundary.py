@@ -34,15 +34,40 @@ class Snap:
     edge_id: np.ndarray     # their polygon edge
 
 
+def _boundary_triangles(T, twin):
+    """Each boundary half-edge a→b with the apex v of its triangle."""
+    bh = np.flatnonzero(twin < 0)
+    t, e = np.divmod(bh, 3)
+    return t, T[t, e], T[t, topology.NXT[e]], T[t, topology.PRV[e]]
+
+
+def _slivers(P, d, a, b, v, anisotropy) -> np.ndarray:
+    """Whether the triangles (a, b, v) would have metric quality below SLIVER after the move d."""
+    tri = np.column_stack([a, b, v])
+    Pd = P + d
+    return metric_quality(Pd, tri, metric_hessians(anisotropy, Pd, tri)) < SLIVER
+
+
+def hold_off_boundary(P, T, twin, d, on_boundary, anisotropy) -> np.ndarray:
+    """d with the moves of interior vertices that would flatten their boundary triangle undone.
+
+    Used when no vertex may join the boundary (boundary_refinement=False): the energy would
+    otherwise press such a vertex ever closer to a long boundary edge between seeds.
+    """
+    _, a, b, v = _boundary_triangles(T, twin)
+    stop = ~on_boundary[v] & _slivers(P, d, a, b, v, anisotropy)
+    d = d.copy()
+    d[v[stop]] = 0.0
+    return d
+
+
 def snap_to_boundary(P, T, twin, d, on_boundary, corner_edge, anisotropy) -> Snap:
     """Project interior vertices whose move `d` leaves the domain onto the boundary edge crossed.
 
     A vertex whose move keeps it inside but so close to the edge that its boundary triangle
     would be a sliver (metric quality below SLIVER) joins the boundary the same way.
     """
-    bh = np.flatnonzero(twin < 0)
-    t, e = np.divmod(bh, 3)
-    a, b, v = T[t, e], T[t, topology.NXT[e]], T[t, topology.PRV[e]]
+    t, a, b, v = _boundary_triangles(T, twin)
     ok = ~on_boundary[v]
     ab = P[b] - P[a]
     L2 = np.einsum("ki,ki->k", ab, ab)
@@ -53,9 +78,7 @@ def snap_to_boundary(P, T, twin, d, on_boundary, corner_edge, anisotropy) -> Sna
     # where the move leaves the domain through ab; a sliver apex goes to its projection
     frac = np.where(crosses, inside_now / np.where(crosses, inside_now - inside_then, 1.0), 1.0)
     par = np.einsum("ki,ki->k", now + frac[:, None] * dv, ab) / L2
-    tri = np.column_stack([a, b, v])
-    Pd = P + d
-    sliver = metric_quality(Pd, tri, metric_hessians(anisotropy, Pd, tri)) < SLIVER
+    sliver = _slivers(P, d, a, b, v, anisotropy)
     ok &= (crosses | sliver) & (par > END_MARGIN) & (par < 1 - END_MARGIN)
     # one boundary edge per vertex: the first listed
     idx = np.flatnonzero(ok)

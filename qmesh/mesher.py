@@ -23,7 +23,7 @@ import numpy as np
 
 from . import seeding, sizing, topology
 from .adjust import limit_moves, newton_step
-from .boundary import snap_to_boundary
+from .boundary import hold_off_boundary, snap_to_boundary
 from .errors import QmeshError
 from .geometry import quadratic_form
 from .insert import insert, relocate_degree3, target_area
@@ -163,6 +163,8 @@ def iterate(domain, anisotropy, *, target_vertices: int | None = None, size: flo
                 st.edge_id[snap.vertices] = snap.edge_id
                 keep = np.zeros(len(P0), bool)
                 keep[snap.vertices] = True
+        else:
+            d = hold_off_boundary(P0, T0, st.twin, d, st.on_boundary(), anisotropy)
         Pn, d = limit_moves(P0, st.T, d, keep)
         Pn = _onto_edges(domain, Pn, st.edge_id)
         Hv = anisotropy.H if anisotropy.is_constant else np.asarray(anisotropy.hessian(P0))
