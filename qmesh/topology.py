@@ -1,10 +1,11 @@
 """Half-edge adjacency of a triangle array, and the local edits the mesher makes to it.
 
 Half-edge `h = 3 t + e` runs from `T[t, e]` to `T[t, (e + 1) % 3]`; `twin[h]` is the opposite
-half-edge in the neighbouring triangle, or -1 on the boundary. Edge flips and point splits are
-applied to whole batches at once: each batch first says where every surviving half-edge moves
-(`reloc`), and the twin array is rebuilt from that in O(M) with no sort. This is what lets the
-mesher keep its connectivity between iterations instead of re-triangulating from scratch.
+half-edge in the neighbouring triangle, or -1 on the boundary. Edge flips, splits, removals and
+relocations are applied to whole batches at once: each batch says which half-edges moved to
+which slots, and only those entries of the twin array (and their twins') are rewritten, with no
+sort. This is what lets the mesher keep its connectivity between iterations instead of
+re-triangulating from scratch.
 """
 
 from __future__ import annotations
@@ -39,15 +40,6 @@ def twins(T: np.ndarray) -> np.ndarray:
     twin[h1] = h2
     twin[h2] = h1
     return twin
-
-
-def _rebuild(twin: np.ndarray, reloc: np.ndarray, size: int) -> np.ndarray:
-    """Twin array after an edit that moved half-edge h to reloc[h] (-1 = destroyed)."""
-    new = np.full(size, -1, dtype=np.int64)
-    keep = reloc >= 0
-    tw = twin[keep]
-    new[reloc[keep]] = np.where(tw >= 0, reloc[np.maximum(tw, 0)], -1)
-    return new
 
 
 def _moved(twin: np.ndarray, src: np.ndarray, dst: np.ndarray, size: int) -> np.ndarray:
