@@ -10,8 +10,9 @@
 
 `iterate` yields a `Step` after every stage, so the CLI's progress, the GUI's stepping and the
 widget all consume this one loop. Only the first triangulation is built from scratch (Qhull);
-later ones restore the Q-Delaunay property by edge flips on the kept connectivity, and the mesh
-grows coarse to fine, so the cost of an iteration is O(N) array work.
+later ones restore the Q-Delaunay property by edge flips on the kept connectivity, so the cost
+of an iteration is O(N) array work. A constant Q starts from the metric lattice at the target
+density (seeding.py); a varying s starts from random points and grows coarse to fine.
 """
 
 from __future__ import annotations
@@ -103,7 +104,8 @@ def iterate(domain, anisotropy, *, target_vertices: int | None = None, size: flo
     quality_threshold triangles of metric quality (2.94) below it get a point, unless
     min_area          their metric area is below this (default: 1/16 of the target triangle's);
     max_iterations    cap on the repeat loop;
-    seed              seed of the random initial interior points (same seed ⇒ same mesh);
+    seed              seed of the random initial interior points, or of the tiny jitter of
+                      the lattice for a constant Q (same seed ⇒ same mesh);
     boundary_refinement  allow vertices on the boundary between the seed points.
     """
     _check_options(target_vertices, size, alpha, quality_threshold, min_area, max_iterations, seed)

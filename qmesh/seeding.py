@@ -77,6 +77,8 @@ def lattice_for_count(domain, H, n, rng) -> np.ndarray:
     The spacing first comes from the metric area less the boundary band the margin leaves
     empty, then from one count; a last step widens it by 1% while there are too many points.
     """
+    if n < 1:
+        return np.empty((0, 2))
     corners = domain.points @ np.linalg.cholesky(H)
     E = np.roll(corners, -1, axis=0) - corners
     area_m = domain.area * np.sqrt(np.linalg.det(H))
