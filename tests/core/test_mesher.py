@@ -295,3 +295,12 @@ def test_interpolation_error_rates_on_refinement():
     slope_h1 = np.polyfit(np.log(N), np.log(h1), 1)[0]
     assert slope_l2 == pytest.approx(-1.0, abs=0.2)
     assert slope_h1 == pytest.approx(-0.5, abs=0.2)
+
+
+@pytest.mark.parametrize("vb, n", [(32, 33), (32, 40), (64, 70)])
+def test_targets_just_above_the_seed_count(vb, n):
+    """When the boundary alone nearly fills the target, the mesh still lands on it and is valid."""
+    m = qmesh.mesh(qmesh.Disk(vb), qmesh.Anisotropy.constant(qmesh.CHAPTER_Q), target_vertices=n)
+    assert m.n_vertices == n
+    assert (signed_areas(m.points, m.triangles) > 0).all()
+    assert m.fixed.sum() == vb
