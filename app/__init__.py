@@ -2,7 +2,16 @@
 
 `scene` turns a mesher Step into PyVista meshes for the three views, `draw` puts them on
 plotters, `controller` steps Algorithm 2.1 and keeps the history, `app` is the trame web GUI
-and `cli` its `qmesh-view` command. Only `app` and `cli` import trame.
+and `cli` its `qmesh-view` command, `widget` the Jupyter widget (ipywidgets). Only `app`,
+`cli` and the widget's live (trame) backend import trame.
 """
 
-__all__ = ["scene", "draw", "controller"]
+__all__ = ["scene", "draw", "controller", "widget"]
+
+
+def __getattr__(name):
+    """`qmesh_view.widget` (the Jupyter widget, a callable module) loads on first use."""
+    if name == "widget":
+        import importlib
+        return importlib.import_module(f"{__name__}.widget")
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -58,8 +58,8 @@ def _checked(p: Params) -> Params:
         raise QmeshError("vb, target_vertices and seed must be integers")
     if not (0.0 < alpha <= 1.0):
         raise QmeshError(f"alpha must be in (0, 1], got {alpha}")
-    if target < vb:
-        raise QmeshError(f"target_vertices ({target}) must be at least VB ({vb})")
+    if target <= vb:
+        raise QmeshError(f"target_vertices ({target}) must exceed VB ({vb}), the seed points")
     qmesh.Anisotropy.principal(k1, k2, angle)   # raises QmeshError for k ≤ 0 or non-finite
     qmesh.Disk(vb)                              # raises QmeshError for VB < 3
     return Params(k1, k2, angle, vb, target, alpha, seed)
@@ -186,8 +186,13 @@ class Controller:
         new = _checked(Params(**{**self.params.__dict__, **changes}))
         if new == self.params:
             return False
-        self.params = new
-        self.reset()
+        old, self.params = self.params, new
+        try:
+            self.reset()
+        except QmeshError:
+            self.params = old
+            self.reset()
+            raise
         return True
 
     # ------------------------------------------------------------------ measurements

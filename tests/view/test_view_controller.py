@@ -174,3 +174,13 @@ def test_convergence_series_has_one_point_per_iteration(chapter_run):
     assert series["energy"][-1] < series["energy"][0]           # the vertex step lowers E
     assert series["n_vertices"][-1] == chapter_run.history[-1].mesh.n_vertices
     assert all(k > 1 for k in series["kappa2"])
+
+
+def test_a_target_at_or_below_vb_is_refused_and_keeps_the_run():
+    c = Controller()
+    c.iterate()
+    before = (c.params, c.history[c.index].mesh)
+    with pytest.raises(QmeshError, match="must exceed VB"):
+        c.set_params(vb=250)                      # target 212 ≤ 250 seed points
+    assert c.params == before[0]
+    assert c.history and c.history[c.index].mesh.n_vertices > 0

@@ -1,0 +1,381 @@
+"""The viewer as a Jupyter widget: `qmesh_view.widget(**params)` returns an ipywidgets box.
+
+`qmesh_view.widget` is this module, made callable (it calls `widget`), so the call works
+whichever way the module was imported; the package loads it on first use (ipywidgets is slow
+to import and the other front ends do not need it).
+
+The model and the pictures are the app's: `controller.Controller` runs Algorithm 2.1 and keeps
+its history, `draw.ViewSet` draws the three views (lifted, mesh, quality) from `scene`. This
+module only adds the controls and decides where the pictures go:
+
+- `backend="trame"`: PyVista's trame Jupyter backend, one server-rendered view per plotter
+  (an iframe served by a trame server inside the kernel); needs a browser that reaches it.
+- `backend="static"`: PNG images of off-screen renders in `ipywidgets.Image`, for frontends
+  that cannot show a live view (nbclient, nbconvert, tests).
+- `backend="auto"`: trame inside a kernel started by a Jupyter server (JupyterLab, Notebook),
+  static anywhere else.
+
+Threads: JupyterLab 4.6 with ipykernel 7 delivers widget messages on a second kernel thread
+(comms over subshells); a VTK render from there breaks the GL context (HEADLESS.md), and the
+trame views stop following the sliders from the second move on (tests/widget). Every
+handler goes through `MainThread.call`, which runs it at once on the thread that built the
+widget (the kernel's main thread) and otherwise hands it to that thread's asyncio loop with
+`call_soon_threadsafe`; so every draw and render happens on the main thread.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import functools
+import io
+import os
+import sys
+import threading
+import types
+
+import ipywidgets as w
+import numpy as np
+
+from qmesh.errors import QmeshError
+
+from .controller import Controller, status_text
+from .draw import VIEWS, ViewSet
+
+BACKENDS = ("auto", "trame", "static")
+VIEW_SIZE = (340, 320)
+VIEW_TITLES = {"lifted": "lifted: s(x) and the facets of s_h",
+               "mesh": "mesh: seeds, inserted points, moves",
+               "quality": "quality (2.94)"}
+RUN_PAUSE = 0.05       # seconds between the stages of an animated Run, so each frame is shown
+SLIDER_STYLE = {"description_width": "8.5em"}
+
+
+class MainThread:
+    """Runs callables on the thread that built it, through its asyncio loop when called elsewhere.
+
+    `loop` defaults to the loop running on the calling thread (in a kernel: the kernel's main
+    loop). With no loop there is nowhere to hand a call to, and it runs where it is called.
+    """
+
+    def __init__(self, loop: asyncio.AbstractEventLoop | None = None):
+        self.ident = threading.get_ident()
+        if loop is None:
+            try:
+                loop = asyncio.get_running_loop()
+            except RuntimeError:
+                loop = None
+        self.loop = loop
+
+    def here(self) -> bool:
+        return threading.get_ident() == self.ident
+
+    def call(self, fn, *args) -> None:
+        """fn(*args) now on the main thread; from any other thread, soon on the main loop."""
+        if self.here() or self.loop is None or self.loop.is_closed():
+            fn(*args)
+        else:
+            self.loop.call_soon_threadsafe(fn, *args)
+
+    def wrap(self, fn):
+        """`fn` as a callback that always runs on the main thread (see `call`)."""
+        @functools.wraps(fn)
+        def dispatched(*args):
+            self.call(fn, *args)
+        return dispatched
+
+
+def in_jupyter_server_kernel() -> bool:
+    """True in an IPython kernel started by a Jupyter server: a browser frontend can show iframes.
+
+    jupyter_server gives the kernels of its sessions JPY_SESSION_NAME; nbclient does not.
+    """
+    try:
+        from IPython import get_ipython
+    except ImportError:
+        return False
+    shell = get_ipython()
+    return (shell is not None and getattr(shell, "kernel", None) is not None
+            and "JPY_SESSION_NAME" in os.environ)
+
+
+def choose_backend(backend: str) -> str:
+    """"trame" or "static" for `backend` ("auto" looks at where it runs)."""
+    if backend not in BACKENDS:
+        raise QmeshError(f"backend must be one of {BACKENDS}, got {backend!r}")
+    if backend != "auto":
+        return backend
+    return "trame" if in_jupyter_server_kernel() else "static"
+
+
+def png(image: np.ndarray) -> bytes:
+    """An RGB array (h, w, 3) as PNG bytes."""
+    from PIL import Image
+    buf = io.BytesIO()
+    Image.fromarray(np.ascontiguousarray(image)).save(buf, format="png")
+    return buf.getvalue()
+
+
+def _slider(kind, description: str, value, **kwargs):
+    return kind(value=value, description=description, continuous_update=False,
+                style=SLIDER_STYLE, **kwargs)
+
+
+class QmeshWidget(w.VBox):
+    """Controls, status line and the three views of one `Controller` run.
+
+    `sliders` ("k1", "k2", "angle", "vb", "target_vertices"), `buttons` ("step", "iterate",
+    "run", "reset"), `history` (the stage slider), `status`, `error` and `view_widgets`
+    (name → Image or trame iframe) are the parts; `controller` and `views` the model and plotters.
+    """
+
+    def __init__(self, *, backend: str = "auto", view_size=VIEW_SIZE,
+                 loop: asyncio.AbstractEventLoop | None = None, **params):
+        super().__init__()
+        self.controller = Controller(**params)       # QmeshError on bad parameters, before any UI
+        self.backend = choose_backend(backend)
+        self.main = MainThread(loop)
+        self.view_size = tuple(int(v) for v in view_size)
+        self.views = ViewSet(self.view_size)
+        self.running = False
+        self._run_id = 0
+        self._syncing = False
+        self._build_controls()
+        self.views.draw(self.controller.current, self.controller.anisotropy,
+                        domain=self.controller.domain)
+        self.view_widgets = (self._trame_views() if self.backend == "trame"
+                             else self._static_views())
+        self.children = self._layout()
+        self._connect()
+        self._show()
+
+    # ------------------------------------------------------------------ parts
+    def _build_controls(self) -> None:
+        p = self.controller.params
+        log = dict(base=10, min=-2, max=2, step=0.05, readout_format=".3g")
+        self.sliders = {
+            "k1": _slider(w.FloatLogSlider, "k1", p.k1, **log),
+            "k2": _slider(w.FloatLogSlider, "k2", p.k2, **log),
+            "angle": _slider(w.FloatSlider, "angle of k1 (°)", p.angle, min=0, max=180, step=5),
+            "vb": _slider(w.IntSlider, "VB", p.vb, min=3, max=256),
+            "target_vertices": _slider(w.IntSlider, "target vertices", p.target_vertices,
+                                       min=3, max=5000),
+        }
+        self.buttons = {name: w.Button(description=name.capitalize(),
+                                       layout=w.Layout(width="6.5em"))
+                        for name in ("step", "iterate", "run", "reset")}
+        self.history = _slider(w.IntSlider, "history", 0, min=0, max=0,
+                               layout=w.Layout(width="60%"))
+        self.readout = w.HTML()
+        self.status = w.HTML()
+        self.error = w.HTML()
+
+    def _static_views(self) -> dict:
+        width, height = self.view_size
+        return {name: w.Image(format="png", width=width, height=height) for name in VIEWS}
+
+    def _trame_views(self) -> dict:
+        """PyVista's trame Jupyter backend: a server-rendered view (iframe) per plotter."""
+        from trame_pyvista.jupyter import show_trame
+        width, height = self.view_size
+        out = {}
+        for name, plotter in self.views.plotters.items():
+            if name != "lifted":
+                plotter.enable_2d_style()
+            with contextlib.redirect_stdout(io.StringIO()):    # trame-vtklocal's "Using wasm_dir"
+                out[name] = show_trame(plotter, mode="server", add_menu=False,
+                                       width=f"{width}px", height=f"{height}px")
+        # the mesh and quality views share a camera: after moving one, push the other too
+        for source, other in (("mesh", "quality"), ("quality", "mesh")):
+            iren = self.views.plotters[source].iren.interactor
+            iren.AddObserver("EndInteractionEvent",
+                             lambda *_, v=out[other].viewer: self.main.call(v.update))
+        return out
+
+    def _layout(self) -> list:
+        s, b = self.sliders, self.buttons
+        views = w.HBox([w.VBox([w.HTML(f"<b>{VIEW_TITLES[name]}</b>"), self.view_widgets[name]])
+                        for name in VIEWS])
+        return [w.HBox([w.VBox([s["k1"], s["k2"], s["angle"], self.readout]),
+                        w.VBox([s["vb"], s["target_vertices"]])]),
+                w.HBox([*b.values(), self.history]),
+                self.status, self.error, views]
+
+    def _connect(self) -> None:
+        on = self.main.wrap
+        for name, slider in self.sliders.items():
+            slider.observe(on(functools.partial(self._on_param, name)), names="value")
+        self.history.observe(on(self._on_history), names="value")
+        self.buttons["step"].on_click(on(lambda _: self._move(self.controller.step)))
+        self.buttons["iterate"].on_click(on(lambda _: self._move(self.controller.iterate)))
+        self.buttons["run"].on_click(on(self._on_run))
+        self.buttons["reset"].on_click(on(self._on_reset))
+
+    # ------------------------------------------------------------------ handlers (main thread)
+    def _guarded(self, fn) -> None:
+        """Run fn(); a QmeshError goes to the error line, so bad input never breaks the widget."""
+        try:
+            fn()
+        except QmeshError as e:
+            self._report(e)
+
+    def _report(self, error: Exception) -> None:
+        self._sync()
+        self.error.value = f"<span style='color:#c62828'>{error}</span>"
+
+    def _on_param(self, name: str, change) -> None:
+        """Any parameter change restarts the run; bad values leave the old run in place."""
+        if self._syncing:
+            return
+        changes = {name: change["new"]}
+        if name == "vb" and self.controller.params.target_vertices <= change["new"]:
+            changes["target_vertices"] = change["new"] + 1   # the mesher needs N > VB
+        before = self.controller.params
+        target = changes.get("target_vertices", before.target_vertices)
+        vb = changes.get("vb", before.vb)
+        if target <= vb:                                    # the mesher's rule, checked first
+            self._report(QmeshError(f"target vertices ({target}) must exceed VB ({vb})"))
+            return
+        self._stop()
+        try:
+            if self.controller.set_params(**changes):
+                self._show()
+        except QmeshError as e:
+            if self.controller.params != before:           # the restart itself failed:
+                self.controller.params = before            # start the old parameters again
+                self.controller.reset()
+                self._show()
+            self._report(e)
+
+    def _on_history(self, change) -> None:
+        if self._syncing or self.running or int(change["new"]) == self.controller.index:
+            return
+        self.controller.scrub(change["new"])
+        self._show()
+
+    def _move(self, move) -> None:
+        if self.running:
+            return
+        self._guarded(lambda: (move(), self._show()))
+
+    def _on_reset(self, _button=None) -> None:
+        self._stop()
+        self._guarded(lambda: (self.controller.reset(), self._show()))
+
+    def _on_run(self, _button=None) -> None:
+        """Run toggles. In a kernel the stages are animated on its loop, one per callback, so
+        Stop and the sliders are heard between stages; without a running loop Run blocks."""
+        if self.running:
+            self._stop()
+            self._sync()
+            return
+        if self.controller.at_end:
+            return
+        loop = self.main.loop
+        if loop is not None and loop.is_running() and self.main.here():
+            self.running = True
+            self._run_id += 1
+            self._sync(quick=True)
+            loop.call_soon(self._run_stage, self._run_id)
+        else:
+            self._guarded(lambda: (self.controller.run(), self._show()))
+
+    def _run_stage(self, run_id: int) -> None:
+        if not self.running or run_id != self._run_id:
+            return
+        try:
+            more = self.controller.step() and not self.controller.at_end
+        except QmeshError as e:
+            self._stop()
+            self._report(e)
+            return
+        if more:
+            self._show(quick=True)
+            self.main.loop.call_later(RUN_PAUSE, self._run_stage, run_id)
+        else:
+            self.running = False
+            self._show()
+
+    def _stop(self) -> None:
+        self.running = False
+        self._run_id += 1
+
+    # ------------------------------------------------------------------ showing a stage
+    def _show(self, quick: bool = False) -> None:
+        """Draw the shown stage, update the controls, and send the new pictures."""
+        c = self.controller
+        self.views.draw(c.current, c.anisotropy, domain=c.domain)
+        self.error.value = ""
+        self._sync(quick)
+        self._push()
+
+    def _sync(self, quick: bool = True) -> None:
+        """Controls ← model, without their observers reacting."""
+        c = self.controller
+        self._syncing = True
+        try:
+            for name, slider in self.sliders.items():
+                slider.value = getattr(c.params, name)
+            last = len(c.history) - 1
+            if last >= self.history.max:
+                self.history.max = last
+                self.history.value = c.index
+            else:
+                self.history.value = c.index
+                self.history.max = last
+            self.history.disabled = self.running
+            r = c.readout
+            self.readout.value = (f"Q11 = {r['q11']:.4g} · Q12 = {r['q12']:.4g} · "
+                                  f"Q22 = {r['q22']:.4g}")
+            self.status.value = status_text(c.status(quick=quick))
+            for name in ("step", "iterate"):
+                self.buttons[name].disabled = self.running or c.at_end
+            self.buttons["run"].description = "Stop" if self.running else "Run"
+            self.buttons["run"].disabled = c.at_end and not self.running
+        finally:
+            self._syncing = False
+
+    def _push(self) -> None:
+        """Send the pictures: re-render the PNGs, or ask the trame views to fetch new frames."""
+        if self.backend == "static":
+            for name, image in self.views.images().items():
+                self.view_widgets[name].value = png(image)
+        else:
+            for view in self.view_widgets.values():
+                view.viewer.update()
+
+    # ------------------------------------------------------------------ life cycle
+    def images(self) -> dict:
+        """The three views as rendered now: name → RGB (h, w, 3), whatever the backend."""
+        return self.views.images()
+
+    def close(self) -> None:
+        """Stop a run, release the plotters and close the widget and its children."""
+        self._stop()
+        self.views.close()
+        for child in (*self.sliders.values(), *self.buttons.values(), self.history,
+                      self.readout, self.status, self.error, *self.view_widgets.values()):
+            child.close()
+        super().close()
+
+
+def widget(*, backend: str = "auto", view_size=VIEW_SIZE,
+           loop: asyncio.AbstractEventLoop | None = None, **params) -> QmeshWidget:
+    """The qmesh viewer as an ipywidgets box (display it as a notebook cell's last value).
+
+    `params` are the controller's (k1, k2, angle, vb, target_vertices, alpha, seed; default
+    the chapter's case Q = diag(0.1, 10), VB = 64, N ≈ 212). `backend` is "auto", "trame" or
+    "static" (module docstring). `loop` is the loop of the thread that renders; by default the
+    one running where this is called (the kernel's main loop).
+    """
+    return QmeshWidget(backend=backend, view_size=view_size, loop=loop, **params)
+
+
+class _CallableModule(types.ModuleType):
+    """This module's type: calling the module calls `widget`."""
+
+    def __call__(self, *args, **kwargs) -> QmeshWidget:
+        return widget(*args, **kwargs)
+
+
+sys.modules[__name__].__class__ = _CallableModule
