@@ -8,7 +8,7 @@ each change the status line and the views. Screenshots go to test-artifacts/.
 import re
 
 import view_browser as b
-from view_cases import drawn
+from headless_browser import drawn
 
 
 def _iteration_stage(line):

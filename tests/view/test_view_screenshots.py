@@ -12,6 +12,7 @@ import pyvista as pv
 from PIL import Image
 
 import view_cases as vc
+from headless_browser import drawn
 
 REGENERATE = "regenerate with `python tests/view/make_baselines.py` and look at the images"
 
@@ -37,9 +38,9 @@ def changed_q_run():
 def test_render_matches_baseline(chapter_run, name):
     image = vc.render_case(chapter_run, name)
     _save(image, name)
-    assert vc.drawn(image), f"{name}: the render is blank"
+    assert drawn(image), f"{name}: the render is blank"
     baseline = _baseline(name)
-    assert vc.drawn(np.asarray(Image.open(baseline).convert("RGB"))), f"{baseline} is blank"
+    assert drawn(np.asarray(Image.open(baseline).convert("RGB"))), f"{baseline} is blank"
     error = pv.compare_images(image, str(baseline))
     assert error <= vc.MAX_ERROR, (f"{name}: image error {error:.0f} > {vc.MAX_ERROR:.0f} "
                                    f"(render in test-artifacts/{name}.png); if the change is "
@@ -51,12 +52,12 @@ def test_render_matches_baseline(chapter_run, name):
 def test_changed_q_does_not_match_baseline(changed_q_run, name):
     image = vc.render_case(changed_q_run, name)
     _save(image, f"changed_q_{name}")
-    assert vc.drawn(image)
+    assert drawn(image)
     assert pv.compare_images(image, str(_baseline(name))) > vc.MAX_ERROR
 
 
 def test_blank_image_does_not_match_baseline():
     baseline = _baseline("chapter_final_mesh")
     blank = np.full_like(np.asarray(Image.open(baseline).convert("RGB")), 255)
-    assert not vc.drawn(blank)
+    assert not drawn(blank)
     assert pv.compare_images(blank, str(baseline)) > vc.MAX_ERROR

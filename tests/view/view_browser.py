@@ -7,34 +7,20 @@ profile directory. Never `playwright install`: the browser is /usr/bin/chromium.
 from __future__ import annotations
 
 import contextlib
-import io
 import os
 import shutil
-import socket
 import subprocess
-import tempfile
 import time
 import urllib.error
 import urllib.request
 from pathlib import Path
 
 import numpy as np
-from PIL import Image
-from playwright.sync_api import sync_playwright
 
-from view_cases import ARTIFACTS, drawn
+from headless_browser import chromium_page, drawn, free_port, screenshot, until  # noqa: F401
+from view_cases import ARTIFACTS
 
-CHROMIUM = "/usr/bin/chromium"
-CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
-                  "--no-first-run", "--disable-background-networking",
-                  "--disable-component-update", "--disable-sync"]
 VIEWS = ("lifted", "mesh", "quality")
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def _answers(url: str) -> bool:
@@ -78,48 +64,13 @@ def qmesh_view_server(start_timeout: float = 60.0):
         log.close()
 
 
-@contextlib.contextmanager
-def chromium_page(url: str, viewport=(1600, 900)):
-    """A Playwright page in headless Debian Chromium with a fresh profile, opened at `url`."""
-    if not os.path.exists(CHROMIUM):
-        raise RuntimeError(f"{CHROMIUM} is missing: apt-get install chromium")
-    profile = tempfile.mkdtemp(prefix="qmesh-view-chromium-")
-    try:
-        with sync_playwright() as p:
-            ctx = p.chromium.launch_persistent_context(
-                profile, executable_path=CHROMIUM, headless=True, args=CHROMIUM_FLAGS,
-                viewport={"width": viewport[0], "height": viewport[1]})
-            try:
-                page = ctx.new_page()
-                page.set_default_timeout(30_000)
-                page.goto(url)
-                yield page
-            finally:
-                ctx.close()
-    finally:
-        shutil.rmtree(profile, ignore_errors=True)
-
-
 def view_image(page, name: str) -> np.ndarray:
     """What the browser shows in view `name` right now, as RGB (h, w, 3)."""
-    png = page.locator(f"#view-{name}").screenshot()
-    return np.asarray(Image.open(io.BytesIO(png)).convert("RGB"))
+    return screenshot(page.locator(f"#view-{name}"))
 
 
 def views(page) -> dict:
     return {name: view_image(page, name) for name in VIEWS}
-
-
-def until(predicate, timeout: float, what: str, interval: float = 0.25):
-    """Poll `predicate` until it returns something other than None/False, or raise TimeoutError."""
-    deadline = time.monotonic() + timeout
-    while True:
-        value = predicate()
-        if value is not None and value is not False:
-            return value
-        if time.monotonic() > deadline:
-            raise TimeoutError(f"waited {timeout} s for {what}")
-        time.sleep(interval)
 
 
 def wait_drawn(page, timeout: float = 60.0) -> dict:

@@ -62,10 +62,3 @@ def render_case(controller: Controller, name: str) -> np.ndarray:
     return _rendered[key][1][view]
 
 
-def drawn(image: np.ndarray, background=(255, 255, 255), min_colours: int = 8,
-          min_fraction: float = 0.02) -> bool:
-    """True when an image shows something: enough distinct colours and non-background pixels."""
-    rgb = np.asarray(image)[..., :3].reshape(-1, 3)
-    colours = len(np.unique(rgb, axis=0))
-    foreground = np.mean(np.any(np.abs(rgb.astype(int) - background) > 8, axis=1))
-    return colours >= min_colours and foreground >= min_fraction

@@ -9,31 +9,23 @@ fresh profile. Every wait is bounded. Never `playwright install`.
 from __future__ import annotations
 
 import contextlib
-import io
 import json
 import os
 import secrets
 import shutil
 import signal
-import socket
 import subprocess
 import sys
 import tempfile
-import time
 import urllib.error
 import urllib.request
 from pathlib import Path
 
 import numpy as np
-from PIL import Image
-from playwright.sync_api import sync_playwright
+from headless_browser import chromium_page, drawn, free_port, screenshot, until  # noqa: F401
 
 ROOT = Path(__file__).resolve().parents[2]
 ARTIFACTS = ROOT / "test-artifacts"
-CHROMIUM = "/usr/bin/chromium"
-CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
-                  "--no-first-run", "--disable-background-networking",
-                  "--disable-component-update", "--disable-sync"]
 
 LAB_SETTINGS = {
     # open the notebook with its kernel, no "Select Kernel" dialog
@@ -44,24 +36,6 @@ LAB_SETTINGS = {
     # the case that turned views black (HEADLESS.md)
     ("@jupyterlab/apputils-extension", "kernels-settings"): {"commsOverSubshells": "perCommTarget"},
 }
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def until(predicate, timeout: float, what: str, interval: float = 0.25):
-    """Poll `predicate` until it returns something other than None/False, or raise TimeoutError."""
-    deadline = time.monotonic() + timeout
-    while True:
-        value = predicate()
-        if value is not None and value is not False:
-            return value
-        if time.monotonic() > deadline:
-            raise TimeoutError(f"waited {timeout} s for {what}")
-        time.sleep(interval)
 
 
 def _api_ok(url: str) -> bool:
@@ -135,44 +109,7 @@ def jupyter_lab(folder: Path, env: dict, start_timeout: float = 60.0):
             shutil.rmtree(state, ignore_errors=True)
 
 
-@contextlib.contextmanager
-def lab_page(url: str, viewport=(1600, 1000)):
-    """A Playwright page in headless Debian Chromium with a fresh profile, opened at `url`."""
-    if not os.path.exists(CHROMIUM):
-        raise RuntimeError(f"{CHROMIUM} is missing: apt-get install chromium")
-    profile = tempfile.mkdtemp(prefix="qmesh-widget-chromium-")
-    try:
-        with sync_playwright() as p:
-            ctx = p.chromium.launch_persistent_context(
-                profile, executable_path=CHROMIUM, headless=True, args=CHROMIUM_FLAGS,
-                viewport={"width": viewport[0], "height": viewport[1]})
-            try:
-                page = ctx.new_page()
-                page.set_default_timeout(30_000)
-                page.goto(url)
-                yield page
-            finally:
-                ctx.close()
-    finally:
-        shutil.rmtree(profile, ignore_errors=True)
-
-
-def screenshot(locator) -> np.ndarray:
-    """What the browser shows in `locator` right now, as RGB (h, w, 3)."""
-    return np.asarray(Image.open(io.BytesIO(locator.screenshot())).convert("RGB"))
-
-
-def drawn(image: np.ndarray, background=(255, 255, 255), min_colours: int = 8,
-          min_fraction: float = 0.02) -> bool:
-    """True when an image shows something: enough distinct colours and non-background pixels.
-
-    A view that has lost its GL context is black or blank: one or two colours.
-    """
-    rgb = np.asarray(image)[..., :3].reshape(-1, 3)
-    colours = len(np.unique(rgb, axis=0))
-    foreground = np.mean(np.any(np.abs(rgb.astype(int) - background) > 8, axis=1))
-    dark = np.mean(rgb.max(axis=1) < 24)
-    return colours >= min_colours and foreground >= min_fraction and dark < 0.5
+lab_page = chromium_page
 
 
 def mean_diff(a: np.ndarray, b: np.ndarray) -> float:

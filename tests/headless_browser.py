@@ -1,0 +1,82 @@
+"""Debian's Chromium driven by Playwright, for the viewer's and the widget's browser tests.
+
+HEADLESS.md: never `playwright install`; the browser is /usr/bin/chromium, started with the
+flags that work as root with no network, and a fresh profile each time. Every wait is bounded.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import os
+import shutil
+import socket
+import tempfile
+import time
+
+import numpy as np
+from PIL import Image
+from playwright.sync_api import sync_playwright
+
+CHROMIUM = "/usr/bin/chromium"
+CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
+                  "--no-first-run", "--disable-background-networking",
+                  "--disable-component-update", "--disable-sync"]
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def until(predicate, timeout: float, what: str, interval: float = 0.25):
+    """Poll `predicate` until it returns something other than None/False, or raise TimeoutError."""
+    deadline = time.monotonic() + timeout
+    while True:
+        value = predicate()
+        if value is not None and value is not False:
+            return value
+        if time.monotonic() > deadline:
+            raise TimeoutError(f"waited {timeout} s for {what}")
+        time.sleep(interval)
+
+
+@contextlib.contextmanager
+def chromium_page(url: str, viewport=(1600, 900)):
+    """A Playwright page in headless Debian Chromium with a fresh profile, opened at `url`."""
+    if not os.path.exists(CHROMIUM):
+        raise RuntimeError(f"{CHROMIUM} is missing: apt-get install chromium")
+    profile = tempfile.mkdtemp(prefix="qmesh-chromium-")
+    try:
+        with sync_playwright() as p:
+            ctx = p.chromium.launch_persistent_context(
+                profile, executable_path=CHROMIUM, headless=True, args=CHROMIUM_FLAGS,
+                viewport={"width": viewport[0], "height": viewport[1]})
+            try:
+                page = ctx.new_page()
+                page.set_default_timeout(30_000)
+                page.goto(url)
+                yield page
+            finally:
+                ctx.close()
+    finally:
+        shutil.rmtree(profile, ignore_errors=True)
+
+
+def screenshot(locator) -> np.ndarray:
+    """What the browser shows in `locator` right now, as RGB (h, w, 3)."""
+    return np.asarray(Image.open(io.BytesIO(locator.screenshot())).convert("RGB"))
+
+
+def drawn(image: np.ndarray, background=(255, 255, 255), min_colours: int = 8,
+          min_fraction: float = 0.02) -> bool:
+    """True when an image shows something: enough distinct colours and non-background pixels.
+
+    A blank view has one or two colours; a view that lost its GL context is mostly black.
+    """
+    rgb = np.asarray(image)[..., :3].reshape(-1, 3)
+    colours = len(np.unique(rgb, axis=0))
+    foreground = np.mean(np.any(np.abs(rgb.astype(int) - background) > 8, axis=1))
+    dark = np.mean(rgb.max(axis=1) < 24)
+    return colours >= min_colours and foreground >= min_fraction and dark < 0.5
