@@ -41,21 +41,26 @@ def _boundary_triangles(T, twin):
     return t, T[t, e], T[t, topology.NXT[e]], T[t, topology.PRV[e]]
 
 
+def _quality(P, a, b, v, anisotropy) -> np.ndarray:
+    tri = np.column_stack([a, b, v])
+    return metric_quality(P, tri, metric_hessians(anisotropy, P, tri))
+
+
 def _slivers(P, d, a, b, v, anisotropy) -> np.ndarray:
     """Whether the triangles (a, b, v) would have metric quality below SLIVER after the move d."""
-    tri = np.column_stack([a, b, v])
-    Pd = P + d
-    return metric_quality(Pd, tri, metric_hessians(anisotropy, Pd, tri)) < SLIVER
+    return _quality(P + d, a, b, v, anisotropy) < SLIVER
 
 
 def hold_off_boundary(P, T, twin, d, on_boundary, anisotropy) -> np.ndarray:
-    """d with the moves of interior vertices that would flatten their boundary triangle undone.
+    """d with the moves of interior vertices that would flatten their boundary triangle (to a
+    metric quality below SLIVER, and lower than now) undone.
 
     Used when no vertex may join the boundary (boundary_refinement=False): the energy would
     otherwise press such a vertex ever closer to a long boundary edge between seeds.
     """
     _, a, b, v = _boundary_triangles(T, twin)
-    stop = ~on_boundary[v] & _slivers(P, d, a, b, v, anisotropy)
+    after = _quality(P + d, a, b, v, anisotropy)
+    stop = ~on_boundary[v] & (after < SLIVER) & (after < _quality(P, a, b, v, anisotropy))
     d = d.copy()
     d[v[stop]] = 0.0
     return d

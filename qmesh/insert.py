@@ -75,6 +75,9 @@ def insert(P, T, twin, anisotropy, *, area_threshold, boundary_length, corner_ed
         too_long = bnd & (he_len2 > boundary_length ** 2)
         long_bnd[np.flatnonzero(too_long) // 3] = True
     else:
+        # a point inside a triangle standing on a boundary edge that may not be split would
+        # only make thinner triangles on that edge: such triangles get none
+        cand &= ~on_boundary
         on_boundary[:] = False
 
     want = cand | long_bnd

@@ -304,3 +304,12 @@ def test_targets_just_above_the_seed_count(vb, n):
     assert m.n_vertices == n
     assert (signed_areas(m.points, m.triangles) > 0).all()
     assert m.fixed.sum() == vb
+
+
+@pytest.mark.parametrize("vb, n", [(32, 101), (64, 212)])
+def test_without_boundary_refinement_only_the_seeds_are_on_the_boundary(vb, n):
+    A = qmesh.Anisotropy.constant(qmesh.CHAPTER_Q)
+    m = qmesh.mesh(qmesh.Disk(vb), A, target_vertices=n, boundary_refinement=False)
+    assert m.n_vertices == n
+    np.testing.assert_array_equal(m.boundary, m.fixed)
+    assert (signed_areas(m.points, m.triangles) > 0).all()
