@@ -19,7 +19,7 @@ import scipy.sparse.linalg as spla
 
 from . import quadrature
 from .errors import QmeshError
-from .geometry import metric_hessians, metric_quality, signed_areas
+from .geometry import Frame, corners, metric_hessians, metric_quality, signed_areas
 from .mesh import Mesh
 
 DENSE_LIMIT = 300
@@ -34,25 +34,6 @@ _EDGE_CORNERS = ((0, 1), (1, 2), (2, 0))
 
 # --------------------------------------------------------------------------- energy
 
-def _corners(P: np.ndarray, T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Corner coordinates x, y of every triangle, each (M, 3).
-
-    Gathering each coordinate from a 1-D array is several times faster than P[T] on (N, 2).
-    """
-    return P[:, 0][T], P[:, 1][T]
-
-
-def _area_gradients(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """∇_{x_a}|T| = ½ (y_b − y_c, x_c − x_b) for corner a of (a, b, c) (MATH.md), and signed |T|.
-
-    Same as geometry.area_gradients / signed_areas, on the (M, 3) corner arrays.
-    """
-    gx = 0.5 * (y[:, [1, 2, 0]] - y[:, [2, 0, 1]])
-    gy = 0.5 * (x[:, [2, 0, 1]] - x[:, [1, 2, 0]])
-    area = 0.5 * ((x[:, 1] - x[:, 0]) * (y[:, 2] - y[:, 0]) - (y[:, 1] - y[:, 0]) * (x[:, 2] - x[:, 0]))
-    return gx, gy, area
-
-
 def triangle_energy(P: np.ndarray, T: np.ndarray, anisotropy) -> np.ndarray:
     """∫_T (s_h − s) for every triangle, shape (M,); its sum is E = ‖s_h − s‖_L1 (2.77).
 
@@ -63,7 +44,7 @@ def triangle_energy(P: np.ndarray, T: np.ndarray, anisotropy) -> np.ndarray:
     """
     P = np.asarray(P, dtype=float)
     T = np.asarray(T)
-    x, y = _corners(P, T)
+    x, y = corners(P, T)
     x0, x1, x2 = x.T
     y0, y1, y2 = y.T
     ax, ay, bx, by, cx, cy = x1 - x0, y1 - y0, x2 - x1, y2 - y1, x0 - x2, y0 - y2
@@ -109,8 +90,8 @@ def _element_matrices(P: np.ndarray, T: np.ndarray, anisotropy) -> np.ndarray:
     ∇φ_a = ∇_{x_a}|T| / |T| (signed area), so K_T = G_aᵀ Q G_b / | |T| | with G_a = ∇_{x_a}|T|.
     `anisotropy=None` is the Laplacian Q = I.
     """
-    x, y = _corners(P, T)
-    gx, gy, area = _area_gradients(x, y)
+    F = Frame(P, T)
+    x, y, gx, gy, area = F.x, F.y, F.gx, F.gy, F.A
     if np.any(area == 0.0):
         raise QmeshError(f"mesh has {int(np.sum(area == 0.0))} degenerate (zero-area) triangles; "
                          "its stiffness matrix is undefined")
@@ -241,8 +222,8 @@ def interpolation_errors(mesh: Mesh, anisotropy) -> tuple[float, float]:
     |∇s_h − ∇s|² degree 2 when s is quadratic.
     """
     P, T = mesh.points, mesh.triangles
-    x, y = _corners(P, T)
-    gx, gy, area = _area_gradients(x, y)
+    F = Frame(P, T)
+    x, y, gx, gy, area = F.x, F.y, F.gx, F.gy, F.A
     if np.any(area == 0.0):
         raise QmeshError("mesh has degenerate (zero-area) triangles; ∇s_h is undefined on them")
     w = quadrature.DUNAVANT4_WEIGHTS

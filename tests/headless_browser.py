@@ -10,7 +10,9 @@ import contextlib
 import io
 import os
 import shutil
+import signal
 import socket
+import subprocess
 import tempfile
 import time
 
@@ -80,3 +82,23 @@ def drawn(image: np.ndarray, background=(255, 255, 255), min_colours: int = 8,
     foreground = np.mean(np.any(np.abs(rgb.astype(int) - background) > 8, axis=1))
     dark = np.mean(rgb.max(axis=1) < 24)
     return colours >= min_colours and foreground >= min_fraction and dark < 0.5
+
+
+def stop_process(proc: subprocess.Popen, interrupts: int = 0, timeout: float = 10.0) -> None:
+    """Stop a server this test started (its PID only): SIGINT `interrupts` times, then
+    terminate, then kill."""
+    if proc.poll() is not None:
+        return
+    for _ in range(interrupts):
+        proc.send_signal(signal.SIGINT)
+        try:
+            proc.wait(timeout=timeout)
+            return
+        except subprocess.TimeoutExpired:
+            continue
+    proc.terminate()
+    try:
+        proc.wait(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait(timeout=timeout)

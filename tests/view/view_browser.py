@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from headless_browser import chromium_page, drawn, free_port, screenshot, until  # noqa: F401
+from headless_browser import chromium_page, drawn, free_port, screenshot, stop_process, until  # noqa: F401
 from view_cases import ARTIFACTS
 
 VIEWS = ("lifted", "mesh", "quality")
@@ -55,12 +55,7 @@ def qmesh_view_server(start_timeout: float = 60.0):
             time.sleep(0.25)
         yield url
     finally:
-        proc.terminate()
-        try:
-            proc.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait(timeout=10)
+        stop_process(proc)
         log.close()
 
 

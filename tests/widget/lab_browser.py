@@ -13,7 +13,6 @@ import json
 import os
 import secrets
 import shutil
-import signal
 import subprocess
 import sys
 import tempfile
@@ -22,7 +21,7 @@ import urllib.request
 from pathlib import Path
 
 import numpy as np
-from headless_browser import chromium_page, drawn, free_port, screenshot, until  # noqa: F401
+from headless_browser import chromium_page, drawn, free_port, screenshot, stop_process, until  # noqa: F401
 
 ROOT = Path(__file__).resolve().parents[2]
 ARTIFACTS = ROOT / "test-artifacts"
@@ -45,25 +44,6 @@ def _api_ok(url: str) -> bool:
             return True
     except (urllib.error.URLError, ConnectionError, OSError, ValueError):
         return False
-
-
-def _stop(proc: subprocess.Popen) -> None:
-    """Stop the server we started (SIGINT twice is Jupyter's clean shutdown), then kill it."""
-    if proc.poll() is not None:
-        return
-    for sig in (signal.SIGINT, signal.SIGINT):
-        proc.send_signal(sig)
-        try:
-            proc.wait(timeout=5)
-            return
-        except subprocess.TimeoutExpired:
-            continue
-    proc.terminate()
-    try:
-        proc.wait(timeout=5)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        proc.wait(timeout=5)
 
 
 @contextlib.contextmanager
@@ -105,7 +85,7 @@ def jupyter_lab(folder: Path, env: dict, start_timeout: float = 60.0):
             until(ready, start_timeout, f"jupyter lab to answer on {base}", 0.5)
             yield base, token
         finally:
-            _stop(proc)
+            stop_process(proc, interrupts=2, timeout=5)  # SIGINT twice: Jupyter's clean shutdown
             shutil.rmtree(state, ignore_errors=True)
 
 
