@@ -10,13 +10,13 @@ point insertion of the thesis chapter "Q-adapted meshes" (Section 2.3, Algorithm
 
 from .anisotropy import Anisotropy
 from .domain import Disk, Polygon
-from .errors import QmeshError
+from .errors import QmeshError, QmeshWarning
 from .mesh import Mesh, Stats, Step
 from .mesher import iterate, mesh
-from . import measure
+from . import io, measure   # io imports meshio only when a file is read or written
 
-__all__ = ["Anisotropy", "Disk", "Polygon", "Mesh", "Step", "Stats", "QmeshError",
-           "iterate", "mesh", "measure"]
+__all__ = ["Anisotropy", "Disk", "Polygon", "Mesh", "Step", "Stats", "QmeshError", "QmeshWarning",
+           "iterate", "mesh", "io", "measure"]
 __version__ = "0.1.0"
 
 CHAPTER_Q = ((0.1, 0.0), (0.0, 10.0))

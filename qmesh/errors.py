@@ -6,3 +6,8 @@ class QmeshError(ValueError):
 
     Subclasses ValueError so callers that already catch ValueError keep working.
     """
+
+
+class QmeshWarning(UserWarning):
+    """A mesh was made but cannot serve the request well (e.g. the domain is thinner than two
+    elements in the metric); the message says what would help."""

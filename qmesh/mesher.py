@@ -228,9 +228,18 @@ def _onto_edges(domain, P, edge_id):
     return P
 
 
-def mesh(domain, anisotropy, **options) -> Mesh:
-    """Run Algorithm 2.1 to convergence (or `max_iterations`) and return the final mesh."""
+def mesh(domain, anisotropy, *, target_vertices: int | None = None, size: float | None = None,
+         alpha: float = 0.5, quality_threshold: float = 0.5, min_area: float | None = None,
+         max_iterations: int = 40, seed: int | None = 0, boundary_refinement: bool = True) -> Mesh:
+    """Run Algorithm 2.1 to convergence (or `max_iterations`) and return the final mesh.
+
+    The options are `iterate`'s (see there). Warns `QmeshWarning` when the domain is thinner
+    than about two elements in the metric at that size, saying what N would be needed.
+    """
     last = None
-    for last in iterate(domain, anisotropy, **options):
+    for last in iterate(domain, anisotropy, target_vertices=target_vertices, size=size,
+                        alpha=alpha, quality_threshold=quality_threshold, min_area=min_area,
+                        max_iterations=max_iterations, seed=seed,
+                        boundary_refinement=boundary_refinement):
         pass
     return last.mesh
