@@ -4,6 +4,7 @@
                  [--target-vertices N | --size H] [--alpha A] [--seed S] [--max-iterations K] -o OUT
     qmesh report MESHFILE [--Q ... | --principal ...] [--json]
     qmesh table  [--vb VB ...] [--out DIR] [--peers] [--solve]
+    qmesh setup  [--check] [--all]
 
 Defaults are the chapter's case: Q = diag(0.1, 10) (2.95) on the regular 64-gon. Bad input
 (any QmeshError, or an OSError on a file) ends with one line `qmesh: error: ...` on stderr,
@@ -143,6 +144,11 @@ def cmd_report(args) -> int:
     return 0
 
 
+def cmd_setup(args) -> int:
+    from .system_packages import setup
+    return setup(check_only=args.check, everything=args.all)
+
+
 def cmd_table(args) -> int:
     try:
         from .compare.table import run_table
@@ -204,6 +210,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--peers", action="store_true", help="also run the optional MMG2D/BAMG peers")
     p.add_argument("--solve", action="store_true", help="also solve the model problem on every mesh")
     p.set_defaults(handler=cmd_table)
+
+    p = sub.add_parser("setup", help="install the system libraries the installed extras need (Debian/Ubuntu)",
+                       description="Check with dpkg that the system packages the installed extras load are "
+                       "there (Mesa EGL for off-screen rendering, chromium for the browser tests, gmsh's "
+                       "X/GL libraries) and install the missing ones with apt-get when run as root or with "
+                       "password-less sudo; otherwise print the command to run and exit 1.")
+    p.add_argument("--check", action="store_true", help="only check; install nothing")
+    p.add_argument("--all", action="store_true", help="every group, whether or not its extra is installed")
+    p.set_defaults(handler=cmd_setup)
     return parser
 
 

@@ -1,0 +1,129 @@
+"""The Debian/Ubuntu packages that qmesh's extras need beyond pip, checked and installed by `qmesh setup`.
+
+pip installs the wheels but not the shared libraries they load: VTK renders off-screen through
+Mesa's EGL, Playwright's node binary needs libatomic, the browser tests drive Debian's chromium,
+and gmsh's wheel (the `peers` extra) links against X, GLU and OpenMP. Without them the viewer's
+tests die with a segfault rather than an error. Each group below is needed only when the Python
+package that needs it is installed, so the core alone needs nothing.
+
+`setup()` asks dpkg which packages are missing (one `dpkg-query`, quick when all are there),
+installs them with apt-get when it may (root, or sudo without a password), and otherwise prints
+the exact command to run and returns 1.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+import shutil
+import subprocess
+import sys
+from dataclasses import dataclass
+from typing import Callable, Sequence
+
+
+@dataclass(frozen=True)
+class Group:
+    """Debian packages needed when the Python module `module` is installed."""
+
+    name: str
+    module: str
+    packages: tuple[str, ...]
+    why: str
+
+
+GROUPS = (
+    Group("rendering", "vtk", ("libegl1", "libgl1-mesa-dri"),
+          "off-screen rendering by VTK through Mesa EGL and llvmpipe (viewer, widget)"),
+    Group("browser", "playwright", ("chromium", "libatomic1"),
+          "the browser tests: Debian's chromium, driven by Playwright's node (needs libatomic)"),
+    Group("gmsh", "gmsh", ("libgl1", "libglu1-mesa", "libxcursor1", "libxft2", "libxinerama1",
+                           "libxrender1", "libfontconfig1", "libgomp1"),
+          "the peers extra's gmsh wheel (BAMG): X, GL, GLU and OpenMP libraries"),
+)
+"""Every group of system packages, with the module whose presence makes it needed."""
+
+APT_INSTALL = ("apt-get", "install", "-y", "-q", "--no-install-recommends")
+
+
+def needed_groups(everything: bool = False, groups: Sequence[Group] = GROUPS) -> list[Group]:
+    """The groups whose Python module is installed (all of them with `everything`)."""
+    return [g for g in groups if everything or importlib.util.find_spec(g.module) is not None]
+
+
+def installed(packages: Sequence[str], run: Callable = subprocess.run) -> set[str] | None:
+    """The packages dpkg reports as installed (one dpkg-query call); None without dpkg."""
+    if not packages:
+        return set()
+    try:
+        out = run(["dpkg-query", "-W", "-f=${Package} ${db:Status-Status}\\n", *packages],
+                  capture_output=True, text=True, check=False).stdout
+    except FileNotFoundError:
+        return None
+    return {line.split()[0] for line in out.splitlines()
+            if len(line.split()) == 2 and line.split()[1] == "installed"}
+
+
+def missing(groups: Sequence[Group], run: Callable = subprocess.run) -> list[str] | None:
+    """Packages of `groups` that are not installed, each once, in the groups' order; None
+    when there is no dpkg to ask."""
+    wanted = list(dict.fromkeys(p for g in groups for p in g.packages))
+    have = installed(wanted, run)
+    return None if have is None else [p for p in wanted if p not in have]
+
+
+def may_use_apt(run: Callable = subprocess.run) -> list[str] | None:
+    """The command prefix that runs apt-get as root ([] as root, ["sudo", "-n"]), or None."""
+    if os.geteuid() == 0:
+        return []
+    if shutil.which("sudo") and run(["sudo", "-n", "true"], capture_output=True,
+                                    check=False).returncode == 0:
+        return ["sudo", "-n"]
+    return None
+
+
+def manual_command(packages: Sequence[str]) -> str:
+    """The command line a user runs when qmesh may not run apt-get itself."""
+    return "sudo apt-get update && sudo " + " ".join(APT_INSTALL + tuple(packages))
+
+
+def setup(check_only: bool = False, everything: bool = False, run: Callable = subprocess.run,
+          prefix: Callable = may_use_apt, out=None) -> int:
+    """Make sure the system packages for the installed extras are there; the exit status.
+
+    0: all present (or just installed); 1: some are missing and were not installed (the
+    command to run is printed), or apt-get failed.
+    """
+    out = out or sys.stdout
+    groups = needed_groups(everything)
+    if not groups:
+        print("qmesh setup: no extra needs system packages", file=out)
+        return 0
+    lack = missing(groups, run)
+    if lack is None:
+        names = " ".join(dict.fromkeys(p for g in groups for p in g.packages))
+        print(f"qmesh setup: no dpkg here; install your system's equivalents of the Debian "
+              f"packages {names}", file=out)
+        return 1
+    what = ", ".join(g.name for g in groups)
+    if not lack:
+        print(f"qmesh setup: system packages for {what} are installed", file=out)
+        return 0
+    pre = None if check_only else prefix(run)
+    if pre is None:
+        reason = "checked only" if check_only else "not root and no password-less sudo"
+        print(f"qmesh setup: missing system packages ({reason}): {' '.join(lack)}\n"
+              f"run: {manual_command(lack)}", file=out)
+        return 1
+    print(f"qmesh setup: installing {' '.join(lack)}", file=out, flush=True)
+    env = dict(os.environ, DEBIAN_FRONTEND="noninteractive")
+    for cmd in (["apt-get", "update", "-q"], list(APT_INSTALL) + lack):
+        status = run(pre + cmd, env=env, check=False).returncode
+        if status != 0:
+            print(f"qmesh setup: `{' '.join(pre + cmd)}` failed with exit status {status}", file=out)
+            return 1
+    still = missing(groups, run)
+    if still:
+        print(f"qmesh setup: still missing after apt-get: {' '.join(still)}", file=out)
+        return 1
+    return 0
