@@ -24,6 +24,7 @@ import numpy as np
 
 from . import CHAPTER_Q, __version__, io, measure
 from .anisotropy import Anisotropy
+from .diagnose import thin_domain
 from .domain import Disk, Polygon
 from .errors import QmeshError
 from .mesher import iterate
@@ -110,6 +111,8 @@ def cmd_mesh(args) -> int:
     io.write(out, mesh, anisotropy=anisotropy)
 
     q = measure.quality(mesh, anisotropy)
+    # with no interior vertex there is no Dirichlet matrix whose signs q_ij would matter: n/a
+    has_matrix = len(measure.free_vertices(mesh)) > 0 and measure.edge_weights(mesh, anisotropy)[2].any()
     summary = {
         "output": str(out),
         "n_vertices": mesh.n_vertices,
@@ -117,7 +120,8 @@ def cmd_mesh(args) -> int:
         "iterations": last.iteration,
         "min_quality": float(q.min()),
         "mean_quality": float(q.mean()),
-        "q_nonnegative_fraction": measure.q_nonnegative_fraction(mesh, anisotropy),
+        "q_nonnegative_fraction": (measure.q_nonnegative_fraction(mesh, anisotropy)
+                                   if has_matrix else None),
         "seconds": seconds,
     }
     if args.json:
@@ -125,9 +129,16 @@ def cmd_mesh(args) -> int:
     else:
         print(f"{out}: N={summary['n_vertices']} triangles={summary['n_triangles']} "
               f"iterations={summary['iterations']} quality min={summary['min_quality']:.3f} "
-              f"mean={summary['mean_quality']:.3f} q_ij>=0: {100 * summary['q_nonnegative_fraction']:.1f}% "
+              f"mean={summary['mean_quality']:.3f} q_ij>=0: {_percent(summary['q_nonnegative_fraction'])} "
               f"time={seconds:.2f}s")
+    warning = None if args.quiet else thin_domain(mesh, anisotropy)
+    if warning is not None:
+        print(f"qmesh: warning: {warning}", file=sys.stderr)
     return 0
+
+
+def _percent(fraction) -> str:
+    return "n/a" if fraction is None else f"{100 * fraction:.1f}%"
 
 
 def cmd_report(args) -> int:
@@ -192,7 +203,7 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument(flag, type=kind, default=default, metavar=meta, help=f"{text} (default: {default})")
     p.add_argument("-o", "--output", required=True, metavar="OUT", help="output mesh file")
     p.add_argument("--progress", action="store_true", help="print a line per stage on stderr even when it is not a terminal")
-    p.add_argument("--quiet", action="store_true", help="no progress lines")
+    p.add_argument("--quiet", action="store_true", help="no progress lines and no warning")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     p.set_defaults(handler=cmd_mesh)
 

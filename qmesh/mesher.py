@@ -242,4 +242,6 @@ def mesh(domain, anisotropy, *, target_vertices: int | None = None, size: float 
                         max_iterations=max_iterations, seed=seed,
                         boundary_refinement=boundary_refinement):
         pass
+    from .diagnose import warn_if_thin   # a domain thinner than two elements: say so
+    warn_if_thin(last.mesh, anisotropy)
     return last.mesh

@@ -1,0 +1,97 @@
+"""Say when a finished mesh cannot serve its request well: a domain thinner than two elements.
+
+The mesher always returns a valid mesh, but when the domain, measured in the metric ∇²s, is
+thinner than about two elements of the requested size, that mesh has no interior vertex (the
+Dirichlet matrix is empty, κ2 undefined) or only slivers across the middle. `thin_domain`
+detects this from the mesh alone and returns a message with the vertex count that would put
+two elements across; `mesher.mesh` warns with it (`QmeshWarning`), the CLI prints it.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+from scipy.spatial import ConvexHull, QhullError
+
+from .errors import QmeshWarning
+from .geometry import metric_areas, metric_hessians, metric_quality
+
+ROWS = 2.0               # elements across the domain that a usable mesh needs
+ROW_HEIGHT = np.sqrt(3.0) / 2.0   # height of an equilateral triangle of metric edge length 1
+SLIVER = 0.1             # metric quality (2.94) below which a triangle is a sliver
+
+
+def element_size(metric_area: float, n_triangles: int) -> float:
+    """Metric edge length h of the equilateral triangle of the mean metric area: M·(√3/4)h² = area."""
+    return float(np.sqrt(metric_area / (np.sqrt(3.0) / 4.0 * max(n_triangles, 1))))
+
+
+def metric_width(points: np.ndarray, H: np.ndarray, metric_area: float,
+                 metric_perimeter: float) -> float:
+    """An estimate of the domain's width in the metric H: the smaller of the minimum width of
+    the convex hull of the mapped points (exact for convex domains) and 4·area/perimeter
+    (the width of a long strip, the diameter of a disk; it sees thin rings and arms)."""
+    L = np.linalg.cholesky(H)                      # H = L Lᵀ, metric length |Lᵀ d|
+    X = points @ L
+    by_area = 4.0 * metric_area / metric_perimeter if metric_perimeter > 0 else np.inf
+    try:
+        V = X[ConvexHull(X).vertices]
+    except (QhullError, ValueError):
+        return 0.0                                  # all points on a line: no width at all
+    E = np.roll(V, -1, axis=0) - V
+    normal = np.column_stack([-E[:, 1], E[:, 0]]) / np.linalg.norm(E, axis=1)[:, None]
+    widths = np.zeros(len(V))
+    for start in range(0, len(V), 1024):            # bounded memory for long boundaries
+        rel = V[None, :, :] - V[start:start + 1024, None, :]      # hull vertex − edge start
+        dist = np.einsum("ki,kni->kn", normal[start:start + 1024], rel)
+        widths[start:start + 1024] = np.abs(dist).max(axis=1)
+    return float(min(widths.min(), by_area))
+
+
+def vertices_for(metric_area: float, metric_perimeter: float, h: float) -> int:
+    """Vertex count of a mesh of metric size h: M = 2N − N_b − 2 with N_b ≈ perimeter / h."""
+    triangles = metric_area / (np.sqrt(3.0) / 4.0 * h * h)
+    return int(np.ceil(0.5 * (triangles + metric_perimeter / h + 2)))
+
+
+def thin_domain(mesh, anisotropy) -> str | None:
+    """A message when the domain is too thin for the mesh's size, else None."""
+    P, T = mesh.points, mesh.triangles
+    if len(T) == 0:
+        return None
+    Hs = metric_hessians(anisotropy, P, T)
+    areas = metric_areas(P, T, Hs)
+    area_m = float(areas.sum())
+    E = mesh.boundary_edges
+    d = P[E[:, 1]] - P[E[:, 0]]
+    if anisotropy.is_constant:
+        H = np.asarray(anisotropy.H, float)
+        perimeter = float(np.sqrt(np.einsum("ni,ij,nj->n", d, H, d)).sum())
+    else:
+        H = np.einsum("m,mij->ij", np.abs(areas), Hs) / max(np.abs(areas).sum(), 1e-300)
+        He = np.asarray(anisotropy.hessian(0.5 * (P[E[:, 0]] + P[E[:, 1]])), float)
+        perimeter = float(np.sqrt(np.einsum("ni,nij,nj->n", d, He, d)).sum())
+    h = element_size(area_m, len(T))
+    width = metric_width(P[mesh.boundary], H, area_m, perimeter)
+    n_interior = int((~mesh.boundary).sum())
+    min_q = float(metric_quality(P, T, Hs).min())
+    thin = width < ROWS * ROW_HEIGHT * h
+    if not (n_interior == 0 or (thin and min_q < SLIVER)):
+        return None
+    symptom = ("no interior vertex" if n_interior == 0
+               else f"{n_interior} interior vertices, minimum metric quality {min_q:.3f}")
+    h_need = width / (ROWS * ROW_HEIGHT)
+    need = vertices_for(area_m, perimeter, h_need) if h_need > 0 else None
+    advice = (f"about {need} vertices (target_vertices / --target-vertices, or a metric size "
+              f"of {h_need:.3g}) would put {ROWS:g} elements across it"
+              if need else "its metric width is zero")
+    return (f"the domain is {width / (ROW_HEIGHT * h):.2g} elements wide in the metric at this "
+            f"size (N = {mesh.n_vertices}, {symptom}); {advice}")
+
+
+def warn_if_thin(mesh, anisotropy, stacklevel: int = 3) -> None:
+    """warnings.warn(thin_domain(...), QmeshWarning) when there is something to say."""
+    message = thin_domain(mesh, anisotropy)
+    if message is not None:
+        warnings.warn(message, QmeshWarning, stacklevel=stacklevel)

@@ -1,0 +1,84 @@
+"""qmesh.diagnose: a domain thinner than two elements in the metric is reported, with the N that fixes it."""
+
+import json
+import re
+import warnings
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+import qmesh
+from qmesh import diagnose
+from qmesh.cli import main
+
+CHAPTER = qmesh.Anisotropy.constant(qmesh.CHAPTER_Q)
+NEEDLE = qmesh.Anisotropy.principal(1, 10000, 20)          # the issue's `--principal 1 10000 20`
+STRIP = qmesh.Polygon(np.array([[0, 0], [10, 0], [10, 0.1], [0, 0.1]]))   # 10 × 0.1
+
+
+def suggested_n(message: str) -> int:
+    return int(re.search(r"about (\d+) vertices", message).group(1))
+
+
+def test_needle_domain_warns_and_the_suggested_n_works():
+    with pytest.warns(qmesh.QmeshWarning, match="no interior vertex") as record:
+        m = qmesh.mesh(qmesh.Disk(64), NEEDLE)
+    assert (~m.boundary).sum() == 0
+    n = suggested_n(str(record[0].message))
+    assert 200 < n < 2000
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", qmesh.QmeshWarning)
+        better = qmesh.mesh(qmesh.Disk(64), NEEDLE, target_vertices=n)
+    assert (~better.boundary).sum() > 0
+    assert qmesh.measure.quality(better, NEEDLE).min() > 0.3
+
+
+def test_thin_strip_with_the_defaults_warns_with_a_large_n():
+    with pytest.warns(qmesh.QmeshWarning) as record:
+        m = qmesh.mesh(STRIP, CHAPTER)
+    assert m.n_vertices < 20
+    assert suggested_n(str(record[0].message)) > 1000
+
+
+def test_the_chapters_case_does_not_warn():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", qmesh.QmeshWarning)
+        m = qmesh.mesh(qmesh.Disk(64), CHAPTER, target_vertices=212)
+    assert diagnose.thin_domain(m, CHAPTER) is None
+
+
+def test_varying_s_is_diagnosed_too():
+    """A 3 × 0.02 strip for s = exp(x) + y²: slivers across the middle, or no interior vertex."""
+    from cases import exp_plus_y2
+    A = exp_plus_y2()
+    strip = qmesh.Polygon(np.array([[0, 0], [3, 0], [3, 0.02], [0, 0.02]]))
+    for options in ({}, {"size": 5.0}):
+        with pytest.warns(qmesh.QmeshWarning, match="no interior vertex|minimum metric quality 0.0"):
+            qmesh.mesh(strip, A, **options)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", qmesh.QmeshWarning)
+        qmesh.mesh(qmesh.Polygon(np.array([[0, 0], [1, 0], [1, 1], [0, 1]])), A, size=5.0)
+
+
+@settings(max_examples=40, deadline=None, derandomize=True)
+@given(a=st.floats(0.05, 20), b=st.floats(0.05, 20), k1=st.floats(0.01, 100), k2=st.floats(0.01, 100))
+def test_metric_width_of_an_axis_aligned_rectangle(a, b, k1, k2):
+    """Width of the a × b rectangle in the metric diag(k1, k2): min(a√k1, b√k2)."""
+    P = np.array([[0, 0], [a, 0], [a, b], [0, b]], float)
+    H = np.diag([k1, k2])
+    sa, sb = a * np.sqrt(k1), b * np.sqrt(k2)
+    w = diagnose.metric_width(P, H, sa * sb, 2 * (sa + sb))
+    assert w == pytest.approx(min(sa, sb), rel=1e-9)
+
+
+def test_cli_prints_one_warning_line_and_na(tmp_path, capsys):
+    code = main(["mesh", "--principal", "1", "10000", "20", "-o", str(tmp_path / "x.vtu")])
+    out, err = capsys.readouterr()
+    assert code == 0
+    assert "q_ij>=0: n/a" in out
+    line, = err.splitlines()
+    assert line.startswith("qmesh: warning: the domain is") and "vertices" in line
+    code = main(["mesh", "--principal", "1", "10000", "20", "--json", "-o", str(tmp_path / "x.vtu")])
+    out, _ = capsys.readouterr()
+    assert json.loads(out)["q_nonnegative_fraction"] is None
