@@ -1,0 +1,106 @@
+"""`qmesh setup`: which Debian packages, when apt-get runs, and the command printed when it may not.
+
+apt-get is never run for real here: a fake `run` plays dpkg-query and apt-get. One test asks the
+real dpkg of this machine (the test suite itself needs every package installed).
+"""
+
+import io
+import subprocess
+import sys
+import types
+
+from qmesh import system_packages as sp
+from qmesh.cli import main
+
+ALL = [p for g in sp.GROUPS for p in g.packages]
+
+
+class FakeSystem:
+    """dpkg-query answers from `installed`; apt-get install adds the packages (or fails)."""
+
+    def __init__(self, installed=(), apt_status=0, dpkg=True):
+        self.installed, self.apt_status, self.dpkg = set(installed), apt_status, dpkg
+        self.calls = []
+
+    def __call__(self, cmd, **kwargs):
+        self.calls.append(list(cmd))
+        if cmd[0] == "dpkg-query":
+            if not self.dpkg:
+                raise FileNotFoundError("dpkg-query")
+            out = "".join(f"{p} installed\n" for p in cmd[3:] if p in self.installed)
+            return types.SimpleNamespace(returncode=0 if out else 1, stdout=out)
+        apt = cmd[cmd.index("apt-get"):]
+        if apt[1] == "install" and self.apt_status == 0:
+            self.installed |= {p for p in apt[2:] if not p.startswith("-")}
+        return types.SimpleNamespace(returncode=self.apt_status, stdout="")
+
+    def apt_calls(self):
+        return [c for c in self.calls if "apt-get" in c]
+
+
+def test_nothing_runs_when_all_is_installed():
+    fake, out = FakeSystem(installed=ALL), io.StringIO()
+    assert sp.setup(everything=True, run=fake, prefix=lambda run: [], out=out) == 0
+    assert fake.apt_calls() == [] and len(fake.calls) == 1        # one dpkg-query
+    assert "installed" in out.getvalue()
+
+
+def test_root_installs_only_the_missing_packages_after_an_update():
+    fake, out = FakeSystem(installed=["libegl1", "chromium"]), io.StringIO()
+    assert sp.setup(everything=True, run=fake, prefix=lambda run: [], out=out) == 0
+    update, install = fake.apt_calls()
+    assert update[:2] == ["apt-get", "update"]
+    assert install[:5] == list(sp.APT_INSTALL)
+    assert set(install[5:]) == set(ALL) - {"libegl1", "chromium"}
+    assert len(install[5:]) == len(set(install[5:]))                 # each package once
+
+
+def test_sudo_prefix_is_used_when_given():
+    fake = FakeSystem()
+    assert sp.setup(everything=True, run=fake, prefix=lambda run: ["sudo", "-n"], out=io.StringIO()) == 0
+    assert all(c[:2] == ["sudo", "-n"] for c in fake.apt_calls())
+
+
+def test_without_root_it_prints_the_exact_command_and_fails():
+    fake, out = FakeSystem(installed=ALL[1:]), io.StringIO()
+    assert sp.setup(everything=True, run=fake, prefix=lambda run: None, out=out) == 1
+    assert fake.apt_calls() == []
+    assert f"run: sudo apt-get update && sudo {' '.join(sp.APT_INSTALL)} {ALL[0]}" in out.getvalue()
+
+
+def test_check_only_never_installs():
+    fake, out = FakeSystem(), io.StringIO()
+    assert sp.setup(check_only=True, everything=True, run=fake, prefix=lambda run: [], out=out) == 1
+    assert fake.apt_calls() == [] and "checked only" in out.getvalue()
+
+
+def test_a_failing_apt_get_is_reported():
+    fake, out = FakeSystem(apt_status=100), io.StringIO()
+    assert sp.setup(everything=True, run=fake, prefix=lambda run: [], out=out) == 1
+    assert "failed with exit status 100" in out.getvalue()
+
+
+def test_no_dpkg_names_the_packages_and_fails():
+    out = io.StringIO()
+    assert sp.setup(everything=True, run=FakeSystem(dpkg=False), out=out) == 1
+    assert all(p in out.getvalue() for p in ALL)
+
+
+def test_groups_follow_the_installed_extras():
+    """Each group's module is what needs it; a module that is not installed needs nothing."""
+    ghost = sp.Group("ghost", "no_such_module_qmesh", ("libghost",), "")
+    assert sp.needed_groups(groups=(ghost,)) == []
+    assert sp.needed_groups(everything=True, groups=(ghost,)) == [ghost]
+    assert {g.module for g in sp.GROUPS} == {"vtk", "playwright", "gmsh"}
+
+
+def test_this_machine_has_every_package_and_the_command_is_quick(capsys):
+    """The test suite needs them all (it renders, drives chromium, runs gmsh)."""
+    assert sp.missing(sp.GROUPS) == []
+    assert main(["setup", "--check", "--all"]) == 0
+    assert "installed" in capsys.readouterr().out
+
+
+def test_help_lists_setup():
+    done = subprocess.run([sys.executable, "-m", "qmesh", "setup", "--help"], capture_output=True, text=True)
+    assert done.returncode == 0 and "--check" in done.stdout
