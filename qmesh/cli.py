@@ -194,8 +194,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the regular VB-gon inscribed in the unit circle (default: 64)")
     g.add_argument("--polygon", metavar="FILE.csv", help="a convex polygon: CSV of x,y rows, counter-clockwise")
     g = p.add_mutually_exclusive_group()
-    g.add_argument("--target-vertices", type=int, metavar="N", help="aim for N vertices (within ±10%%)")
-    g.add_argument("--size", type=float, metavar="H", help="target metric edge length")
+    g.add_argument("--target-vertices", type=int, metavar="N", help="aim for N vertices: insertion never goes past N (the mesh ends with "
+                   "exactly N in every case tested)")
+    g.add_argument("--size", type=float, metavar="H", help="target edge length in the metric ∇²s "
+                   "(default: the mean metric length of the polygon's edges)")
     for flag, kind, meta, text in (("--alpha", float, "A", "relaxation of the vertex step"),
                                    ("--seed", _non_negative_int, "S", "random seed"),
                                    ("--max-iterations", int, "K", "iteration cap")):

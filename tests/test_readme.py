@@ -1,0 +1,189 @@
+"""README.md matches the code: its snippets run, and the numbers its comments claim come out.
+
+- Every ```python block runs as a script in a temporary folder. A top-level `print(...)` with a
+  comment is a claim: the printed line must match the comment, numbers to the digits the comment
+  gives, words exactly; text after the printed part must start with ";" (an explanation).
+  The widget block runs with the headless rendering variables of HEADLESS.md.
+- Every ```sh block is run line by line, each `&&` part on its own, in a temporary folder; a
+  comment after a command lists fragments (separated by " … ") that must appear in its output, in
+  order. Skipped for cost, with the reason (nothing else is skipped):
+    * `python3 -m venv .venv`, `. .venv/bin/activate`: make and enter the virtual environment
+      these tests already run in;
+    * `pip install -e ".[all,peers]"`: minutes of downloads; the tests run in its result;
+    * `python -m pytest -q`: this test suite itself.
+  `qmesh setup` runs as `qmesh setup --check` (a test must not install system packages; a
+  missing package fails it just the same).
+- `.ci/run` holds exactly the README's two Set-up commands.
+"""
+
+import os
+import re
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+import qmesh
+
+ROOT = Path(__file__).resolve().parents[1]
+README = (ROOT / "README.md").read_text()
+BIN = Path(sys.executable).parent
+SKIPPED_FOR_COST = ("python3 -m venv .venv", ". .venv/bin/activate", 'pip install -e ".[all,peers]"',
+                    "python -m pytest -q")
+HEADLESS = {"PYVISTA_OFF_SCREEN": "true", "VTK_DEFAULT_OPENGL_WINDOW": "vtkEGLRenderWindow"}
+NUMBER = re.compile(r"-?\d+(?:\.\d+)?(?:e[-+]?\d+)?")
+
+
+def blocks(language: str) -> list[str]:
+    return re.findall(rf"^```{language}\n(.*?)^```", README, flags=re.S | re.M)
+
+
+def setup_commands() -> list[str]:
+    section = README[README.index("## Set-up"):README.index("## The API")]
+    return re.search(r"```sh\n(.*?)```", section, flags=re.S).group(1).strip().splitlines()
+
+
+def environment(**extra) -> dict:
+    return dict(os.environ, PATH=f"{BIN}{os.pathsep}{os.environ.get('PATH', '')}", **extra)
+
+
+def matches(claim: str, printed: str) -> bool:
+    """The printed line equals the claim: numbers rounded to the claim's digits, words exactly;
+    the claim may go on after the printed text with '; …' (an explanation)."""
+    pos = 0
+    for token in re.split(rf"({NUMBER.pattern})", printed.strip()):
+        if not token:
+            continue
+        if NUMBER.fullmatch(token):
+            m = NUMBER.match(claim, pos)
+            if not m:
+                return False
+            text = m.group()
+            digits = len(text.split(".")[1]) if "." in text and "e" not in text else 0
+            if round(float(token), digits) != float(text):
+                return False
+            pos = m.end()
+        else:
+            if not claim.startswith(token, pos):
+                return False
+            pos += len(token)
+    rest = claim[pos:].strip()
+    return rest == "" or rest.startswith(";")
+
+
+def test_matches_rounds_to_the_claims_digits():
+    assert matches("11.46; also more", "11.4623")
+    assert not matches("11.47", "11.4623")
+    assert matches("(212, 2) (314, 3) 64", "(212, 2) (314, 3) 64")
+    assert not matches("(212, 2) (314, 3) 64", "(212, 2) (316, 3) 64")
+    assert not matches("114 0 extra words", "114 0")
+
+
+PYTHON_BLOCKS = blocks("python")
+
+
+def instrument(code: str) -> tuple[str, dict[int, str]]:
+    """Tag each claimed print so its output line can be found; return the claims by tag."""
+    claims, lines = {}, []
+    for i, line in enumerate(code.splitlines()):
+        m = re.match(r"^(\s*)print\((.*)\)\s+#\s?(.*)$", line)
+        if m:
+            assert m.group(1) == "", f"a claim inside a block cannot be checked: {line!r}"
+            claims[i] = m.group(3)
+            line = f'print("@@{i}@@", {m.group(2)})'
+        lines.append(line)
+    return "\n".join(lines) + "\n", claims
+
+
+def test_readme_has_the_snippets_this_module_expects():
+    assert len(PYTHON_BLOCKS) >= 3 and len(blocks("sh")) >= 2
+    assert sum(len(instrument(b)[1]) for b in PYTHON_BLOCKS) >= 4
+
+
+@pytest.mark.parametrize("index", range(len(PYTHON_BLOCKS)))
+def test_python_snippet_runs_and_prints_what_it_claims(index, tmp_path):
+    code, claims = instrument(PYTHON_BLOCKS[index])
+    script = tmp_path / "snippet.py"
+    script.write_text(code)
+    wasm = tempfile.mkdtemp(prefix="qmesh-readme-wasm-")
+    done = subprocess.run([sys.executable, str(script)], cwd=tmp_path, capture_output=True,
+                          text=True, timeout=300,
+                          env=environment(VTK_WASM_DIR_OVERRIDE=wasm, **HEADLESS))
+    assert done.returncode == 0, done.stderr[-3000:]
+    printed = {int(m.group(1)): m.group(2)
+               for m in re.finditer(r"^@@(\d+)@@ (.*)$", done.stdout, flags=re.M)}
+    for i, claim in claims.items():
+        assert i in printed, f"line {i} printed nothing"
+        assert matches(claim, printed[i]), f"README claims {claim!r}, the code printed {printed[i]!r}"
+
+
+def shell_commands():
+    for block in blocks("sh"):
+        for line in block.strip().splitlines():
+            command, _, comment = line.partition("   # ")
+            for part in command.split(" && "):
+                part = part.strip()
+                if part not in SKIPPED_FOR_COST:
+                    yield part + (" --check" if part == "qmesh setup" else ""), comment.strip()
+
+
+SHELL_COMMANDS = list(shell_commands())
+
+
+def test_every_readme_command_is_run_or_skipped_for_a_stated_cost():
+    every = {p.strip() for b in blocks("sh") for line in b.strip().splitlines()
+             for p in line.partition("   # ")[0].split(" && ")}
+    assert every - set(SKIPPED_FOR_COST) == {c.removesuffix(" --check") for c, _ in SHELL_COMMANDS}
+    assert "qmesh setup --check" in {c for c, _ in SHELL_COMMANDS}
+
+
+@pytest.mark.parametrize("command, claim", SHELL_COMMANDS, ids=[c for c, _ in SHELL_COMMANDS])
+def test_shell_command_runs_and_prints_what_it_claims(command, claim, tmp_path):
+    done = subprocess.run(["bash", "-c", command], cwd=tmp_path, capture_output=True, text=True,
+                          timeout=300, env=environment())
+    assert done.returncode == 0, done.stderr[-3000:]
+    output, pos = done.stdout + done.stderr, 0
+    for fragment in filter(None, (f.strip() for f in claim.split("…"))):
+        found = output.find(fragment, pos)
+        assert found >= 0, f"{fragment!r} not in the output of {command!r}:\n{output}"
+        pos = found + len(fragment)
+    for out in re.findall(r"-o (\S+)", command):
+        assert (tmp_path / out).stat().st_size > 0
+
+
+def test_ci_runs_exactly_the_readme_commands():
+    """.ci/run may not install anything the README's two commands do not."""
+    ci = (ROOT / ".ci" / "run").read_text()
+    commands = [ln.strip() for ln in ci.splitlines()
+                if ln.strip() and not ln.lstrip().startswith(("#", "set ", "cd ", "status=", "if ",
+                                                             "echo", "fi", "exit", "||"))]
+    first, second = setup_commands()
+    assert commands[0].removesuffix("\\").strip() == first
+    assert commands[1].removesuffix("|| status=$?").strip() == second
+    assert len(commands) == 2, commands
+
+
+@settings(max_examples=12, deadline=None, derandomize=True)
+@given(vb=st.sampled_from([8, 16, 32, 64, 128]), extra=st.integers(1, 600),
+       k1=st.floats(0.01, 100), k2=st.floats(0.01, 100), angle=st.floats(0, 180))
+def test_target_vertices_is_met_exactly(vb, extra, k1, k2, angle):
+    """README and `qmesh mesh --help`: insertion stops at N and the mesh ends with exactly N."""
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", qmesh.QmeshWarning)
+        m = qmesh.mesh(qmesh.Disk(vb), qmesh.Anisotropy.principal(k1, k2, angle),
+                       target_vertices=vb + extra)
+    assert m.n_vertices == vb + extra
+    assert np.all(m.fixed[:vb])
+
+
+def test_mesh_help_says_what_the_readme_says():
+    done = subprocess.run([sys.executable, "-m", "qmesh", "mesh", "--help"], capture_output=True,
+                          text=True, env=environment(COLUMNS="200"))
+    assert "±" not in done.stdout
+    text = " ".join(done.stdout.split())
+    assert "--target-vertices N aim for N vertices: insertion never goes past N (the mesh ends with exactly N" in text
