@@ -150,7 +150,7 @@ def cmd_report(args) -> int:
     width = max(map(len, rep))
     print(f"{args.meshfile}")
     for key, value in rep.items():
-        text = "-" if value is None else f"{value:.6g}" if isinstance(value, float) else str(value)
+        text = "n/a" if value is None else f"{value:.6g}" if isinstance(value, float) else str(value)
         print(f"  {key:<{width}}  {text}")
     return 0
 

@@ -243,7 +243,7 @@ def report(mesh: Mesh, anisotropy) -> dict:
     """All measurements of one mesh as plain Python numbers (JSON-serialisable).
 
     Entries that need a stiffness matrix or ∇s_h are None when the mesh has a zero-area
-    triangle; κ2 is None when there is no interior vertex.
+    triangle; κ2 and the share of q_ij ≥ 0 are None when there is no interior vertex.
     """
     P, T = mesh.points, mesh.triangles
     area = signed_areas(P, T)
@@ -264,7 +264,8 @@ def report(mesh: Mesh, anisotropy) -> dict:
         return out
     out["l2_error"], out["h1_error"] = interpolation_errors(mesh, anisotropy)
     r = _relative_interior_q(mesh, anisotropy)
-    out["q_nonnegative_fraction"] = _fraction_nonnegative(r, 1e-9)
+    # no interior vertex: no Dirichlet matrix whose signs would matter (CLI: "n/a")
+    out["q_nonnegative_fraction"] = _fraction_nonnegative(r, 1e-9) if out["n_interior"] else None
     out["min_q_ij_relative"] = float(r.min()) if len(r) else None
     if out["n_interior"] > 0:
         out["kappa2"] = condition_number(mesh, anisotropy)

@@ -82,3 +82,12 @@ def test_cli_prints_one_warning_line_and_na(tmp_path, capsys):
     code = main(["mesh", "--principal", "1", "10000", "20", "--json", "-o", str(tmp_path / "x.vtu")])
     out, _ = capsys.readouterr()
     assert json.loads(out)["q_nonnegative_fraction"] is None
+
+
+def test_report_says_n_a_without_an_interior_vertex(tmp_path, capsys):
+    main(["mesh", "--principal", "1", "10000", "20", "--quiet", "-o", str(tmp_path / "x.vtu")])
+    capsys.readouterr()
+    assert main(["report", str(tmp_path / "x.vtu"), "--principal", "1", "10000", "20"]) == 0
+    rows = dict(line.split() for line in capsys.readouterr().out.splitlines()[1:])
+    assert rows["n_interior"] == "0"
+    assert rows["q_nonnegative_fraction"] == "n/a" and rows["kappa2"] == "n/a"
