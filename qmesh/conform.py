@@ -30,11 +30,15 @@ from scipy.sparse.csgraph import connected_components
 
 from . import topology
 from .errors import QmeshError
+from .geometry import signed_areas
 from .triangulate import framed_q_delaunay, restore
 
 ENCROACH_TOL = 1e-9     # relative depth below the plane that counts as encroaching
 MAX_ROUNDS = 200        # split rounds before giving up (never reached on valid input)
 SHORTEST = 1e-9         # subsegments shorter than this (metric, normalised units) are not split
+PUSH = 1.02             # an encroaching interior vertex goes this far out (× the ellipse radius)
+PUSH_ROUNDS = 20        # rounds that may push vertices before only splits are made
+MIN_KEPT = 0.1          # a push must leave every triangle of the star this share of its area
 
 
 # --------------------------------------------------------------------------- the test
@@ -106,6 +110,7 @@ class Conforming:
     T: np.ndarray           # (M, 3) counter-clockwise triangles inside Ω
     twin: np.ndarray        # half-edge twins of T
     edge_id: np.ndarray     # (N,) segment a non-seed boundary vertex lies on, else -1
+    pinned: np.ndarray      # (N,) boundary points split in where two segments crowd each other
 
 
 def _subsegments(domain, n_seeds, edge_id, t):
@@ -166,6 +171,7 @@ def conforming_delaunay(domain, P: np.ndarray, edge_id: np.ndarray, anisotropy) 
     A, Bend = domain.segment_ends
     seg_len2 = np.einsum("ki,ki->k", Bend - A, Bend - A)
     is_seed_pt = lambda i: i < n_seeds                                     # noqa: E731
+    pinned = np.zeros(len(P), bool)
     for _ in range(MAX_ROUNDS):
         n = len(P)
         t = np.zeros(n)
@@ -191,7 +197,8 @@ def conforming_delaunay(domain, P: np.ndarray, edge_id: np.ndarray, anisotropy) 
             if not used.all():
                 raise QmeshError(f"{int((~used).sum())} points lie outside the domain; "
                                  "please report this domain")
-            return Conforming(P, T, topology.twins(T), edge_id)
+            return Conforming(P, T, topology.twins(T), edge_id, pinned)
+        crowd = ~missing[split] & ~free[split]              # split for another boundary point
         a, b = a[split], b[split]
         new = split_points(P[a], P[b], is_seed_pt(a), is_seed_pt(b), anisotropy)
         new_seg = np.where(a < n_seeds, a, edge_id[a])        # seed k starts segment k
@@ -199,6 +206,7 @@ def conforming_delaunay(domain, P: np.ndarray, edge_id: np.ndarray, anisotropy) 
         keep[drop] = False
         P = np.concatenate([P[keep], new])
         edge_id = np.concatenate([edge_id[keep], new_seg])
+        pinned = np.concatenate([pinned[keep], crowd])
     raise QmeshError("the conforming triangulation did not settle; please report this domain")
 
 
@@ -211,17 +219,42 @@ class Conformed:
     twin: np.ndarray
     edge_id: np.ndarray
     fixed: np.ndarray
+    pinned: np.ndarray      # boundary points that do not slide (see restore_conformity)
     added: np.ndarray       # indices of the boundary points split in
     flips: int
 
 
-def restore_conformity(P, T, twin, edge_id, fixed, anisotropy) -> Conformed:
-    """Split encroached boundary half-edges of a Q-Delaunay (constrained) triangulation of Ω
-    until none is, flipping after each round; the new points slide on their segment."""
+def _push_out(P, a, b, c, anisotropy):
+    """Positions just outside the diametral ellipse of a→b for the apexes c (metric at the
+    midpoint): along the metric ray from the midpoint, or along the inward normal."""
+    A, B, C = P[a], P[b], P[c]
+    M = 0.5 * (A + B)
+    H = _metric_at(anisotropy, M)
+    E, D = B - A, C - M
+    R = 0.5 * np.sqrt(np.einsum("ki,kij,kj->k", E, H, E))
+    r = np.sqrt(np.einsum("ki,kij,kj->k", D, H, D))
+    normal = np.column_stack([-E[:, 1], E[:, 0]])
+    nlen = np.sqrt(np.einsum("ki,kij,kj->k", normal, H, normal))
+    D = np.where((r > 1e-3 * R)[:, None], D / np.maximum(r, 1e-300)[:, None], normal / nlen[:, None])
+    return M + (PUSH * R)[:, None] * D
+
+
+def restore_conformity(P, T, twin, edge_id, fixed, pinned, anisotropy) -> Conformed:
+    """Make no boundary half-edge of a constrained Q-Delaunay triangulation of Ω encroached.
+
+    An interior vertex that encroaches the subsegment it faces is pushed just outside its
+    diametral ellipse when that keeps every triangle of its star (it adds no vertex, and the
+    boundary keeps its own spacing); otherwise the subsegment is split and the new point slides
+    on its segment. Flips follow each round. A point split in because another boundary vertex
+    encroached (two segments meeting at a small metric angle, or facing each other across a
+    thin part) is pinned: it stays at its concentric-shell distance instead of sliding, which
+    would undo the matching splits and start them again at every iteration.
+    """
     n0, flips = len(P), 0
     corner = edge_id.copy()
     corner[fixed] = np.flatnonzero(fixed)                   # seed k starts segment k
-    for _ in range(MAX_ROUNDS):
+    P0 = P
+    for rounds in range(MAX_ROUNDS):
         hb = np.flatnonzero(twin < 0)
         tb, eb = np.divmod(hb, 3)
         a, b, c = T[tb, eb], T[tb, topology.NXT[eb]], T[tb, topology.PRV[eb]]
@@ -229,21 +262,47 @@ def restore_conformity(P, T, twin, edge_id, fixed, anisotropy) -> Conformed:
         enc &= metric_lengths2(P[a], P[b], anisotropy) > SHORTEST ** 2
         if not enc.any():
             break
-        # at most one split half-edge per triangle
-        hb, a, b, tb = hb[enc], a[enc], b[enc], tb[enc]
+        hb, a, b, c, tb = hb[enc], a[enc], b[enc], c[enc], tb[enc]
+        # interior apexes: pushed out when their star stays valid (one edge per vertex)
+        free = (edge_id[c] < 0) & ~fixed[c] & (rounds < PUSH_ROUNDS)
+        moved = np.zeros(len(hb), bool)
+        if free.any():
+            k = np.flatnonzero(free)
+            _, first = np.unique(c[k], return_index=True)
+            k = k[first]
+            Pn = P.copy()
+            Pn[c[k]] = _push_out(P, a[k], b[k], c[k], anisotropy)
+            star = np.flatnonzero(np.isin(T, c[k]).any(axis=1))
+            ok_t = signed_areas(Pn, T[star]) > MIN_KEPT * signed_areas(P, T[star])
+            bad_v = np.zeros(len(P), bool)
+            bad_v[T[star[~ok_t]].ravel()] = True
+            k = k[~bad_v[c[k]]]
+            if len(k):
+                P = P.copy() if P is P0 else P
+                P[c[k]] = Pn[c[k]]
+                moved[k] = True
+                moved |= np.isin(c, c[k])
+                stars = np.flatnonzero(np.isin(T, c[k]).any(axis=1))
+                cand = (3 * stars[:, None] + np.arange(3)).ravel()
+                T, twin, f = restore(P, T, twin, anisotropy, candidates=cand)
+                flips += f
+                continue
+        # the rest: split, at most one half-edge per triangle
+        keep = ~moved
+        hb, a, b, c, tb = hb[keep], a[keep], b[keep], c[keep], tb[keep]
         _, first = np.unique(tb, return_index=True)
-        hb, a, b = hb[first], a[first], b[first]
+        hb, a, b, c = hb[first], a[first], b[first], c[first]
         new = split_points(P[a], P[b], fixed[a], fixed[b], anisotropy)
         n = len(P)
-        idx = n + np.arange(len(hb))
-        T, twin = topology.split_boundary_edges(T, twin, hb, idx)
+        T, twin = topology.split_boundary_edges(T, twin, hb, n + np.arange(len(hb)))
         seg = corner[a]
         P = np.concatenate([P, new])
         edge_id = np.concatenate([edge_id, seg])
         corner = np.concatenate([corner, seg])
         fixed = np.concatenate([fixed, np.zeros(len(hb), bool)])
+        pinned = np.concatenate([pinned, fixed[c] | (edge_id[c] >= 0)])
         touched = np.concatenate([hb // 3, len(T) - len(hb) + np.arange(len(hb))])
         cand = (3 * touched[:, None] + np.arange(3)).ravel()
         T, twin, f = restore(P, T, twin, anisotropy, candidates=cand)
         flips += f
-    return Conformed(P, T, twin, edge_id, fixed, np.arange(n0, len(P)), flips)
+    return Conformed(P, T, twin, edge_id, fixed, pinned, np.arange(n0, len(P)), flips)

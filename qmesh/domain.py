@@ -226,6 +226,13 @@ class Domain:
         new._area = self._area / scale**2
         return new
 
+    def edge_of(self, P, tol: float = 1e-9) -> np.ndarray:
+        """Segment each point lies on (within tol × diameter), or -1; input points report the
+        segment they start."""
+        A, B = self.segment_ends
+        return _rings.segment_of(np.asarray(P, dtype=float).reshape(-1, 2), A, B,
+                                 tol * self.diameter)
+
     def __repr__(self):
         return (f"Domain({len(self._rings[0])} outline points, {len(self._rings) - 1} holes, "
                 f"area={self._area:.6g})")

@@ -30,7 +30,7 @@ from .domain import as_domain
 from .errors import QmeshError
 from .geometry import quadratic_form
 from .insert import insert, relocate_degree3, target_area
-from .mesh import Mesh, Stats, Step
+from .mesh import Mesh, Stats, Step, frozen
 from .normalise import Normalisation
 from .triangulate import restore
 
@@ -70,6 +70,7 @@ class _State:
         self.P, self.T, self.twin, self.edge_id = built.P, built.T, built.twin, built.edge_id
         self.fixed = np.zeros(len(self.P), bool)
         self.fixed[:len(self.domain.seeds)] = True
+        self.pinned = built.pinned
         self._seen_P = self._seen_T = None
         self.mesh = self.snapshot()
 
@@ -78,7 +79,7 @@ class _State:
         t = np.zeros_like(self.P)
         on = self.edge_id >= 0
         t[on] = tan[self.edge_id[on]]
-        t[self.fixed] = 0.0
+        t[self.fixed | self.pinned] = 0.0
         return t
 
     def on_boundary(self) -> np.ndarray:
@@ -100,10 +101,11 @@ class _State:
             hb = np.flatnonzero(self.twin < 0)
             t, e = np.divmod(hb, 3)
             a = self.T[t, e]
-            self._edges = np.column_stack([a, self.T[t, topology.NXT[e]]])
-            self._tags = self.domain.segment_tags[self.corner_edge()[a]]
-            self._seen_T = self.T
-        return Mesh(self._user_P, self.T, self.fixed, self._edges, self._tags, self.domain.tag_names)
+            self._edges = frozen(np.column_stack([a, self.T[t, topology.NXT[e]]]), np.int64)
+            self._tags = frozen(self.domain.segment_tags[self.corner_edge()[a]], np.int64)
+            self._user_T, self._seen_T = frozen(self.T, np.int64), self.T
+        return Mesh(self._user_P, self._user_T, self.fixed, self._edges, self._tags,
+                    self.domain.tag_names)
 
     def stats(self, **extra) -> Stats:
         return Stats(self.mesh.n_vertices, self.mesh.n_triangles,
@@ -189,7 +191,8 @@ def _run(norm, h, area_m, lengths, target_vertices, alpha, quality_threshold, mi
         # 3. adjust vertices (2.91)–(2.93); those sent out of Ω go onto the boundary
         t0 = time.perf_counter()
         P0, T0 = st.P, st.T
-        d = newton_step(P0, T0, anisotropy, fixed=st.fixed, tangent=st.tangents(), alpha=alpha)
+        d = newton_step(P0, T0, anisotropy, fixed=st.fixed | st.pinned, tangent=st.tangents(),
+                        alpha=alpha)
         keep = None
         if boundary_refinement:
             snap = snap_to_boundary(P0, T0, st.twin, d, st.on_boundary(), st.corner_edge(),
@@ -234,11 +237,13 @@ def _run(norm, h, area_m, lengths, target_vertices, alpha, quality_threshold, mi
                      refine_boundary=boundary_refinement)
         k = len(ins.points)
         st.T, st.twin = ins.T, ins.twin
-        st.P = np.concatenate([st.P, ins.points])
-        st.fixed = np.concatenate([st.fixed, np.zeros(k, bool)])
-        st.edge_id = np.concatenate([st.edge_id, ins.edge_id])
+        if k:
+            st.P = np.concatenate([st.P, ins.points])
+            st.fixed = np.concatenate([st.fixed, np.zeros(k, bool)])
+            st.pinned = np.concatenate([st.pinned, np.zeros(k, bool)])
+            st.edge_id = np.concatenate([st.edge_id, ins.edge_id])
         added = np.concatenate([relocated, np.arange(n_old, n_old + k)])
-        st.mesh = st.snapshot() if len(added) else st.mesh
+        st.mesh = st.snapshot()
         yield Step("insert", it, st.mesh,
                    st.stats(added=len(added), seconds=time.perf_counter() - t0), added=added)
 
@@ -246,16 +251,19 @@ def _run(norm, h, area_m, lengths, target_vertices, alpha, quality_threshold, mi
         #    then split the boundary subsegments that a vertex encroaches (conform.py)
         t0 = time.perf_counter()
         st.T, st.twin, flips = restore(st.P, st.T, st.twin, anisotropy)
-        c = conform.restore_conformity(st.P, st.T, st.twin, st.edge_id, st.fixed, anisotropy)
-        st.P, st.T, st.twin, st.edge_id, st.fixed = c.P, c.T, c.twin, c.edge_id, c.fixed
+        c = conform.restore_conformity(st.P, st.T, st.twin, st.edge_id, st.fixed, st.pinned,
+                                       anisotropy)
+        pushed = None if c.P[:len(st.P)] is st.P or np.array_equal(c.P[:len(st.P)], st.P) \
+            else norm.scale * (c.P[:len(st.P)] - st.P)
+        st.P, st.T, st.twin, st.edge_id, st.fixed, st.pinned = c.P, c.T, c.twin, c.edge_id, c.fixed, c.pinned
         flips += c.flips
-        st.mesh = st.snapshot() if (flips or len(c.added)) else st.mesh
+        st.mesh = st.snapshot()
         n_edges = len(st.twin) // 2
         converged = (len(added) == 0 and len(c.added) == 0
                      and flips <= max(2, 1e-3 * n_edges) and rms_move < MOVE_TOL)
         yield Step("triangulate", it, st.mesh,
                    st.stats(flips=flips, added=len(c.added), seconds=time.perf_counter() - t0),
-                   added=c.added, converged=converged)
+                   moved=pushed, added=c.added, converged=converged)
         if converged:
             return
 
@@ -272,8 +280,30 @@ def _onto_edges(domain, P, edge_id):
 
 
 def mesh(domain, anisotropy, **options) -> Mesh:
-    """Run Algorithm 2.1 to convergence (or `max_iterations`) and return the final mesh."""
+    """Run Algorithm 2.1 to convergence (or `max_iterations`) and return the final mesh.
+
+    With `target_vertices`, a mesh whose vertex count misses the target by more than 10%
+    raises QmeshError saying why (the boundary alone needs more vertices to keep q_ij ≥ 0, or
+    cannot carry that many).
+    """
     last = None
     for last in iterate(domain, anisotropy, **options):
         pass
-    return last.mesh
+    m = last.mesh
+    _check_count(m, options.get("target_vertices"), options.get("boundary_refinement", True))
+    return m
+
+
+def _check_count(m: Mesh, target, boundary_refinement) -> None:
+    if target is None or abs(m.n_vertices - target) <= 0.1 * target:
+        return
+    if m.n_vertices > target:
+        raise QmeshError(f"target_vertices = {target} is too few: keeping every q_ij >= 0 on the "
+                         f"boundary needs {m.n_vertices} vertices here; ask for at least "
+                         f"{m.n_vertices}")
+    interior = int((~m.boundary).sum())
+    why = (" (the domain is thinner than one element at this size, so no interior vertex fits)"
+           if interior == 0 else "")
+    hint = "" if boundary_refinement else "; allow boundary_refinement to add boundary vertices"
+    raise QmeshError(f"target_vertices = {target} cannot be met: the mesh has {m.n_vertices} "
+                     f"vertices{why}{hint}")

@@ -175,3 +175,31 @@ def near_points(P: np.ndarray, A: np.ndarray, B: np.ndarray, ia: np.ndarray, ib:
         close = point_segment_distance(P[pt], A[sg], B[sg]) <= reach
         found.append(np.column_stack([pt[close], sg[close]]))
     return np.concatenate(found) if found else np.empty((0, 2), np.int64)
+
+
+def segment_of(P: np.ndarray, A: np.ndarray, B: np.ndarray, reach: float) -> np.ndarray:
+    """Index of a segment A→B each point lies on (within `reach`), or -1; a point on two
+    segments (a corner) reports the one it is nearer the start of."""
+    P = np.asarray(P, dtype=float)
+    best_t = np.full(len(P), np.inf)
+    out = np.full(len(P), -1, np.int64)
+    ylo = np.minimum(A[:, 1], B[:, 1]) - reach
+    yhi = np.maximum(A[:, 1], B[:, 1]) + reach
+    for pt, sg in _pairs(P[:, 1], ylo, yhi):
+        a, b, p = A[sg], B[sg], P[pt]
+        ab = b - a
+        L = np.hypot(ab[:, 0], ab[:, 1])
+        along = np.einsum("ij,ij->i", p - a, ab) / L
+        across = np.abs(ab[:, 0] * (p - a)[:, 1] - ab[:, 1] * (p - a)[:, 0]) / L
+        on = (across <= reach) & (along >= -reach) & (along <= L + reach)
+        pt, sg, along = pt[on], sg[on], along[on]
+        if not len(pt):
+            continue
+        order = np.lexsort((along, pt))                     # per point, smallest distance along
+        pt, sg, along = pt[order], sg[order], along[order]
+        first = np.r_[True, pt[1:] != pt[:-1]]
+        pt, sg, along = pt[first], sg[first], along[first]
+        better = along < best_t[pt]
+        best_t[pt[better]] = along[better]
+        out[pt[better]] = sg[better]
+    return out
