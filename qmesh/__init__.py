@@ -9,14 +9,14 @@ point insertion of the thesis chapter "Q-adapted meshes" (Section 2.3, Algorithm
 """
 
 from .anisotropy import Anisotropy
-from .domain import Disk, Polygon
+from .domain import Disk, Domain, Polygon
 from .errors import QmeshError, QmeshWarning
 from .mesh import Mesh, Stats, Step
 from .mesher import iterate, mesh
-from . import io, measure   # io imports meshio only when a file is read or written
+from . import domains, io, measure   # io imports meshio only when a file is read or written
 
-__all__ = ["Anisotropy", "Disk", "Polygon", "Mesh", "Step", "Stats", "QmeshError", "QmeshWarning",
-           "iterate", "mesh", "io", "measure"]
+__all__ = ["Anisotropy", "Disk", "Domain", "Polygon", "domains", "Mesh", "Step", "Stats", "QmeshError",
+           "QmeshWarning", "iterate", "mesh", "io", "measure"]
 __version__ = "0.1.0"
 
 CHAPTER_Q = ((0.1, 0.0), (0.0, 10.0))

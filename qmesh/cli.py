@@ -194,8 +194,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the regular VB-gon inscribed in the unit circle (default: 64)")
     g.add_argument("--polygon", metavar="FILE.csv", help="a convex polygon: CSV of x,y rows, counter-clockwise")
     g = p.add_mutually_exclusive_group()
-    g.add_argument("--target-vertices", type=int, metavar="N", help="aim for N vertices: insertion never goes past N (the mesh ends with "
-                   "exactly N in every case tested)")
+    g.add_argument("--target-vertices", type=int, metavar="N", help="aim for N vertices: the mesh ends on N or a few percent above (the "
+                   "boundary may need more); missing N by more than 10%% is an error saying why")
     g.add_argument("--size", type=float, metavar="H", help="target edge length in the metric ∇²s "
                    "(default: the mean metric length of the polygon's edges)")
     for flag, kind, meta, text in (("--alpha", float, "A", "relaxation of the vertex step"),

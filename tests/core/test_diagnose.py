@@ -58,7 +58,7 @@ def test_varying_s_is_diagnosed_too():
             qmesh.mesh(strip, A, **options)
     with warnings.catch_warnings():
         warnings.simplefilter("error", qmesh.QmeshWarning)
-        qmesh.mesh(qmesh.Polygon(np.array([[0, 0], [1, 0], [1, 1], [0, 1]])), A, size=5.0)
+        qmesh.mesh(qmesh.Polygon(np.array([[0, 0], [1, 0], [1, 1], [0, 1]])), A, target_vertices=60)
 
 
 @settings(max_examples=40, deadline=None, derandomize=True)
