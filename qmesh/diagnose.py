@@ -30,8 +30,9 @@ def element_size(metric_area: float, n_triangles: int) -> float:
 def metric_width(points: np.ndarray, H: np.ndarray, metric_area: float,
                  metric_perimeter: float) -> float:
     """An estimate of the domain's width in the metric H: the smaller of the minimum width of
-    the convex hull of the mapped points (exact for convex domains) and 4·area/perimeter
-    (the width of a long strip, the diameter of a disk; it sees thin rings and arms)."""
+    the convex hull of the mapped points (exact for convex domains) and 4·area/perimeter (the
+    diameter of a disk, twice the width of a long strip or ring: within a factor 2 for the thin
+    rings and arms that the hull does not see)."""
     L = np.linalg.cholesky(H)                      # H = L Lᵀ, metric length |Lᵀ d|
     X = points @ L
     by_area = 4.0 * metric_area / metric_perimeter if metric_perimeter > 0 else np.inf
