@@ -28,14 +28,15 @@ def element_size(metric_area: float, n_triangles: int) -> float:
 
 
 def metric_width(points: np.ndarray, H: np.ndarray, metric_area: float,
-                 metric_perimeter: float) -> float:
+                 metric_perimeter: float, holes: int = 0) -> float:
     """An estimate of the domain's width in the metric H: the smaller of the minimum width of
-    the convex hull of the mapped points (exact for convex domains) and 4·area/perimeter (the
-    diameter of a disk, twice the width of a long strip or ring: within a factor 2 for the thin
-    rings and arms that the hull does not see)."""
+    the convex hull of the mapped points (exact for convex domains) and, for what the hull does
+    not see, 4·area/perimeter without holes (the diameter of a disk, twice the width of a long
+    arm) or 2·area/perimeter with holes (the width R − r of an annulus)."""
     L = np.linalg.cholesky(H)                      # H = L Lᵀ, metric length |Lᵀ d|
     X = points @ L
-    by_area = 4.0 * metric_area / metric_perimeter if metric_perimeter > 0 else np.inf
+    factor = 2.0 if holes else 4.0
+    by_area = factor * metric_area / metric_perimeter if metric_perimeter > 0 else np.inf
     try:
         V = X[ConvexHull(X).vertices]
     except (QhullError, ValueError):
@@ -74,7 +75,9 @@ def thin_domain(mesh, anisotropy) -> str | None:
         He = np.asarray(anisotropy.hessian(0.5 * (P[E[:, 0]] + P[E[:, 1]])), float)
         perimeter = float(np.sqrt(np.einsum("ni,nij,nj->n", d, He, d)).sum())
     h = element_size(area_m, len(T))
-    width = metric_width(P[mesh.boundary], H, area_m, perimeter)
+    edges = (3 * len(T) + len(E)) // 2
+    holes = max(0, 1 - (mesh.n_vertices - edges + len(T)))    # Euler: V − E + T = 1 − holes
+    width = metric_width(P[mesh.boundary], H, area_m, perimeter, holes)
     n_interior = int((~mesh.boundary).sum())
     min_q = float(metric_quality(P, T, Hs).min())
     thin = width < ROWS * ROW_HEIGHT * h

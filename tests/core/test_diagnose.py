@@ -91,3 +91,17 @@ def test_report_says_n_a_without_an_interior_vertex(tmp_path, capsys):
     rows = dict(line.split() for line in capsys.readouterr().out.splitlines()[1:])
     assert rows["n_interior"] == "0"
     assert rows["q_nonnegative_fraction"] == "n/a" and rows["kappa2"] == "n/a"
+
+
+def test_thin_ring_warns_and_the_suggested_n_works():
+    """A ring 0.05 wide (Q = I): the hull sees a disk, the area/perimeter width the ring."""
+    identity = qmesh.Anisotropy.constant(np.eye(2))
+    ring = qmesh.Domain(qmesh.Disk(64), holes=[qmesh.Disk(64, radius=0.95)])
+    with pytest.warns(qmesh.QmeshWarning, match="no interior vertex") as record:
+        qmesh.mesh(ring, identity)
+    n = suggested_n(str(record[0].message))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", qmesh.QmeshWarning)
+        better = qmesh.mesh(ring, identity, target_vertices=n)
+    assert (~better.boundary).sum() > 0
+    assert qmesh.measure.quality(better, identity).min() > 0.3
