@@ -127,3 +127,17 @@ def setup(check_only: bool = False, everything: bool = False, run: Callable = su
         print(f"qmesh setup: still missing after apt-get: {' '.join(still)}", file=out)
         return 1
     return 0
+
+
+def require(name: str, run: Callable = subprocess.run) -> None:
+    """Raise QmeshError naming the missing Debian packages of group `name` (e.g. "rendering"),
+    before code that would crash without them (VTK segfaults without EGL). Silent where dpkg
+    cannot tell (not Debian) or all are there; one dpkg-query call."""
+    from .errors import QmeshError
+    group = {g.name: g for g in GROUPS}.get(name)
+    if group is None:
+        raise QmeshError(f"name must be one of {sorted(g.name for g in GROUPS)}, got {name!r}")
+    lack = missing([group], run)
+    if lack:
+        raise QmeshError(f"{group.why} needs the Debian packages {' '.join(lack)}, which are not "
+                         f"installed; run `qmesh setup` (as root) or: {manual_command(lack)}")

@@ -9,6 +9,9 @@ import subprocess
 import sys
 import types
 
+import pytest
+
+import qmesh
 from qmesh import system_packages as sp
 from qmesh.cli import main
 
@@ -104,3 +107,13 @@ def test_this_machine_has_every_package_and_the_command_is_quick(capsys):
 def test_help_lists_setup():
     done = subprocess.run([sys.executable, "-m", "qmesh", "setup", "--help"], capture_output=True, text=True)
     assert done.returncode == 0 and "--check" in done.stdout
+
+
+def test_require_names_the_missing_package_or_stays_silent():
+    sp.require("rendering", run=FakeSystem(installed=ALL))
+    sp.require("rendering", run=FakeSystem(dpkg=False))               # not Debian: cannot tell
+    with pytest.raises(qmesh.QmeshError, match="libegl1") as caught:
+        sp.require("rendering", run=FakeSystem(installed=["libgl1-mesa-dri"]))
+    assert "qmesh setup" in str(caught.value) and "libgl1-mesa-dri" not in str(caught.value)
+    with pytest.raises(qmesh.QmeshError, match="rendering"):
+        sp.require("no such group")
