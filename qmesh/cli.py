@@ -2,7 +2,7 @@
 
     qmesh mesh   [--Q Q11 Q12 Q22 | --principal K1 K2 ANGLE] [--disk VB | --polygon FILE.csv]
                  [--target-vertices N | --size H] [--alpha A] [--seed S] [--max-iterations K] -o OUT
-    qmesh report MESHFILE [--Q ... | --principal ...] [--json]
+    qmesh report MESHFILE [--Q ... | --principal ...] [--json]   (default Q: the one stored in the file)
     qmesh table  [--vb VB ...] [--out DIR] [--peers] [--solve]
 
 Defaults are the chapter's case: Q = diag(0.1, 10) (2.95) on the regular 64-gon. Bad input
@@ -25,6 +25,7 @@ from . import CHAPTER_Q, __version__, io, measure
 from .anisotropy import Anisotropy
 from .domain import Disk, Polygon
 from .errors import QmeshError
+from .file_conductivity import PREFIX as RECORD_PREFIX, record_of
 from .mesher import iterate
 
 _MESHER_DEFAULTS = {k: v.default for k, v in inspect.signature(iterate).parameters.items()}
@@ -129,14 +130,39 @@ def cmd_mesh(args) -> int:
     return 0
 
 
+def conductivity_for_report(args) -> tuple[Anisotropy, str]:
+    """The Q to measure a mesh file with, and where it came from.
+
+    The command line's --Q/--principal/--s when given; else the conductivity the file stores
+    (`qmesh.io.read_anisotropy`); else the chapter's Q (2.95), which the caller must announce.
+    """
+    given = any(getattr(args, name, None) is not None for name in ("Q", "principal", "s"))
+    if given:
+        return anisotropy_from(args), "command line"
+    stored = io.read_anisotropy(args.meshfile)
+    if stored is not None:
+        return stored, "file"
+    return Anisotropy.constant(CHAPTER_Q), "default"
+
+
+def _conductivity_text(anisotropy: Anisotropy) -> str:
+    record = record_of(anisotropy)
+    return record[len(RECORD_PREFIX):] if record else anisotropy.label
+
+
 def cmd_report(args) -> int:
     mesh = io.read(args.meshfile)
-    rep = measure.report(mesh, anisotropy_from(args))
+    anisotropy, source = conductivity_for_report(args)
+    conductivity = _conductivity_text(anisotropy)
+    where = {"file": "stored in the file", "command line": "from the command line",
+             "default": "the chapter's default: the file stores none"}[source]
+    rep = measure.report(mesh, anisotropy)
     if args.json:
-        print(json.dumps({"file": str(args.meshfile), **rep}, indent=2))
+        print(json.dumps({"file": str(args.meshfile), "conductivity": conductivity,
+                          "conductivity_source": source, **rep}, indent=2))
         return 0
     width = max(map(len, rep))
-    print(f"{args.meshfile}")
+    print(f"{args.meshfile}: conductivity {conductivity} ({where})")
     for key, value in rep.items():
         text = "-" if value is None else f"{value:.6g}" if isinstance(value, float) else str(value)
         print(f"  {key:<{width}}  {text}")
@@ -191,7 +217,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(handler=cmd_mesh)
 
     p = sub.add_parser("report", help="measure a mesh file (q_ij, κ2, errors, quality)",
-                       description="Print qmesh.measure.report of a mesh file, written by qmesh or any other program.")
+                       description="Print qmesh.measure.report of a mesh file, written by qmesh or any other "
+                       "program. Without --Q/--principal it measures with the conductivity the file stores "
+                       "(qmesh mesh stores it), else with the chapter's Q = diag(0.1, 10) and a note; "
+                       "the 'conductivity' line says which.")
     p.add_argument("meshfile", metavar="MESHFILE")
     _add_anisotropy(p)
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")

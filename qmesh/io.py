@@ -5,10 +5,13 @@ The format follows the file's extension (`FORMATS`). What travels with the mesh:
 - the fixed seed flag as integer point data "fixed" (medit .mesh: the vertex reference
   "medit:ref", the only per-vertex value that format holds);
 - the metric quality (2.94) as cell data "quality", when `write` is given the anisotropy;
+- the conductivity itself (a constant Q, or the text of s), when `write` is given the
+  anisotropy, in every format (`qmesh.file_conductivity` says where); `read_anisotropy`
+  gives it back;
 - any extra `point_data` / `cell_data` the caller passes.
 
 medit keeps only the fixed flag; .obj holds points and triangles only (`KEEPS_FIXED`,
-`KEEPS_DATA` say which formats keep what).
+`KEEPS_DATA`, `KEEPS_CONDUCTIVITY` say which formats keep what).
 meshio is an optional dependency (`pip install qmesh[io]`), imported only when a file is used.
 """
 
@@ -16,10 +19,13 @@ from __future__ import annotations
 
 import os
 import uuid
+from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
 
+from . import file_conductivity
+from .anisotropy import Anisotropy
 from .errors import QmeshError
 from .geometry import signed_areas
 from .measure import quality
@@ -39,6 +45,8 @@ KEEPS_FIXED = {".vtu", ".vtk", ".msh", ".xdmf", ".mesh"}
 """Extensions whose files keep the fixed seed flag."""
 KEEPS_DATA = {".vtu", ".vtk", ".msh", ".xdmf"}
 """Extensions whose files keep the quality and any extra point and cell data."""
+KEEPS_CONDUCTIVITY = set(FORMATS)
+"""Extensions whose files keep the conductivity (all: see `qmesh.file_conductivity`)."""
 
 _WRITE_OPTIONS = {
     # meshio's ASCII gmsh writer prints data as numpy reprs ("np.int32(1)") under NumPy 2.
@@ -57,6 +65,18 @@ def _meshio():
     return meshio
 
 
+def _path(path, what: str = "path") -> Path:
+    """`path` as a Path, or QmeshError naming the argument when it is not a file name."""
+    if isinstance(path, bytes):
+        path = os.fsdecode(path)
+    if not isinstance(path, (str, os.PathLike)):
+        raise QmeshError(f"{what} must be a file name (str or os.PathLike), got {type(path).__name__}")
+    path = Path(path)
+    if not str(path) or path.name in ("", ".", ".."):
+        raise QmeshError(f"{what} must name a file, got {str(path)!r}")
+    return path
+
+
 def _extension(path: Path) -> str:
     ext = path.suffix.lower()
     if ext not in FORMATS:
@@ -65,16 +85,27 @@ def _extension(path: Path) -> str:
     return ext
 
 
-def _per_item(data: dict | None, n: int, what: str) -> dict[str, np.ndarray]:
-    """Validate a name → array mapping whose arrays have one row per vertex/triangle."""
+def _per_item(data, n: int, what: str) -> dict[str, np.ndarray]:
+    """Validate a name → numeric array mapping whose arrays have one row per vertex/triangle."""
+    if data is None:
+        return {}
+    if not isinstance(data, Mapping):
+        raise QmeshError(f"{what} must be a dict of name → array, got {type(data).__name__}")
     out = {}
-    for name, values in (data or {}).items():
-        a = np.asarray(values)
-        if a.ndim == 0 or a.shape[0] != n:
-            raise QmeshError(f"{what} {name!r} must have {n} rows, got shape {a.shape}")
+    for name, values in data.items():
+        if not isinstance(name, str) or not name.strip():
+            raise QmeshError(f"{what} names must be non-empty strings, got {name!r}")
+        try:
+            a = np.asarray(values)
+        except (ValueError, TypeError) as e:  # ragged lists
+            raise QmeshError(f"{what}[{name!r}] is not an array: {e}") from e
+        if a.dtype != bool and not np.issubdtype(a.dtype, np.number) or np.iscomplexobj(a):
+            raise QmeshError(f"{what}[{name!r}] must hold real numbers, got dtype {a.dtype}")
+        if a.ndim not in (1, 2) or a.shape[0] != n:
+            raise QmeshError(f"{what}[{name!r}] must have {n} rows (shape ({n},) or ({n}, k)), got shape {a.shape}")
         if a.dtype == bool:
             a = a.astype(np.int32)
-        out[str(name)] = a
+        out[name] = a
     return out
 
 
@@ -83,7 +114,7 @@ def check_writable(path) -> Path:
 
     The CLI calls it before meshing, so a bad output name fails at once, not after the run.
     """
-    path = Path(path)
+    path = _path(path)
     _extension(path)
     if not path.parent.is_dir():
         raise QmeshError(f"cannot write {str(path)!r}: folder {str(path.parent)!r} does not exist")
@@ -105,7 +136,12 @@ def write(path, mesh: Mesh, *, anisotropy=None, point_data=None, cell_data=None)
     ext = path.suffix.lower()
     fmt = FORMATS[ext]
     if not isinstance(mesh, Mesh):
-        raise QmeshError(f"write needs a qmesh.Mesh, got {type(mesh).__name__}")
+        raise QmeshError(f"mesh must be a qmesh.Mesh, got {type(mesh).__name__}")
+    if anisotropy is not None and not isinstance(anisotropy, Anisotropy):
+        raise QmeshError(f"anisotropy must be a qmesh.Anisotropy or None, got {type(anisotropy).__name__}")
+    record = file_conductivity.record_of(anisotropy) if anisotropy is not None else None
+    if record is not None:
+        file_conductivity.check_storable(record, fmt, path)
     pdata = _per_item(point_data, mesh.n_vertices, "point data")
     cdata = _per_item(cell_data, mesh.n_triangles, "cell data")
     reserved = {"fixed", _MEDIT_REF} & pdata.keys() | {"quality"} & cdata.keys()
@@ -119,16 +155,56 @@ def write(path, mesh: Mesh, *, anisotropy=None, point_data=None, cell_data=None)
     points = mesh.points
     if fmt != "medit":  # medit stores a 2-D mesh as such; the others want x, y, z
         points = np.column_stack([points, np.zeros(len(points))])
+    field_data = {}
+    if fmt == "gmsh":  # the triangles form physical surface 1, named by the conductivity record
+        cdata["gmsh:physical"] = np.ones(mesh.n_triangles, np.int32)
+        cdata["gmsh:geometrical"] = np.ones(mesh.n_triangles, np.int32)
+        if record is not None:
+            field_data = file_conductivity.gmsh_field_data(record, 1)
     meshio = _meshio()
-    m = meshio.Mesh(points, [("triangle", np.asarray(mesh.triangles))],
-                    point_data=pdata, cell_data={k: [v] for k, v in cdata.items()})
+    m = meshio.Mesh(points, [("triangle", np.asarray(mesh.triangles))], point_data=pdata,
+                    cell_data={k: [v] for k, v in cdata.items()}, field_data=field_data)
     tmp = path.with_name(f".{path.stem}.{uuid.uuid4().hex[:12]}.part{ext}")
     try:
         getattr(meshio, fmt).write(tmp, m, **_WRITE_OPTIONS.get(fmt, {}))
+        if record is not None:
+            file_conductivity.add_to_file(tmp, fmt, record)
         os.replace(tmp, path)
     except Exception as e:
         tmp.unlink(missing_ok=True)
         raise QmeshError(f"cannot write {str(path)!r}: {e}") from e
+
+
+def _read_meshio(path):
+    """(meshio mesh, path, format name) of a mesh file, with qmesh's errors."""
+    path = _path(path)
+    ext = _extension(path)
+    if not path.is_file():
+        raise QmeshError(f"no such mesh file: {str(path)!r}")
+    meshio = _meshio()
+    try:  # the format's own reader: meshio.read() calls sys.exit on a bad file
+        m = getattr(meshio, FORMATS[ext]).read(path)
+    except Exception as e:  # meshio's parsers raise many kinds of error on a bad file
+        raise QmeshError(f"cannot read {str(path)!r} as {FORMATS[ext]}: {str(e) or type(e).__name__}") from e
+    return m, path, FORMATS[ext]
+
+
+def read_anisotropy(path) -> Anisotropy | None:
+    """The conductivity stored in a mesh file by `write`, or None when the file has none.
+
+    A constant Q comes back exactly; an s stored as text is rebuilt with
+    `Anisotropy.from_expression`. Use it with `read`: `mesh, A = read(p), read_anisotropy(p)`.
+    """
+    path = _path(path)
+    fmt = FORMATS[_extension(path)]
+    if not path.is_file():
+        raise QmeshError(f"no such mesh file: {str(path)!r}")
+    field_data = _read_meshio(path)[0].field_data if fmt == "gmsh" else None
+    try:
+        record = file_conductivity.read_from_file(path, fmt, field_data)
+    except OSError as e:
+        raise QmeshError(f"cannot read {str(path)!r}: {e}") from e
+    return None if record is None else file_conductivity.anisotropy_of(record, repr(str(path)))
 
 
 def read(path) -> Mesh:
@@ -139,16 +215,7 @@ def read(path) -> Mesh:
     counter-clockwise. `fixed` comes from the point data "fixed" (medit: "medit:ref" ≠ 0)
     and is all False when the file has neither.
     """
-    path = Path(path)
-    ext = _extension(path)
-    if not path.is_file():
-        raise QmeshError(f"no such mesh file: {str(path)!r}")
-    meshio = _meshio()
-    try:  # the format's own reader: meshio.read() calls sys.exit on a bad file
-        m = getattr(meshio, FORMATS[ext]).read(path)
-    except Exception as e:  # meshio's parsers raise many kinds of error on a bad file
-        raise QmeshError(f"cannot read {str(path)!r} as {FORMATS[ext]}: {str(e) or type(e).__name__}") from e
-
+    m, path, _ = _read_meshio(path)
     P = np.asarray(m.points, dtype=float)
     if P.ndim != 2 or P.shape[1] not in (2, 3) or not np.all(np.isfinite(P)):
         raise QmeshError(f"{str(path)!r}: points must be finite with 2 or 3 coordinates, got shape {P.shape}")
