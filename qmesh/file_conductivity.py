@@ -94,16 +94,31 @@ def gmsh_field_data(record: str, tag: int) -> dict:
     return {record: np.array([tag, 2])}
 
 
+def set_root_attribute(data: bytes, fmt: str, name: str, value: str) -> bytes:
+    """The XML text `data` of a .vtu/.xdmf file with attribute `name`="value" on its root element."""
+    start = data.index(_ROOT_TAGS[fmt])
+    end = data.index(b">", start)
+    attr = f" {name}={quoteattr(value)}".encode("ascii", "xmlcharrefreplace")
+    return data[:end] + attr + data[end:]
+
+
+def root_attribute(path: Path, fmt: str, name: str) -> str | None:
+    """Attribute `name` of the root element of a .vtu/.xdmf file, or None."""
+    try:
+        for _, elem in ET.iterparse(path, events=("start",)):
+            return elem.attrib.get(name)  # the root element comes first
+    except ET.ParseError as e:
+        raise QmeshError(f"cannot read {str(path)!r} as {fmt}: {e}") from e
+    return None
+
+
 def add_to_file(path: Path, fmt: str, record: str) -> None:
     """Put `record` into the file meshio just wrote (all formats but gmsh, which has it already)."""
     if fmt == "gmsh":
         return
     data = path.read_bytes()
     if fmt in _ROOT_TAGS:
-        start = data.index(_ROOT_TAGS[fmt])
-        end = data.index(b">", start)
-        attr = f" {ATTRIBUTE}={quoteattr(record)}".encode("ascii", "xmlcharrefreplace")
-        data = data[:end] + attr + data[end:]
+        data = set_root_attribute(data, fmt, ATTRIBUTE, record)
     elif fmt == "vtk":  # line 1 "# vtk DataFile Version 5.1", line 2 the title
         first = data.index(b"\n")
         second = data.index(b"\n", first + 1)
@@ -119,12 +134,7 @@ def read_from_file(path: Path, fmt: str, field_data: dict | None = None) -> str 
         found = [name for name in (field_data or {}) if str(name).startswith(PREFIX)]
         return found[0] if found else None
     if fmt in _ROOT_TAGS:
-        try:
-            for _, elem in ET.iterparse(path, events=("start",)):
-                return elem.attrib.get(ATTRIBUTE)  # the root element comes first
-        except ET.ParseError as e:
-            raise QmeshError(f"cannot read {str(path)!r} as {fmt}: {e}") from e
-        return None
+        return root_attribute(path, fmt, ATTRIBUTE)
     with open(path, "rb") as f:
         if fmt == "vtk":
             f.readline()

@@ -17,6 +17,7 @@ meshio is an optional dependency (`pip install qmesh[io]`), imported only when a
 
 from __future__ import annotations
 
+import inspect
 import os
 import uuid
 from collections.abc import Mapping
@@ -24,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import file_conductivity
+from . import file_boundary, file_conductivity
 from .anisotropy import Anisotropy
 from .errors import QmeshError
 from .geometry import signed_areas
@@ -45,6 +46,10 @@ KEEPS_FIXED = {".vtu", ".vtk", ".msh", ".xdmf", ".mesh"}
 """Extensions whose files keep the fixed seed flag."""
 KEEPS_DATA = {".vtu", ".vtk", ".msh", ".xdmf"}
 """Extensions whose files keep the quality and any extra point and cell data."""
+KEEPS_TAGS = file_boundary.KEEPS_TAGS
+"""Extensions whose files keep the boundary edges and their tags (not .obj)."""
+KEEPS_TAG_NAMES = file_boundary.KEEPS_NAMES
+"""Extensions whose files also keep the tags' names."""
 KEEPS_CONDUCTIVITY = set(FORMATS)
 """Extensions whose files keep the conductivity (all: see `qmesh.file_conductivity`)."""
 
@@ -55,6 +60,9 @@ _WRITE_OPTIONS = {
     "xdmf": {"data_format": "XML"},
 }
 _MEDIT_REF = "medit:ref"
+_MESH_TAKES_TAGS = "boundary_tags" in inspect.signature(Mesh).parameters
+_RESERVED = {"fixed", "quality", _MEDIT_REF, file_boundary.TAG_DATA, "gmsh:physical", "gmsh:geometrical",
+             "gmsh:dim_tags"}
 
 
 def _meshio():
@@ -126,11 +134,15 @@ def check_writable(path) -> Path:
 def write(path, mesh: Mesh, *, anisotropy=None, point_data=None, cell_data=None) -> None:
     """Write `mesh` to `path` in the format of its extension.
 
-    The fixed flag is written as point data "fixed" (int). The metric quality (2.94) is written
-    as cell data "quality" only when `anisotropy` is given: quality is measured in the metric of
-    a particular Q, and writing it for a guessed Q would mislead. Everything is validated before
-    the file is touched, and the file is written under a temporary name and then renamed, so an
-    error leaves no file (and no half-written one) at `path`.
+    The fixed flag is written as point data "fixed" (int); the boundary edges with their tags
+    (and tag names) as line cells (`qmesh.file_boundary` says how per format). When
+    `anisotropy` is given, the file keeps it (`read_anisotropy` gives it back; a varying s
+    given only as callables has no text and is not kept) and the metric quality (2.94) is
+    written as cell data "quality": quality is measured in the metric of a particular Q, and
+    writing it for a guessed Q would mislead. Line cells get NaN (floats) or 0 in per-triangle
+    cell data. Everything is validated before the file is touched, and the file is written
+    under a temporary name and then renamed, so an error leaves no file (and no half-written
+    one) at `path`.
     """
     path = check_writable(path)
     ext = path.suffix.lower()
@@ -144,7 +156,7 @@ def write(path, mesh: Mesh, *, anisotropy=None, point_data=None, cell_data=None)
         file_conductivity.check_storable(record, fmt, path)
     pdata = _per_item(point_data, mesh.n_vertices, "point data")
     cdata = _per_item(cell_data, mesh.n_triangles, "cell data")
-    reserved = {"fixed", _MEDIT_REF} & pdata.keys() | {"quality"} & cdata.keys()
+    reserved = (_RESERVED & pdata.keys()) | (_RESERVED & cdata.keys())
     if reserved:
         raise QmeshError(f"data names {sorted(reserved)} are reserved for qmesh's own fields")
     pdata["fixed"] = mesh.fixed.astype(np.int32)
@@ -155,20 +167,19 @@ def write(path, mesh: Mesh, *, anisotropy=None, point_data=None, cell_data=None)
     points = mesh.points
     if fmt != "medit":  # medit stores a 2-D mesh as such; the others want x, y, z
         points = np.column_stack([points, np.zeros(len(points))])
-    field_data = {}
-    if fmt == "gmsh":  # the triangles form physical surface 1, named by the conductivity record
-        cdata["gmsh:physical"] = np.ones(mesh.n_triangles, np.int32)
-        cdata["gmsh:geometrical"] = np.ones(mesh.n_triangles, np.int32)
-        if record is not None:
-            field_data = file_conductivity.gmsh_field_data(record, 1)
+    if fmt == "medit":
+        cdata = {}  # medit keeps references only
+    cells, cdata, extra_points, field_data = file_boundary.cells_for(fmt, mesh, cdata, record)
+    names = file_boundary.boundary_of(mesh)[2] if fmt in ("vtu", "xdmf") else {}
     meshio = _meshio()
-    m = meshio.Mesh(points, [("triangle", np.asarray(mesh.triangles))], point_data=pdata,
-                    cell_data={k: [v] for k, v in cdata.items()}, field_data=field_data)
+    m = meshio.Mesh(points, cells, point_data={**pdata, **extra_points}, cell_data=cdata,
+                    field_data=field_data)
     tmp = path.with_name(f".{path.stem}.{uuid.uuid4().hex[:12]}.part{ext}")
     try:
         getattr(meshio, fmt).write(tmp, m, **_WRITE_OPTIONS.get(fmt, {}))
         if record is not None:
             file_conductivity.add_to_file(tmp, fmt, record)
+        file_boundary.add_names_to_file(tmp, fmt, names)
         os.replace(tmp, path)
     except Exception as e:
         tmp.unlink(missing_ok=True)
@@ -213,9 +224,11 @@ def read(path) -> Mesh:
     Only triangle cells are kept (an error if there are none); points that no triangle uses
     are dropped; a z column must be zero and is dropped; triangles are re-oriented
     counter-clockwise. `fixed` comes from the point data "fixed" (medit: "medit:ref" ≠ 0)
-    and is all False when the file has neither.
+    and is all False when the file has neither. The boundary edges are those of the
+    triangles; each takes the tag of the file's tagged line cell on it (tag 1 where there is
+    none), and the tag names come back where the format keeps them (`KEEPS_TAG_NAMES`).
     """
-    m, path, _ = _read_meshio(path)
+    m, path, fmt = _read_meshio(path)
     P = np.asarray(m.points, dtype=float)
     if P.ndim != 2 or P.shape[1] not in (2, 3) or not np.all(np.isfinite(P)):
         raise QmeshError(f"{str(path)!r}: points must be finite with 2 or 3 coordinates, got shape {P.shape}")
@@ -241,12 +254,26 @@ def read(path) -> Mesh:
                              f"expected one value per point ({len(P)})")
         fixed = flag.ravel() != 0
 
+    tagged = file_boundary.boundary_from(m, fmt, path)
     used = np.zeros(len(P), bool)
     used[T.ravel()] = True
     if not used.all():
         renumber = np.cumsum(used) - 1
         P, fixed, T = P[used], fixed[used], renumber[T]
+        if tagged is not None:
+            E, tags, names = tagged
+            keep = np.all((E >= 0) & (E < len(used)), axis=1)
+            keep[keep] = used[E[keep]].all(axis=1)
+            tagged = renumber[E[keep]], tags[keep], names
 
     flip = signed_areas(P, T) < 0
     T[flip] = T[flip][:, [0, 2, 1]]
-    return Mesh(P, T, fixed)
+    mesh = Mesh(P, T, fixed)
+    if tagged is None or not _MESH_TAKES_TAGS:
+        return mesh
+    edges, tags = file_boundary.tags_on(mesh, *tagged[:2])
+    return _tagged_mesh(P, T, fixed, edges, tags, tagged[2])
+
+
+def _tagged_mesh(P, T, fixed, edges, tags, names) -> Mesh:
+    return Mesh(P, T, fixed, boundary_edges=edges, boundary_tags=tags, tag_names=names)
