@@ -1,6 +1,6 @@
 """The `qmesh` command: mesh a domain, report on any mesh file, reproduce the chapter's tables.
 
-    qmesh mesh   [--Q Q11 Q12 Q22 | --principal K1 K2 ANGLE] [--disk VB | --polygon FILE.csv]
+    qmesh mesh   [--Q Q11 Q12 Q22 | --principal K1 K2 ANGLE] [--disk VB | --polygon FILE]
                  [--target-vertices N | --size H] [--alpha A] [--seed S] [--max-iterations K] -o OUT
     qmesh report MESHFILE [--Q ... | --principal ...] [--json]   (default Q: the one stored in the file)
     qmesh table  [--vb VB ...] [--out DIR] [--peers] [--solve]
@@ -17,49 +17,19 @@ import inspect
 import json
 import sys
 import time
-from pathlib import Path
-
-import numpy as np
 
 from . import CHAPTER_Q, __version__, io, measure
 from .anisotropy import Anisotropy
-from .domain import Disk, Polygon
+from .domain import Disk
 from .errors import QmeshError
 from .file_conductivity import PREFIX as RECORD_PREFIX, record_of
 from .mesher import iterate
+from .polygon_file import read_domain
 
 _MESHER_DEFAULTS = {k: v.default for k, v in inspect.signature(iterate).parameters.items()}
 
 
 # --------------------------------------------------------------------------- inputs
-
-def read_polygon_csv(path) -> Polygon:
-    """A polygon from a CSV file of x,y rows (an optional header line; `#` comments allowed)."""
-    path = Path(path)
-    try:
-        lines = [ln for ln in path.read_text().splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
-    except (OSError, UnicodeDecodeError) as e:
-        raise QmeshError(f"cannot read polygon file {str(path)!r}: {e}") from e
-    if lines and not _is_numeric_row(lines[0]):
-        lines = lines[1:]  # header
-    if not lines:
-        raise QmeshError(f"polygon file {str(path)!r} has no points")
-    try:
-        P = np.loadtxt(lines, delimiter=",", ndmin=2, dtype=float)
-    except ValueError as e:
-        raise QmeshError(f"polygon file {str(path)!r} is not a CSV of x,y numbers: {e}") from e
-    if P.shape[1] != 2:
-        raise QmeshError(f"polygon file {str(path)!r} must have two columns x,y, got {P.shape[1]}")
-    return Polygon(P)
-
-
-def _is_numeric_row(line: str) -> bool:
-    try:
-        [float(f) for f in line.split(",")]
-    except ValueError:
-        return False
-    return True
-
 
 def _non_negative_int(text: str) -> int:
     """argparse type for --seed (numpy's generators take no negative seed)."""
@@ -93,7 +63,7 @@ def _progress(step, out) -> None:
 def cmd_mesh(args) -> int:
     out = io.check_writable(args.output)
     anisotropy = anisotropy_from(args)
-    domain = read_polygon_csv(args.polygon) if args.polygon else Disk(args.disk)
+    domain = read_domain(args.polygon) if args.polygon else Disk(args.disk)
     show = not args.quiet and (args.progress or sys.stderr.isatty())
 
     start = time.perf_counter()
@@ -201,7 +171,9 @@ def build_parser() -> argparse.ArgumentParser:
     g = p.add_mutually_exclusive_group()
     g.add_argument("--disk", type=int, default=64, metavar="VB",
                    help="the regular VB-gon inscribed in the unit circle (default: 64)")
-    g.add_argument("--polygon", metavar="FILE.csv", help="a convex polygon: CSV of x,y rows, counter-clockwise")
+    g.add_argument("--polygon", metavar="FILE", help="a domain file: CSV of x,y rows (a blank line between "
+                   "rings: the outline first, then holes) or GeoJSON (.geojson/.json: a Polygon, or a Feature "
+                   "holding one)")
     g = p.add_mutually_exclusive_group()
     g.add_argument("--target-vertices", type=int, metavar="N", help="aim for N vertices (within ±10%%)")
     g.add_argument("--size", type=float, metavar="H", help="target metric edge length")

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import qmesh
-from qmesh import file_conductivity, io  # noqa: F401  (qmesh.file_conductivity below)
+from qmesh import file_conductivity, io
 from qmesh.cli import main
 
 
@@ -32,7 +32,7 @@ def test_report_uses_the_stored_q(rotated_mesh_file, capsys):
     rep = json.loads(out)
     assert rep["conductivity_source"] == "file"
     rotated = qmesh.Anisotropy.principal(1, 100, 30)
-    assert rep["conductivity"] == qmesh.file_conductivity.record_of(rotated).split(": ", 1)[1]
+    assert rep["conductivity"] == file_conductivity.record_of(rotated).split(": ", 1)[1]
     assert rep["n_interior"] > 0 and rep["q_nonnegative_fraction"] == 1.0
     # measured with the chapter's Q instead, the same mesh loses that (63.5% in issue 12)
     code, out, _ = run(capsys, "report", rotated_mesh_file, "--json", "--Q", 0.1, 0, 10)
