@@ -43,6 +43,9 @@ def boundary_of(mesh) -> tuple[np.ndarray, np.ndarray, dict[int, str]]:
     tags = np.ones(len(E), np.int64) if tags is None else np.asarray(tags, dtype=np.int64)
     if tags.shape != (len(E),):
         raise QmeshError(f"mesh: boundary_tags has shape {tags.shape}, expected ({len(E)},)")
+    if len(tags) and (tags.min() < 1 or tags.max() > np.iinfo(np.int32).max):
+        raise QmeshError(f"mesh: boundary_tags must be integers from 1 to 2**31 - 1 (0 marks the triangles "
+                         f"in files), got {tags.min()} to {tags.max()}")
     names = {int(k): str(v) for k, v in (getattr(mesh, "tag_names", None) or {}).items()}
     return _oriented(mesh.triangles, E, mesh.n_vertices), tags, names
 
@@ -92,6 +95,8 @@ def _gmsh_cells(mesh, T, E, tags, names, cdata, record):
     if record is not None:
         field_data.update(file_conductivity.gmsh_field_data(record, 1))
     for t, name in sorted(names.items()):
+        if '"' in name or "\n" in name:
+            raise QmeshError(f"mesh: tag_names[{t}] = {name!r}: a gmsh physical name cannot hold quotes or newlines")
         if name in field_data:
             raise QmeshError(f"mesh: tag_names gives the name {name!r} twice; gmsh physical names must differ")
         field_data[name] = np.array([t, 1])

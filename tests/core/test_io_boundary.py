@@ -197,3 +197,16 @@ def test_gmsh_refuses_one_name_for_two_tags(tmp_path, holed):
         io.write(tmp_path / "h.msh", mesh)
     io.write(tmp_path / "h.vtu", mesh)  # other formats have no such limit
     assert io.read(tmp_path / "h.vtu").tag_names == {1: "wall", 2: "wall"}
+
+
+@pytest.mark.parametrize("tags, names, ext, message", [
+    ([0, 1, 1], {}, ".vtu", "boundary_tags must be integers from 1 to 2\\*\\*31 - 1"),
+    ([1, 2**40, 1], {}, ".msh", "boundary_tags must be integers from 1"),
+    ([1, 1, 1], {1: 'the "wall"'}, ".msh", "tag_names\\[1\\].*cannot hold quotes"),
+])
+def test_bad_tags_are_refused(tmp_path, tags, names, ext, message):
+    P, T = np.array([[0.0, 0], [1, 0], [0, 1]]), np.array([[0, 1, 2]])
+    mesh = tagged(P, T, None, np.array([[0, 1], [1, 2], [2, 0]]), tags, names)
+    with pytest.raises(QmeshError, match=message):
+        io.write(tmp_path / f"m{ext}", mesh)
+    assert list(tmp_path.iterdir()) == []
