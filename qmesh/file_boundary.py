@@ -6,7 +6,11 @@ Neumann on a hole…): `Mesh.boundary_edges` (k, 2) and `Mesh.boundary_tags` (k,
 
 - `.msh` (gmsh 4.1): one line block per tag, each its own curve entity whose physical tag is
   the boundary tag; named tags in $PhysicalNames (dimension 1); the triangles are physical
-  surface 1 (named by the conductivity record, `qmesh.file_conductivity`);
+  surface 1 (named by the conductivity record, `qmesh.file_conductivity`). gmsh lists the
+  nodes entity by entity, and meshio reads points in that order but node data in node-tag
+  order; so the nodes are written sorted by entity (tags 1…N in that order, every reader
+  agrees) with node data "qmesh:vertex", each node's index in the Mesh, which `read` uses
+  to give the vertices back in their own order;
 - `.vtu`, `.vtk`, `.xdmf`: one line block with the integer cell data "boundary_tag"
   (triangles get 0 there); names (.vtu, .xdmf only) as JSON in the root attribute
   `qmesh_tag_names`;
@@ -25,6 +29,7 @@ from . import file_conductivity
 from .errors import QmeshError
 
 TAG_DATA = "boundary_tag"
+VERTEX_DATA = "qmesh:vertex"
 NAMES_ATTRIBUTE = "qmesh_tag_names"
 KEEPS_TAGS = {".vtu", ".vtk", ".msh", ".xdmf", ".mesh"}
 KEEPS_NAMES = {".vtu", ".msh", ".xdmf"}
@@ -65,13 +70,15 @@ def _filler(a: np.ndarray, k: int) -> np.ndarray:
 
 
 def cells_for(fmt: str, mesh, cdata: dict, record: str | None):
-    """meshio (cells, cell_data, extra point_data, field_data) holding triangles and tagged edges.
+    """meshio (cells, cell_data, extra point_data, field_data, order) for triangles and tagged edges.
 
-    `cdata` is the per-triangle cell data; line cells get NaN (floats) or 0 there.
+    `cdata` is the per-triangle cell data; line cells get NaN (floats) or 0 there. `order` is
+    None, or (gmsh) the Mesh vertex to write at each position: the caller writes
+    points[order] and point data [order]; cells and the extra point data already follow it.
     """
     T = np.asarray(mesh.triangles)
     if fmt == "obj":
-        return [("triangle", T)], {k: [v] for k, v in cdata.items()}, {}, {}
+        return [("triangle", T)], {k: [v] for k, v in cdata.items()}, {}, {}, None
     E, tags, names = boundary_of(mesh)
     if fmt == "gmsh":
         return _gmsh_cells(mesh, T, E, tags, names, cdata, record)
@@ -79,16 +86,21 @@ def cells_for(fmt: str, mesh, cdata: dict, record: str | None):
     cell_data = {k: [v, _filler(v, len(E))] for k, v in cdata.items()}
     key = _TAG_KEY[fmt]
     cell_data[key] = [np.zeros(len(T), np.int32), tags.astype(np.int32)]
-    return cells, cell_data, {}, {}
+    return cells, cell_data, {}, {}, None
 
 
 def _gmsh_cells(mesh, T, E, tags, names, cdata, record):
     """Triangles = surface entity 1; the edges of tag t = curve entity t, physical tag t."""
-    order = np.unique(tags)
-    blocks = [E[tags == t] for t in order]
+    dim_tags = _gmsh_node_entities(mesh.n_vertices, E, tags)
+    order = np.lexsort((dim_tags[:, 1], dim_tags[:, 0]))  # meshio's block order, stable
+    position = np.empty_like(order)
+    position[order] = np.arange(len(order))
+    T, E = position[T], position[E]
+    curve_tags = np.unique(tags)
+    blocks = [E[tags == t] for t in curve_tags]
     cells = [("triangle", T)] + [("line", b) for b in blocks]
     cell_data = {k: [v] + [_filler(v, len(b)) for b in blocks] for k, v in cdata.items()}
-    entity = [np.ones(len(T), np.int32)] + [np.full(len(b), t, np.int32) for b, t in zip(blocks, order)]
+    entity = [np.ones(len(T), np.int32)] + [np.full(len(b), t, np.int32) for b, t in zip(blocks, curve_tags)]
     cell_data["gmsh:physical"] = entity
     cell_data["gmsh:geometrical"] = [e.copy() for e in entity]
     field_data = {}
@@ -100,7 +112,27 @@ def _gmsh_cells(mesh, T, E, tags, names, cdata, record):
         if name in field_data:
             raise QmeshError(f"mesh: tag_names gives the name {name!r} twice; gmsh physical names must differ")
         field_data[name] = np.array([t, 1])
-    return cells, cell_data, {"gmsh:dim_tags": _gmsh_node_entities(mesh.n_vertices, E, tags)}, field_data
+    extra = {"gmsh:dim_tags": dim_tags[order], VERTEX_DATA: order.astype(np.float64)}
+    return cells, cell_data, extra, field_data, order
+
+
+def restore_gmsh_order(m) -> None:
+    """Put the points of meshio mesh `m` (read from a qmesh .msh) back in the Mesh's order."""
+    order = m.point_data.pop(VERTEX_DATA, None)
+    if order is None:
+        return
+    order = np.asarray(order).ravel()
+    n = len(m.points)
+    as_int = order.astype(np.int64) if np.all(np.isfinite(order)) else None
+    if as_int is None or len(order) != n or not np.array_equal(np.sort(as_int), np.arange(n)):
+        return  # not a permutation: leave the file's own order
+    position = np.empty(n, np.int64)
+    position[as_int] = np.arange(n)
+    m.points = m.points[position]
+    for name in list(m.point_data):
+        m.point_data[name] = np.asarray(m.point_data[name])[position]
+    for block in m.cells:
+        block.data = as_int[block.data]
 
 
 def _gmsh_node_entities(n: int, E: np.ndarray, tags: np.ndarray) -> np.ndarray:

@@ -61,8 +61,8 @@ _WRITE_OPTIONS = {
 }
 _MEDIT_REF = "medit:ref"
 _MESH_TAKES_TAGS = "boundary_tags" in inspect.signature(Mesh).parameters
-_RESERVED = {"fixed", "quality", _MEDIT_REF, file_boundary.TAG_DATA, "gmsh:physical", "gmsh:geometrical",
-             "gmsh:dim_tags"}
+_RESERVED = {"fixed", "quality", _MEDIT_REF, file_boundary.TAG_DATA, file_boundary.VERTEX_DATA,
+             "gmsh:physical", "gmsh:geometrical", "gmsh:dim_tags"}
 
 
 def _meshio():
@@ -169,7 +169,9 @@ def write(path, mesh: Mesh, *, anisotropy=None, point_data=None, cell_data=None)
         points = np.column_stack([points, np.zeros(len(points))])
     if fmt == "medit":
         cdata = {}  # medit keeps references only
-    cells, cdata, extra_points, field_data = file_boundary.cells_for(fmt, mesh, cdata, record)
+    cells, cdata, extra_points, field_data, order = file_boundary.cells_for(fmt, mesh, cdata, record)
+    if order is not None:  # gmsh: nodes sorted by entity
+        points, pdata = points[order], {k: v[order] for k, v in pdata.items()}
     names = file_boundary.boundary_of(mesh)[2] if fmt in ("vtu", "xdmf") else {}
     meshio = _meshio()
     m = meshio.Mesh(points, cells, point_data={**pdata, **extra_points}, cell_data=cdata,
@@ -197,6 +199,8 @@ def _read_meshio(path):
         m = getattr(meshio, FORMATS[ext]).read(path)
     except Exception as e:  # meshio's parsers raise many kinds of error on a bad file
         raise QmeshError(f"cannot read {str(path)!r} as {FORMATS[ext]}: {str(e) or type(e).__name__}") from e
+    if FORMATS[ext] == "gmsh":
+        file_boundary.restore_gmsh_order(m)
     return m, path, FORMATS[ext]
 
 

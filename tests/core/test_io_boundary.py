@@ -45,11 +45,14 @@ def holed():
     outer, hole = ring(1, 8), ring(0.3, 4)
     X = np.random.default_rng(3).uniform(-0.95, 0.95, (200, 2))
     P = np.vstack([outer, hole, X[np.abs(X).max(1) > 0.4]])
+    fixed = np.arange(len(P)) < len(outer) + len(hole)
+    shuffle = np.random.default_rng(4).permutation(len(P))  # ring points not first: numbering matters
+    P, fixed = P[shuffle], fixed[shuffle]
     T = Delaunay(P).simplices
     T = _ccw(P, T[np.abs(P[T].mean(1)).max(1) > 0.3 + 1e-9])
     E = qmesh.Mesh(P, T).boundary_edges
     tags = np.where(np.abs(P[E]).max(axis=(1, 2)) < 0.5, 2, 1)
-    return tagged(P, T, np.arange(len(P)) < len(outer) + len(hole), E, tags, NAMES)
+    return tagged(P, T, fixed, E, tags, NAMES)
 
 
 def _tag_of_edge(mesh):
@@ -66,6 +69,23 @@ def test_tags_round_trip(tmp_path, holed, ext):
     assert _tag_of_edge(back) == _tag_of_edge(holed)
     assert np.bincount(back.boundary_tags).tolist() == [0, 32, 16]
     assert back.tag_names == (NAMES if ext in io.KEEPS_TAG_NAMES else {})
+
+
+@pytest.mark.parametrize("ext", sorted(io.FORMATS))
+def test_vertex_numbering_survives(tmp_path, holed, ext):
+    """Same points in the same order, same triangles, same fixed flags (gmsh groups nodes by entity)."""
+    io.write(tmp_path / f"h{ext}", holed)
+    back = io.read(tmp_path / f"h{ext}")
+    np.testing.assert_array_equal(back.points, holed.points)
+    np.testing.assert_array_equal(back.triangles, holed.triangles)
+    np.testing.assert_array_equal(back.fixed, holed.fixed if ext in io.KEEPS_FIXED else False)
+
+
+def test_gmsh_node_data_is_aligned_for_any_meshio_reader(tmp_path, holed):
+    io.write(tmp_path / "h.msh", holed)
+    m = meshio.gmsh.read(tmp_path / "h.msh")
+    fixed_points = m.points[np.ravel(m.point_data["fixed"]) != 0, :2]
+    assert sorted(map(tuple, fixed_points.tolist())) == sorted(map(tuple, holed.points[holed.fixed].tolist()))
 
 
 def test_obj_keeps_no_tags(tmp_path, holed):
