@@ -22,12 +22,13 @@ from pathlib import Path
 
 import numpy as np
 
+from .domain import Domain
 from .errors import QmeshError
 
 GEOJSON_SUFFIXES = {".geojson", ".json"}
 
 
-def read_domain(path):
+def read_domain(path) -> Domain:
     """The domain a polygon file describes (a `qmesh.Domain` of the outline and its holes)."""
     path = _path(path)
     return domain_from_rings(read_rings(path), path)
@@ -45,22 +46,14 @@ def read_rings(path) -> list[np.ndarray]:
     return [_checked_ring(r, i, where) for i, r in enumerate(rings)]
 
 
-def domain_from_rings(rings: list[np.ndarray], path):
-    """`qmesh.Domain(outline, holes)`, with the file named in any geometry error.
-
-    Before `qmesh.Domain` exists only a hole-free outline can be used (as a convex `Polygon`).
-    """
-    from . import domain as domains
-    where = f"polygon file {str(path)!r}"
-    Domain = getattr(domains, "Domain", None)
+def domain_from_rings(rings: list[np.ndarray], path) -> Domain:
+    """`qmesh.Domain(outline, holes)` with the default tags (1 the outline, 2, 3, … the holes)
+    named "outline", "hole 1", "hole 2", …; the file is named in any geometry error."""
+    names = {1: "outline", **{k + 2: f"hole {k + 1}" for k in range(len(rings) - 1)}}
     try:
-        if Domain is not None:
-            return Domain(rings[0], holes=rings[1:])
-        if len(rings) > 1:
-            raise QmeshError(f"has {len(rings) - 1} hole(s), but this qmesh meshes no holes yet")
-        return domains.Polygon(rings[0])
+        return Domain(rings[0], holes=rings[1:], names=names)
     except QmeshError as e:
-        raise QmeshError(f"{where}: {e}") from e
+        raise QmeshError(f"polygon file {str(path)!r}: {e}") from e
 
 
 # --------------------------------------------------------------------------- CSV

@@ -133,6 +133,15 @@ def test_holes_make_a_domain(tmp_path):
     d = read_domain(path)
     assert isinstance(d, qmesh.Domain) and len(d.rings) == 2
     assert d.area == pytest.approx(15.0)
+    assert d.tag_names == {1: "outline", 2: "hole 1"}
+    assert sorted(set(d.segment_tags.tolist())) == [1, 2]
+
+
+def test_a_hole_crossing_the_outline_names_the_file_and_the_hole(tmp_path):
+    path = tmp_path / "cross.csv"
+    path.write_text("0,0\n4,0\n4,4\n0,4\n\n3,1\n5,1\n5,2\n3,2\n")
+    with pytest.raises(QmeshError, match=r"polygon file '.*cross.csv': hole 1 crosses the outline"):
+        read_domain(path)
 
 
 def test_cli_meshes_a_geojson_file(tmp_path, capsys):
