@@ -2,8 +2,8 @@
 
 Dirichlet u = g on the outline (boundary tag 1, "outline"), Neumann Q∇u·n = h on the hole
 (tag 2, "hole"). The mesh goes through a gmsh file: `qmesh.io.write` puts the tags there as
-named physical curves, and scikit-fem's loader turns them into `mesh.boundaries["outline"]`
-and `["hole"]`. f, g and h come from a manufactured solution u, so the error is known.
+named physical curves, and scikit-fem's meshio reader turns them into
+`mesh.boundaries["outline"]` and `["hole"]`. f, g and h come from a manufactured solution u, so the error is known.
 
 The same problem is then solved on an isotropic mesh (qmesh with Q = I, the same target N),
 and the unpreconditioned CG iteration counts are printed side by side: the stiffness matrix of
@@ -18,10 +18,12 @@ import sys
 import tempfile
 from pathlib import Path
 
+import meshio
 import numpy as np
 import scipy.sparse.linalg as spla
 import skfem
 from skfem import BilinearForm, ElementTriP1, Functional, LinearForm
+from skfem.io.meshio import from_meshio
 
 import qmesh
 import qmesh.domains
@@ -83,7 +85,8 @@ def solve(mesh: qmesh.Mesh) -> dict:
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / "mesh.msh"
         qmesh.io.write(path, mesh)
-        fem_mesh = skfem.MeshTri.load(path)
+        # meshio.read would first try .msh as ANSYS (and print why not): name the format
+        fem_mesh = from_meshio(meshio.gmsh.read(path))
     basis = skfem.Basis(fem_mesh, ElementTriP1())
     hole = skfem.FacetBasis(fem_mesh, ElementTriP1(), facets=fem_mesh.boundaries["hole"])
     A = stiffness.assemble(basis)

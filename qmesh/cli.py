@@ -165,7 +165,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     p = sub.add_parser("mesh", help="mesh a domain and write the mesh file",
-                       description="Mesh a convex domain for the conductivity Q and write OUT "
+                       description="Mesh a domain for the conductivity Q and write OUT "
                        "(format from the extension: " + ", ".join(io.FORMATS) + ").")
     _add_anisotropy(p)
     g = p.add_mutually_exclusive_group()
