@@ -161,3 +161,28 @@ def test_cli_bad_file_is_one_error_line(tmp_path, capsys):
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1 and err.startswith("qmesh: error: polygon file ")
     assert not (tmp_path / "m.vtu").exists()
+
+
+json_values = st.recursive(st.none() | st.booleans() | st.integers() | st.floats() | st.text(max_size=5),
+                           lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=5), inner, max_size=4),
+                           max_leaves=20)
+polygonish = st.fixed_dictionaries({"type": st.sampled_from(["Polygon", "Feature", "FeatureCollection", "Point"]),
+                                    "coordinates": json_values, "geometry": json_values, "features": json_values})
+
+
+@settings(max_examples=80, deadline=None, derandomize=True)
+@given(content=st.one_of(st.text(max_size=200), st.binary(max_size=100),
+                         json_values.map(json.dumps), polygonish.map(json.dumps)),
+       suffix=st.sampled_from([".csv", ".geojson", ".txt"]))
+def test_any_file_gives_rings_or_one_qmesh_error(tmp_path_factory, content, suffix):
+    path = tmp_path_factory.mktemp("fuzz") / f"f{suffix}"
+    if isinstance(content, bytes):
+        path.write_bytes(content)
+    else:
+        path.write_text(content, encoding="utf-8", errors="surrogatepass")
+    try:
+        rs = read_rings(path)
+    except QmeshError as e:
+        assert str(path) in str(e) and "\n" not in str(e)
+        return
+    assert rs and all(r.ndim == 2 and r.shape[1] == 2 and len(r) >= 3 and np.isfinite(r).all() for r in rs)
