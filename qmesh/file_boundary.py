@@ -194,7 +194,7 @@ def tags_on(mesh, E: np.ndarray, tags: np.ndarray) -> tuple[np.ndarray, np.ndarr
     Line cells that are not boundary edges of the triangles are ignored.
     """
     n = np.int64(max(mesh.n_vertices, 1))
-    B = _oriented(mesh.triangles, _topological_boundary(mesh.triangles, n), n)
+    B = np.asarray(mesh.boundary_edges)  # from the triangles, Ω on the left
     kb = np.minimum(B[:, 0], B[:, 1]) * n + np.maximum(B[:, 0], B[:, 1])
     kf = np.minimum(E[:, 0], E[:, 1]) * n + np.maximum(E[:, 0], E[:, 1])
     order = np.argsort(kf, kind="stable")
@@ -204,15 +204,6 @@ def tags_on(mesh, E: np.ndarray, tags: np.ndarray) -> tuple[np.ndarray, np.ndarr
     out[hit] = tags[order[pos[hit]]]
     out[out <= 0] = 1
     return B, out
-
-
-def _topological_boundary(T: np.ndarray, n) -> np.ndarray:
-    """Edges (k, 2) that belong to exactly one triangle."""
-    a, b = T.ravel(), T[:, [1, 2, 0]].ravel()
-    key = np.minimum(a, b) * n + np.maximum(a, b)
-    u, count = np.unique(key, return_counts=True)
-    u = u[count == 1]
-    return np.column_stack([u // n, u % n])
 
 
 def _names_from(m, fmt: str, path: Path) -> dict[int, str]:

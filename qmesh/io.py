@@ -8,16 +8,18 @@ The format follows the file's extension (`FORMATS`). What travels with the mesh:
 - the conductivity itself (a constant Q, or the text of s), when `write` is given the
   anisotropy, in every format (`qmesh.file_conductivity` says where); `read_anisotropy`
   gives it back;
+- the boundary edges with their tags and tag names, as line cells (`qmesh.file_boundary`
+  says how); `read` gives them back in `Mesh.boundary_edges`, `boundary_tags`, `tag_names`;
 - any extra `point_data` / `cell_data` the caller passes.
 
-medit keeps only the fixed flag; .obj holds points and triangles only (`KEEPS_FIXED`,
-`KEEPS_DATA`, `KEEPS_CONDUCTIVITY` say which formats keep what).
+medit keeps no data but the fixed flag and the tags; .obj holds points, triangles and the
+conductivity only (`KEEPS_FIXED`, `KEEPS_DATA`, `KEEPS_TAGS`, `KEEPS_TAG_NAMES`,
+`KEEPS_CONDUCTIVITY` say which formats keep what).
 meshio is an optional dependency (`pip install qmesh[io]`), imported only when a file is used.
 """
 
 from __future__ import annotations
 
-import inspect
 import os
 import uuid
 from collections.abc import Mapping
@@ -60,7 +62,6 @@ _WRITE_OPTIONS = {
     "xdmf": {"data_format": "XML"},
 }
 _MEDIT_REF = "medit:ref"
-_MESH_TAKES_TAGS = "boundary_tags" in inspect.signature(Mesh).parameters
 _RESERVED = {"fixed", "quality", _MEDIT_REF, file_boundary.TAG_DATA, file_boundary.VERTEX_DATA,
              "gmsh:physical", "gmsh:geometrical", "gmsh:dim_tags"}
 
@@ -273,11 +274,7 @@ def read(path) -> Mesh:
     flip = signed_areas(P, T) < 0
     T[flip] = T[flip][:, [0, 2, 1]]
     mesh = Mesh(P, T, fixed)
-    if tagged is None or not _MESH_TAKES_TAGS:
+    if tagged is None:
         return mesh
     edges, tags = file_boundary.tags_on(mesh, *tagged[:2])
-    return _tagged_mesh(P, T, fixed, edges, tags, tagged[2])
-
-
-def _tagged_mesh(P, T, fixed, edges, tags, names) -> Mesh:
-    return Mesh(P, T, fixed, boundary_edges=edges, boundary_tags=tags, tag_names=names)
+    return Mesh(P, T, fixed, boundary_edges=edges, boundary_tags=tags, tag_names=tagged[2])

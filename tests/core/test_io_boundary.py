@@ -1,7 +1,5 @@
 """Boundary edges, tags and tag names go into mesh files and come back (qmesh.io, qmesh.file_boundary)."""
 
-import inspect
-
 import meshio
 import numpy as np
 import pytest
@@ -24,15 +22,7 @@ def _ccw(P, T):
 
 
 def tagged(P, T, fixed, edges, tags, names):
-    """A Mesh carrying boundary tags: through the constructor of the shared contract when it
-    takes them, else set on the frozen instance (the writer only reads the attributes)."""
-    if "boundary_tags" in inspect.signature(qmesh.Mesh).parameters:
-        return qmesh.Mesh(P, T, fixed, boundary_edges=edges, boundary_tags=tags, tag_names=names)
-    m = qmesh.Mesh(P, T, fixed)
-    object.__setattr__(m, "boundary_edges", np.asarray(edges))
-    object.__setattr__(m, "boundary_tags", np.asarray(tags))
-    object.__setattr__(m, "tag_names", dict(names))
-    return m
+    return qmesh.Mesh(P, T, fixed, boundary_edges=edges, boundary_tags=tags, tag_names=names)
 
 
 @pytest.fixture(scope="module")
