@@ -170,6 +170,33 @@ def _too_many(n: int, limit: int):
         "requested element size; ask for more vertices (a smaller size), or simplify the domain")
 
 
+def _drop_encroaching(domain, P, edge_id, anisotropy):
+    """Interior points inside the diametral ellipse of a subsegment, dropped before the first
+    Qhull run (constant Q: discs in metric coordinates, found with a k-d tree), so that run is
+    usually the only one."""
+    from scipy.spatial import cKDTree
+    n_seeds = len(domain.seeds)
+    free = np.flatnonzero((np.arange(len(P)) >= n_seeds) & (edge_id < 0))
+    if not len(free):
+        return P, edge_id
+    A, B = domain.segment_ends
+    on = edge_id >= 0
+    t = np.zeros(len(P))
+    E = B - A
+    t[on] = np.einsum("ki,ki->k", P[on] - A[edge_id[on]], E[edge_id[on]]) / \
+        np.einsum("ki,ki->k", E, E)[edge_id[on]]
+    a, b = _subsegments(domain, n_seeds, edge_id, t)
+    L = np.linalg.cholesky(anisotropy.H)
+    X = P @ L
+    M = 0.5 * (X[a] + X[b])
+    r = 0.5 * np.hypot(*(X[b] - X[a]).T)
+    hits = cKDTree(X[free]).query_ball_point(M, r * (1 + 1e-9))
+    inside = np.unique(np.fromiter((i for h in hits for i in h), np.int64))
+    keep = np.ones(len(P), bool)
+    keep[free[inside]] = False
+    return P[keep], edge_id[keep]
+
+
 def conforming_delaunay(domain, P: np.ndarray, edge_id: np.ndarray, anisotropy,
                         max_points: int | None = None) -> Conforming:
     """The conforming Q-Delaunay triangulation of Ω from scratch (Qhull), restricted to Ω.
@@ -184,6 +211,8 @@ def conforming_delaunay(domain, P: np.ndarray, edge_id: np.ndarray, anisotropy,
     A, Bend = domain.segment_ends
     seg_len2 = np.einsum("ki,ki->k", Bend - A, Bend - A)
     is_seed_pt = lambda i: i < n_seeds                                     # noqa: E731
+    if anisotropy.is_constant:
+        P, edge_id = _drop_encroaching(domain, P, edge_id, anisotropy)
     pinned = np.zeros(len(P), bool)
     for _ in range(MAX_ROUNDS):
         n = len(P)
