@@ -184,7 +184,9 @@ def _run(norm, h, area_m, lengths, target_vertices, alpha, quality_threshold, mi
 
     # 2. construct the conforming Q-Delaunay triangulation of Ω from scratch (Qhull)
     t0 = time.perf_counter()
-    st = _State(norm, conform.conforming_delaunay(domain, P, edge_id, anisotropy))
+    expected = target_vertices or sizing.vertices_for_size(area_m, lengths, h, bfac)
+    cap = int(min(sizing.MAX_VERTICES, 4 * expected + 4 * len(seeds) + 100))
+    st = _State(norm, conform.conforming_delaunay(domain, P, edge_id, anisotropy, cap))
     yield Step("triangulate", 0, st.mesh, st.stats(seconds=time.perf_counter() - t0))
 
     for it in range(1, max_iterations + 1):
@@ -252,7 +254,7 @@ def _run(norm, h, area_m, lengths, target_vertices, alpha, quality_threshold, mi
         t0 = time.perf_counter()
         st.T, st.twin, flips = restore(st.P, st.T, st.twin, anisotropy)
         c = conform.restore_conformity(st.P, st.T, st.twin, st.edge_id, st.fixed, st.pinned,
-                                       anisotropy)
+                                       anisotropy, cap)
         pushed = None if c.P[:len(st.P)] is st.P or np.array_equal(c.P[:len(st.P)], st.P) \
             else norm.scale * (c.P[:len(st.P)] - st.P)
         st.P, st.T, st.twin, st.edge_id, st.fixed, st.pinned = c.P, c.T, c.twin, c.edge_id, c.fixed, c.pinned
