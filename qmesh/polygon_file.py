@@ -9,7 +9,8 @@
   no features, a Feature without geometry, positions that are not 2 or 3 finite numbers (a
   third coordinate, the altitude, is dropped).
 
-In both, a ring's last point is dropped when it repeats the first (GeoJSON rings are closed
+`read_domain(path)` reads a file; `domain_from_text(content, name)` takes its content (an
+upload in the viewer). In both formats, a ring's last point is dropped when it repeats the first (GeoJSON rings are closed
 that way). Every defect raises one QmeshError naming the file and, where it can, the line
 (CSV, JSON syntax) or the ring and point.
 """
@@ -41,8 +42,28 @@ def read_rings(path) -> list[np.ndarray]:
         text = path.read_text(encoding="utf-8-sig")
     except (OSError, UnicodeDecodeError) as e:
         raise QmeshError(f"cannot read polygon file {str(path)!r}: {e}") from e
-    where = f"polygon file {str(path)!r}"
-    rings = _geojson_rings(text, where) if path.suffix.lower() in GEOJSON_SUFFIXES else _csv_rings(text, where)
+    return _rings_from_text(text, str(path))
+
+
+def domain_from_text(content, name: str) -> Domain:
+    """The domain in a polygon file's content (str or UTF-8 bytes, e.g. a browser upload);
+    `name`, the file's name, chooses GeoJSON or CSV by its suffix and names it in errors."""
+    if not isinstance(name, str):
+        raise QmeshError(f"name must be the file's name (a str), got {type(name).__name__}")
+    if isinstance(content, (bytes, bytearray)):
+        try:
+            content = bytes(content).decode("utf-8-sig")
+        except UnicodeDecodeError as e:
+            raise QmeshError(f"cannot read polygon file {name!r}: {e}") from e
+    if not isinstance(content, str):
+        raise QmeshError(f"content must be text or bytes, got {type(content).__name__}")
+    return domain_from_rings(_rings_from_text(content.removeprefix("\ufeff"), name), name)
+
+
+def _rings_from_text(text: str, name: str) -> list[np.ndarray]:
+    where = f"polygon file {name!r}"
+    geojson = Path(name).suffix.lower() in GEOJSON_SUFFIXES
+    rings = _geojson_rings(text, where) if geojson else _csv_rings(text, where)
     return [_checked_ring(r, i, where) for i, r in enumerate(rings)]
 
 

@@ -11,7 +11,7 @@ import qmesh
 from qmesh import io
 from qmesh.cli import main
 from qmesh.errors import QmeshError
-from qmesh.polygon_file import read_domain, read_rings
+from qmesh.polygon_file import domain_from_text, read_domain, read_rings
 
 coordinate = st.floats(allow_nan=False, allow_infinity=False, min_value=-1e12, max_value=1e12)
 ring = st.lists(st.tuples(coordinate, coordinate), min_size=3, max_size=12, unique=True)
@@ -186,3 +186,22 @@ def test_any_file_gives_rings_or_one_qmesh_error(tmp_path_factory, content, suff
         assert str(path) in str(e) and "\n" not in str(e)
         return
     assert rs and all(r.ndim == 2 and r.shape[1] == 2 and len(r) >= 3 and np.isfinite(r).all() for r in rs)
+
+
+def test_uploaded_content_makes_the_same_domain(tmp_path):
+    text = "x,y\n0,0\n4,0\n4,4\n0,4\n\n1,1\n1,2\n2,2\n2,1\n"
+    (tmp_path / "plate.csv").write_text(text)
+    from_file = read_domain(tmp_path / "plate.csv")
+    for content in (text, text.encode(), "\ufeff".encode() + text.encode()):
+        d = domain_from_text(content, "plate.csv")
+        assert len(d.rings) == 2 and all(np.array_equal(a, b) for a, b in zip(d.rings, from_file.rings))
+    d = domain_from_text(json.dumps(GEO_SQUARE).encode(), "upload.GEOJSON")
+    assert d.area == pytest.approx(1.0)
+    with pytest.raises(QmeshError, match=r"polygon file 'up.json': a MultiPolygon"):
+        domain_from_text('{"type": "MultiPolygon", "coordinates": []}', "up.json")
+    with pytest.raises(QmeshError, match=r"cannot read polygon file 'bad.csv'"):
+        domain_from_text(b"\xff\xfe0,0", "bad.csv")
+    with pytest.raises(QmeshError, match="content must be text or bytes"):
+        domain_from_text(None, "x.csv")
+    with pytest.raises(QmeshError, match="name must be the file's name"):
+        domain_from_text("0,0\n1,0\n0,1\n", None)
