@@ -10,9 +10,9 @@
   third coordinate, the altitude, is dropped).
 
 `read_domain(path)` reads a file; `domain_from_text(content, name)` takes its content (an
-upload in the viewer). In both formats, a ring's last point is dropped when it repeats the first (GeoJSON rings are closed
-that way). Every defect raises one QmeshError naming the file and, where it can, the line
-(CSV, JSON syntax) or the ring and point.
+upload in the viewer). In both formats, a ring's last point is dropped when it repeats the
+first (GeoJSON rings are closed that way). Every defect raises one QmeshError naming the file
+and, where it can, the line (CSV, JSON syntax) or the ring and point.
 """
 
 from __future__ import annotations
