@@ -15,6 +15,8 @@ the file unchanged and other programs ignore it:
 - `.vtk` (legacy): the header's title line (at most 256 characters);
 - `.mesh` (medit), `.obj`: a `#` comment line at the top of the file.
 
+Only the gmsh record survives a conversion by meshio (read, then write): meshio 5.3 has no
+place for free text in the other formats, and its .vtu/.vtk/.xdmf writers drop field data.
 A varying s given as Python callables (`Anisotropy.from_s`) has no text and is not stored.
 """
 
