@@ -170,15 +170,15 @@ def _too_many(n: int, limit: int):
         "requested element size; ask for more vertices (a smaller size), or simplify the domain")
 
 
-def _drop_encroaching(domain, P, edge_id, anisotropy):
-    """Interior points inside the diametral ellipse of a subsegment, dropped before the first
-    Qhull run (constant Q: discs in metric coordinates, found with a k-d tree), so that run is
-    usually the only one."""
+def _encroaching_free(domain, P, edge_id, anisotropy) -> np.ndarray:
+    """Mask of the points to keep: interior points inside the diametral ellipse of a subsegment
+    are dropped before the first Qhull run (constant Q: discs in metric coordinates, found with
+    a k-d tree), so that run is usually the only one."""
     from scipy.spatial import cKDTree
     n_seeds = len(domain.seeds)
     free = np.flatnonzero((np.arange(len(P)) >= n_seeds) & (edge_id < 0))
     if not len(free):
-        return P, edge_id
+        return np.ones(len(P), bool)
     A, B = domain.segment_ends
     on = edge_id >= 0
     t = np.zeros(len(P))
@@ -194,11 +194,11 @@ def _drop_encroaching(domain, P, edge_id, anisotropy):
     inside = np.unique(np.fromiter((i for h in hits for i in h), np.int64))
     keep = np.ones(len(P), bool)
     keep[free[inside]] = False
-    return P[keep], edge_id[keep]
+    return keep
 
 
 def conforming_delaunay(domain, P: np.ndarray, edge_id: np.ndarray, anisotropy,
-                        max_points: int | None = None) -> Conforming:
+                        max_points: int | None = None, pinned: np.ndarray | None = None) -> Conforming:
     """The conforming Q-Delaunay triangulation of Ω from scratch (Qhull), restricted to Ω.
 
     P holds the seeds first (as `domain.seeds`), then points on segments (`edge_id` ≥ 0), then
@@ -211,9 +211,10 @@ def conforming_delaunay(domain, P: np.ndarray, edge_id: np.ndarray, anisotropy,
     A, Bend = domain.segment_ends
     seg_len2 = np.einsum("ki,ki->k", Bend - A, Bend - A)
     is_seed_pt = lambda i: i < n_seeds                                     # noqa: E731
+    pinned = np.zeros(len(P), bool) if pinned is None else pinned
     if anisotropy.is_constant:
-        P, edge_id = _drop_encroaching(domain, P, edge_id, anisotropy)
-    pinned = np.zeros(len(P), bool)
+        keep = _encroaching_free(domain, P, edge_id, anisotropy)
+        P, edge_id, pinned = P[keep], edge_id[keep], pinned[keep]
     for _ in range(MAX_ROUNDS):
         n = len(P)
         t = np.zeros(n)
