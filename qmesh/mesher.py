@@ -25,7 +25,7 @@ import numpy as np
 from . import conform, seeding, sizing, topology
 from .adjust import limit_moves, newton_step
 from .anisotropy import Anisotropy
-from .boundary import hold_off_boundary, snap_to_boundary
+from .boundary import hold_off_boundary, hold_out_of_ellipses, snap_to_boundary
 from .domain import as_domain
 from .errors import QmeshError
 from .geometry import quadratic_form
@@ -218,6 +218,7 @@ def _run(norm, h, area_m, lengths, target_vertices, alpha, quality_threshold, mi
                 keep[snap.vertices] = True
         else:
             d = hold_off_boundary(P0, T0, st.twin, d, st.on_boundary(), anisotropy)
+        d = hold_out_of_ellipses(P0, st.T, st.twin, d, st.on_boundary(), anisotropy)
         Pn, d = limit_moves(P0, st.T, d, keep)
         Pn = _onto_edges(domain, Pn, st.edge_id)
         Hv = anisotropy.H if anisotropy.is_constant else np.asarray(anisotropy.hessian(P0))
