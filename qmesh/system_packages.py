@@ -33,7 +33,7 @@ class Group:
 
 
 GROUPS = (
-    Group("rendering", "vtk", ("libegl1", "libgl1-mesa-dri"),
+    Group("rendering", "vtk", ("libegl1", "libgl1", "libgl1-mesa-dri"),
           "off-screen rendering by VTK through Mesa EGL and llvmpipe (viewer, widget)"),
     Group("browser", "playwright", ("chromium", "libatomic1"),
           "the browser tests: Debian's chromium, driven by Playwright's node (needs libatomic)"),
