@@ -194,3 +194,12 @@ def test_mesh_help_says_what_the_readme_says():
     assert "--target-vertices N aim for N vertices: the mesh ends on N or a few percent above" in text
     assert "more than 10% is an error" in text
     assert "the mesh ends on N or a few percent above" in README and "more than 10%" in README
+
+
+def test_files_the_readme_commands_write_are_ignored_by_git():
+    """Run from the repository root, the README's commands leave nothing for `git status`."""
+    text = "".join(blocks("sh") + blocks("python"))
+    outputs = sorted(set(re.findall(r"-o (\S+)", text) + re.findall(r'io\.write\("([^"]+)"', text)))
+    assert "disk64.vtu" in outputs and "needle.vtu" in outputs
+    done = subprocess.run(["git", "check-ignore", *outputs], cwd=ROOT, capture_output=True, text=True)
+    assert sorted(done.stdout.split()) == outputs
