@@ -13,6 +13,7 @@ the exact command to run and returns 1.
 
 from __future__ import annotations
 
+import ctypes.util
 import importlib.util
 import os
 import shutil
@@ -24,22 +25,28 @@ from typing import Callable, Sequence
 
 @dataclass(frozen=True)
 class Group:
-    """Debian packages needed when the Python module `module` is installed."""
+    """Debian packages needed when the Python module `module` is installed; `libraries` and
+    `programs` are what they provide, looked for where there is no dpkg to ask."""
 
     name: str
     module: str
     packages: tuple[str, ...]
     why: str
+    libraries: tuple[str, ...] = ()
+    programs: tuple[str, ...] = ()
 
 
 GROUPS = (
     Group("rendering", "vtk", ("libegl1", "libgl1", "libgl1-mesa-dri"),
-          "off-screen rendering by VTK through Mesa EGL and llvmpipe (viewer, widget)"),
+          "off-screen rendering by VTK through Mesa EGL and llvmpipe (viewer, widget)",
+          libraries=("EGL", "GL")),
     Group("browser", "playwright", ("chromium", "libatomic1"),
-          "the browser tests: Debian's chromium, driven by Playwright's node (needs libatomic)"),
+          "the browser tests: Debian's chromium, driven by Playwright's node (needs libatomic)",
+          libraries=("atomic",), programs=("chromium",)),
     Group("gmsh", "gmsh", ("libgl1", "libglu1-mesa", "libxcursor1", "libxft2", "libxinerama1",
                            "libxrender1", "libfontconfig1", "libgomp1"),
-          "the peers extra's gmsh wheel (BAMG): X, GL, GLU and OpenMP libraries"),
+          "the peers extra's gmsh wheel (BAMG): X, GL, GLU and OpenMP libraries",
+          libraries=("GL", "GLU", "Xcursor", "Xft", "Xinerama", "Xrender", "fontconfig", "gomp")),
 )
 """Every group of system packages, with the module whose presence makes it needed."""
 
@@ -72,6 +79,14 @@ def missing(groups: Sequence[Group], run: Callable = subprocess.run) -> list[str
     return None if have is None else [p for p in wanted if p not in have]
 
 
+def not_found(groups: Sequence[Group]) -> list[str]:
+    """Libraries (as lib<name>) and programs of `groups` that cannot be found on this system."""
+    find, which = ctypes.util.find_library, shutil.which
+    libs = dict.fromkeys(lib for g in groups for lib in g.libraries)
+    progs = dict.fromkeys(p for g in groups for p in g.programs)
+    return [f"lib{lib}" for lib in libs if find(lib) is None] + [p for p in progs if which(p) is None]
+
+
 def may_use_apt(run: Callable = subprocess.run) -> list[str] | None:
     """The command prefix that runs apt-get as root ([] as root, ["sudo", "-n"]), or None."""
     if os.geteuid() == 0:
@@ -101,9 +116,14 @@ def setup(check_only: bool = False, everything: bool = False, run: Callable = su
         return 0
     lack = missing(groups, run)
     if lack is None:
+        absent = not_found(groups)
+        if not absent:
+            print("qmesh setup: no dpkg here; the libraries and programs the extras need were found",
+                  file=out)
+            return 0
         names = " ".join(dict.fromkeys(p for g in groups for p in g.packages))
-        print(f"qmesh setup: no dpkg here; install your system's equivalents of the Debian "
-              f"packages {names}", file=out)
+        print(f"qmesh setup: no dpkg here, and {' '.join(absent)} not found; install your "
+              f"system's equivalents of the Debian packages {names}", file=out)
         return 1
     what = ", ".join(g.name for g in groups)
     if not lack:

@@ -83,10 +83,21 @@ def test_a_failing_apt_get_is_reported():
     assert "failed with exit status 100" in out.getvalue()
 
 
-def test_no_dpkg_names_the_packages_and_fails():
+def test_no_dpkg_looks_for_the_libraries_and_programs(monkeypatch):
+    """Where dpkg cannot tell: all found is fine; anything missing is named, with the packages."""
+    out = io.StringIO()
+    monkeypatch.setattr(sp.ctypes.util, "find_library", lambda name: f"lib{name}.so")
+    monkeypatch.setattr(sp.shutil, "which", lambda name: f"/usr/bin/{name}")
+    assert sp.setup(everything=True, run=FakeSystem(dpkg=False), out=out) == 0
+    monkeypatch.setattr(sp.ctypes.util, "find_library", lambda name: None if name == "EGL" else "x")
     out = io.StringIO()
     assert sp.setup(everything=True, run=FakeSystem(dpkg=False), out=out) == 1
-    assert all(p in out.getvalue() for p in ALL)
+    assert "libEGL not found" in out.getvalue() and all(p in out.getvalue() for p in ALL)
+
+
+def test_every_group_can_be_looked_for_without_dpkg():
+    assert all(g.libraries for g in sp.GROUPS)
+    assert sp.not_found(sp.GROUPS) == []          # this machine has them all (the tests need them)
 
 
 def test_groups_follow_the_installed_extras():
