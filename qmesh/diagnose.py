@@ -86,7 +86,11 @@ def thin_domain(mesh, anisotropy) -> str | None:
     symptom = ("no interior vertex" if n_interior == 0
                else f"{n_interior} interior vertices, minimum metric quality {min_q:.3f}")
     h_need = width / (ROWS * ROW_HEIGHT)
-    need = vertices_for(area_m, perimeter, h_need) if h_need > 0 else None
+    # the count at that size, and at least the mesh's own N scaled by the missing width (tiny
+    # meshes are mostly boundary, which the area formula undercounts)
+    ratio = width / (ROWS * ROW_HEIGHT * h)
+    need = (max(vertices_for(area_m, perimeter, h_need), int(mesh.n_vertices / min(ratio, 1.0)) + 1)
+            if h_need > 0 else None)
     advice = (f"about {need} vertices (target_vertices / --target-vertices, or a metric size "
               f"of {h_need:.3g}) would put {ROWS:g} elements across it"
               if need else "its metric width is zero")

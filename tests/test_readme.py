@@ -191,9 +191,9 @@ def test_mesh_help_says_what_the_readme_says():
     done = subprocess.run([sys.executable, "-m", "qmesh", "mesh", "--help"], capture_output=True,
                           text=True, env=environment(COLUMNS="200"))
     text = " ".join(done.stdout.split())
-    assert "--target-vertices N aim for N vertices: the mesh ends on N or a few percent above" in text
-    assert "more than 10% is an error" in text
-    assert "the mesh ends on N or a few percent above" in README and "more than 10%" in README
+    said = "the mesh ends on N, or above it where keeping q_ij >= 0 on the boundary needs more vertices"
+    assert f"--target-vertices N aim for N vertices: {said}" in text
+    assert said.replace("q_ij >= 0", "`q_ij ≥ 0`") in " ".join(README.split())
 
 
 def test_files_the_readme_commands_write_are_ignored_by_git():
