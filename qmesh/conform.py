@@ -127,6 +127,14 @@ def _subsegments(domain, n_seeds, edge_id, t):
     return idx[:-1][same], idx[1:][same]
 
 
+def _canonical_order(T: np.ndarray) -> np.ndarray:
+    """Triangles rotated to start at their smallest vertex and sorted: Qhull lists them in an
+    order that depends on the coordinates' round-off, the mesher's later choices on the order."""
+    r = np.argmin(T, axis=1)
+    T = np.take_along_axis(T, (r[:, None] + np.arange(3)) % 3, axis=1)
+    return T[np.lexsort((T[:, 2], T[:, 1], T[:, 0]))]
+
+
 def _find_half_edges(T: np.ndarray, n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Half-edge id of a→b in T, or -1 where there is none."""
     key = T.astype(np.int64) * n + T[:, topology.NXT]
@@ -240,6 +248,7 @@ def conforming_delaunay(domain, P: np.ndarray, edge_id: np.ndarray, anisotropy,
             if not used.all():
                 raise QmeshError(f"{int((~used).sum())} points lie outside the domain; "
                                  "please report this domain")
+            T = _canonical_order(T)
             return Conforming(P, T, topology.twins(T), edge_id, pinned)
         crowd = ~missing[split] & ~free[split]              # split for another boundary point
         a, b = a[split], b[split]
