@@ -221,7 +221,7 @@ def _run(norm, h, area_m, lengths, target_vertices, alpha, quality_threshold, mi
         d = hold_out_of_ellipses(P0, st.T, st.twin, d, st.on_boundary(), anisotropy)
         Pn, d = limit_moves(P0, st.T, d, keep)
         Pn = _onto_edges(domain, Pn, st.edge_id)
-        Hv = anisotropy.H if anisotropy.is_constant else np.asarray(anisotropy.hessian(P0))
+        Hv = anisotropy.H if anisotropy.is_constant else _hessian_at_vertices(norm, P0)
         move2 = quadratic_form(d[:, None], Hv)
         max_move = float(np.sqrt(move2.max()) / h)
         rms_move = float(np.sqrt(move2.mean()) / h)
@@ -279,6 +279,20 @@ def _run(norm, h, area_m, lengths, target_vertices, alpha, quality_threshold, mi
                    moved=pushed, added=c.added, converged=converged)
         if converged:
             return
+
+
+def _hessian_at_vertices(norm, P) -> np.ndarray:
+    """∇²s at the vertices; QmeshError naming a point (user coordinates) where it is not finite
+    and SPD: the probe before the run samples Ω, this catches what the probe missed."""
+    with np.errstate(all="ignore"):
+        H = np.asarray(norm.anisotropy.hessian(P), dtype=float)
+    det = H[:, 0, 0] * H[:, 1, 1] - H[:, 0, 1] * H[:, 1, 0]
+    bad = ~(np.isfinite(H).all(axis=(1, 2)) & (H[:, 0, 0] > 0) & (det > 0))
+    if bad.any():
+        x = norm.center + norm.scale * P[np.flatnonzero(bad)[0]]
+        raise QmeshError(f"the Hessian of s is not finite and positive definite at "
+                         f"({x[0]:.6g}, {x[1]:.6g}), a vertex of the mesh inside the domain")
+    return H
 
 
 def _onto_edges(domain, P, edge_id):
