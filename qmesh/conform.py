@@ -206,15 +206,31 @@ def _encroaching_free(domain, P, edge_id, anisotropy) -> np.ndarray:
 
 
 def conforming_delaunay(domain, P: np.ndarray, edge_id: np.ndarray, anisotropy,
-                        max_points: int | None = None, pinned: np.ndarray | None = None) -> Conforming:
+                        max_points: int | None = None, pinned: np.ndarray | None = None,
+                        target: int | None = None, rng=None) -> Conforming:
     """The conforming Q-Delaunay triangulation of Ω from scratch (Qhull), restricted to Ω.
 
     P holds the seeds first (as `domain.seeds`), then points on segments (`edge_id` ≥ 0), then
     interior points. Free interior points that encroach a subsegment are dropped (the mesher's
     insertion stage puts points back where they are missing); subsegments that are not edges or
     are encroached by a boundary point are split; Qhull runs again until neither happens.
-    More than `max_points` points raises TooManySplits (a QmeshError).
+    More than `max_points` points raises TooManySplits (a QmeshError). With a `target` vertex
+    count, the splits take the place of as many interior points (drawn with `rng`), and the
+    triangulation is built once more without them.
     """
+    built = _conforming(domain, P, edge_id, anisotropy, max_points, pinned)
+    excess = len(built.P) - target if target is not None else 0
+    free = np.flatnonzero((np.arange(len(built.P)) >= len(domain.seeds)) & (built.edge_id < 0))
+    if excess <= 0 or not len(free):
+        return built
+    keep = np.ones(len(built.P), bool)
+    keep[rng.choice(free, size=min(excess, len(free)), replace=False)] = False
+    return _conforming(domain, built.P[keep], built.edge_id[keep], anisotropy, max_points,
+                       built.pinned[keep])
+
+
+def _conforming(domain, P, edge_id, anisotropy, max_points, pinned) -> Conforming:
+    """One conforming build (see conforming_delaunay)."""
     n_seeds = len(domain.seeds)
     A, Bend = domain.segment_ends
     seg_len2 = np.einsum("ki,ki->k", Bend - A, Bend - A)

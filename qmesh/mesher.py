@@ -186,16 +186,8 @@ def _run(norm, h, area_m, lengths, target_vertices, alpha, quality_threshold, mi
     t0 = time.perf_counter()
     expected = target_vertices or sizing.vertices_for_size(area_m, lengths, h, bfac)
     cap = int(min(sizing.MAX_VERTICES, 4 * expected + 4 * len(seeds) + 100))
-    built = conform.conforming_delaunay(domain, P, edge_id, anisotropy, cap)
-    excess = len(built.P) - target_vertices if target_vertices is not None else 0
-    free = np.flatnonzero((np.arange(len(built.P)) >= len(seeds)) & (built.edge_id < 0))
-    if excess > 0 and len(free):
-        # the splits that conformity needed take the place of as many interior points
-        drop = rng.choice(free, size=min(excess, len(free)), replace=False)
-        keep = np.ones(len(built.P), bool)
-        keep[drop] = False
-        built = conform.conforming_delaunay(domain, built.P[keep], built.edge_id[keep],
-                                            anisotropy, cap, built.pinned[keep])
+    built = conform.conforming_delaunay(domain, P, edge_id, anisotropy, cap,
+                                        target=target_vertices, rng=rng)
     st = _State(norm, built)
     yield Step("triangulate", 0, st.mesh, st.stats(seconds=time.perf_counter() - t0))
 
