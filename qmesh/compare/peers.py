@@ -177,29 +177,45 @@ def peer_mesh(peer: str, domain, anisotropy, target_vertices: int, *, rtol: floa
     H = _constant_metric(anisotropy)
     seeds = np.asarray(domain.seeds, dtype=float)
     n_b = len(seeds)
-    want = int(target_vertices) - n_b
-    if want < 1:
+    if int(target_vertices) - n_b < 1:
         raise QmeshError(f"target_vertices must exceed the {n_b} boundary points")
     metric_area = np.sqrt(np.linalg.det(H)) * domain.area
-    h = np.sqrt(2.0 * metric_area / (np.sqrt(3.0) * want))   # equilateral metric triangles
-    history, best = [], None
+    h = np.sqrt(2.0 * metric_area / (np.sqrt(3.0) * (int(target_vertices) - n_b)))   # equilateral metric triangles
+
+    def once(h):
+        P, T = _ONCE[peer](seeds, H / h**2)
+        return _with_fixed(P, T, seeds)
+
+    return calibrate(once, h, target_vertices, n_b, rtol=rtol, max_runs=max_runs)
+
+
+def calibrate(run_once, h0: float, target_vertices: int, n_fixed: int, *, rtol: float = 0.03,
+              max_runs: int = 10, slope0: float = -2.0) -> PeerMesh:
+    """Call run_once(h) → Mesh until N is within rtol of the target; the closest run is returned.
+
+    N − n_fixed scales like h^slope (−2 in 2-D); each run refits the slope from the last two
+    runs (a secant step in log-log).
+    """
+    want = int(target_vertices) - n_fixed
+    if want < 1:
+        raise QmeshError(f"target_vertices must exceed the {n_fixed} fixed points")
+    h, history, best = float(h0), [], None
     for run in range(1, max_runs + 1):
         t0 = time.perf_counter()
-        P, T = _ONCE[peer](seeds, H / h**2)
+        mesh = run_once(h)
         seconds = time.perf_counter() - t0
-        got = max(len(P) - n_b, 1)
-        result = PeerMesh(_with_fixed(P, T, seeds), seconds, run, float(h))
-        miss = abs(len(P) - target_vertices) / target_vertices
+        miss = abs(mesh.n_vertices - target_vertices) / target_vertices
         if best is None or miss < best[0]:
-            best = (miss, result)
+            best = (miss, PeerMesh(mesh, seconds, run, h))
         if miss <= rtol:
             break
+        got = max(mesh.n_vertices - n_fixed, 1)
         history.append((np.log(h), np.log(got)))
-        slope = -2.0
+        slope = slope0
         if len(history) >= 2:
             (x0, y0), (x1, y1) = history[-2:]
-            if abs(x1 - x0) > 1e-9:
+            if abs(x1 - x0) > 1e-9 and y1 != y0:
                 slope = float(np.clip((y1 - y0) / (x1 - x0), -4.0, -0.5))
         h *= float(np.exp(np.log(want / got) / slope))
-    miss, result = best
+    _, result = best
     return PeerMesh(result.mesh, result.seconds, run, result.h)
