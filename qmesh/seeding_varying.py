@@ -1,0 +1,163 @@
+"""Initial interior points for a varying s: a maximal Poisson-disk sample in the metric ∇²s.
+
+For a constant Q the start is the metric lattice (seeding.py). For a varying s no global
+lattice exists, and the random start left to grow coarse to fine freezes lattice defects that
+the vertex step cannot anneal. This start puts about the target number of points at once, each
+pair at least a metric distance r apart (so the first triangulation has no short edges) and
+maximal (no hole wider than r), at the density √det ∇²s the target asks for:
+
+1. candidates: points uniform in the seeds' bounding box, kept inside Ω with a metric margin
+   (six probes at metric distance MARGIN·r must be inside too), then thinned with probability
+   ∝ √det ∇²s (rejection sampling of the metric density);
+2. the conflict graph: pairs closer than r in the metric ½(H_i + H_j), found with a KD-tree in
+   the coordinates of the domain's mean metric (so only the residual anisotropy widens the
+   search);
+3. a maximal independent set of that graph by Luby's rounds (random priorities; a candidate
+   whose priority beats all its undecided neighbours is kept, its neighbours dropped), all
+   vectorised;
+4. r is rescaled from the count and the sample redrawn until it holds about n points.
+It uses only `domain.contains`, `domain.seeds` and the seeds' bounds.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+OVERSAMPLE = 4        # candidates per wanted point
+MARGIN = 0.5          # kept points stay this many r (metric) inside Ω
+PACKING = 0.68        # maximal Poisson-disk samples hold about this share of the hexagonal lattice's points
+PASSES = 3            # draws to land the count
+
+
+def _sym_eig_min(H: np.ndarray) -> np.ndarray:
+    """Smallest eigenvalue of symmetric 2×2 matrices (…, 2, 2)."""
+    a, b, c = H[..., 0, 0], H[..., 0, 1], H[..., 1, 1]
+    return 0.5 * (a + c) - np.hypot(0.5 * (a - c), b)
+
+
+def _inv_sqrt_spd(H: np.ndarray) -> np.ndarray:
+    """H^{-1/2} of symmetric positive definite 2×2 matrices (n, 2, 2)."""
+    w, V = np.linalg.eigh(H)
+    return np.einsum("nij,nj,nkj->nik", V, 1.0 / np.sqrt(w), V)
+
+
+def _candidates(domain, anisotropy, k: int, r: float, rng):
+    """About k points inside Ω at the metric density √det H, at least MARGIN·r (metric) from ∂Ω."""
+    lo, hi = domain.seeds.min(axis=0), domain.seeds.max(axis=0)
+    X = np.empty((0, 2))
+    H = np.empty((0, 2, 2))
+    draw = 1024
+    t = np.pi * np.arange(6) / 3
+    U = np.column_stack([np.cos(t), np.sin(t)])
+    for _ in range(8):                            # a pilot draw, then what its yield says is missing
+        B = lo + rng.random((draw, 2)) * (hi - lo)
+        B = B[domain.contains(B, tol=0.0)]
+        HB = np.asarray(anisotropy.hessian(B), dtype=float)
+        density = np.sqrt(np.clip(HB[:, 0, 0] * HB[:, 1, 1] - HB[:, 0, 1] ** 2, 0.0, None))
+        if not len(B) or density.max() <= 0:
+            break
+        keep = rng.random(len(B)) * density.max() < density   # metric density √det H
+        B, HB = B[keep], HB[keep]
+        # six probes at metric distance MARGIN·r: x + MARGIN·r·H^{-1/2} u
+        probes = B[:, None, :] + MARGIN * r * np.einsum("nij,kj->nki", _inv_sqrt_spd(HB), U)
+        inside = domain.contains(probes.reshape(-1, 2), tol=0.0).reshape(len(B), 6).all(axis=1)
+        X, H = np.concatenate([X, B[inside]]), np.concatenate([H, HB[inside]])
+        if len(X) >= k:
+            break
+        rate = max(inside.sum(), 1) / draw
+        draw = int(min(1.1 * (k - len(X)) / rate + 64, 64 * k))
+    return X[:k], H[:k]
+
+
+def _conflicts(X: np.ndarray, H: np.ndarray, r: float, Lbar: np.ndarray):
+    """Pairs (i < j) closer than r in the metric ½(H_i + H_j).
+
+    Searched in y = x L̄ (L̄L̄ᵀ the mean metric), where a metric distance r is at most
+    reach = r/√λ_min(G) (G = H in y-coordinates; λ_min of the pair's mean metric is at least
+    the smaller of the two). Points are binned by reach (factors of 2); a pair is searched among
+    the points up to its higher bin with that bin's reach: one KD-tree query per bin.
+    """
+    Y = X @ Lbar
+    Linv = np.linalg.inv(Lbar)
+    G = np.einsum("ji,njk,kl->nil", Linv, H, Linv)
+    reach = r / np.sqrt(np.clip(_sym_eig_min(G), 1e-300, None))
+    level = np.floor(np.log2(reach / reach.min())).astype(np.int64)
+    found = []
+    for b in np.unique(level):
+        idx = np.flatnonzero(level <= b)
+        p = cKDTree(Y[idx]).query_pairs(float(reach.min() * 2.0 ** (b + 1)), output_type="ndarray")
+        p = idx[p]
+        found.append(p[np.maximum(level[p[:, 0]], level[p[:, 1]]) == b])
+    i, j = np.concatenate(found).T
+    E = X[j] - X[i]
+    d2 = np.einsum("ni,nij,nj->n", E, 0.5 * (H[i] + H[j]), E)
+    close = d2 < r * r
+    return i[close], j[close]
+
+
+def _luby(n: int, i: np.ndarray, j: np.ndarray, rng) -> np.ndarray:
+    """A maximal independent set of the graph on n nodes with edges (i, j): boolean mask."""
+    prio = rng.permutation(n).astype(np.int64)
+    state = np.zeros(n, np.int8)                  # 0 undecided, 1 kept, −1 dropped
+    while True:
+        live = (state[i] == 0) & (state[j] == 0)
+        a, b = i[live], j[live]
+        best = prio.copy()                          # lowest priority among undecided neighbours
+        np.minimum.at(best, a, prio[b])
+        np.minimum.at(best, b, prio[a])
+        undecided = state == 0
+        if not undecided.any():
+            return state == 1
+        win = undecided & (best == prio)
+        state[win] = 1
+        drop = np.zeros(n, bool)
+        drop[a[win[b]]] = True
+        drop[b[win[a]]] = True
+        state[drop & (state == 0)] = -1
+
+
+def _mean_metric(domain, anisotropy, rng) -> np.ndarray:
+    """L̄ with L̄L̄ᵀ the mean Hessian over random points of Ω (the coordinates of the search)."""
+    lo, hi = domain.seeds.min(axis=0), domain.seeds.max(axis=0)
+    X = lo + rng.random((512, 2)) * (hi - lo)
+    X = X[domain.contains(X, tol=0.0)]
+    if not len(X):
+        X = domain.seeds
+    return np.linalg.cholesky(np.asarray(anisotropy.hessian(X), dtype=float).mean(axis=0))
+
+
+def metric_area_estimate(domain, anisotropy, rng, k: int = 4096) -> float:
+    """∫_Ω √det ∇²s by Monte Carlo over the seeds' bounding box."""
+    lo, hi = domain.seeds.min(axis=0), domain.seeds.max(axis=0)
+    X = lo + rng.random((k, 2)) * (hi - lo)
+    inside = domain.contains(X, tol=0.0)
+    H = np.asarray(anisotropy.hessian(X[inside]), dtype=float)
+    det = np.clip(H[:, 0, 0] * H[:, 1, 1] - H[:, 0, 1] ** 2, 0.0, None)
+    return float(np.sqrt(det).sum() / k * np.prod(hi - lo))
+
+
+def initial_points(domain, anisotropy, n: int, rng) -> np.ndarray:
+    """About n (never more) interior points, a maximal Poisson-disk sample in the metric ∇²s."""
+    n = int(n)
+    if n < 1:
+        return np.empty((0, 2))
+    Lbar = _mean_metric(domain, anisotropy, rng)
+    area_m = metric_area_estimate(domain, anisotropy, rng)
+    r = np.sqrt(PACKING * 2.0 * area_m / (np.sqrt(3.0) * n))     # hexagonal cell √3/2·h² per point
+    best = np.empty((0, 2))
+    for _ in range(PASSES):
+        X, H = _candidates(domain, anisotropy, OVERSAMPLE * n, r, rng)
+        if not len(X):
+            r *= 0.5
+            continue
+        i, j = _conflicts(X, H, r, Lbar)
+        P = X[_luby(len(X), i, j, rng)]
+        if abs(len(P) - n) < abs(len(best) - n):
+            best = P
+        if abs(len(P) - n) <= 0.03 * n:
+            break
+        r *= np.sqrt(len(P) / n)
+    if len(best) > n:
+        best = best[rng.choice(len(best), n, replace=False)]
+    return best
