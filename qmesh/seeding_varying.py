@@ -96,9 +96,13 @@ def _conflicts(X: np.ndarray, H: np.ndarray, r: float, Lbar: np.ndarray):
     return i[close], j[close]
 
 
-def _luby(n: int, i: np.ndarray, j: np.ndarray, rng) -> np.ndarray:
-    """A maximal independent set of the graph on n nodes with edges (i, j): boolean mask."""
-    prio = rng.permutation(n).astype(np.int64)
+def _luby(n: int, i: np.ndarray, j: np.ndarray, rng, priority=None) -> np.ndarray:
+    """A maximal independent set of the graph on n nodes with edges (i, j): boolean mask.
+
+    Lower `priority` wins a conflict (random when None)."""
+    order = rng.permutation(n) if priority is None else np.lexsort((rng.random(n), priority))
+    prio = np.empty(n, np.int64)
+    prio[order] = np.arange(n)
     state = np.zeros(n, np.int8)                  # 0 undecided, 1 kept, −1 dropped
     while True:
         live = (state[i] == 0) & (state[j] == 0)
@@ -135,6 +139,87 @@ def metric_area_estimate(domain, anisotropy, rng, k: int = 4096) -> float:
     H = np.asarray(anisotropy.hessian(X[inside]), dtype=float)
     det = np.clip(H[:, 0, 0] * H[:, 1, 1] - H[:, 0, 1] ** 2, 0.0, None)
     return float(np.sqrt(det).sum() / k * np.prod(hi - lo))
+
+
+PATCH = 6.0           # lattice patches span this many lattice spacings (in the mean metric)
+OVERLAP = 0.75        # each patch's lattice reaches this share of a patch size from its centre
+
+
+def _inside_with_margin(domain, X, H, margin: float) -> np.ndarray:
+    """Points whose six probes at metric distance `margin` (x + margin·H^{-1/2} u) are inside Ω."""
+    t = np.pi * np.arange(6) / 3
+    U = np.column_stack([np.cos(t), np.sin(t)])
+    probes = X[:, None, :] + margin * np.einsum("nij,kj->nki", _inv_sqrt_spd(H), U)
+    return domain.contains(probes.reshape(-1, 2), tol=0.0).reshape(len(X), 6).all(axis=1)
+
+
+def _patch_lattices(domain, anisotropy, h: float, Lbar: np.ndarray, rng):
+    """Hexagonal lattices of metric spacing h, one per patch, each in the metric at its centre.
+
+    Patches tile the seeds' bounding box in y = x L̄; each lattice reaches OVERLAP·PATCH·h from
+    its centre so neighbours overlap. Returns the points, their Hessians and their priority
+    (distance from their own patch centre in patch half-sizes: the core of a patch wins).
+    """
+    S = PATCH * h
+    Y0 = domain.seeds @ Lbar
+    lo, hi = Y0.min(axis=0), Y0.max(axis=0)
+    gx = lo[0] + S * (np.arange(int(np.ceil((hi[0] - lo[0]) / S)) + 1))  - 0.5 * S
+    gy = lo[1] + S * (np.arange(int(np.ceil((hi[1] - lo[1]) / S)) + 1)) - 0.5 * S
+    Yc = np.stack(np.meshgrid(gx, gy, indexing="ij"), axis=-1).reshape(-1, 2)
+    Linv = np.linalg.inv(Lbar)
+    Xc = Yc @ Linv
+    with np.errstate(all="ignore"):
+        Hc = np.asarray(anisotropy.hessian(Xc), dtype=float)
+    ok = np.all(np.isfinite(Hc), axis=(1, 2)) & (Hc[:, 0, 0] > 0) & \
+        (Hc[:, 0, 0] * Hc[:, 1, 1] - Hc[:, 0, 1] ** 2 > 0)
+    Yc, Xc, Hc = Yc[ok], Xc[ok], Hc[ok]
+    B = _inv_sqrt_spd(Hc)                                          # lattice basis: H^{-1/2}
+    # lattice steps needed to reach OVERLAP·S in y: the shortest y-length of a unit metric step
+    YB = np.einsum("kij,jl->kil", np.transpose(B, (0, 2, 1)), Lbar)  # rows: y-image of the metric axes
+    shortest = np.sqrt(np.clip(_sym_eig_min(np.einsum("kij,klj->kil", YB, YB)), 1e-300, None))
+    m = int(min(np.ceil(OVERLAP * S * np.sqrt(2.0) / (h * shortest.min())) + 1, 60))
+    i, j = np.meshgrid(np.arange(-m, m + 1), np.arange(-m, m + 1), indexing="ij")
+    Z = h * np.column_stack([(i + 0.5 * j).ravel(), (np.sqrt(3.0) / 2.0 * j).ravel()])
+    X = Xc[:, None, :] + np.einsum("kij,nj->kni", B, Z)             # (K, (2m+1)², 2)
+    Y = X @ Lbar
+    d = np.abs(Y - Yc[:, None, :]).max(axis=2) / (0.5 * S)
+    keep = d <= 2.0 * OVERLAP
+    X, d = X[keep], d[keep]
+    X += rng.uniform(-1e-3, 1e-3, X.shape) * h * 0  # no jitter: the MIS breaks ties
+    inside = domain.contains(X, tol=0.0)
+    X, d = X[inside], d[inside]
+    H = np.asarray(anisotropy.hessian(X), dtype=float)
+    return X, H, d
+
+
+def lattice_points(domain, anisotropy, n: int, rng) -> np.ndarray:
+    """About n (never more) interior points: patch lattices in the local metric, merged by a
+    maximal independent set that prefers each patch's core."""
+    n = int(n)
+    if n < 1:
+        return np.empty((0, 2))
+    Lbar = _mean_metric(domain, anisotropy, rng)
+    area_m = metric_area_estimate(domain, anisotropy, rng)
+    h = np.sqrt(2.0 * area_m / (np.sqrt(3.0) * n))
+    best = np.empty((0, 2))
+    for _ in range(PASSES):
+        X, H, prio = _patch_lattices(domain, anisotropy, h, Lbar, rng)
+        inside = _inside_with_margin(domain, X, H, LATTICE_MARGIN * h)
+        X, H, prio = X[inside], H[inside], prio[inside]
+        i, j = _conflicts(X, H, CONFLICT * h, Lbar)
+        P = X[_luby(len(X), i, j, rng, prio)]
+        if abs(len(P) - n) < abs(len(best) - n):
+            best = P
+        if abs(len(P) - n) <= 0.03 * n:
+            break
+        h *= np.sqrt(len(P) / n)
+    if len(best) > n:
+        best = best[rng.choice(len(best), n, replace=False)]
+    return best
+
+
+LATTICE_MARGIN = 0.5  # lattice points keep this many spacings (metric) inside Ω
+CONFLICT = 0.8        # lattice points closer than this many spacings (metric) conflict
 
 
 def initial_points(domain, anisotropy, n: int, rng) -> np.ndarray:
