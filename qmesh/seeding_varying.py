@@ -1,21 +1,20 @@
-"""Initial interior points for a varying s: a maximal Poisson-disk sample in the metric ∇²s.
+"""Initial interior points for a varying s: hexagonal lattices in the local metric, patch by patch.
 
-For a constant Q the start is the metric lattice (seeding.py). For a varying s no global
-lattice exists, and the random start left to grow coarse to fine freezes lattice defects that
-the vertex step cannot anneal. This start puts about the target number of points at once, each
-pair at least a metric distance r apart (so the first triangulation has no short edges) and
-maximal (no hole wider than r), at the density √det ∇²s the target asks for:
+For a constant Q the start is the metric lattice (seeding.py): the optimal mesh is equilateral
+in the metric, and a random start freezes lattice defects that the vertex step cannot anneal.
+A varying s has no global lattice, but the metric ∇²s changes slowly on the scale of a few
+edges, so a lattice per patch is nearly optimal inside the patch:
 
-1. candidates: points uniform in the seeds' bounding box, kept inside Ω with a metric margin
-   (six probes at metric distance MARGIN·r must be inside too), then thinned with probability
-   ∝ √det ∇²s (rejection sampling of the metric density);
-2. the conflict graph: pairs closer than r in the metric ½(H_i + H_j), found with a KD-tree in
-   the coordinates of the domain's mean metric (so only the residual anisotropy widens the
-   search);
-3. a maximal independent set of that graph by Luby's rounds (random priorities; a candidate
-   whose priority beats all its undecided neighbours is kept, its neighbours dropped), all
-   vectorised;
-4. r is rescaled from the count and the sample redrawn until it holds about n points.
+1. patches tile the seeds' bounding box in y = x L̄ (L̄L̄ᵀ the mean Hessian over Ω), PATCH
+   lattice spacings wide; each carries the hexagonal lattice of metric spacing h in the metric
+   at its centre (basis H_c^{-1/2}, so neighbouring lattices have nearly the same orientation),
+   reaching past the patch so that neighbours overlap; points outside Ω or closer than MARGIN·h
+   (metric) to its boundary are dropped;
+2. two points conflict when closer than CONFLICT·h in the metric ½(H_i + H_j) (a KD-tree in
+   y-coordinates, binned by search reach);
+3. a maximal independent set of the conflict graph (Luby's rounds, vectorised) keeps every
+   patch's core and fills the seams from whichever lattice fits;
+4. h comes from the metric area ∫√det ∇²s (Monte Carlo) and is rescaled from the count.
 It uses only `domain.contains`, `domain.seeds` and the seeds' bounds.
 """
 
@@ -24,10 +23,12 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-OVERSAMPLE = 4        # candidates per wanted point
-MARGIN = 0.5          # kept points stay this many r (metric) inside Ω
-PACKING = 0.68        # maximal Poisson-disk samples hold about this share of the hexagonal lattice's points
+PATCH = 6.0           # lattice patches span this many lattice spacings (in the mean metric)
+OVERLAP = 0.75        # each patch's lattice reaches this share of a patch size from its centre
+CONFLICT = 0.9        # points closer than this many spacings (metric) conflict
+MARGIN = 0.5          # points keep this many spacings (metric) inside Ω
 PASSES = 3            # draws to land the count
+MAX_LATTICE = 2e7     # at most about this many lattice points before filtering
 
 
 def _sym_eig_min(H: np.ndarray) -> np.ndarray:
@@ -40,34 +41,6 @@ def _inv_sqrt_spd(H: np.ndarray) -> np.ndarray:
     """H^{-1/2} of symmetric positive definite 2×2 matrices (n, 2, 2)."""
     w, V = np.linalg.eigh(H)
     return np.einsum("nij,nj,nkj->nik", V, 1.0 / np.sqrt(w), V)
-
-
-def _candidates(domain, anisotropy, k: int, r: float, rng):
-    """About k points inside Ω at the metric density √det H, at least MARGIN·r (metric) from ∂Ω."""
-    lo, hi = domain.seeds.min(axis=0), domain.seeds.max(axis=0)
-    X = np.empty((0, 2))
-    H = np.empty((0, 2, 2))
-    draw = 1024
-    t = np.pi * np.arange(6) / 3
-    U = np.column_stack([np.cos(t), np.sin(t)])
-    for _ in range(8):                            # a pilot draw, then what its yield says is missing
-        B = lo + rng.random((draw, 2)) * (hi - lo)
-        B = B[domain.contains(B, tol=0.0)]
-        HB = np.asarray(anisotropy.hessian(B), dtype=float)
-        density = np.sqrt(np.clip(HB[:, 0, 0] * HB[:, 1, 1] - HB[:, 0, 1] ** 2, 0.0, None))
-        if not len(B) or density.max() <= 0:
-            break
-        keep = rng.random(len(B)) * density.max() < density   # metric density √det H
-        B, HB = B[keep], HB[keep]
-        # six probes at metric distance MARGIN·r: x + MARGIN·r·H^{-1/2} u
-        probes = B[:, None, :] + MARGIN * r * np.einsum("nij,kj->nki", _inv_sqrt_spd(HB), U)
-        inside = domain.contains(probes.reshape(-1, 2), tol=0.0).reshape(len(B), 6).all(axis=1)
-        X, H = np.concatenate([X, B[inside]]), np.concatenate([H, HB[inside]])
-        if len(X) >= k:
-            break
-        rate = max(inside.sum(), 1) / draw
-        draw = int(min(1.1 * (k - len(X)) / rate + 64, 64 * k))
-    return X[:k], H[:k]
 
 
 def _conflicts(X: np.ndarray, H: np.ndarray, r: float, Lbar: np.ndarray):
@@ -141,10 +114,6 @@ def metric_area_estimate(domain, anisotropy, rng, k: int = 4096) -> float:
     return float(np.sqrt(det).sum() / k * np.prod(hi - lo))
 
 
-PATCH = 6.0           # lattice patches span this many lattice spacings (in the mean metric)
-OVERLAP = 0.75        # each patch's lattice reaches this share of a patch size from its centre
-
-
 def _inside_with_margin(domain, X, H, margin: float) -> np.ndarray:
     """Points whose six probes at metric distance `margin` (x + margin·H^{-1/2} u) are inside Ω."""
     t = np.pi * np.arange(6) / 3
@@ -153,7 +122,7 @@ def _inside_with_margin(domain, X, H, margin: float) -> np.ndarray:
     return domain.contains(probes.reshape(-1, 2), tol=0.0).reshape(len(X), 6).all(axis=1)
 
 
-def _patch_lattices(domain, anisotropy, h: float, Lbar: np.ndarray, rng):
+def _patch_lattices(domain, anisotropy, h: float, Lbar: np.ndarray):
     """Hexagonal lattices of metric spacing h, one per patch, each in the metric at its centre.
 
     Patches tile the seeds' bounding box in y = x L̄; each lattice reaches OVERLAP·PATCH·h from
@@ -163,7 +132,7 @@ def _patch_lattices(domain, anisotropy, h: float, Lbar: np.ndarray, rng):
     S = PATCH * h
     Y0 = domain.seeds @ Lbar
     lo, hi = Y0.min(axis=0), Y0.max(axis=0)
-    gx = lo[0] + S * (np.arange(int(np.ceil((hi[0] - lo[0]) / S)) + 1))  - 0.5 * S
+    gx = lo[0] + S * (np.arange(int(np.ceil((hi[0] - lo[0]) / S)) + 1)) - 0.5 * S
     gy = lo[1] + S * (np.arange(int(np.ceil((hi[1] - lo[1]) / S)) + 1)) - 0.5 * S
     Yc = np.stack(np.meshgrid(gx, gy, indexing="ij"), axis=-1).reshape(-1, 2)
     Linv = np.linalg.inv(Lbar)
@@ -177,7 +146,8 @@ def _patch_lattices(domain, anisotropy, h: float, Lbar: np.ndarray, rng):
     # lattice steps needed to reach OVERLAP·S in y: the shortest y-length of a unit metric step
     YB = np.einsum("kij,jl->kil", np.transpose(B, (0, 2, 1)), Lbar)  # rows: y-image of the metric axes
     shortest = np.sqrt(np.clip(_sym_eig_min(np.einsum("kij,klj->kil", YB, YB)), 1e-300, None))
-    m = int(min(np.ceil(OVERLAP * S * np.sqrt(2.0) / (h * shortest.min())) + 1, 60))
+    m = int(np.ceil(OVERLAP * S * np.sqrt(2.0) / (h * shortest.min())) + 1)
+    m = max(2, min(m, 60, int(np.sqrt(MAX_LATTICE / len(Xc)) / 2)))   # bounded memory
     i, j = np.meshgrid(np.arange(-m, m + 1), np.arange(-m, m + 1), indexing="ij")
     Z = h * np.column_stack([(i + 0.5 * j).ravel(), (np.sqrt(3.0) / 2.0 * j).ravel()])
     X = Xc[:, None, :] + np.einsum("kij,nj->kni", B, Z)             # (K, (2m+1)², 2)
@@ -185,14 +155,13 @@ def _patch_lattices(domain, anisotropy, h: float, Lbar: np.ndarray, rng):
     d = np.abs(Y - Yc[:, None, :]).max(axis=2) / (0.5 * S)
     keep = d <= 2.0 * OVERLAP
     X, d = X[keep], d[keep]
-    X += rng.uniform(-1e-3, 1e-3, X.shape) * h * 0  # no jitter: the MIS breaks ties
     inside = domain.contains(X, tol=0.0)
     X, d = X[inside], d[inside]
     H = np.asarray(anisotropy.hessian(X), dtype=float)
     return X, H, d
 
 
-def lattice_points(domain, anisotropy, n: int, rng) -> np.ndarray:
+def initial_points(domain, anisotropy, n: int, rng) -> np.ndarray:
     """About n (never more) interior points: patch lattices in the local metric, merged by a
     maximal independent set that prefers each patch's core."""
     n = int(n)
@@ -203,8 +172,8 @@ def lattice_points(domain, anisotropy, n: int, rng) -> np.ndarray:
     h = np.sqrt(2.0 * area_m / (np.sqrt(3.0) * n))
     best = np.empty((0, 2))
     for _ in range(PASSES):
-        X, H, prio = _patch_lattices(domain, anisotropy, h, Lbar, rng)
-        inside = _inside_with_margin(domain, X, H, LATTICE_MARGIN * h)
+        X, H, prio = _patch_lattices(domain, anisotropy, h, Lbar)
+        inside = _inside_with_margin(domain, X, H, MARGIN * h)
         X, H, prio = X[inside], H[inside], prio[inside]
         i, j = _conflicts(X, H, CONFLICT * h, Lbar)
         P = X[_luby(len(X), i, j, rng, prio)]
@@ -213,36 +182,6 @@ def lattice_points(domain, anisotropy, n: int, rng) -> np.ndarray:
         if abs(len(P) - n) <= 0.03 * n:
             break
         h *= np.sqrt(len(P) / n)
-    if len(best) > n:
-        best = best[rng.choice(len(best), n, replace=False)]
-    return best
-
-
-LATTICE_MARGIN = 0.5  # lattice points keep this many spacings (metric) inside Ω
-CONFLICT = 0.8        # lattice points closer than this many spacings (metric) conflict
-
-
-def initial_points(domain, anisotropy, n: int, rng) -> np.ndarray:
-    """About n (never more) interior points, a maximal Poisson-disk sample in the metric ∇²s."""
-    n = int(n)
-    if n < 1:
-        return np.empty((0, 2))
-    Lbar = _mean_metric(domain, anisotropy, rng)
-    area_m = metric_area_estimate(domain, anisotropy, rng)
-    r = np.sqrt(PACKING * 2.0 * area_m / (np.sqrt(3.0) * n))     # hexagonal cell √3/2·h² per point
-    best = np.empty((0, 2))
-    for _ in range(PASSES):
-        X, H = _candidates(domain, anisotropy, OVERSAMPLE * n, r, rng)
-        if not len(X):
-            r *= 0.5
-            continue
-        i, j = _conflicts(X, H, r, Lbar)
-        P = X[_luby(len(X), i, j, rng)]
-        if abs(len(P) - n) < abs(len(best) - n):
-            best = P
-        if abs(len(P) - n) <= 0.03 * n:
-            break
-        r *= np.sqrt(len(P) / n)
     if len(best) > n:
         best = best[rng.choice(len(best), n, replace=False)]
     return best
