@@ -23,7 +23,7 @@ from .errors import QmeshError
 
 MAX_LENGTH = 500    # characters
 MAX_DEPTH = 12      # nesting of operations and calls
-MAX_NODES = 120     # syntax-tree nodes (symbolic second derivatives grow ~ cubically)
+MAX_NODES = 80      # syntax-tree nodes (symbolic second derivatives grow ~ cubically)
 
 # name → (SymPy function name, the same on a Python float)
 FUNCTIONS: dict[str, tuple[str, Callable[[float], float]]] = {
