@@ -169,7 +169,8 @@ def initial_points(domain, anisotropy, n: int, rng) -> np.ndarray:
         return np.empty((0, 2))
     Lbar = _mean_metric(domain, anisotropy, rng)
     area_m = metric_area_estimate(domain, anisotropy, rng)
-    h = np.sqrt(2.0 * area_m / (np.sqrt(3.0) * n))
+    cell = np.sqrt(3.0) / 2.0                         # lattice area per point is cell·h²
+    h = np.sqrt(area_m / (cell * n))
     best = np.empty((0, 2))
     for _ in range(PASSES):
         X, H, prio = _patch_lattices(domain, anisotropy, h, Lbar)
@@ -181,7 +182,10 @@ def initial_points(domain, anisotropy, n: int, rng) -> np.ndarray:
             best = P
         if abs(len(P) - n) <= 0.03 * n:
             break
-        h *= np.sqrt(len(P) / n)
+        # the count is (area_m − band·h) / (cell·h²): the margin and the seams lose a band whose
+        # metric length this pass measures; solve cell·n·h² + band·h = area_m for the next h
+        band = max((area_m - len(P) * cell * h * h) / h, 0.0)
+        h = (-band + np.sqrt(band * band + 4.0 * cell * n * area_m)) / (2.0 * cell * n)
     if len(best) > n:
         best = best[rng.choice(len(best), n, replace=False)]
     return best
