@@ -1,14 +1,14 @@
 """A varying s typed as text (issue 11 item 4): qmesh against MMG2D at equal N.
 
 For each expression s(x, y) (`Anisotropy.from_expression`) and each target N, meshes the
-chapter's 64-gon with qmesh and with MMG2D (mmgpy) given the vertex metric c·∇²s, c calibrated
+chapter's 64-gon (or a named domain of `qmesh.domains`) with qmesh and with MMG2D (mmgpy) given the vertex metric c·∇²s, c calibrated
 and MMG re-run on its own output until its N is within 3% of qmesh's
 (`qmesh.compare.metric_peers.mmg2d`). Prints one Markdown table: N, κ2 of the Dirichlet matrix
 for the continuous Q (at centroids), the share of interior q_ij ≥ 0 for the continuous Q and for
 s_h (convex across the edge), min and mean metric quality (2.94), |e_s|_h1 (2.97), seconds
 (qmesh: the whole run; MMG2D: its final calibrated run).
 
-    python benchmarks/bench_varying.py [--n 500 2000] [--vb 64] [--seed 0] [--expr TEXT ...]
+    python benchmarks/bench_varying.py [--n 500 2000] [--domain disk] [--seed 0] [--expr TEXT ...]
 """
 
 from __future__ import annotations
@@ -38,10 +38,10 @@ def measure_row(expr: str, mesher: str, mesh, seconds: float, A) -> dict:
             "seconds": seconds}
 
 
-def run(expressions=EXPRESSIONS, ns=(500, 2000), vb: int = 64, seed: int = 0, mmg: bool = True) -> list[dict]:
-    """Rows for every expression × N: qmesh, then MMG2D at qmesh's N."""
+def run(expressions=EXPRESSIONS, ns=(500, 2000), domain=None, seed: int = 0, mmg: bool = True) -> list[dict]:
+    """Rows for every expression × N: qmesh, then MMG2D at qmesh's N (domain: the 64-gon by default)."""
     rows = []
-    domain = qmesh.Disk(vb)
+    domain = qmesh.Disk(64) if domain is None else domain
     for expr in expressions:
         A = qmesh.Anisotropy.from_expression(expr)
         for n in ns:
@@ -80,13 +80,14 @@ def summary(rows: list[dict]) -> str:
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, nargs="+", default=[500, 2000], help="target vertex counts")
-    ap.add_argument("--vb", type=int, default=64, help="the domain: the regular VB-gon")
+    ap.add_argument("--domain", default="disk", choices=list(qmesh.domains.NAMED),
+                    help="a named domain (disk: the chapter's 64-gon)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--expr", nargs="+", default=list(EXPRESSIONS), help="expressions s(x, y)")
     args = ap.parse_args(argv)
     has_mmg = peers.available()["mmg2d"] is None
-    rows = run(args.expr, args.n, args.vb, args.seed, mmg=has_mmg)
-    print(f"Disk({args.vb}), seed {args.seed}" + ("" if has_mmg else " (MMG2D not installed)"))
+    rows = run(args.expr, args.n, qmesh.domains.NAMED[args.domain](), args.seed, mmg=has_mmg)
+    print(f"{args.domain}, seed {args.seed}" + ("" if has_mmg else " (MMG2D not installed)"))
     print()
     print(markdown(rows))
     print()
