@@ -208,3 +208,12 @@ def test_mesh_time_check_refuses_a_text_not_convex_on_the_domain(text, message):
     with pytest.raises(qmesh.QmeshError, match=message):
         qmesh.mesh(qmesh.Disk(16), A, target_vertices=40)
 
+
+
+def test_import_qmesh_does_not_import_sympy():
+    import subprocess
+    import sys
+    code = "import sys, qmesh; print('sympy' in sys.modules)"
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "False"
