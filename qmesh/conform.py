@@ -31,7 +31,7 @@ from scipy.sparse.csgraph import connected_components
 from . import topology
 from .errors import QmeshError
 from .geometry import signed_areas
-from .triangulate import framed_q_delaunay, restore
+from .triangulate import lower_hull, restore
 
 ENCROACH_TOL = 1e-9     # relative depth below the plane that counts as encroaching
 MAX_ROUNDS = 200        # split rounds before giving up (never reached on valid input)
@@ -159,19 +159,62 @@ def inside_triangles(T: np.ndarray, twin: np.ndarray, h_in: np.ndarray) -> np.nd
     return label[comp] == 1
 
 
-def conforming_delaunay(domain, P: np.ndarray, edge_id: np.ndarray, anisotropy) -> Conforming:
+class TooManySplits(QmeshError):
+    """Keeping the boundary conforming needs more vertices than the run allows."""
+
+
+def _too_many(n: int, limit: int):
+    return TooManySplits(
+        f"keeping every q_ij >= 0 on the boundary needs more than {limit} vertices here "
+        f"(reached {n}): the domain is thinner, or its corners sharper, in the metric than the "
+        "requested element size; ask for more vertices (a smaller size), or simplify the domain")
+
+
+def _encroaching_free(domain, P, edge_id, anisotropy) -> np.ndarray:
+    """Mask of the points to keep: interior points inside the diametral ellipse of a subsegment
+    are dropped before the first Qhull run (constant Q: discs in metric coordinates, found with
+    a k-d tree), so that run is usually the only one."""
+    from scipy.spatial import cKDTree
+    n_seeds = len(domain.seeds)
+    free = np.flatnonzero((np.arange(len(P)) >= n_seeds) & (edge_id < 0))
+    if not len(free):
+        return np.ones(len(P), bool)
+    A, B = domain.segment_ends
+    on = edge_id >= 0
+    t = np.zeros(len(P))
+    E = B - A
+    t[on] = np.einsum("ki,ki->k", P[on] - A[edge_id[on]], E[edge_id[on]]) / \
+        np.einsum("ki,ki->k", E, E)[edge_id[on]]
+    a, b = _subsegments(domain, n_seeds, edge_id, t)
+    L = np.linalg.cholesky(anisotropy.H)
+    X = P @ L
+    M = 0.5 * (X[a] + X[b])
+    r = 0.5 * np.hypot(*(X[b] - X[a]).T)
+    hits = cKDTree(X[free]).query_ball_point(M, r * (1 + 1e-9))
+    inside = np.unique(np.fromiter((i for h in hits for i in h), np.int64))
+    keep = np.ones(len(P), bool)
+    keep[free[inside]] = False
+    return keep
+
+
+def conforming_delaunay(domain, P: np.ndarray, edge_id: np.ndarray, anisotropy,
+                        max_points: int | None = None, pinned: np.ndarray | None = None) -> Conforming:
     """The conforming Q-Delaunay triangulation of Ω from scratch (Qhull), restricted to Ω.
 
     P holds the seeds first (as `domain.seeds`), then points on segments (`edge_id` ≥ 0), then
     interior points. Free interior points that encroach a subsegment are dropped (the mesher's
     insertion stage puts points back where they are missing); subsegments that are not edges or
     are encroached by a boundary point are split; Qhull runs again until neither happens.
+    More than `max_points` points raises TooManySplits (a QmeshError).
     """
     n_seeds = len(domain.seeds)
     A, Bend = domain.segment_ends
     seg_len2 = np.einsum("ki,ki->k", Bend - A, Bend - A)
     is_seed_pt = lambda i: i < n_seeds                                     # noqa: E731
-    pinned = np.zeros(len(P), bool)
+    pinned = np.zeros(len(P), bool) if pinned is None else pinned
+    if anisotropy.is_constant:
+        keep = _encroaching_free(domain, P, edge_id, anisotropy)
+        P, edge_id, pinned = P[keep], edge_id[keep], pinned[keep]
     for _ in range(MAX_ROUNDS):
         n = len(P)
         t = np.zeros(n)
@@ -179,7 +222,7 @@ def conforming_delaunay(domain, P: np.ndarray, edge_id: np.ndarray, anisotropy) 
         t[on] = np.einsum("ki,ki->k", P[on] - A[edge_id[on]], Bend[edge_id[on]] - A[edge_id[on]]) \
             / seg_len2[edge_id[on]]
         a, b = _subsegments(domain, n_seeds, edge_id, t)
-        T = framed_q_delaunay(P, anisotropy)
+        T = lower_hull(P, anisotropy)
         h = _find_half_edges(T, n, a, b)
         missing = h < 0
         apex = np.where(missing, 0, T.ravel()[np.where(missing, 0, (h - h % 3) + topology.PRV[h % 3])])
@@ -200,6 +243,8 @@ def conforming_delaunay(domain, P: np.ndarray, edge_id: np.ndarray, anisotropy) 
             return Conforming(P, T, topology.twins(T), edge_id, pinned)
         crowd = ~missing[split] & ~free[split]              # split for another boundary point
         a, b = a[split], b[split]
+        if max_points is not None and n + len(a) > max_points:
+            raise _too_many(n + len(a), max_points)
         new = split_points(P[a], P[b], is_seed_pt(a), is_seed_pt(b), anisotropy)
         new_seg = np.where(a < n_seeds, a, edge_id[a])        # seed k starts segment k
         keep = np.ones(n, bool)
@@ -239,7 +284,8 @@ def _push_out(P, a, b, c, anisotropy):
     return M + (PUSH * R)[:, None] * D
 
 
-def restore_conformity(P, T, twin, edge_id, fixed, pinned, anisotropy) -> Conformed:
+def restore_conformity(P, T, twin, edge_id, fixed, pinned, anisotropy,
+                       max_points: int | None = None) -> Conformed:
     """Make no boundary half-edge of a constrained Q-Delaunay triangulation of Ω encroached.
 
     An interior vertex that encroaches the subsegment it faces is pushed just outside its
@@ -292,8 +338,10 @@ def restore_conformity(P, T, twin, edge_id, fixed, pinned, anisotropy) -> Confor
         hb, a, b, c, tb = hb[keep], a[keep], b[keep], c[keep], tb[keep]
         _, first = np.unique(tb, return_index=True)
         hb, a, b, c = hb[first], a[first], b[first], c[first]
-        new = split_points(P[a], P[b], fixed[a], fixed[b], anisotropy)
         n = len(P)
+        if max_points is not None and n + len(hb) > max_points:
+            raise _too_many(n + len(hb), max_points)
+        new = split_points(P[a], P[b], fixed[a], fixed[b], anisotropy)
         T, twin = topology.split_boundary_edges(T, twin, hb, n + np.arange(len(hb)))
         seg = corner[a]
         P = np.concatenate([P, new])

@@ -184,7 +184,19 @@ def _run(norm, h, area_m, lengths, target_vertices, alpha, quality_threshold, mi
 
     # 2. construct the conforming Q-Delaunay triangulation of Ω from scratch (Qhull)
     t0 = time.perf_counter()
-    st = _State(norm, conform.conforming_delaunay(domain, P, edge_id, anisotropy))
+    expected = target_vertices or sizing.vertices_for_size(area_m, lengths, h, bfac)
+    cap = int(min(sizing.MAX_VERTICES, 4 * expected + 4 * len(seeds) + 100))
+    built = conform.conforming_delaunay(domain, P, edge_id, anisotropy, cap)
+    excess = len(built.P) - target_vertices if target_vertices is not None else 0
+    free = np.flatnonzero((np.arange(len(built.P)) >= len(seeds)) & (built.edge_id < 0))
+    if excess > 0 and len(free):
+        # the splits that conformity needed take the place of as many interior points
+        drop = rng.choice(free, size=min(excess, len(free)), replace=False)
+        keep = np.ones(len(built.P), bool)
+        keep[drop] = False
+        built = conform.conforming_delaunay(domain, built.P[keep], built.edge_id[keep],
+                                            anisotropy, cap, built.pinned[keep])
+    st = _State(norm, built)
     yield Step("triangulate", 0, st.mesh, st.stats(seconds=time.perf_counter() - t0))
 
     for it in range(1, max_iterations + 1):
@@ -252,7 +264,7 @@ def _run(norm, h, area_m, lengths, target_vertices, alpha, quality_threshold, mi
         t0 = time.perf_counter()
         st.T, st.twin, flips = restore(st.P, st.T, st.twin, anisotropy)
         c = conform.restore_conformity(st.P, st.T, st.twin, st.edge_id, st.fixed, st.pinned,
-                                       anisotropy)
+                                       anisotropy, cap)
         pushed = None if c.P[:len(st.P)] is st.P or np.array_equal(c.P[:len(st.P)], st.P) \
             else norm.scale * (c.P[:len(st.P)] - st.P)
         st.P, st.T, st.twin, st.edge_id, st.fixed, st.pinned = c.P, c.T, c.twin, c.edge_id, c.fixed, c.pinned
@@ -282,16 +294,28 @@ def _onto_edges(domain, P, edge_id):
 def mesh(domain, anisotropy, **options) -> Mesh:
     """Run Algorithm 2.1 to convergence (or `max_iterations`) and return the final mesh.
 
-    With `target_vertices`, a mesh whose vertex count misses the target by more than 10%
-    raises QmeshError saying why (the boundary alone needs more vertices to keep q_ij ≥ 0, or
-    cannot carry that many).
+    With `target_vertices`, the boundary splits that keep q_ij ≥ 0 can carry N past the target;
+    when they carry it more than 10% past, the run is repeated once with the interior budget
+    reduced by the excess. A mesh still more than 10% off raises QmeshError saying why (the
+    boundary alone needs more vertices to keep q_ij ≥ 0, or cannot carry that many).
     """
-    last = None
-    for last in iterate(domain, anisotropy, **options):
-        pass
-    m = last.mesh
-    _check_count(m, options.get("target_vertices"), options.get("boundary_refinement", True))
+    m = _final(iterate(domain, anisotropy, **options))
+    target = options.get("target_vertices")
+    if target is not None and m.n_vertices > 1.1 * target:
+        fewer = target - (m.n_vertices - target)
+        if fewer > len(as_domain(domain).seeds):
+            again = _final(iterate(domain, anisotropy, **{**options, "target_vertices": fewer}))
+            if abs(again.n_vertices - target) < abs(m.n_vertices - target):
+                m = again
+    _check_count(m, target, options.get("boundary_refinement", True))
     return m
+
+
+def _final(steps) -> Mesh:
+    last = None
+    for last in steps:
+        pass
+    return last.mesh
 
 
 def _check_count(m: Mesh, target, boundary_refinement) -> None:
