@@ -2,10 +2,11 @@
 
 `qmesh.compare.peers` drives BAMG and MMG2D with one constant metric on a convex polygon whose
 sides stay whole. The benchmarks for a varying s and for domains with holes need more:
-- `mmg2d`: MMG2D (mmgpy) started from the constrained triangulation of Ω (holes included), the
-  input points required and marked as corners (so added boundary points stay on the straight
-  sides; MMG may split the sides, as qmesh does), the tensor metric c·∇²s evaluated at its own
-  vertices and re-evaluated on every re-run, c calibrated until N is within `rtol` of the target;
+- `mmg2d`: MMG2D (mmgpy, through `peers.mmg_remesh`) started from the constrained triangulation
+  of Ω (holes included), the input points required and marked as corners (so added boundary
+  points stay on the straight sides; MMG may split the sides, as qmesh does), the tensor metric
+  c·∇²s evaluated at its own vertices and re-evaluated on every re-run, c calibrated until N is
+  within `rtol` of the target;
 - `stretched_triangle`: Shewchuk's Triangle in metric coordinates y = Lᵀx (LLᵀ = ∇²s, constant),
   conforming Delaunay `pq30D` with one maximum area bisected until N lands on the target, then
   mapped back — the peer that also gets every q_ij ≥ 0 for a constant Q;
@@ -24,7 +25,7 @@ from ..errors import QmeshError
 from ..geometry import Frame
 from ..mesh import Mesh
 from . import require
-from .peers import MMG_PASSES, PeerMesh, _with_fixed, calibrate
+from .peers import PeerMesh, _with_fixed, calibrate, mmg_remesh
 
 
 def _equilateral_h(metric_area: float, n: int) -> float:
@@ -81,29 +82,6 @@ def _median_metric_length(P: np.ndarray, T: np.ndarray, hessian, c: float) -> fl
     return float(np.median(np.sqrt(c * np.einsum("ni,nij,nj->n", E, H, E))))
 
 
-def _mmg_run(P0, T0, n_fixed: int, boundary: np.ndarray, hessian, c: float) -> tuple[np.ndarray, np.ndarray]:
-    """One MMG2D run from (P0, T0) with the metric c·∇²s at its vertices, re-run on its own
-    output (the metric re-evaluated there) until the median metric edge length is ≤ 1.1."""
-    mmgpy = require("mmgpy", "the MMG2D peer")
-    m = mmgpy.MmgMesh2D()
-    m.set_mesh_size(vertices=len(P0), triangles=len(T0), edges=len(boundary))
-    m.set_vertices(P0)
-    m.set_triangles(T0.astype(np.int32))
-    m.set_edges(boundary.astype(np.int32))
-    fixed = np.arange(n_fixed, dtype=np.int32)
-    m.set_required_vertices(fixed)
-    m.set_corners(fixed)        # straight sides: added boundary points stay on them
-    for _ in range(MMG_PASSES):
-        V = m.get_vertices()[:, :2]
-        H = c * np.asarray(hessian(V), dtype=float)
-        m.set_field("tensor", np.column_stack([H[:, 0, 0], H[:, 0, 1], H[:, 1, 1]]))
-        m.remesh(hgradreq=-1, verbose=-1)
-        P, T = m.get_vertices()[:, :2], m.get_triangles()
-        if _median_metric_length(P, T, hessian, c) <= 1.1:
-            break
-    return P, T
-
-
 def mmg2d(domain, anisotropy, target_vertices: int, *, rtol: float = 0.03, max_runs: int = 10) -> PeerMesh:
     """MMG2D on Ω with the vertex metric ∇²s / h², h calibrated until N is within rtol of the target."""
     seeds = np.asarray(domain.seeds, dtype=float)
@@ -111,7 +89,14 @@ def mmg2d(domain, anisotropy, target_vertices: int, *, rtol: float = 0.03, max_r
     segments = np.asarray(domain.segments)
 
     def once(h):
-        P, T = _mmg_run(P0, T0, len(seeds), segments, anisotropy.hessian, 1.0 / h**2)
+        c = 1.0 / h**2
+
+        def tensor(V):
+            H = c * np.asarray(anisotropy.hessian(V), dtype=float)
+            return np.column_stack([H[:, 0, 0], H[:, 0, 1], H[:, 1, 1]])
+
+        P, T = mmg_remesh(P0, T0, segments, len(seeds), tensor,
+                          lambda P, T: _median_metric_length(P, T, anisotropy.hessian, c), keep_sides=False)
         return _with_fixed(P, T, seeds)
 
     h0 = _equilateral_h(sizing.metric_area(domain, anisotropy), int(target_vertices) - len(seeds))

@@ -139,25 +139,41 @@ too long in the metric once N exceeds ~1e4 (median metric length 1.49 at 5e4 ver
 It is run again on its own output until the median metric edge length is within 10% of 1."""
 
 
-def _mmg_once(seeds: np.ndarray, M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def mmg_remesh(P: np.ndarray, T: np.ndarray, edges: np.ndarray, n_required: int, tensor,
+               median_length, *, keep_sides: bool) -> tuple[np.ndarray, np.ndarray]:
+    """MMG2D from the mesh (P, T) whose boundary is `edges` and whose first n_required points
+    are required, with the metric tensor(V) → (n, 3) [m11, m12, m22] at its vertices V,
+    re-evaluated and MMG re-run on its own output until median_length(P, T) ≤ 1.1.
+
+    keep_sides: every boundary edge required (sides kept whole); else the required points are
+    corners, so the points MMG adds on the straight sides stay on them.
+    """
     mmgpy = require("mmgpy", "the MMG2D peer")
-    P, T = _fan(seeds)
-    n = len(seeds)
-    edges = np.column_stack([np.arange(n), (np.arange(n) + 1) % n]).astype(np.int32)
     m = mmgpy.MmgMesh2D()
-    m.set_mesh_size(vertices=len(P), triangles=len(T), edges=n)
-    m.set_vertices(P)
-    m.set_triangles(T.astype(np.int32))
-    m.set_edges(edges)
-    m.set_required_vertices(np.arange(n, dtype=np.int32))
-    m.set_required_edges(np.arange(n, dtype=np.int32))
+    m.set_mesh_size(vertices=len(P), triangles=len(T), edges=len(edges))
+    m.set_vertices(np.asarray(P, dtype=float))
+    m.set_triangles(np.asarray(T).astype(np.int32))
+    m.set_edges(np.asarray(edges).astype(np.int32))
+    required = np.arange(n_required, dtype=np.int32)
+    m.set_required_vertices(required)
+    if keep_sides:
+        m.set_required_edges(np.arange(len(edges), dtype=np.int32))
+    else:
+        m.set_corners(required)
     for _ in range(MMG_PASSES):
-        m.set_field("tensor", np.tile([M[0, 0], M[0, 1], M[1, 1]], (len(m.get_vertices()), 1)))
+        m.set_field("tensor", tensor(m.get_vertices()[:, :2]))
         m.remesh(nosizreq=1, hgradreq=-1, verbose=-1)
-        P, T = m.get_vertices(), m.get_triangles()
-        if _median_metric_length(P, T, M) <= 1.1:
+        P, T = m.get_vertices()[:, :2], m.get_triangles()
+        if median_length(P, T) <= 1.1:
             break
     return P, T
+
+
+def _mmg_once(seeds: np.ndarray, M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    n = len(seeds)
+    edges = np.column_stack([np.arange(n), (np.arange(n) + 1) % n])
+    return mmg_remesh(*_fan(seeds), edges, n, lambda V: np.tile([M[0, 0], M[0, 1], M[1, 1]], (len(V), 1)),
+                      lambda P, T: _median_metric_length(P, T, M), keep_sides=True)
 
 
 # --------------------------------------------------------------------------- calibration
