@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import rings
+from .geometry import rounded
 from .sizing import domain_triangulation
 
 MARGIN = 0.3        # lattice points keep this many metric edge lengths from the boundary
@@ -78,19 +79,19 @@ def metric_lattice(domain, H, h, rng) -> np.ndarray:
     lo = np.minimum(Am.min(axis=0), Bm.min(axis=0))
     hi = np.maximum(Am.max(axis=0), Bm.max(axis=0))
     dy = h * np.sqrt(3.0) / 2.0
-    n_rows = int(np.ceil((hi[1] - lo[1]) / dy)) + 1
+    n_rows = int(np.ceil(rounded((hi[1] - lo[1]) / dy))) + 1
     if n_rows > 10 * 50_000_000:
         return np.empty((0, 2))
     y = lo[1] + (np.arange(n_rows) + 0.5) * dy
     row, x0, x1 = rings.scanline_intervals(y, Am, Bm)
     off = lo[0] + 0.5 * h * (row % 2)
-    i0 = np.ceil((x0 - off) / h).astype(np.int64)
-    count = np.maximum(np.floor((x1 - off) / h).astype(np.int64) - i0 + 1, 0)
+    i0 = np.ceil(rounded((x0 - off) / h)).astype(np.int64)       # rounded: same points anywhere
+    count = np.maximum(np.floor(rounded((x1 - off) / h)).astype(np.int64) - i0 + 1, 0)
     r = np.repeat(row, count)
     i = np.repeat(i0, count) + np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
     X = np.column_stack([lo[0] + (i + 0.5 * (r % 2)) * h, y[r]])
     X += rng.uniform(-JITTER, JITTER, X.shape) * h
-    X = X[~np.isfinite(rings.distance(X, Am, Bm, MARGIN * h))]
+    X = X[~np.isfinite(rings.distance(X, Am, Bm, rounded(MARGIN * h)))]
     return X @ np.linalg.inv(M)
 
 
