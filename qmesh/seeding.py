@@ -23,6 +23,7 @@ from .sizing import domain_triangulation
 
 MARGIN = 0.3        # lattice points keep this many metric edge lengths from the boundary
 JITTER = 1e-3       # random perturbation of lattice points, in metric edge lengths
+ELONGATED = 4.0     # rows follow Ω's long axis only when its inertia is this many times the other
 
 
 def boundary_points(domain, anisotropy, h: float, factor: float | None):
@@ -64,8 +65,11 @@ def _metric_frame(domain, H):
     w = np.hypot(*((B - A) @ L).T)                 # weight corners by their segments' length
     c = (X * w[:, None]).sum(axis=0) / w.sum()
     cov = ((X - c).T * w) @ (X - c)
-    _, vec = np.linalg.eigh(cov)
+    val, vec = np.linalg.eigh(cov)
+    if val[1] < ELONGATED * val[0]:
+        return L                                   # not elongated: keep the metric's own axes
     R = vec[:, ::-1]                               # columns: longest direction first
+    R *= np.where(np.abs(R[0]) >= np.abs(R[1]), np.sign(R[0]), np.sign(R[1]))   # a fixed sign
     if np.linalg.det(R) < 0:
         R[:, 1] *= -1
     return L @ R
