@@ -99,6 +99,13 @@ def instrument(code: str) -> tuple[str, dict[int, str]]:
     return "\n".join(lines) + "\n", claims
 
 
+def test_every_fenced_block_is_run_or_plain_text():
+    """A ```python or ```sh block is run by the tests below; ```text is shown only. Any other
+    language (bash, console, none…) would be neither run nor checked."""
+    languages = re.findall(r"^```(\S*)\n.*?^```", README, flags=re.S | re.M)
+    assert set(languages) <= {"python", "sh", "text"}, languages
+
+
 def test_readme_has_the_snippets_this_module_expects():
     assert len(PYTHON_BLOCKS) >= 3 and len(blocks("sh")) >= 2
     assert sum(len(instrument(b)[1]) for b in PYTHON_BLOCKS) >= 4
