@@ -137,6 +137,8 @@ def setup(check_only: bool = False, everything: bool = False, run: Callable = su
         return 1
     print(f"qmesh setup: installing {' '.join(lack)}", file=out, flush=True)
     env = dict(os.environ, DEBIAN_FRONTEND="noninteractive")
+    if pre:                                  # sudo resets the environment: pass it through env
+        pre = pre + ["env", "DEBIAN_FRONTEND=noninteractive"]
     for cmd in (["apt-get", "update", "-q"], list(APT_INSTALL) + lack):
         status = run(pre + cmd, env=env, check=False).returncode
         if status != 0:

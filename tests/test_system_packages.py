@@ -61,7 +61,8 @@ def test_root_installs_only_the_missing_packages_after_an_update():
 def test_sudo_prefix_is_used_when_given():
     fake = FakeSystem()
     assert sp.setup(everything=True, run=fake, prefix=lambda run: ["sudo", "-n"], out=io.StringIO()) == 0
-    assert all(c[:2] == ["sudo", "-n"] for c in fake.apt_calls())
+    assert all(c[:4] == ["sudo", "-n", "env", "DEBIAN_FRONTEND=noninteractive"]
+               for c in fake.apt_calls())
 
 
 def test_without_root_it_prints_the_exact_command_and_fails():
