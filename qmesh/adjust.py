@@ -19,7 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .geometry import Frame, quadratic_form_xy, area_gradients, signed_areas
+from .geometry import (Frame, area_gradients, metric_hessians, quadratic_form,
+                       quadratic_form_xy, signed_areas)
 
 STAR_SHRINK = 0.5      # largest fraction of a triangle's area one vertex's move may remove
 MIN_AREA_KEPT = 0.1    # after all moves every triangle keeps at least this fraction of its area
@@ -91,6 +92,56 @@ def newton_step(P, T, anisotropy, *, fixed, tangent, alpha=0.5):
     d[sliding] = tangent[sliding] * (tb / tHt)[:, None]
     d[fixed] = 0.0
     return alpha * d                                            # (2.92)
+
+
+def shape_step(P, T, anisotropy, movable):
+    """A Newton step per vertex on the shape of its star, for the `movable` vertices (zero rows
+    for the others): minimises Σ_{T∋i} Σ l̃²/Ã, the sum of the inverse metric qualities (2.94)
+    of its triangles (up to 4√3), which is convex in x_i (a quadratic over a linear function).
+
+    For a constant Q the trace of the stiffness matrix is ½√det Q Σ_T Σ_{interior corners}
+    l̃²_opp/Ã, so this step also keeps the diagonal, and with it λ_max, low where the vertex step
+    (2.91) has no good place for a vertex: between boundary points much finer than h.
+    """
+    n = len(P)
+    F = Frame(P, T)
+    Hm = metric_hessians(anisotropy, P, T)
+    Hb = Hm[0] if Hm.strides[0] == 0 else None
+    sq = np.sqrt(Hm[:, 0, 0] * Hm[:, 1, 1] - Hm[:, 0, 1] * Hm[:, 1, 0])
+    E = F.E                                                   # edge opposite each corner
+    S = (quadratic_form(E, Hb) if Hb is not None else quadratic_form(E, Hm)).sum(axis=1)
+    A = sq * F.A                                              # metric areas
+    G = np.zeros((n, 2))
+    K = np.zeros((n, 2, 2))
+    for c in range(3):                                        # the three corners
+        a, b = (c + 1) % 3, (c + 2) % 3
+        # corner c's two edges: E[:, a] = x_c − x_b and E[:, b] = x_a − x_c (Frame)
+        u = E[:, a] - E[:, b]                                 # (x_c − x_a) + (x_c − x_b)
+        Mu = u @ Hb.T if Hb is not None else np.einsum("mij,mj->mi", Hm, u)
+        dS = 2.0 * Mu
+        dA = sq[:, None] * np.column_stack([F.gx[:, c], F.gy[:, c]])
+        grad = dS / A[:, None] - (S / A ** 2)[:, None] * dA
+        cross = dS[:, :, None] * dA[:, None, :]
+        hess = (4.0 * (Hm if Hb is None else np.broadcast_to(Hb, (len(T), 2, 2))) / A[:, None, None]
+                - (cross + cross.transpose(0, 2, 1)) / (A ** 2)[:, None, None]
+                + (2.0 * S / A ** 3)[:, None, None] * dA[:, :, None] * dA[:, None, :])
+        for j in range(2):
+            G[:, j] += np.bincount(T[:, c], grad[:, j], minlength=n)
+            for k in range(2):
+                K[:, j, k] += np.bincount(T[:, c], hess[:, j, k], minlength=n)
+    d = np.zeros((n, 2))
+    m = movable & (np.linalg.det(K) > 0)
+    d[m] = -np.linalg.solve(K[m], G[m][..., None])[..., 0]
+    return d
+
+
+def boundary_layer(T, on_boundary, rings):
+    """Interior vertices at most `rings` edges away from a boundary vertex."""
+    near = on_boundary.copy()
+    for _ in range(rings):
+        near = near.copy()
+        near[T[near[T].any(axis=1)].ravel()] = True
+    return near & ~on_boundary
 
 
 def limit_moves(P, T, d, keep=None):
