@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .topology import NXT, PRV
 from .geometry import (Frame, area_gradients, metric_hessians, quadratic_form,
                        quadratic_form_xy, signed_areas)
 
@@ -103,42 +104,50 @@ def shape_step(P, T, anisotropy, movable):
     l̃²_opp/Ã, so this step also keeps the diagonal, and with it λ_max, low where the vertex step
     (2.91) has no good place for a vertex: between boundary points much finer than h.
     """
-    n = len(P)
+    T = T[movable[T].any(axis=1)]                             # the stars of the movable vertices
+    if not len(T):
+        return np.zeros((len(P), 2))
     F = Frame(P, T)
     Hm = metric_hessians(anisotropy, P, T)
-    Hb = Hm[0] if Hm.strides[0] == 0 else None
     sq = np.sqrt(Hm[:, 0, 0] * Hm[:, 1, 1] - Hm[:, 0, 1] * Hm[:, 1, 0])
-    E = F.E                                                   # edge opposite each corner
-    S = (quadratic_form(E, Hb) if Hb is not None else quadratic_form(E, Hm)).sum(axis=1)
+    E = F.E                                                   # (M, 3, 2) edge opposite each corner
     A = sq * F.A                                              # metric areas
-    G = np.zeros((n, 2))
-    K = np.zeros((n, 2, 2))
-    for c in range(3):                                        # the three corners
-        a, b = (c + 1) % 3, (c + 2) % 3
-        # corner c's two edges: E[:, a] = x_c − x_b and E[:, b] = x_a − x_c (Frame)
-        u = E[:, a] - E[:, b]                                 # (x_c − x_a) + (x_c − x_b)
-        Mu = u @ Hb.T if Hb is not None else np.einsum("mij,mj->mi", Hm, u)
-        dS = 2.0 * Mu
-        dA = sq[:, None] * np.column_stack([F.gx[:, c], F.gy[:, c]])
-        grad = dS / A[:, None] - (S / A ** 2)[:, None] * dA
-        cross = dS[:, :, None] * dA[:, None, :]
-        hess = (4.0 * (Hm if Hb is None else np.broadcast_to(Hb, (len(T), 2, 2))) / A[:, None, None]
-                - (cross + cross.transpose(0, 2, 1)) / (A ** 2)[:, None, None]
-                + (2.0 * S / A ** 3)[:, None, None] * dA[:, :, None] * dA[:, None, :])
-        for j in range(2):
-            G[:, j] += np.bincount(T[:, c], grad[:, j], minlength=n)
-            for k in range(2):
-                K[:, j, k] += np.bincount(T[:, c], hess[:, j, k], minlength=n)
-    d = np.zeros((n, 2))
-    m = movable & (np.linalg.det(K) > 0)
-    d[m] = -np.linalg.solve(K[m], G[m][..., None])[..., 0]
+    S = quadratic_form(E, Hm).sum(axis=1)                     # Σ l̃² (2.94)
+    U = E[:, NXT] - E[:, PRV]                                 # (x_c − x_a) + (x_c − x_b) per corner
+    if Hm.strides[0] == 0:
+        dS = 2.0 * U @ Hm[0].T
+    else:
+        dS = 2.0 * np.einsum("mij,mcj->mci", Hm, U)
+    dA = sq[:, None, None] * np.stack([F.gx, F.gy], axis=-1)  # ∂Ã/∂x_c
+    iA = 1.0 / A[:, None, None]
+    g = dS * iA - (S[:, None, None] * iA * iA) * dA          # ∂(S/Ã)/∂x_c
+    c1, c2 = 2.0 * S[:, None] * iA[:, :, 0] ** 3, iA[:, :, 0] ** 2
+    h00 = 4.0 * Hm[:, None, 0, 0] * iA[:, :, 0] - 2.0 * c2 * dS[..., 0] * dA[..., 0] + c1 * dA[..., 0] ** 2
+    h11 = 4.0 * Hm[:, None, 1, 1] * iA[:, :, 0] - 2.0 * c2 * dS[..., 1] * dA[..., 1] + c1 * dA[..., 1] ** 2
+    h01 = (4.0 * Hm[:, None, 0, 1] * iA[:, :, 0] - c2 * (dS[..., 0] * dA[..., 1] + dS[..., 1] * dA[..., 0])
+           + c1 * dA[..., 0] * dA[..., 1])
+    v = T.ravel()
+    on = movable[v]
+    idx = np.flatnonzero(movable)
+    local = np.full(len(P), -1, np.int64)
+    local[idx] = np.arange(len(idx))
+    li = local[v[on]]
+    sums = [np.bincount(li, x.ravel()[on], minlength=len(idx))
+            for x in (g[..., 0], g[..., 1], h00, h01, h11)]
+    gx, gy, k00, k01, k11 = sums
+    det = k00 * k11 - k01 * k01
+    ok = det > 0                                              # the star's Hessian (convex sum)
+    det = np.where(ok, det, 1.0)
+    d = np.zeros((len(P), 2))
+    d[idx] = np.where(ok[:, None], -np.column_stack([k11 * gx - k01 * gy, k00 * gy - k01 * gx])
+                      / det[:, None], 0.0)
     return d
 
 
 def boundary_layer(T, on_boundary, rings):
     """Interior vertices at most `rings` edges away from a boundary vertex."""
     near = on_boundary.copy()
-    for _ in range(rings):
+    for _ in range(int(rings)):
         near = near.copy()
         near[T[near[T].any(axis=1)].ravel()] = True
     return near & ~on_boundary
