@@ -25,7 +25,7 @@ import numpy as np
 from . import conform, seeding, sizing, topology
 from .adjust import boundary_layer, limit_moves, newton_step, shape_step
 from .anisotropy import Anisotropy
-from .boundary import hold_off_boundary, snap_to_boundary
+from .boundary import hold_off_boundary, hold_out_of_ellipses, snap_to_boundary
 from .domain import as_domain
 from .errors import QmeshError
 from .geometry import quadratic_form
@@ -156,8 +156,19 @@ def iterate(domain, anisotropy, *, target_vertices: int | None = None, size: flo
         sizing.check_vertex_count(sizing.vertices_for_size(area_m, lengths, h, bfac),
                                   f"size = {norm.scale * np.sqrt(norm.k) * h:.3g}")
     min_area = target_area(h) / 16 if min_area is None else norm.metric_area(float(min_area))
-    return _run(norm, h, area_m, lengths, target_vertices, alpha, quality_threshold, min_area,
-                max_iterations, np.random.default_rng(seed), boundary_refinement)
+    steps = _run(norm, h, area_m, lengths, target_vertices, alpha, quality_threshold, min_area,
+                 max_iterations, np.random.default_rng(seed), boundary_refinement)
+    option = (f"target_vertices = {target_vertices} is too few" if target_vertices is not None
+              else f"size = {norm.scale * np.sqrt(norm.k) * h:.3g} is too large")
+    return _explained(steps, option)
+
+
+def _explained(steps, option: str) -> Iterator[Step]:
+    """The steps, with a conformity that runs out of vertices blamed on the option that set N."""
+    try:
+        yield from steps
+    except conform.TooManySplits as e:
+        raise QmeshError(f"{option} for this domain: {e}") from None
 
 
 def _run(norm, h, area_m, lengths, target_vertices, alpha, quality_threshold, min_area,
@@ -187,7 +198,9 @@ def _run(norm, h, area_m, lengths, target_vertices, alpha, quality_threshold, mi
     t0 = time.perf_counter()
     expected = target_vertices or sizing.vertices_for_size(area_m, lengths, h, bfac)
     cap = int(min(sizing.MAX_VERTICES, 4 * expected + 4 * len(seeds) + 100))
-    st = _State(norm, conform.conforming_delaunay(domain, P, edge_id, anisotropy, cap))
+    built = conform.conforming_delaunay(domain, P, edge_id, anisotropy, cap,
+                                        target=target_vertices, rng=rng)
+    st = _State(norm, built)
     yield Step("triangulate", 0, st.mesh, st.stats(seconds=time.perf_counter() - t0))
 
     for it in range(1, max_iterations + 1):
@@ -212,9 +225,10 @@ def _run(norm, h, area_m, lengths, target_vertices, alpha, quality_threshold, mi
                 keep[snap.vertices] = True
         else:
             d = hold_off_boundary(P0, T0, st.twin, d, st.on_boundary(), anisotropy)
+        d = hold_out_of_ellipses(P0, st.T, st.twin, d, st.on_boundary(), anisotropy)
         Pn, d = limit_moves(P0, st.T, d, keep)
         Pn = _onto_edges(domain, Pn, st.edge_id)
-        Hv = anisotropy.H if anisotropy.is_constant else np.asarray(anisotropy.hessian(P0))
+        Hv = anisotropy.H if anisotropy.is_constant else _hessian_at_vertices(norm, P0)
         move2 = quadratic_form(d[:, None], Hv)
         max_move = float(np.sqrt(move2.max()) / h)
         rms_move = float(np.sqrt(move2.mean()) / h)
@@ -274,6 +288,20 @@ def _run(norm, h, area_m, lengths, target_vertices, alpha, quality_threshold, mi
             return
 
 
+def _hessian_at_vertices(norm, P) -> np.ndarray:
+    """∇²s at the vertices; QmeshError naming a point (user coordinates) where it is not finite
+    and SPD: the probe before the run samples Ω, this catches what the probe missed."""
+    with np.errstate(all="ignore"):
+        H = np.asarray(norm.anisotropy.hessian(P), dtype=float)
+    det = H[:, 0, 0] * H[:, 1, 1] - H[:, 0, 1] * H[:, 1, 0]
+    bad = ~(np.isfinite(H).all(axis=(1, 2)) & (H[:, 0, 0] > 0) & (det > 0))
+    if bad.any():
+        x = norm.center + norm.scale * P[np.flatnonzero(bad)[0]]
+        raise QmeshError(f"the Hessian of s is not finite and positive definite at "
+                         f"({x[0]:.6g}, {x[1]:.6g}), a vertex of the mesh inside the domain")
+    return H
+
+
 def _onto_edges(domain, P, edge_id):
     """Put sliding boundary vertices back exactly on their polygon edge (round-off only)."""
     on = edge_id >= 0
@@ -288,16 +316,28 @@ def _onto_edges(domain, P, edge_id):
 def mesh(domain, anisotropy, **options) -> Mesh:
     """Run Algorithm 2.1 to convergence (or `max_iterations`) and return the final mesh.
 
-    With `target_vertices`, a mesh whose vertex count misses the target by more than 10%
-    raises QmeshError saying why (the boundary alone needs more vertices to keep q_ij ≥ 0, or
-    cannot carry that many).
+    With `target_vertices`, the boundary splits that keep q_ij ≥ 0 can carry N past the target;
+    when they carry it more than 10% past, the run is repeated once with the interior budget
+    reduced by the excess. A mesh still more than 10% off raises QmeshError saying why (the
+    boundary alone needs more vertices to keep q_ij ≥ 0, or cannot carry that many).
     """
-    last = None
-    for last in iterate(domain, anisotropy, **options):
-        pass
-    m = last.mesh
-    _check_count(m, options.get("target_vertices"), options.get("boundary_refinement", True))
+    m = _final(iterate(domain, anisotropy, **options))
+    target = options.get("target_vertices")
+    if target is not None and m.n_vertices > 1.1 * target:
+        fewer = target - (m.n_vertices - target)
+        if fewer > len(as_domain(domain).seeds):
+            again = _final(iterate(domain, anisotropy, **{**options, "target_vertices": fewer}))
+            if abs(again.n_vertices - target) < abs(m.n_vertices - target):
+                m = again
+    _check_count(m, target, options.get("boundary_refinement", True))
     return m
+
+
+def _final(steps) -> Mesh:
+    last = None
+    for last in steps:
+        pass
+    return last.mesh
 
 
 def _check_count(m: Mesh, target, boundary_refinement) -> None:
