@@ -24,6 +24,7 @@ from .geometry import (Frame, area_gradients, metric_hessians, quadratic_form,
                        quadratic_form_xy, signed_areas)
 
 STAR_SHRINK = 0.5      # largest fraction of a triangle's area one vertex's move may remove
+FAN_WEIGHT = 0.15     # shape_step's weight of triangles with two boundary corners (see there)
 MIN_AREA_KEPT = 0.1    # after all moves every triangle keeps at least this fraction of its area
 
 
@@ -95,16 +96,21 @@ def newton_step(P, T, anisotropy, *, fixed, tangent, alpha=0.5):
     return alpha * d                                            # (2.92)
 
 
-def shape_step(P, T, anisotropy, movable):
+def shape_step(P, T, anisotropy, movable, on_boundary=None):
     """A Newton step per vertex on the shape of its star, for the `movable` vertices (zero rows
-    for the others): minimises Σ_{T∋i} Σ l̃²/Ã, the sum of the inverse metric qualities (2.94)
-    of its triangles (up to 4√3), which is convex in x_i (a quadratic over a linear function).
+    for the others): minimises Σ_{T∋i} w_T Σ l̃²/Ã, a weighted sum of the inverse metric qualities
+    (2.94) of its triangles (up to 4√3), convex in x_i (quadratic over linear functions).
 
     For a constant Q the trace of the stiffness matrix is ½√det Q Σ_T Σ_{interior corners}
-    l̃²_opp/Ã, so this step also keeps the diagonal, and with it λ_max, low where the vertex step
-    (2.91) has no good place for a vertex: between boundary points much finer than h.
+    l̃²_opp/Ã, so the step keeps the diagonal, and with it λ_max, low where the vertex step
+    (2.91) has no good place for a vertex: next to boundary points much finer than h. A triangle
+    with two corners in `on_boundary` adds only its short boundary edge to that trace, so it
+    weighs FAN_WEIGHT (its shape still counts, for the minimum quality).
     """
     T = T[movable[T].any(axis=1)]                             # the stars of the movable vertices
+    wt = None
+    if on_boundary is not None and FAN_WEIGHT != 1:
+        wt = np.where(on_boundary[T].sum(axis=1) >= 2, FAN_WEIGHT, 1.0)[:, None]
     if not len(T):
         return np.zeros((len(P), 2))
     F = Frame(P, T)
@@ -126,6 +132,8 @@ def shape_step(P, T, anisotropy, movable):
     h11 = 4.0 * Hm[:, None, 1, 1] * iA[:, :, 0] - 2.0 * c2 * dS[..., 1] * dA[..., 1] + c1 * dA[..., 1] ** 2
     h01 = (4.0 * Hm[:, None, 0, 1] * iA[:, :, 0] - c2 * (dS[..., 0] * dA[..., 1] + dS[..., 1] * dA[..., 0])
            + c1 * dA[..., 0] * dA[..., 1])
+    if wt is not None:
+        g, h00, h01, h11 = g * wt[..., None], h00 * wt, h01 * wt, h11 * wt
     v = T.ravel()
     on = movable[v]
     idx = np.flatnonzero(movable)

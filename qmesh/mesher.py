@@ -211,7 +211,7 @@ def _run(norm, h, area_m, lengths, target_vertices, alpha, quality_threshold, mi
         d = newton_step(P0, T0, anisotropy, fixed=st.fixed | st.pinned, tangent=st.tangents(),
                         alpha=alpha)
         layer = boundary_layer(T0, st.on_boundary(), SHAPE_RINGS)
-        d[layer] = alpha * shape_step(P0, T0, anisotropy, layer)[layer]
+        d[layer] = alpha * shape_step(P0, T0, anisotropy, layer, st.on_boundary())[layer]
         keep = None
         if boundary_refinement:
             snap = snap_to_boundary(P0, T0, st.twin, d, st.on_boundary(), st.corner_edge(),
