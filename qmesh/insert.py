@@ -85,11 +85,13 @@ def insert(P, T, twin, anisotropy, *, area_threshold, boundary_length, corner_ed
         cand &= ~on_boundary
         on_boundary[:] = False
 
-    # a boundary triangle of low quality whose boundary edge is short — two boundary points much
+    # a triangle of low quality whose shortest edge is a boundary edge — two boundary points much
     # closer than h and a far apex, or three points of a tightly curved run — gets its metric
     # circumcentre (Ruppert's point), which grades the mesh down to the boundary spacing; these
-    # are not bound by min_area and come first in the budget
-    grade = (twin.reshape(-1, 3) < 0).any(axis=1) & (quality < GRADE_QUALITY) & ~long_bnd
+    # are not bound by min_area and come first in the budget. (At a sharp corner the shortest
+    # edge faces the corner's small angle, which no point can widen: those are left alone.)
+    shortest = 3 * np.arange(len(T)) + topology.NXT[np.argmin(L2, axis=1)]
+    grade = (twin[shortest] < 0) & (quality < GRADE_QUALITY) & ~long_bnd
     g_tri, g_pts, g_host = _grading_points(P, T, twin, Hm, quality, grade, budget)
     budget -= len(g_tri)
     cand[g_tri] = False
