@@ -108,9 +108,6 @@ def shape_step(P, T, anisotropy, movable, on_boundary=None):
     weighs FAN_WEIGHT (its shape still counts, for the minimum quality).
     """
     T = T[movable[T].any(axis=1)]                             # the stars of the movable vertices
-    wt = None
-    if on_boundary is not None and FAN_WEIGHT != 1:
-        wt = np.where(on_boundary[T].sum(axis=1) >= 2, FAN_WEIGHT, 1.0)[:, None]
     if not len(T):
         return np.zeros((len(P), 2))
     F = Frame(P, T)
@@ -118,7 +115,16 @@ def shape_step(P, T, anisotropy, movable, on_boundary=None):
     sq = np.sqrt(Hm[:, 0, 0] * Hm[:, 1, 1] - Hm[:, 0, 1] * Hm[:, 1, 0])
     E = F.E                                                   # (M, 3, 2) edge opposite each corner
     A = sq * F.A                                              # metric areas
-    S = quadratic_form(E, Hm).sum(axis=1)                     # Σ l̃² (2.94)
+    l2 = quadratic_form(E, Hm)
+    S = l2.sum(axis=1)                                        # Σ l̃² (2.94)
+    wt = None
+    if on_boundary is not None and FAN_WEIGHT != 1:
+        # a triangle with two boundary corners adds l̃²_b/Ã of its boundary edge b to the trace:
+        # weight it by that share of S/3 (equilateral: 1), but at least FAN_WEIGHT
+        ob = on_boundary[T]
+        fan = ob.sum(axis=1) == 2
+        lb2 = l2[np.arange(len(T)), np.argmin(ob, axis=1)]
+        wt = np.where(fan, np.clip(3.0 * lb2 / S, FAN_WEIGHT, 1.0), 1.0)[:, None]
     U = E[:, NXT] - E[:, PRV]                                 # (x_c − x_a) + (x_c − x_b) per corner
     if Hm.strides[0] == 0:
         dS = 2.0 * U @ Hm[0].T

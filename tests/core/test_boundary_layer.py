@@ -104,16 +104,25 @@ def test_shape_step_lowers_the_star_objective_and_rests_at_a_regular_star(ratio,
         assert np.allclose((P + d)[0] @ L, 0.0, atol=1e-3)
 
 
-def test_shape_step_fan_weight_only_changes_triangles_on_the_boundary():
+def test_shape_step_weighs_down_fans_on_a_short_boundary_edge_only():
+    """A triangle with two boundary corners weighs max(FAN_WEIGHT, 3 l̃_b²/Σl̃²): less than 1
+    only when its boundary edge is short (it adds l̃_b²/Ã to the stiffness trace)."""
     A = qmesh.Anisotropy.constant(np.eye(2))
-    P = np.vstack([[0.2, 0.1], RING])
     movable = np.arange(7) == 0
     nowhere = np.zeros(7, bool)
+    two_on_boundary = np.isin(np.arange(7), [1, 2])        # triangle (0, 1, 2) is a fan triangle
+    P = np.vstack([[0.1, 0.05], RING])                     # boundary edge 1–2 as long as the others
     assert np.allclose(adjust.shape_step(P, STAR, A, movable, nowhere),
                        adjust.shape_step(P, STAR, A, movable))
-    two_on_boundary = np.isin(np.arange(7), [1, 2])        # triangle (0, 1, 2) is a fan triangle
-    assert not np.allclose(adjust.shape_step(P, STAR, A, movable, two_on_boundary),
-                           adjust.shape_step(P, STAR, A, movable))
+    assert np.allclose(adjust.shape_step(P, STAR, A, movable, two_on_boundary),
+                       adjust.shape_step(P, STAR, A, movable), atol=0.02)
+    short = P.copy()
+    short[2] = [np.cos(0.25), np.sin(0.25)]                # boundary edge 1–2 a quarter as long
+    plain = adjust.shape_step(short, STAR, A, movable)
+    fan = adjust.shape_step(short, STAR, A, movable, two_on_boundary)
+    assert not np.allclose(fan, plain, atol=1e-3)
+    # weighed down, the short fan triangle pulls the centre less towards its edge
+    assert np.linalg.norm(short[0] + fan[0] - short[1]) > np.linalg.norm(short[0] + plain[0] - short[1])
 
 
 def test_boundary_layer_rings():
