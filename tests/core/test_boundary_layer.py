@@ -157,3 +157,15 @@ def test_rotated_hexagon_quality_target():
     assert measure.quality(m, A).min() >= 0.3
     _, q, _ = measure.edge_weights(m, A)
     assert (q / np.abs(q).max()).min() >= -1e-9
+
+
+@pytest.mark.parametrize("anisotropy", [np.eye(2), qmesh.Anisotropy.principal(1, 50, 30).H])
+def test_grading_leaves_sharp_corners_alone(monkeypatch, anisotropy):
+    """At a 7° corner the small angle faces an interior edge: no circumcentre can widen it, and
+    inserting them there in size mode split the boundary until the conformity's cap."""
+    wedge = qmesh.Polygon(np.array([[0.0, 0.0], [1.0, 0.0], [0.9, 0.12]]))
+    A = qmesh.Anisotropy.constant(anisotropy)
+    graded = qmesh.mesh(wedge, A, size=0.08, seed=0)
+    monkeypatch.setattr(insert, "GRADE_QUALITY", 0.0)
+    plain = qmesh.mesh(wedge, A, size=0.08, seed=0)
+    assert abs(graded.n_vertices - plain.n_vertices) <= 0.1 * plain.n_vertices
