@@ -13,6 +13,12 @@ interior.
 
 Neighbouring triangles are not both refined in one round unless they are grossly oversized; the
 highest-priority (largest area / quality) candidates win, up to the vertex budget.
+
+One exception to `min_area` and to "the point is not critical": next to boundary points much
+finer than h (the tips of the chapter's disk, ten times finer in the metric) a triangle with a
+short boundary edge and a far apex, or three points of a tightly curved run, cannot be shaped by
+moving its apex; it gets its metric circumcentre (Ruppert's point), first in the budget, which
+grades the mesh down to the boundary's spacing.
 """
 
 from __future__ import annotations
@@ -27,7 +33,8 @@ from .geometry import (metric_areas, metric_edge_lengths2, metric_hessians, metr
                        rounded)
 
 GROSS = 4.0             # above this multiple of the threshold, neighbours may be refined together
-GRADE_QUALITY = 0.35    # a triangle on the boundary below this metric quality gets its circumcentre
+GRADE_QUALITY = 0.35    # below this metric quality, a triangle whose shortest edge is a boundary
+                        # edge gets its metric circumcentre
 LOCATE_STEPS = 16       # walk at most this many triangles from a bad triangle to its circumcentre
 
 
@@ -196,8 +203,11 @@ def _grading_points(P, T, twin, Hm, quality, grade, budget):
     r = np.sqrt(np.einsum("mi,mij,mj->m", D, Hs, D))
     if len(idx) > 1:
         lam = np.linalg.eigvalsh(Hs)[:, 0]                          # Euclidean radius bound
-        pairs = cKDTree(C).query_pairs((0.5 * r / np.sqrt(lam)).max(), output_type="ndarray")
-        i, j = pairs.min(axis=1), pairs.max(axis=1)                 # i is the worse triangle
+        hits = cKDTree(C).query_ball_point(C, 0.5 * r / np.sqrt(lam))
+        count = np.fromiter((len(h) for h in hits), np.int64, len(hits))
+        i = np.repeat(np.arange(len(idx)), count)
+        j = np.fromiter((k for h in hits for k in h), np.int64, int(count.sum()))
+        i, j = i[j > i], j[j > i]                                   # i is the worse triangle
         D = C[j] - C[i]
         close = np.einsum("mi,mij,mj->m", D, Hs[i], D) < (0.5 * r[i]) ** 2
         drop = np.zeros(len(idx), bool)
