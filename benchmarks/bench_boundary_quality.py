@@ -45,7 +45,8 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args(argv)
     A = qmesh.Anisotropy.constant(qmesh.CHAPTER_Q)
-    print("| case | N (target) | min q | mean q | q_ij≥0 interior | q_ij≥0 boundary | κ2 | κ2/before |")
+    print("| case | N (target) | min q | mean q | q_ij≥0 interior | q_ij≥0 boundary | κ2 "
+          "| κ2/before |")
     print("|---|---|---|---|---|---|---|---|")
     ratios = []
     for vb in args.vb:

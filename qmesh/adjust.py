@@ -133,11 +133,13 @@ def shape_step(P, T, anisotropy, movable, on_boundary=None):
     dA = sq[:, None, None] * np.stack([F.gx, F.gy], axis=-1)  # ∂Ã/∂x_c
     iA = 1.0 / A[:, None, None]
     g = dS * iA - (S[:, None, None] * iA * iA) * dA          # ∂(S/Ã)/∂x_c
-    c1, c2 = 2.0 * S[:, None] * iA[:, :, 0] ** 3, iA[:, :, 0] ** 2
-    h00 = 4.0 * Hm[:, None, 0, 0] * iA[:, :, 0] - 2.0 * c2 * dS[..., 0] * dA[..., 0] + c1 * dA[..., 0] ** 2
-    h11 = 4.0 * Hm[:, None, 1, 1] * iA[:, :, 0] - 2.0 * c2 * dS[..., 1] * dA[..., 1] + c1 * dA[..., 1] ** 2
-    h01 = (4.0 * Hm[:, None, 0, 1] * iA[:, :, 0] - c2 * (dS[..., 0] * dA[..., 1] + dS[..., 1] * dA[..., 0])
-           + c1 * dA[..., 0] * dA[..., 1])
+    # its Hessian 4H/Ã − (∇S ∇Ãᵀ + ∇Ã ∇Sᵀ)/Ã² + 2S ∇Ã ∇Ãᵀ/Ã³, entries 00, 01, 11
+    ia = iA[:, :, 0]
+    c1, c2 = 2.0 * S[:, None] * ia ** 3, ia ** 2
+    (sx, sy), (ax, ay) = np.moveaxis(dS, -1, 0), np.moveaxis(dA, -1, 0)
+    h00 = 4.0 * Hm[:, None, 0, 0] * ia - 2.0 * c2 * sx * ax + c1 * ax * ax
+    h11 = 4.0 * Hm[:, None, 1, 1] * ia - 2.0 * c2 * sy * ay + c1 * ay * ay
+    h01 = 4.0 * Hm[:, None, 0, 1] * ia - c2 * (sx * ay + sy * ax) + c1 * ax * ay
     if wt is not None:
         g, h00, h01, h11 = g * wt[..., None], h00 * wt, h01 * wt, h11 * wt
     v = T.ravel()

@@ -122,7 +122,8 @@ def test_shape_step_weighs_down_fans_on_a_short_boundary_edge_only():
     fan = adjust.shape_step(short, STAR, A, movable, two_on_boundary)
     assert not np.allclose(fan, plain, atol=1e-3)
     # weighed down, the short fan triangle pulls the centre less towards its edge
-    assert np.linalg.norm(short[0] + fan[0] - short[1]) > np.linalg.norm(short[0] + plain[0] - short[1])
+    gap = [np.linalg.norm(short[0] + step[0] - short[1]) for step in (fan, plain)]
+    assert gap[0] > gap[1]
 
 
 def test_boundary_layer_rings():
