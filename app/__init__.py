@@ -6,7 +6,11 @@ and `cli` its `qmesh-view` command, `widget` the Jupyter widget (ipywidgets). On
 `cli` and the widget's live (trame) backend import trame.
 """
 
-__all__ = ["scene", "draw", "controller", "widget"]
+from .system import headless_environment as _headless_environment
+
+_headless_environment()          # before anything imports VTK: EGL, never an X server
+
+__all__ = ["scene", "draw", "controller", "widget", "system"]
 
 
 def __getattr__(name):

@@ -65,6 +65,30 @@ def _checked(p: Params) -> Params:
     return Params(k1, k2, angle, vb, target, alpha, seed)
 
 
+def reconcile(params: Params, changes: dict) -> dict:
+    """`changes` with the dependent value adjusted so the seed count VB stays below the target N.
+
+    The value the user just moved wins and the other follows: VB moved to ≥ N raises N to VB + 1;
+    N moved to ≤ VB lowers VB to N − 1 (never below 3, the smallest polygon). Both given at once,
+    or values that are not integers, are left for `_checked` to accept or reject.
+    """
+    out = dict(changes)
+    if "vb" in changes and "target_vertices" in changes:
+        return out
+    try:
+        vb = int(out.get("vb", params.vb))
+        target = int(out.get("target_vertices", params.target_vertices))
+    except (TypeError, ValueError):
+        return out
+    if target > vb:
+        return out
+    if "target_vertices" in changes and target - 1 >= 3:
+        out["vb"] = target - 1
+    elif "vb" in changes:
+        out["target_vertices"] = vb + 1
+    return out
+
+
 class Controller:
     """Holds the parameters, the Steps computed so far and which one is shown.
 
@@ -178,11 +202,13 @@ class Controller:
     def set_params(self, **changes) -> bool:
         """Change parameters; any change restarts the run. False (and no restart) if nothing changed.
 
+        VB and the target are adjusted together (`reconcile`): the one changed wins.
         Bad names or values raise QmeshError and leave the controller as it was.
         """
         unknown = set(changes) - set(PARAMS)
         if unknown:
             raise QmeshError(f"unknown parameter(s) {sorted(unknown)}; known: {PARAMS}")
+        changes = reconcile(self.params, changes)
         new = _checked(Params(**{**self.params.__dict__, **changes}))
         if new == self.params:
             return False

@@ -39,6 +39,7 @@ import numpy as np
 
 from qmesh.errors import QmeshError
 
+from . import legend
 from .controller import Controller, status_text
 from .draw import VIEWS, ViewSet
 
@@ -136,13 +137,13 @@ class QmeshWidget(w.VBox):
         self.backend = choose_backend(backend)
         self.main = MainThread(loop)
         self.view_size = tuple(int(v) for v in view_size)
-        self.views = ViewSet(self.view_size)
+        self.views = ViewSet(self.view_size, scalar_bar=False)   # legends are HTML, beside
         self.running = False
         self._run_id = 0
         self._syncing = False
         self._build_controls()
         self.views.draw(self.controller.current, self.controller.anisotropy,
-                        domain=self.controller.domain)
+                        **self._view_options())
         self.view_widgets = (self._trame_views() if self.backend == "trame"
                              else self._static_views())
         self.children = self._layout()
@@ -169,6 +170,11 @@ class QmeshWidget(w.VBox):
         self.readout = w.HTML()
         self.status = w.HTML()
         self.error = w.HTML()
+        self.edges = w.ToggleButtons(options=["auto", "on", "off"], value="auto",
+                                     description="edges", style={"button_width": "4em"},
+                                     tooltips=["drawn while they can be told apart",
+                                               "always drawn", "never drawn"])
+        self.legends = {name: w.HTML() for name in VIEWS}
 
     def _static_views(self) -> dict:
         width, height = self.view_size
@@ -194,10 +200,11 @@ class QmeshWidget(w.VBox):
 
     def _layout(self) -> list:
         s, b = self.sliders, self.buttons
-        views = w.HBox([w.VBox([w.HTML(f"<b>{VIEW_TITLES[name]}</b>"), self.view_widgets[name]])
+        views = w.HBox([w.VBox([w.HTML(f"<b>{VIEW_TITLES[name]}</b>"), self.view_widgets[name],
+                                self.legends[name]])
                         for name in VIEWS])
         return [w.HBox([w.VBox([s["k1"], s["k2"], s["angle"], self.readout]),
-                        w.VBox([s["vb"], s["target_vertices"]])]),
+                        w.VBox([s["vb"], s["target_vertices"], self.edges])]),
                 w.HBox([*b.values(), self.history]),
                 self.status, self.error, views]
 
@@ -206,6 +213,7 @@ class QmeshWidget(w.VBox):
         for name, slider in self.sliders.items():
             slider.observe(on(functools.partial(self._on_param, name)), names="value")
         self.history.observe(on(self._on_history), names="value")
+        self.edges.observe(on(lambda _change: self._show()), names="value")
         self.buttons["step"].on_click(on(lambda _: self._move(self.controller.step)))
         self.buttons["iterate"].on_click(on(lambda _: self._move(self.controller.iterate)))
         self.buttons["run"].on_click(on(self._on_run))
@@ -224,22 +232,17 @@ class QmeshWidget(w.VBox):
         self.error.value = f"<span style='color:#c62828'>{error}</span>"
 
     def _on_param(self, name: str, change) -> None:
-        """Any parameter change restarts the run; bad values leave the old run in place."""
+        """Any parameter change restarts the run; VB and the target move together
+        (`controller.reconcile`); a refused value is put back on its control."""
         if self._syncing:
             return
-        changes = {name: change["new"]}
-        if name == "vb" and self.controller.params.target_vertices <= change["new"]:
-            changes["target_vertices"] = change["new"] + 1   # the mesher needs N > VB
         before = self.controller.params
-        target = changes.get("target_vertices", before.target_vertices)
-        vb = changes.get("vb", before.vb)
-        if target <= vb:                                    # the mesher's rule, checked first
-            self._report(QmeshError(f"target vertices ({target}) must exceed VB ({vb})"))
-            return
         self._stop()
         try:
-            if self.controller.set_params(**changes):
+            if self.controller.set_params(**{name: change["new"]}):
                 self._show()
+            else:
+                self._sync()
         except QmeshError as e:
             if self.controller.params != before:           # the restart itself failed:
                 self.controller.params = before            # start the old parameters again
@@ -304,10 +307,15 @@ class QmeshWidget(w.VBox):
     def _show(self, quick: bool = False) -> None:
         """Draw the shown stage, update the controls, and send the new pictures."""
         c = self.controller
-        self.views.draw(c.current, c.anisotropy, domain=c.domain)
+        self.views.draw(c.current, c.anisotropy, **self._view_options())
+        for name, html in self.legends.items():
+            html.value = legend.html(name, self.views.legend)
         self.error.value = ""
         self._sync(quick)
         self._push()
+
+    def _view_options(self) -> dict:
+        return dict(domain=self.controller.domain, edges=self.edges.value)
 
     def _sync(self, quick: bool = True) -> None:
         """Controls ← model, without their observers reacting."""
@@ -354,7 +362,8 @@ class QmeshWidget(w.VBox):
         self._stop()
         self.views.close()
         for child in (*self.sliders.values(), *self.buttons.values(), self.history,
-                      self.readout, self.status, self.error, *self.view_widgets.values()):
+                      self.readout, self.status, self.error, self.edges,
+                      *self.legends.values(), *self.view_widgets.values()):
             child.close()
         super().close()
 

@@ -7,7 +7,7 @@ import pytest
 
 from qmesh import measure
 from qmesh.errors import QmeshError
-from qmesh_view.controller import Controller, q_matrix, status_text
+from qmesh_view.controller import Controller, q_matrix, reconcile, status_text
 
 STAGES = ("triangulate", "adjust", "insert")
 
@@ -100,7 +100,7 @@ def test_unchanged_or_bad_parameters_keep_the_run():
     assert not c.set_params(k1=0.1, vb=64)
     assert len(c.history) == n
     for bad in ({"k1": -1.0}, {"k2": 0.0}, {"vb": 2}, {"alpha": 0.0}, {"alpha": 1.5},
-                {"target_vertices": 10}, {"vb": 64.5}, {"colour": 1}, {"k1": float("nan")}):
+                {"target_vertices": 3}, {"vb": 100, "target_vertices": 90}, {"vb": 64.5}, {"colour": 1}, {"k1": float("nan")}):
         with pytest.raises(QmeshError):
             c.set_params(**bad)
         assert c.params == params and len(c.history) == n
@@ -176,11 +176,25 @@ def test_convergence_series_has_one_point_per_iteration(chapter_run):
     assert all(k > 1 for k in series["kappa2"])
 
 
-def test_a_target_at_or_below_vb_is_refused_and_keeps_the_run():
+def test_vb_and_the_target_move_together_the_one_changed_wins():
     c = Controller()
     c.iterate()
-    before = (c.params, c.history[c.index].mesh)
-    with pytest.raises(QmeshError, match="must exceed VB"):
-        c.set_params(vb=250)                      # target 212 ≤ 250 seed points
-    assert c.params == before[0]
-    assert c.history and c.history[c.index].mesh.n_vertices > 0
+    assert c.set_params(vb=250)                   # above the target 212: the target follows
+    assert (c.params.vb, c.params.target_vertices) == (250, 251)
+    assert c.current.mesh.fixed.sum() == 250 and len(c.history) == 1
+    assert c.set_params(target_vertices=100)      # below VB 250: VB follows
+    assert (c.params.vb, c.params.target_vertices) == (99, 100)
+    assert c.current.mesh.fixed.sum() == 99
+    assert reconcile(c.params, {"k1": 2.0}) == {"k1": 2.0}
+    assert reconcile(c.params, {"vb": 50}) == {"vb": 50}          # already below the target
+    assert reconcile(c.params, {"target_vertices": 3}) == {"target_vertices": 3}   # VB ≥ 3
+
+
+def test_a_pair_that_cannot_be_reconciled_is_refused_and_keeps_the_run():
+    c = Controller()
+    c.iterate()
+    before = (c.params, list(c.history), c.index)
+    for bad in ({"vb": 250, "target_vertices": 212}, {"target_vertices": 3}):
+        with pytest.raises(QmeshError, match="must exceed VB"):
+            c.set_params(**bad)
+        assert (c.params, c.history, c.index) == before

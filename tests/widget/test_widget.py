@@ -122,7 +122,7 @@ def test_a_bad_value_shows_an_error_and_keeps_the_run(view):
     c = view.controller
     view.buttons["step"].click()
     history = list(c.history)
-    view.sliders["target_vertices"].value = 10               # below VB = 64
+    view.sliders["target_vertices"].value = 3                # VB would have to go below 3
     assert "target" in view.error.value
     assert c.params.target_vertices == 212 == view.sliders["target_vertices"].value
     assert c.history == history and c.index == 1
@@ -130,14 +130,14 @@ def test_a_bad_value_shows_an_error_and_keeps_the_run(view):
     assert c.index == 2 and view.error.value == ""
 
 
-def test_a_target_the_mesher_rejects_leaves_the_old_run(view):
+def test_a_target_at_or_below_vb_lowers_vb(view):
     c = view.controller
     view.buttons["iterate"].click()
-    history, index = list(c.history), c.index
-    view.sliders["target_vertices"].value = 64               # = VB: the mesher needs more
-    assert "exceed" in view.error.value
-    assert c.params.target_vertices == 212 == view.sliders["target_vertices"].value
-    assert c.history == history and c.index == index
+    view.sliders["target_vertices"].value = 64               # = VB: VB follows down to 63
+    assert view.error.value == ""
+    assert (c.params.vb, c.params.target_vertices) == (63, 64)
+    assert (view.sliders["vb"].value, view.sliders["target_vertices"].value) == (63, 64)
+    assert c.current.mesh.fixed.sum() == 63 and c.index == 0
 
 
 def test_a_restart_that_fails_starts_the_old_parameters_again(view, monkeypatch):
