@@ -62,6 +62,18 @@ def convergence_chart(series: dict) -> dict:
                              "chart_n": ends(series["n_vertices"], "d")}}
 
 
+def _stale_retry(link):
+    """A `render_stale_image` for trame-vtk's image delivery `link` that never drops a frame."""
+    limit = int(2.0 / STALE_RETRY)
+
+    def retry(view_id, stale_count=0):
+        counts = link.stale_handler_count
+        counts[view_id] = max(0, counts.get(view_id, 1) - 1)
+        if stale_count < limit:
+            link.push_render(view_id, False, stale_count + 1)
+    return retry
+
+
 def slider(name: str, label: str, lo, hi, step, shown: str | None = None, **kwargs) -> None:
     """A compact labelled VSlider bound to state `name`, its value always shown at the right,
     in a <div id="slider-NAME"> (the value in <span class="slider-value">) for tests."""
@@ -69,7 +81,7 @@ def slider(name: str, label: str, lo, hi, step, shown: str | None = None, **kwar
         with v3.VSlider(v_model=(name,), label=label, min=lo, max=hi, step=step,
                         hide_details=True, density="compact", **kwargs):
             with v3.Template(v_slot_append=True):
-                html.Span(f"{{{{ {shown or name} }}}}", classes="slider-value text-body-2",
+                html.Span(f"{{{{ {shown or f'+Number({name}).toPrecision(4)'} }}}}", classes="slider-value text-body-2",
                           style="min-width: 3.2em; text-align: right; display: inline-block")
 
 
@@ -88,6 +100,7 @@ class QmeshView(TrameApp):
         self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="qmesh-view")
         self._remesh_wanted = False
         self._remesh_task = None
+        self._options_changed = False
         self._init_state()
         self.views.draw(self.controller.current, self.controller.anisotropy,
                         **self._view_options())
@@ -156,16 +169,19 @@ class QmeshView(TrameApp):
             view.update()
 
     def _fast_image_delivery(self, **_) -> None:
-        """Remote views: re-push a frame 10 ms after VTK's encoder reported it busy, not 0.5 s.
+        """Remote views: re-push a frame every 10 ms while VTK's encoder is busy, not after 0.5 s.
 
         trame-vtk's image delivery answers a push with the previous frame while the new one is
         still being JPEG-encoded in a thread, then waits `delta_stale_time_before_render` (0.5 s)
         before pushing again: that wait was most of the 0.6 s a click took to reach the screen.
+        Its own retry logic drops the frame when a short wait is not enough twice in a row, so
+        the retry is replaced by a plain one: push again until the frame is encoded (≤ 2 s).
         """
         protocol = self.server.protocol
         for link in protocol.getLinkProtocols() if protocol is not None else ():
-            if hasattr(link, "delta_stale_time_before_render"):
+            if hasattr(link, "render_stale_image") and hasattr(link, "push_render"):
                 link.delta_stale_time_before_render = STALE_RETRY
+                link.render_stale_image = _stale_retry(link)
 
     # ------------------------------------------------------------------ off-loop work
     async def _work(self, fn):
@@ -201,6 +217,9 @@ class QmeshView(TrameApp):
         finally:
             with self.state:
                 self.state.busy = False
+            if self._options_changed:                # a view option changed while busy
+                self._options_changed = False
+                self._redraw()
 
     def _start(self, move) -> None:
         if self.state.busy or self.state.running:
@@ -257,7 +276,10 @@ class QmeshView(TrameApp):
 
     @change("z_scale", "colour_by", "q_sign_edges", "edges")
     def on_view_option(self, **_):
-        if not self.state.busy:
+        """Redraw the stage shown with the new option, now or when the work in hand is done."""
+        if self.state.busy:
+            self._options_changed = True
+        else:
             self._redraw()
 
     @change("maximised")
@@ -348,7 +370,7 @@ class QmeshView(TrameApp):
                      " · Q22 = {{ q22.toPrecision(4) * 1 }}", classes="my-2", id="q-readout")
             v3.VDivider(classes="my-2")
             html.Div("Domain and mesher", classes="text-subtitle-2")
-            slider("vb", "VB", 8, 256, 1)
+            slider("vb", "VB", 8, 512, 1)
             html.Div("VB (seed points) stays below the target: moving one moves the other.",
                      classes="text-caption text-medium-emphasis")
             with html.Div(id="field-target"):
