@@ -182,6 +182,21 @@ class QmeshView(TrameApp):
             if hasattr(link, "render_stale_image") and hasattr(link, "push_render"):
                 link.delta_stale_time_before_render = STALE_RETRY
                 link.render_stale_image = _stale_retry(link)
+                self._image_link = link
+
+    async def _frames_sent(self, timeout: float = 1.0) -> None:
+        """Wait (≤ timeout) until the remote views' new frames are encoded and sent.
+
+        The measurements that follow (κ2, charts) hold the GIL for tens of milliseconds at
+        N = 1,000 and more; started at once they delayed the frames the user waits for.
+        """
+        link = getattr(self, "_image_link", None)
+        if link is None:
+            return
+        deadline = asyncio.get_running_loop().time() + timeout
+        while (any(link.stale_handler_count.values())
+               and asyncio.get_running_loop().time() < deadline):
+            await asyncio.sleep(STALE_RETRY / 2)
 
     # ------------------------------------------------------------------ off-loop work
     async def _work(self, fn):
@@ -201,6 +216,7 @@ class QmeshView(TrameApp):
             before = len(c.history)
             await self._work(move)
             index = self._show()
+            await self._frames_sent()
             grew = len(c.history) != before
             status, chart = await self._work(
                 lambda: (c.status(index), self._chart() if grew else None))

@@ -264,3 +264,16 @@ def test_run_is_animated_on_the_loop_and_stop_halts_it(loop):
         loop.run_until_complete(asyncio.wait_for(scenario(), 60))
     finally:
         view.close()
+
+
+def test_legends_beside_the_views_and_the_edges_toggle(view):
+    assert "seed points (fixed)" in view.legends["mesh"].value
+    assert "quality: 0" in view.legends["quality"].value
+    assert not view.views.plotters["quality"].scalar_bars       # no bar over the mesh
+    before = pictures(view)
+    view.edges.value = "off"
+    actor = view.views.plotters["mesh"].actors["mesh"]
+    assert not actor.GetProperty().GetEdgeVisibility()
+    assert changed(pictures(view)["mesh"], before["mesh"])
+    view.edges.value = "on"
+    assert actor.GetProperty().GetEdgeVisibility()
