@@ -24,6 +24,7 @@ from .errors import QmeshError
 from .geometry import signed_areas
 
 FLIP_TOL = 1e-10   # relative violation below which an edge counts as regular (ties stay put)
+VERTICAL = 1e-6   # |n_z| of a lifted facet below this: vertical (collinear points on the hull), not lower
 
 
 def lifted_heights(P: np.ndarray, anisotropy) -> np.ndarray:
@@ -53,16 +54,23 @@ def lower_hull(P: np.ndarray, anisotropy) -> np.ndarray:
     duplicate, and is reported as an error.
     """
     P = np.asarray(P, dtype=float)
+    if len(P) == 3:                                     # one triangle: Qhull needs four points
+        return orient_ccw(P, np.array([[0, 1, 2]]))
     scale = np.ptp(P, axis=0).max()
     z = lifted_heights(P, anisotropy)
     zs = np.ptp(z)
-    X = np.column_stack([(P - P.mean(axis=0)) / scale, z / (zs if zs > 0 else 1.0)])
-    try:
-        hull = ConvexHull(X, qhull_options="Qt")
-    except QhullError as err:
-        raise QmeshError(f"Qhull could not triangulate the points: {err}") from None
-    lower = hull.equations[:, 2] < -1e-12
-    T = orient_ccw(P, hull.simplices[lower])
+    if not zs > 1e-12 * (np.abs(z).max() + scale * scale):
+        # every lifted point on one plane (say the input points of a disk under a radial s, and
+        # no others): every triangulation of their convex position is regular; take Delaunay's
+        T = _delaunay(P)
+    else:
+        X = np.column_stack([(P - P.mean(axis=0)) / scale, z / zs])
+        try:
+            hull = ConvexHull(X, qhull_options="Qt")
+        except QhullError as err:
+            raise QmeshError(f"Qhull could not triangulate the points: {err}") from None
+        T = hull.simplices[hull.equations[:, 2] < -VERTICAL]   # vertical ones: hull boundary
+    T = orient_ccw(P, T)
     T = T[signed_areas(P, T) > 0]
     used = np.zeros(len(P), bool)
     used[T.ravel()] = True
@@ -70,6 +78,13 @@ def lower_hull(P: np.ndarray, anisotropy) -> np.ndarray:
         raise QmeshError(f"{int((~used).sum())} points are not vertices of the lower hull "
                          "(duplicate points, or s is not strictly convex there)")
     return T
+
+
+def _delaunay(X: np.ndarray) -> np.ndarray:
+    try:
+        return Delaunay(X).simplices
+    except QhullError as err:
+        raise QmeshError(f"Qhull could not triangulate the points: {err}") from None
 
 
 def q_delaunay(P: np.ndarray, anisotropy) -> np.ndarray:
