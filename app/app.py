@@ -32,7 +32,7 @@ from trame.widgets import vuetify3 as v3
 from qmesh.errors import QmeshError
 
 from . import legend
-from .controller import PARAMS, Controller, status_text
+from .controller import DISK, PARAMS, Controller, domain_names, status_text
 from .draw import VIEWS, ViewSet
 
 TITLE = "qmesh-view — Q-adapted meshes (Algorithm 2.1)"
@@ -121,6 +121,8 @@ class QmeshView(TrameApp):
                                status_line="", error="", at_end=False,
                                chart_energy=[], chart_kappa2=[], chart_n=[], chart_labels={}))
         self.state.update(legend.state(self.views.legend))
+        self.state.domain_items = domain_names(self.controller.uploads)
+        self.state.domain_file = None
 
     def _sync_params(self) -> None:
         """Controls ← the parameters of the run on screen (after a change, accepted or not)."""
@@ -213,11 +215,11 @@ class QmeshView(TrameApp):
             self.state.busy = True
             self.state.error = ""
         try:
-            before = len(c.history)
+            before = (len(c.history), c.history[0])
             await self._work(move)
             index = self._show()
             await self._frames_sent()
-            grew = len(c.history) != before
+            grew = (len(c.history), c.history[0]) != before     # more stages, or a new run
             status, chart = await self._work(
                 lambda: (c.status(index), self._chart() if grew else None))
             with self.state:
@@ -310,6 +312,23 @@ class QmeshView(TrameApp):
         self.views.apply_edges()
         self._push()
 
+    @change("domain_file")
+    def on_domain_file(self, domain_file, **_):
+        """A polygon file arrived from the browser: read it, offer it and mesh it."""
+        if not domain_file:
+            return
+        from trame.app.file_upload import ClientFile
+        upload = ClientFile(domain_file)
+        asynchronous.create_task(self._upload(upload.name, upload.content))
+
+    async def _upload(self, name: str, content) -> None:
+        self.state.running = False
+        await self._when_idle()
+        await self._move(lambda: self.controller.add_upload(name, content))
+        with self.state:
+            self.state.domain_items = domain_names(self.controller.uploads)
+            self._sync_params()
+
     @change(*PARAMS)
     def on_param(self, **_):
         """Any parameter change re-meshes from the start; the latest values win."""
@@ -386,9 +405,18 @@ class QmeshView(TrameApp):
                      " · Q22 = {{ q22.toPrecision(4) * 1 }}", classes="my-2", id="q-readout")
             v3.VDivider(classes="my-2")
             html.Div("Domain and mesher", classes="text-subtitle-2")
-            slider("vb", "VB", 8, 512, 1)
-            html.Div("VB (seed points) stays below the target: moving one moves the other.",
-                     classes="text-caption text-medium-emphasis")
+            with html.Div(id="select-domain"):
+                v3.VSelect(v_model=("domain",), label="domain", items=("domain_items",),
+                           density="compact", hide_details=True, classes="my-2")
+            with html.Div(id="upload-domain"):
+                v3.VFileInput(v_model=("domain_file", None), label="polygon file (CSV, GeoJSON)",
+                              accept=".csv,.txt,.geojson,.json", density="compact",
+                              hide_details=True, prepend_icon="", clearable=True,
+                              classes="my-1")
+            with html.Div(v_show=(f"domain === '{DISK}'",)):
+                slider("vb", "VB", 8, 512, 1)
+                html.Div("VB (seed points) stays below the target: moving one moves the other.",
+                         classes="text-caption text-medium-emphasis")
             with html.Div(id="field-target"):
                 v3.VTextField(v_model_number=("target_vertices",), label="target vertices",
                               type="number", density="compact", hide_details=True,

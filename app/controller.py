@@ -14,10 +14,10 @@ from dataclasses import dataclass
 import numpy as np
 
 import qmesh
-from qmesh import measure
+from qmesh import domains, measure, polygon_file
 from qmesh.errors import QmeshError
 
-PARAMS = ("k1", "k2", "angle", "vb", "target_vertices", "alpha", "seed")
+PARAMS = ("k1", "k2", "angle", "vb", "target_vertices", "alpha", "seed", "domain")
 Q_PARAMS = ("k1", "k2", "angle")
 
 
@@ -36,6 +36,7 @@ class Params:
     target_vertices: int = 212
     alpha: float = 0.5
     seed: int = 0
+    domain: str = "disk"
 
 
 def q_matrix(k1: float, k2: float, angle: float) -> np.ndarray:
@@ -58,11 +59,23 @@ def _checked(p: Params) -> Params:
         raise QmeshError("vb, target_vertices and seed must be integers")
     if not (0.0 < alpha <= 1.0):
         raise QmeshError(f"alpha must be in (0, 1], got {alpha}")
-    if target <= vb:
+    if p.domain == "disk" and target <= vb:
         raise QmeshError(f"target_vertices ({target}) must exceed VB ({vb}), the seed points")
     qmesh.Anisotropy.principal(k1, k2, angle)   # raises QmeshError for k ≤ 0 or non-finite
     qmesh.Disk(vb)                              # raises QmeshError for VB < 3
-    return Params(k1, k2, angle, vb, target, alpha, seed)
+    if not isinstance(p.domain, str):
+        raise QmeshError(f"domain must be a name, got {type(p.domain).__name__}")
+    return Params(k1, k2, angle, vb, target, alpha, seed, p.domain)
+
+
+DISK = "disk"
+FILE_PREFIX = "file: "
+"""Uploaded polygon files are domains named "file: <file name>"."""
+
+
+def domain_names(uploads=()) -> list[str]:
+    """The domains on offer: the named shapes of `qmesh.domains` (the disk first), then uploads."""
+    return list(domains.NAMED) + [FILE_PREFIX + name for name in uploads]
 
 
 def reconcile(params: Params, changes: dict) -> dict:
@@ -75,6 +88,8 @@ def reconcile(params: Params, changes: dict) -> dict:
     out = dict(changes)
     if "vb" in changes and "target_vertices" in changes:
         return out
+    if out.get("domain", params.domain) != DISK:
+        return out                                  # VB is the disk's; other seeds are fixed
     try:
         vb = int(out.get("vb", params.vb))
         target = int(out.get("target_vertices", params.target_vertices))
@@ -100,6 +115,7 @@ class Controller:
 
     def __init__(self, **params):
         self.params = _checked(Params(**params))
+        self.uploads: dict[str, qmesh.Domain] = {}
         self._stop = threading.Event()
         self._cache: dict[int, dict] = {}
         self.reset()
@@ -110,7 +126,7 @@ class Controller:
         return self._anisotropy
 
     @property
-    def domain(self) -> qmesh.Polygon:
+    def domain(self) -> qmesh.Domain:
         return self._domain
 
     @property
@@ -125,11 +141,55 @@ class Controller:
         Q = self.q
         return {"q11": float(Q[0, 0]), "q12": float(Q[0, 1]), "q22": float(Q[1, 1])}
 
+    def make_domain(self, p: Params | None = None) -> qmesh.Domain:
+        """The domain named by the parameters: the VB-gon, a named shape or an uploaded file.
+
+        QmeshError when the name is unknown or the target does not exceed the domain's seeds.
+        """
+        p = self.params if p is None else p
+        if p.domain == DISK:
+            domain = qmesh.Disk(p.vb)
+        elif p.domain in domains.NAMED:
+            domain = domains.NAMED[p.domain]()
+        elif p.domain.startswith(FILE_PREFIX) and p.domain[len(FILE_PREFIX):] in self.uploads:
+            domain = self.uploads[p.domain[len(FILE_PREFIX):]]
+        else:
+            raise QmeshError(f"domain must be one of {domain_names(self.uploads)}, "
+                             f"got {p.domain!r}")
+        seeds = len(domain.seeds)
+        if p.target_vertices <= seeds:
+            raise QmeshError(f"target_vertices ({p.target_vertices}) must exceed the "
+                             f"{seeds} seed points of the domain {p.domain!r}")
+        return domain
+
+    def add_upload(self, name: str, content) -> str:
+        """Read an uploaded polygon file (CSV or GeoJSON, by its name's suffix) and mesh it.
+
+        Returns the new domain's name ("file: <name>"); a bad file raises QmeshError and
+        changes nothing.
+        """
+        domain = polygon_file.domain_from_text(content, name)
+        key = FILE_PREFIX + name
+        old = self.uploads.get(name)
+        self.uploads[name] = domain
+        try:
+            if key == self.params.domain:
+                self.reset()                       # the same name uploaded again: new rings
+            else:
+                self.set_params(domain=key)
+        except QmeshError:
+            if old is None:
+                del self.uploads[name]
+            else:
+                self.uploads[name] = old
+            raise
+        return key
+
     def reset(self) -> None:
         """Start the run again from its initial triangulation with the current parameters."""
         p = self.params
         self._anisotropy = qmesh.Anisotropy.constant(self.q)
-        self._domain = qmesh.Disk(p.vb)
+        self._domain = self.make_domain(p)
         self._gen = qmesh.iterate(self._domain, self._anisotropy,
                                   target_vertices=p.target_vertices, alpha=p.alpha, seed=p.seed)
         self.history: list[qmesh.Step] = []
@@ -212,6 +272,7 @@ class Controller:
         new = _checked(Params(**{**self.params.__dict__, **changes}))
         if new == self.params:
             return False
+        self.make_domain(new)                      # a bad domain or target: nothing changes
         old, self.params = self.params, new
         try:
             self.reset()

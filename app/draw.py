@@ -147,6 +147,13 @@ def edge_look(mode: str, edge_pixels: float) -> str | None:
     return "light" if edge_pixels >= EDGE_THIN_PX else None
 
 
+def _narrow(plotter: pv.Plotter) -> float:
+    """Width / height when the view is taller than wide, else 1: VTK fits a scene to the
+    height, so a narrow view must zoom out by this much to show all of it."""
+    w, h = plotter.render_window.GetSize()
+    return min(1.0, w / h) if w > 0 and h > 0 else 1.0
+
+
 def new_plotter(window_size=WINDOW_SIZE) -> pv.Plotter:
     """An off-screen plotter without multisampling: MSAA costs ~4× per frame on llvmpipe."""
     system.require_rendering()
@@ -173,6 +180,7 @@ class ViewSet:
         self.legend: dict = {}
         self._drawn = False
         self._z_scale = None
+        self._domain_key = None
         for name, plotter in self.plotters.items():
             plotter.render_window.AddObserver("WindowResizeEvent",
                                               lambda *_, n=name: self._resized(n))
@@ -199,9 +207,11 @@ class ViewSet:
         draw_quality(p["quality"], q, scalar_bar=self.scalar_bar)
         self.legend = {"title": SCALAR_TITLES[q.scalars], "clim": tuple(map(float, q.clim)),
                        "q_sign_edges": q.edges is not None, "n_negative": q.n_negative}
-        if not self._drawn:
+        key = None if domain is None else tuple(np.asarray(r).tobytes() for r in domain.rings)
+        if not self._drawn or key != self._domain_key:      # first draw, or a new domain
             self.reset_cameras()
             self._drawn = True
+            self._domain_key = key
         elif z_scale != self._z_scale:
             self.fit_lifted()
         self._z_scale = z_scale
@@ -248,13 +258,13 @@ class ViewSet:
         """Fit the shared top-down camera of the mesh and quality views to the domain."""
         top = self.plotters["mesh"]
         top.reset_camera(render=False)
-        top.camera.zoom(0.9)
+        top.camera.zoom(0.9 * _narrow(top))
 
     def fit_lifted(self) -> None:
         """Fit the lifted view to its scene, keeping its direction (after a z-scale change)."""
         lifted = self.plotters["lifted"]
         lifted.reset_camera(render=False)
-        lifted.camera.zoom(1.1)
+        lifted.camera.zoom(1.05 * _narrow(lifted))
 
     def render(self) -> None:
         """Render all three windows now.

@@ -40,7 +40,7 @@ import numpy as np
 from qmesh.errors import QmeshError
 
 from . import legend
-from .controller import Controller, status_text
+from .controller import DISK, Controller, domain_names, status_text
 from .draw import VIEWS, ViewSet
 
 BACKENDS = ("auto", "trame", "static")
@@ -161,7 +161,11 @@ class QmeshWidget(w.VBox):
             "vb": _slider(w.IntSlider, "VB", p.vb, min=3, max=256),
             "target_vertices": _slider(w.IntSlider, "target vertices", p.target_vertices,
                                        min=3, max=5000),
+            "domain": w.Dropdown(options=domain_names(), value=p.domain, description="domain",
+                                 style=SLIDER_STYLE),
         }
+        self.upload = w.FileUpload(accept=".csv,.txt,.geojson,.json", multiple=False,
+                                   description="polygon file")
         self.buttons = {name: w.Button(description=name.capitalize(),
                                        layout=w.Layout(width="6.5em"))
                         for name in ("step", "iterate", "run", "reset")}
@@ -204,7 +208,8 @@ class QmeshWidget(w.VBox):
                                 self.legends[name]])
                         for name in VIEWS])
         return [w.HBox([w.VBox([s["k1"], s["k2"], s["angle"], self.readout]),
-                        w.VBox([s["vb"], s["target_vertices"], self.edges])]),
+                        w.VBox([s["domain"], self.upload, s["vb"], s["target_vertices"],
+                                self.edges])]),
                 w.HBox([*b.values(), self.history]),
                 self.status, self.error, views]
 
@@ -214,6 +219,7 @@ class QmeshWidget(w.VBox):
             slider.observe(on(functools.partial(self._on_param, name)), names="value")
         self.history.observe(on(self._on_history), names="value")
         self.edges.observe(on(lambda _change: self._show()), names="value")
+        self.upload.observe(on(self._on_upload), names="value")
         self.buttons["step"].on_click(on(lambda _: self._move(self.controller.step)))
         self.buttons["iterate"].on_click(on(lambda _: self._move(self.controller.iterate)))
         self.buttons["run"].on_click(on(self._on_run))
@@ -249,6 +255,17 @@ class QmeshWidget(w.VBox):
                 self.controller.reset()
                 self._show()
             self._report(e)
+
+    def _on_upload(self, change) -> None:
+        """A polygon file (CSV or GeoJSON) was uploaded: offer it as a domain and mesh it."""
+        files = change["new"]
+        if self._syncing or not files:
+            return
+        upload = files[0]
+        self._stop()
+        self._guarded(lambda: (self.controller.add_upload(upload["name"],
+                                                          bytes(upload["content"])),
+                               self._show()))
 
     def _on_history(self, change) -> None:
         if self._syncing or self.running or int(change["new"]) == self.controller.index:
@@ -322,8 +339,10 @@ class QmeshWidget(w.VBox):
         c = self.controller
         self._syncing = True
         try:
+            self.sliders["domain"].options = domain_names(c.uploads)
             for name, slider in self.sliders.items():
                 slider.value = getattr(c.params, name)
+            self.sliders["vb"].disabled = c.params.domain != DISK
             last = len(c.history) - 1
             if last >= self.history.max:
                 self.history.max = last
@@ -361,7 +380,7 @@ class QmeshWidget(w.VBox):
         """Stop a run, release the plotters and close the widget and its children."""
         self._stop()
         self.views.close()
-        for child in (*self.sliders.values(), *self.buttons.values(), self.history,
+        for child in (*self.sliders.values(), *self.buttons.values(), self.history, self.upload,
                       self.readout, self.status, self.error, self.edges,
                       *self.legends.values(), *self.view_widgets.values()):
             child.close()

@@ -165,3 +165,29 @@ def test_vb_past_the_target_and_a_refused_target_never_wedge_the_controls():
         assert (_slider_value(page, "vb"), _target(page), _slider_value(page, "k1")) == (
             "512", "513", "20")
         b.save(page, "browser-vb-recovered")
+
+
+def test_choosing_l_shape_and_uploading_a_polygon_file(tmp_path):
+    with b.qmesh_view_server() as url, b.chromium_page(url) as page:
+        start = b.wait_drawn(page)
+        b.wait_idle(page)
+        s0 = b.status(page)
+        page.locator("#select-domain .v-field").click()
+        page.get_by_role("option", name="L-shape", exact=True).click()
+        s1 = b.settled_status(page, s0)
+        assert _iteration_stage(s1)[:2] == (0, "triangulate")
+        assert not page.locator("#slider-vb").is_visible()         # VB is the disk's only
+        lshape = {name: b.wait_view_change(page, name, start[name]) for name in b.VIEWS}
+        b.save(page, "browser-domain-lshape")
+
+        # a CSV file with an outline and a hole, uploaded from the browser
+        path = tmp_path / "plate.csv"
+        path.write_text("0,0\n2,0\n2,1\n0,1\n\n0.6,0.3\n0.9,0.3\n0.9,0.7\n0.6,0.7\n")
+        page.locator("#upload-domain input[type=file]").set_input_files(str(path))
+        s2 = b.settled_status(page, s1)
+        assert _iteration_stage(s2)[:2] == (0, "triangulate")
+        assert "file: plate.csv" in b.page_text(page, "#select-domain")
+        for name in b.VIEWS:
+            b.wait_view_change(page, name, lshape[name])
+        assert not page.locator("#error").is_visible()
+        b.save(page, "browser-domain-upload")

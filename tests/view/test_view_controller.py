@@ -198,3 +198,31 @@ def test_a_pair_that_cannot_be_reconciled_is_refused_and_keeps_the_run():
         with pytest.raises(QmeshError, match="must exceed VB"):
             c.set_params(**bad)
         assert (c.params, c.history, c.index) == before
+
+
+def test_a_domain_choice_restarts_on_that_domain_and_vb_is_the_disks():
+    c = Controller()
+    c.iterate()
+    assert c.set_params(domain="annulus")
+    assert len(c.history) == 1 and len(c.domain.rings) == 2
+    assert c.current.mesh.fixed.sum() == len(c.domain.seeds) == 96
+    assert reconcile(c.params, {"vb": 300}) == {"vb": 300}      # VB only moves the disk's N
+    with pytest.raises(QmeshError, match="96 seed points"):
+        c.set_params(target_vertices=90)
+    with pytest.raises(QmeshError, match="domain must be one of"):
+        c.set_params(domain="torus")
+    assert c.params.domain == "annulus" and c.params.target_vertices == 212
+
+
+def test_an_uploaded_file_is_read_offered_and_a_bad_one_changes_nothing():
+    c = Controller()
+    geojson = ('{"type": "Polygon", "coordinates": [[[0,0],[3,0],[3,1],[0,1],[0,0]],'
+               ' [[1,0.3],[1,0.7],[2,0.7],[2,0.3],[1,0.3]]]}')
+    assert c.add_upload("plate.geojson", geojson) == "file: plate.geojson"
+    assert c.params.domain == "file: plate.geojson" and "plate.geojson" in c.uploads
+    assert c.domain.area == pytest.approx(3.0 - 0.4)
+    history = list(c.history)
+    with pytest.raises(QmeshError, match="bad.csv"):
+        c.add_upload("bad.csv", "1,2\n3,4\n")
+    assert "bad.csv" not in c.uploads and c.history == history
+    assert c.params.domain == "file: plate.geojson"

@@ -1,6 +1,7 @@
 """qmesh_view.widget without a kernel: the static backend driven as a user would drive it."""
 
 import asyncio
+import datetime
 import io
 import threading
 import time
@@ -17,6 +18,7 @@ from qmesh_view.controller import q_matrix, status_text
 from qmesh_view.widget import MainThread, choose_backend, in_jupyter_server_kernel
 
 SIZE = (200, 180)
+NOW = datetime.datetime(2026, 1, 1, tzinfo=datetime.timezone.utc)   # an upload's time stamp
 
 
 @pytest.fixture
@@ -39,7 +41,7 @@ def changed(a: np.ndarray, b: np.ndarray) -> bool:
 def test_builds_a_box_with_controls_and_three_drawn_pictures(view):
     assert isinstance(view, ipywidgets.Box)
     assert view.backend == "static"
-    assert set(view.sliders) == {"k1", "k2", "angle", "vb", "target_vertices"}
+    assert set(view.sliders) == {"k1", "k2", "angle", "vb", "target_vertices", "domain"}
     assert set(view.buttons) == {"step", "iterate", "run", "reset"}
     p = view.controller.params
     assert (view.sliders["k1"].value, view.sliders["k2"].value, view.sliders["vb"].value,
@@ -277,3 +279,35 @@ def test_legends_beside_the_views_and_the_edges_toggle(view):
     assert changed(pictures(view)["mesh"], before["mesh"])
     view.edges.value = "on"
     assert actor.GetProperty().GetEdgeVisibility()
+
+
+def test_choosing_a_domain_remeshes_it_from_the_start(view):
+    c = view.controller
+    view.buttons["iterate"].click()
+    before = pictures(view)
+    assert view.sliders["domain"].options[:4] == ("disk", "L-shape", "square with hole",
+                                                  "annulus")
+    view.sliders["domain"].value = "square with hole"
+    assert c.params.domain == "square with hole" and len(c.history) == 1
+    assert c.current.mesh.fixed.sum() == len(c.domain.seeds) == 36
+    assert view.sliders["vb"].disabled and view.error.value == ""
+    after = pictures(view)
+    assert all(changed(after[name], before[name]) for name in after)
+    # the mesh has a hole: no vertex inside the hole's circle of radius 0.4
+    assert np.hypot(*c.current.mesh.points.T).min() > 0.39
+
+
+def test_an_uploaded_polygon_file_becomes_the_domain_and_a_bad_one_is_refused(view):
+    c = view.controller
+    csv = b"0,0\n2,0\n2,1\n0,1\n\n0.6,0.3\n0.9,0.3\n0.9,0.7\n0.6,0.7\n"
+    view.upload.value = ({"name": "plate.csv", "type": "text/csv", "size": len(csv),
+                          "content": memoryview(csv), "last_modified": NOW},)
+    assert c.params.domain == "file: plate.csv" == view.sliders["domain"].value
+    assert "file: plate.csv" in view.sliders["domain"].options
+    assert len(c.domain.rings) == 2 and c.domain.area == pytest.approx(2.0 - 0.12)
+    shown = pictures(view)
+    view.upload.value = ({"name": "bad.csv", "type": "text/csv", "size": 4,
+                          "content": memoryview(b"1,2\n"), "last_modified": NOW},)
+    assert "bad.csv" in view.error.value
+    assert c.params.domain == "file: plate.csv" == view.sliders["domain"].value
+    assert not changed(pictures(view)["mesh"], shown["mesh"])
