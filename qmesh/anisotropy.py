@@ -45,7 +45,8 @@ def _check_spd(Q: np.ndarray, what: str) -> np.ndarray:
 class Anisotropy:
     """s, ∇s, ∇²s and Q = adj ∇²s as vectorised callables.
 
-    Build it with `constant`, `principal` or `from_s`. `H` is the constant Hessian when Q is
+    Build it with `constant`, `principal`, `from_s` or `from_expression` (s typed as text,
+    kept in `expression`). `H` is the constant Hessian when Q is
     constant (None otherwise); code paths that can exploit a constant metric check it.
     """
 
@@ -54,6 +55,7 @@ class Anisotropy:
     hessian: Field
     H: np.ndarray | None = None
     label: str = ""
+    expression: str | None = None
 
     def Q(self, P: np.ndarray) -> np.ndarray:
         """Conductivity at points P (n, 2) → (n, 2, 2): Q = adj ∇²s."""
@@ -106,6 +108,19 @@ class Anisotropy:
             if not callable(f):
                 raise QmeshError(f"{name} must be callable")
         return cls(s, grad, hessian, None, label)
+
+    @classmethod
+    def from_expression(cls, text: str) -> "Anisotropy":
+        """s(x, y) typed as text, e.g. "exp(x) + y**2": exact s, ∇s, ∇²s (qmesh.expression).
+
+        The text is parsed against a whitelist, never run; QmeshError points at what is refused.
+        A Hessian that is constant and not SPD is refused here; one that varies is checked on
+        the domain by `check_convex`. A constant Hessian makes this a constant-Q anisotropy.
+        """
+        from .expression import parse_s
+
+        e = parse_s(text)
+        return cls(e.s, e.grad, e.hessian, e.H, label=text, expression=text)
 
     def check_convex(self, P: np.ndarray) -> None:
         """Raise QmeshError unless ∇²s is finite and SPD at every point of P."""

@@ -1,8 +1,9 @@
 """The `qmesh` command: mesh a domain, report on any mesh file, reproduce the chapter's tables.
 
-    qmesh mesh   [--Q Q11 Q12 Q22 | --principal K1 K2 ANGLE] [--disk VB | --polygon FILE]
+    qmesh mesh   [--Q Q11 Q12 Q22 | --principal K1 K2 ANGLE | --s TEXT] [--disk VB | --polygon FILE]
                  [--target-vertices N | --size H] [--alpha A] [--seed S] [--max-iterations K] -o OUT
-    qmesh report MESHFILE [--Q ... | --principal ...] [--json]   (default Q: the one stored in the file)
+    qmesh report MESHFILE [--Q ... | --principal ... | --s TEXT] [--json]
+                 (default Q: the one stored in the file)
     qmesh table  [--vb VB ...] [--out DIR] [--peers] [--solve]
 
 Defaults are the chapter's case: Q = diag(0.1, 10) (2.95) on the regular 64-gon. Bad input
@@ -43,12 +44,14 @@ def _non_negative_int(text: str) -> int:
 
 
 def anisotropy_from(args) -> Anisotropy:
-    """--Q Q11 Q12 Q22 or --principal K1 K2 ANGLE; the chapter's Q = diag(0.1, 10) by default."""
+    """--Q Q11 Q12 Q22, --principal K1 K2 ANGLE or --s TEXT; the chapter's Q = diag(0.1, 10) by default."""
     if args.Q is not None:
         q11, q12, q22 = args.Q
         return Anisotropy.constant([[q11, q12], [q12, q22]])
     if args.principal is not None:
         return Anisotropy.principal(*args.principal)
+    if args.s is not None:
+        return Anisotropy.from_expression(args.s)
     return Anisotropy.constant(CHAPTER_Q)
 
 
@@ -156,6 +159,10 @@ def _add_anisotropy(p) -> None:
                    help="constant SPD conductivity [[Q11, Q12], [Q12, Q22]] (default: 0.1 0 10)")
     g.add_argument("--principal", nargs=3, type=float, metavar=("K1", "K2", "ANGLE"),
                    help="principal conductivities K1, K2 > 0 and the angle of K1's axis in degrees")
+    g.add_argument("--s", metavar="TEXT",
+                   help="a varying conductivity Q = adj ∇²s from a convex s(x, y) typed as text, "
+                   "e.g. 'exp(x) + y**2': numbers, x, y, pi, e, + - * / **, and exp log log1p sqrt "
+                   "sin cos tan sinh cosh tanh arctan abs (write --s=TEXT when TEXT starts with -)")
 
 
 def build_parser() -> argparse.ArgumentParser:

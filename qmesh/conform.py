@@ -127,6 +127,14 @@ def _subsegments(domain, n_seeds, edge_id, t):
     return idx[:-1][same], idx[1:][same]
 
 
+def _canonical_order(T: np.ndarray) -> np.ndarray:
+    """Triangles rotated to start at their smallest vertex and sorted: Qhull lists them in an
+    order that depends on the coordinates' round-off, the mesher's later choices on the order."""
+    r = np.argmin(T, axis=1)
+    T = np.take_along_axis(T, (r[:, None] + np.arange(3)) % 3, axis=1)
+    return T[np.lexsort((T[:, 2], T[:, 1], T[:, 0]))]
+
+
 def _find_half_edges(T: np.ndarray, n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Half-edge id of a→b in T, or -1 where there is none."""
     key = T.astype(np.int64) * n + T[:, topology.NXT]
@@ -198,15 +206,31 @@ def _encroaching_free(domain, P, edge_id, anisotropy) -> np.ndarray:
 
 
 def conforming_delaunay(domain, P: np.ndarray, edge_id: np.ndarray, anisotropy,
-                        max_points: int | None = None, pinned: np.ndarray | None = None) -> Conforming:
+                        max_points: int | None = None, pinned: np.ndarray | None = None,
+                        target: int | None = None, rng=None) -> Conforming:
     """The conforming Q-Delaunay triangulation of Ω from scratch (Qhull), restricted to Ω.
 
     P holds the seeds first (as `domain.seeds`), then points on segments (`edge_id` ≥ 0), then
     interior points. Free interior points that encroach a subsegment are dropped (the mesher's
     insertion stage puts points back where they are missing); subsegments that are not edges or
     are encroached by a boundary point are split; Qhull runs again until neither happens.
-    More than `max_points` points raises TooManySplits (a QmeshError).
+    More than `max_points` points raises TooManySplits (a QmeshError). With a `target` vertex
+    count, the splits take the place of as many interior points (drawn with `rng`), and the
+    triangulation is built once more without them.
     """
+    built = _conforming(domain, P, edge_id, anisotropy, max_points, pinned)
+    excess = len(built.P) - target if target is not None else 0
+    free = np.flatnonzero((np.arange(len(built.P)) >= len(domain.seeds)) & (built.edge_id < 0))
+    if excess <= 0 or not len(free):
+        return built
+    keep = np.ones(len(built.P), bool)
+    keep[rng.choice(free, size=min(excess, len(free)), replace=False)] = False
+    return _conforming(domain, built.P[keep], built.edge_id[keep], anisotropy, max_points,
+                       built.pinned[keep])
+
+
+def _conforming(domain, P, edge_id, anisotropy, max_points, pinned) -> Conforming:
+    """One conforming build (see conforming_delaunay)."""
     n_seeds = len(domain.seeds)
     A, Bend = domain.segment_ends
     seg_len2 = np.einsum("ki,ki->k", Bend - A, Bend - A)
@@ -240,6 +264,7 @@ def conforming_delaunay(domain, P: np.ndarray, edge_id: np.ndarray, anisotropy,
             if not used.all():
                 raise QmeshError(f"{int((~used).sum())} points lie outside the domain; "
                                  "please report this domain")
+            T = _canonical_order(T)
             return Conforming(P, T, topology.twins(T), edge_id, pinned)
         crowd = ~missing[split] & ~free[split]              # split for another boundary point
         a, b = a[split], b[split]

@@ -25,7 +25,7 @@ import numpy as np
 from . import conform, seeding, sizing, topology
 from .adjust import limit_moves, newton_step
 from .anisotropy import Anisotropy
-from .boundary import hold_off_boundary, snap_to_boundary
+from .boundary import hold_off_boundary, hold_out_of_ellipses, snap_to_boundary
 from .domain import as_domain
 from .errors import QmeshError
 from .geometry import quadratic_form
@@ -186,16 +186,8 @@ def _run(norm, h, area_m, lengths, target_vertices, alpha, quality_threshold, mi
     t0 = time.perf_counter()
     expected = target_vertices or sizing.vertices_for_size(area_m, lengths, h, bfac)
     cap = int(min(sizing.MAX_VERTICES, 4 * expected + 4 * len(seeds) + 100))
-    built = conform.conforming_delaunay(domain, P, edge_id, anisotropy, cap)
-    excess = len(built.P) - target_vertices if target_vertices is not None else 0
-    free = np.flatnonzero((np.arange(len(built.P)) >= len(seeds)) & (built.edge_id < 0))
-    if excess > 0 and len(free):
-        # the splits that conformity needed take the place of as many interior points
-        drop = rng.choice(free, size=min(excess, len(free)), replace=False)
-        keep = np.ones(len(built.P), bool)
-        keep[drop] = False
-        built = conform.conforming_delaunay(domain, built.P[keep], built.edge_id[keep],
-                                            anisotropy, cap, built.pinned[keep])
+    built = conform.conforming_delaunay(domain, P, edge_id, anisotropy, cap,
+                                        target=target_vertices, rng=rng)
     st = _State(norm, built)
     yield Step("triangulate", 0, st.mesh, st.stats(seconds=time.perf_counter() - t0))
 
@@ -218,9 +210,10 @@ def _run(norm, h, area_m, lengths, target_vertices, alpha, quality_threshold, mi
                 keep[snap.vertices] = True
         else:
             d = hold_off_boundary(P0, T0, st.twin, d, st.on_boundary(), anisotropy)
+        d = hold_out_of_ellipses(P0, st.T, st.twin, d, st.on_boundary(), anisotropy)
         Pn, d = limit_moves(P0, st.T, d, keep)
         Pn = _onto_edges(domain, Pn, st.edge_id)
-        Hv = anisotropy.H if anisotropy.is_constant else np.asarray(anisotropy.hessian(P0))
+        Hv = anisotropy.H if anisotropy.is_constant else _hessian_at_vertices(norm, P0)
         move2 = quadratic_form(d[:, None], Hv)
         max_move = float(np.sqrt(move2.max()) / h)
         rms_move = float(np.sqrt(move2.mean()) / h)
@@ -278,6 +271,20 @@ def _run(norm, h, area_m, lengths, target_vertices, alpha, quality_threshold, mi
                    moved=pushed, added=c.added, converged=converged)
         if converged:
             return
+
+
+def _hessian_at_vertices(norm, P) -> np.ndarray:
+    """∇²s at the vertices; QmeshError naming a point (user coordinates) where it is not finite
+    and SPD: the probe before the run samples Ω, this catches what the probe missed."""
+    with np.errstate(all="ignore"):
+        H = np.asarray(norm.anisotropy.hessian(P), dtype=float)
+    det = H[:, 0, 0] * H[:, 1, 1] - H[:, 0, 1] * H[:, 1, 0]
+    bad = ~(np.isfinite(H).all(axis=(1, 2)) & (H[:, 0, 0] > 0) & (det > 0))
+    if bad.any():
+        x = norm.center + norm.scale * P[np.flatnonzero(bad)[0]]
+        raise QmeshError(f"the Hessian of s is not finite and positive definite at "
+                         f"({x[0]:.6g}, {x[1]:.6g}), a vertex of the mesh inside the domain")
+    return H
 
 
 def _onto_edges(domain, P, edge_id):
