@@ -32,7 +32,7 @@ from trame.widgets import vuetify3 as v3
 from qmesh.errors import QmeshError
 
 from . import legend
-from .controller import DISK, PARAMS, Controller, domain_names, status_text
+from .controller import DISK, PARAMS, S_PRESETS, Controller, domain_names, status_text
 from .draw import VIEWS, ViewSet
 
 TITLE = "qmesh-view — Q-adapted meshes (Algorithm 2.1)"
@@ -123,6 +123,8 @@ class QmeshView(TrameApp):
         self.state.update(legend.state(self.views.legend))
         self.state.domain_items = domain_names(self.controller.uploads)
         self.state.domain_file = None
+        self.state.update(dict(s_input=self.controller.params.s_text, s_error="",
+                               s_presets=list(S_PRESETS), s_preset=None))
 
     def _sync_params(self) -> None:
         """Controls ← the parameters of the run on screen (after a change, accepted or not)."""
@@ -312,6 +314,32 @@ class QmeshView(TrameApp):
         self.views.apply_edges()
         self._push()
 
+    def on_s_enter(self) -> None:
+        """Enter in the s(x, y) field: mesh that s from the start (also when unchanged)."""
+        asynchronous.create_task(self._apply_s(str(self.state.s_input or "")))
+
+    @change("s_preset")
+    def on_s_preset(self, s_preset, **_):
+        if s_preset:
+            self.state.s_input = s_preset
+            self.state.s_preset = None
+            asynchronous.create_task(self._apply_s(s_preset))
+
+    async def _apply_s(self, text: str) -> None:
+        """Re-mesh with s(x, y) = text; a refused text keeps the last mesh, its error (red)
+        goes next to the field, and the text stays there to be corrected."""
+        self.state.running = False
+        await self._when_idle()
+        c = self.controller
+        ok = await self._move(lambda: c.set_params(q_mode="expression", s_text=text)
+                              or c.reset())
+        with self.state:
+            if ok:
+                self.state.s_error = ""
+            else:
+                self.state.s_error, self.state.error = self.state.error, ""
+            self._sync_params()
+
     @change("domain_file")
     def on_domain_file(self, domain_file, **_):
         """A polygon file arrived from the browser: read it, offer it and mesh it."""
@@ -397,12 +425,33 @@ class QmeshView(TrameApp):
 
     def _parameters(self) -> None:
         with v3.VContainer(classes="pa-3", style="font-size: 0.85rem"):
-            html.Div("Conductivity Q (principal values, angle of k1)", classes="text-subtitle-2")
-            slider("k1", "k1", 0.05, 20, 0.05)
-            slider("k2", "k2", 0.05, 20, 0.05)
-            slider("angle", "angle", 0, 180, 5, shown="angle + '°'")
-            html.Div("Q11 = {{ q11.toPrecision(4) * 1 }} · Q12 = {{ q12.toPrecision(4) * 1 }}"
-                     " · Q22 = {{ q22.toPrecision(4) * 1 }}", classes="my-2", id="q-readout")
+            html.Div("Conductivity", classes="text-subtitle-2")
+            with html.Div(id="q-mode", classes="my-1"):
+                with v3.VBtnToggle(v_model=("q_mode",), mandatory=True, density="compact",
+                                   variant="outlined", divided=True):
+                    v3.VBtn("constant Q", value="constant", size="small")
+                    v3.VBtn("s(x, y)", value="expression", size="small")
+            with html.Div(v_show=("q_mode === 'constant'",)):
+                html.Div("principal values and the angle of k1",
+                         classes="text-caption text-medium-emphasis")
+                slider("k1", "k1", 0.05, 20, 0.05)
+                slider("k2", "k2", 0.05, 20, 0.05)
+                slider("angle", "angle", 0, 180, 5, shown="angle + '°'")
+                html.Div("Q11 = {{ q11.toPrecision(4) * 1 }} · Q12 = {{ q12.toPrecision(4) * 1 }}"
+                         " · Q22 = {{ q22.toPrecision(4) * 1 }}", classes="my-2", id="q-readout")
+            with html.Div(v_show=("q_mode === 'expression'",)):
+                with html.Div(id="field-s"):
+                    v3.VTextField(v_model=("s_input",), label="s(x, y)", density="compact",
+                                  error_messages=("s_error ? [s_error] : []",),
+                                  hint="Enter re-meshes; x, y, numbers, + − * / **, exp log "
+                                       "sqrt cosh …", persistent_hint=False,
+                                  __events=[("on_enter", "keydown.enter")],
+                                  on_enter=self.on_s_enter, classes="my-1",
+                                  spellcheck="false", autocomplete="off")
+                with html.Div(id="select-s-preset"):
+                    v3.VSelect(v_model=("s_preset", None), items=("s_presets",),
+                               label="presets", density="compact", hide_details=True,
+                               classes="my-1")
             v3.VDivider(classes="my-2")
             html.Div("Domain and mesher", classes="text-subtitle-2")
             with html.Div(id="select-domain"):

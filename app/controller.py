@@ -17,7 +17,12 @@ import qmesh
 from qmesh import domains, measure, polygon_file
 from qmesh.errors import QmeshError
 
-PARAMS = ("k1", "k2", "angle", "vb", "target_vertices", "alpha", "seed", "domain")
+PARAMS = ("k1", "k2", "angle", "vb", "target_vertices", "alpha", "seed", "domain", "q_mode",
+          "s_text")
+Q_MODES = ("constant", "expression")
+"""How the conductivity is given: constant Q (k1, k2, angle) or s(x, y) as text."""
+S_PRESETS = ("exp(x) + y**2", "cosh(3*x) + 0.02*y**2", "x**4 + y**4 + x**2 + y**2",
+             "log(exp(2*x) + exp(-2*x) + exp(2*y))")
 Q_PARAMS = ("k1", "k2", "angle")
 
 
@@ -37,6 +42,8 @@ class Params:
     alpha: float = 0.5
     seed: int = 0
     domain: str = "disk"
+    q_mode: str = "constant"
+    s_text: str = S_PRESETS[0]
 
 
 def q_matrix(k1: float, k2: float, angle: float) -> np.ndarray:
@@ -65,7 +72,11 @@ def _checked(p: Params) -> Params:
     qmesh.Disk(vb)                              # raises QmeshError for VB < 3
     if not isinstance(p.domain, str):
         raise QmeshError(f"domain must be a name, got {type(p.domain).__name__}")
-    return Params(k1, k2, angle, vb, target, alpha, seed, p.domain)
+    if p.q_mode not in Q_MODES:
+        raise QmeshError(f"q_mode must be one of {Q_MODES}, got {p.q_mode!r}")
+    if not isinstance(p.s_text, str):
+        raise QmeshError(f"s_text must be text, got {type(p.s_text).__name__}")
+    return Params(k1, k2, angle, vb, target, alpha, seed, p.domain, p.q_mode, p.s_text)
 
 
 DISK = "disk"
@@ -185,10 +196,18 @@ class Controller:
             raise
         return key
 
+    def make_anisotropy(self, p: Params | None = None) -> qmesh.Anisotropy:
+        """Constant Q from k1, k2, angle; or s(x, y) from its text (parsed, never run: a bad
+        text raises QmeshError pointing at the offending part)."""
+        p = self.params if p is None else p
+        if p.q_mode == "expression":
+            return qmesh.Anisotropy.from_expression(p.s_text)
+        return qmesh.Anisotropy.constant(q_matrix(p.k1, p.k2, p.angle))
+
     def reset(self) -> None:
         """Start the run again from its initial triangulation with the current parameters."""
         p = self.params
-        self._anisotropy = qmesh.Anisotropy.constant(self.q)
+        self._anisotropy = self.make_anisotropy(p)
         self._domain = self.make_domain(p)
         self._gen = qmesh.iterate(self._domain, self._anisotropy,
                                   target_vertices=p.target_vertices, alpha=p.alpha, seed=p.seed)
@@ -273,6 +292,7 @@ class Controller:
         if new == self.params:
             return False
         self.make_domain(new)                      # a bad domain or target: nothing changes
+        self.make_anisotropy(new)                  # a bad s(x, y): nothing changes
         old, self.params = self.params, new
         try:
             self.reset()
@@ -296,6 +316,9 @@ class Controller:
             row = _stats_row(step)
             if not quick:
                 try:
+                    if not self._anisotropy.is_constant:
+                        row["q_nonnegative_sh"] = sh_nonnegative_fraction(step.mesh,
+                                                                          self._anisotropy)
                     row["q_nonnegative"] = measure.q_nonnegative_fraction(step.mesh,
                                                                           self._anisotropy)
                     row["kappa2"] = measure.condition_number(step.mesh, self._anisotropy)
@@ -314,6 +337,41 @@ class Controller:
                 "n_vertices": [r["n_vertices"] for r in rows]}
 
 
+def sh_nonnegative_fraction(mesh, anisotropy, rtol: float = 1e-9) -> float:
+    """Share of interior edges with q_ij ≥ 0 for s_h, the piecewise-linear interpolant of s.
+
+    For Q_h = adj ∇²s_h the weight of edge ij is its length times the jump of ∂s_h/∂n across
+    it ((2.74)–(2.75)): q_ij ≥ 0 exactly where the lifted facets meet convexly, which the
+    Q-Delaunay connectivity (the lower convex hull) guarantees after a triangulate stage.
+    Jumps above −rtol·max|jump| count as ≥ 0. 1.0 when there is no interior edge.
+    """
+    P, T = mesh.points, mesh.triangles
+    if len(T) == 0:
+        return 1.0
+    z = np.asarray(anisotropy.s(P), dtype=float)
+    A = np.stack([P[T[:, 1]] - P[T[:, 0]], P[T[:, 2]] - P[T[:, 0]]], axis=1)      # (M, 2, 2)
+    dz = np.stack([z[T[:, 1]] - z[T[:, 0]], z[T[:, 2]] - z[T[:, 0]]], axis=1)
+    grad = np.linalg.solve(A, dz[:, :, None])[:, :, 0]                          # ∇s_h per T
+    he = T[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)                  # half-edges, 3 per triangle
+    tri = np.repeat(np.arange(len(T)), 3)
+    opposite = T[:, [2, 0, 1]].ravel()                            # the third vertex of each
+    key = np.sort(he, axis=1)
+    _, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    inverse = inverse.ravel()
+    interior = counts[inverse] == 2
+    order = np.argsort(inverse[interior], kind="stable")
+    h = np.flatnonzero(interior)[order].reshape(-1, 2)             # the two half-edges per edge
+    if len(h) == 0:
+        return 1.0
+    a, b = P[he[h[:, 0], 0]], P[he[h[:, 0], 1]]
+    n = np.column_stack([b[:, 1] - a[:, 1], a[:, 0] - b[:, 0]])   # normal to the edge
+    away = np.einsum("ij,ij->i", n, P[opposite[h[:, 0]]] - a) > 0
+    n[away] *= -1                                                  # from the first triangle out
+    jump = np.einsum("ij,ij->i", grad[tri[h[:, 1]]] - grad[tri[h[:, 0]]], n)
+    scale = np.abs(jump).max()
+    return float(np.mean(jump >= -rtol * (scale if scale > 0 else 1.0)))
+
+
 def _stats_row(step) -> dict:
     """The status numbers a Step carries itself (no stiffness matrix needed)."""
     st = step.stats
@@ -321,6 +379,7 @@ def _stats_row(step) -> dict:
             "n_vertices": st.n_vertices, "n_triangles": st.n_triangles,
             "energy": st.energy, "min_quality": st.min_quality,
             "mean_quality": st.mean_quality, "q_nonnegative": None, "kappa2": None,
+            "q_nonnegative_sh": None,
             "added": 0 if step.added is None else len(step.added),
             "converged": step.converged}
 
@@ -333,5 +392,7 @@ def status_text(s: dict) -> str:
             f"E = {num(s['energy'], '.4g')} · quality min {num(s['min_quality'], '.3f')} "
             f"mean {num(s['mean_quality'], '.3f')} · q_ij ≥ 0: "
             f"{num(None if s['q_nonnegative'] is None else 100 * s['q_nonnegative'], '.1f')}% · "
+            + ("" if s.get("q_nonnegative_sh") is None else
+               f"for s_h: {100 * s['q_nonnegative_sh']:.1f}% · ") +
             f"κ2 = {num(s['kappa2'], '.3g')}"
             + (" · converged" if s["converged"] else ""))

@@ -257,8 +257,11 @@ class ViewSet:
     def fit_top(self) -> None:
         """Fit the shared top-down camera of the mesh and quality views to the domain."""
         top = self.plotters["mesh"]
-        top.reset_camera(render=False)
-        top.camera.zoom(0.9 * _narrow(top))
+        top.reset_camera(render=False)                  # centred on the scene
+        x0, x1, y0, y1 = top.bounds[:4]
+        w, h = top.render_window.GetSize()
+        aspect = w / h if w > 0 and h > 0 else 1.0
+        top.camera.parallel_scale = 1.08 * max((y1 - y0) / 2, (x1 - x0) / 2 / aspect)
 
     def fit_lifted(self) -> None:
         """Fit the lifted view to its scene, keeping its direction (after a z-scale change)."""

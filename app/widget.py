@@ -33,6 +33,7 @@ import os
 import sys
 import threading
 import types
+from html import escape as html_escape
 
 import ipywidgets as w
 import numpy as np
@@ -40,7 +41,7 @@ import numpy as np
 from qmesh.errors import QmeshError
 
 from . import legend
-from .controller import DISK, Controller, domain_names, status_text
+from .controller import DISK, S_PRESETS, Controller, domain_names, status_text
 from .draw import VIEWS, ViewSet
 
 BACKENDS = ("auto", "trame", "static")
@@ -163,7 +164,15 @@ class QmeshWidget(w.VBox):
                                        min=3, max=5000),
             "domain": w.Dropdown(options=domain_names(), value=p.domain, description="domain",
                                  style=SLIDER_STYLE),
+            "q_mode": w.ToggleButtons(options=[("constant Q", "constant"),
+                                               ("s(x, y)", "expression")],
+                                      value=p.q_mode, description="conductivity",
+                                      style={"button_width": "7em", **SLIDER_STYLE}),
         }
+        self.s_text = w.Combobox(value=p.s_text, options=list(S_PRESETS), description="s(x, y)",
+                                 ensure_option=False, continuous_update=False,
+                                 style=SLIDER_STYLE, layout=w.Layout(width="26em"))
+        self.s_error = w.HTML()
         self.upload = w.FileUpload(accept=".csv,.txt,.geojson,.json", multiple=False,
                                    description="polygon file")
         self.buttons = {name: w.Button(description=name.capitalize(),
@@ -207,7 +216,9 @@ class QmeshWidget(w.VBox):
         views = w.HBox([w.VBox([w.HTML(f"<b>{VIEW_TITLES[name]}</b>"), self.view_widgets[name],
                                 self.legends[name]])
                         for name in VIEWS])
-        return [w.HBox([w.VBox([s["k1"], s["k2"], s["angle"], self.readout]),
+        self._constant_box = w.VBox([s["k1"], s["k2"], s["angle"], self.readout])
+        self._s_box = w.VBox([self.s_text, self.s_error])
+        return [w.HBox([w.VBox([s["q_mode"], self._constant_box, self._s_box]),
                         w.VBox([s["domain"], self.upload, s["vb"], s["target_vertices"],
                                 self.edges])]),
                 w.HBox([*b.values(), self.history]),
@@ -220,6 +231,7 @@ class QmeshWidget(w.VBox):
         self.history.observe(on(self._on_history), names="value")
         self.edges.observe(on(lambda _change: self._show()), names="value")
         self.upload.observe(on(self._on_upload), names="value")
+        self.s_text.observe(on(self._on_s_text), names="value")
         self.buttons["step"].on_click(on(lambda _: self._move(self.controller.step)))
         self.buttons["iterate"].on_click(on(lambda _: self._move(self.controller.iterate)))
         self.buttons["run"].on_click(on(self._on_run))
@@ -255,6 +267,22 @@ class QmeshWidget(w.VBox):
                 self.controller.reset()
                 self._show()
             self._report(e)
+
+    def _on_s_text(self, change) -> None:
+        """s(x, y) entered (Enter or a preset): mesh it from the start. A refused text keeps
+        the last mesh and stays in the field, its error in red beside it."""
+        if self._syncing:
+            return
+        self._stop()
+        c = self.controller
+        try:
+            if not c.set_params(q_mode="expression", s_text=change["new"]):
+                c.reset()
+        except QmeshError as e:
+            self.s_error.value = f"<span style='color:#c62828'>{html_escape(str(e))}</span>"
+            return
+        self.s_error.value = ""
+        self._show()
 
     def _on_upload(self, change) -> None:
         """A polygon file (CSV or GeoJSON) was uploaded: offer it as a domain and mesh it."""
@@ -343,6 +371,11 @@ class QmeshWidget(w.VBox):
             for name, slider in self.sliders.items():
                 slider.value = getattr(c.params, name)
             self.sliders["vb"].disabled = c.params.domain != DISK
+            constant = c.params.q_mode == "constant"
+            self._constant_box.layout.display = None if constant else "none"
+            self._s_box.layout.display = "none" if constant else None
+            if not self.s_error.value:
+                self.s_text.value = c.params.s_text
             last = len(c.history) - 1
             if last >= self.history.max:
                 self.history.max = last
@@ -381,6 +414,7 @@ class QmeshWidget(w.VBox):
         self._stop()
         self.views.close()
         for child in (*self.sliders.values(), *self.buttons.values(), self.history, self.upload,
+                      self.s_text, self.s_error, self._constant_box, self._s_box,
                       self.readout, self.status, self.error, self.edges,
                       *self.legends.values(), *self.view_widgets.values()):
             child.close()

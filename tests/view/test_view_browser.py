@@ -191,3 +191,47 @@ def test_choosing_l_shape_and_uploading_a_polygon_file(tmp_path):
             b.wait_view_change(page, name, lshape[name])
         assert not page.locator("#error").is_visible()
         b.save(page, "browser-domain-upload")
+
+
+def test_s_typed_as_text_remeshes_and_a_hostile_text_shows_an_error():
+    with b.qmesh_view_server() as url, b.chromium_page(url) as page:
+        start = b.wait_drawn(page)
+        b.wait_idle(page)
+        s0 = b.status(page)
+        page.locator("#q-mode").get_by_role("button", name="s(x, y)").click()
+        s1 = b.settled_status(page, s0)                 # the default text, exp(x) + y**2
+        assert _iteration_stage(s1)[:2] == (0, "triangulate")
+        assert not page.locator("#q-readout").is_visible()
+        first = {name: b.wait_view_change(page, name, start[name]) for name in b.VIEWS}
+
+        field = page.locator("#field-s input")
+        field.fill("cosh(3*x) + 0.02*y**2")
+        field.press("Enter")
+        s2 = b.settled_status(page, s1)
+        assert _iteration_stage(s2)[:2] == (0, "triangulate")
+        assert "for s_h: 100.0%" in s2
+        for name in b.VIEWS:
+            b.wait_view_change(page, name, first[name])
+        b.wait_idle(page)
+        page.wait_for_timeout(500)
+        shown = b.views(page)
+        b.save(page, "browser-s-cosh")
+
+        field.fill("__import__('os')")
+        field.press("Enter")
+        message = page.locator("#field-s .v-messages")
+        b.until(lambda: "__import__" in message.inner_text() or None, 20,
+                "the error next to the s(x, y) field")
+        assert b.status(page) == s2                               # the last mesh stays
+        assert field.input_value() == "__import__('os')"          # the text, to be corrected
+        page.wait_for_timeout(500)
+        assert all(b.mean_diff(b.view_image(page, n), shown[n]) < 1.0 for n in b.VIEWS)
+        b.save(page, "browser-s-hostile")
+
+        # a preset re-meshes and clears the error
+        page.locator("#select-s-preset .v-field").click()
+        page.get_by_role("option", name="x**4 + y**4 + x**2 + y**2").click()
+        s3 = b.settled_status(page, s2)
+        assert _iteration_stage(s3)[:2] == (0, "triangulate")
+        assert field.input_value() == "x**4 + y**4 + x**2 + y**2"
+        b.until(lambda: message.inner_text().strip() == "" or None, 20, "the error to clear")

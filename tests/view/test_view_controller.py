@@ -226,3 +226,37 @@ def test_an_uploaded_file_is_read_offered_and_a_bad_one_changes_nothing():
         c.add_upload("bad.csv", "1,2\n3,4\n")
     assert "bad.csv" not in c.uploads and c.history == history
     assert c.params.domain == "file: plate.geojson"
+
+
+def test_sh_share_counts_the_edges_where_the_lifted_facets_meet_convexly():
+    import qmesh
+    from qmesh_view.controller import sh_nonnegative_fraction
+    A = qmesh.Anisotropy.from_expression("x**2 + y**2")          # lower hull = Delaunay
+    P = np.array([[-1.0, 0.0], [1.0, 0.0], [0.0, 0.5], [0.0, -0.5]])
+    not_delaunay = qmesh.Mesh(P, np.array([[0, 1, 2], [1, 0, 3]]))   # across AB: a ridge
+    delaunay = qmesh.Mesh(P, np.array([[0, 3, 2], [3, 1, 2]]))       # across CD: a valley
+    assert sh_nonnegative_fraction(not_delaunay, A) == 0.0
+    assert sh_nonnegative_fraction(delaunay, A) == 1.0
+    # a constant Q: the share for s_h is the share of q_ij ≥ 0 (the same cotangent formula)
+    c = Controller()
+    c.run()
+    frac = sh_nonnegative_fraction(c.current.mesh, c.anisotropy)
+    assert frac == measure.q_nonnegative_fraction(c.current.mesh, c.anisotropy) == 1.0
+
+
+def test_s_as_text_restarts_and_a_bad_text_keeps_the_run():
+    c = Controller()
+    assert c.set_params(q_mode="expression", s_text="cosh(3*x) + 0.02*y**2")
+    assert c.anisotropy.expression == "cosh(3*x) + 0.02*y**2" and not c.anisotropy.is_constant
+    c.run()
+    status = c.status()
+    assert status["q_nonnegative_sh"] == 1.0                   # the construction's guarantee
+    assert "for s_h: 100.0%" in status_text(status)
+    history = list(c.history)
+    for bad, match in (("__import__('os')", "__import__"), ("x**2 - y**2", "convex"),
+                       ("", "empty"), ("open('f')", "open")):
+        with pytest.raises(QmeshError, match=match):
+            c.set_params(s_text=bad)
+        assert c.params.s_text == "cosh(3*x) + 0.02*y**2" and c.history == history
+    assert c.set_params(q_mode="constant")                     # back to k1, k2, angle
+    assert c.anisotropy.is_constant and "for s_h" not in status_text(c.status())

@@ -41,7 +41,8 @@ def changed(a: np.ndarray, b: np.ndarray) -> bool:
 def test_builds_a_box_with_controls_and_three_drawn_pictures(view):
     assert isinstance(view, ipywidgets.Box)
     assert view.backend == "static"
-    assert set(view.sliders) == {"k1", "k2", "angle", "vb", "target_vertices", "domain"}
+    assert set(view.sliders) == {"k1", "k2", "angle", "vb", "target_vertices", "domain",
+                                 "q_mode"}
     assert set(view.buttons) == {"step", "iterate", "run", "reset"}
     p = view.controller.params
     assert (view.sliders["k1"].value, view.sliders["k2"].value, view.sliders["vb"].value,
@@ -311,3 +312,27 @@ def test_an_uploaded_polygon_file_becomes_the_domain_and_a_bad_one_is_refused(vi
     assert "bad.csv" in view.error.value
     assert c.params.domain == "file: plate.csv" == view.sliders["domain"].value
     assert not changed(pictures(view)["mesh"], shown["mesh"])
+
+
+def test_s_as_text_remeshes_and_a_hostile_text_shows_its_error_and_keeps_the_mesh(view):
+    c = view.controller
+    before = pictures(view)
+    view.sliders["q_mode"].value = "expression"               # the default text, exp(x) + y**2
+    assert c.params.q_mode == "expression" and not c.anisotropy.is_constant
+    assert view._constant_box.layout.display == "none" and view._s_box.layout.display is None
+    assert all(changed(a, before[n]) for n, a in pictures(view).items())
+    view.s_text.value = "cosh(3*x) + 0.02*y**2"
+    assert c.anisotropy.expression == "cosh(3*x) + 0.02*y**2" and len(c.history) == 1
+    view.buttons["run"].click()
+    assert c.at_end and "for s_h: 100.0%" in view.status.value
+    shown, history = pictures(view), list(c.history)
+    for hostile in ("__import__('os')", "().__class__", "x**2 - y**2"):
+        view.s_text.value = hostile
+        assert "color:#c62828" in view.s_error.value and len(view.s_error.value) > 40
+        assert view.s_text.value == hostile                       # left to be corrected
+        assert c.params.s_text == "cosh(3*x) + 0.02*y**2" and c.history == history
+        assert not any(changed(a, shown[n]) for n, a in pictures(view).items())
+    view.s_text.value = "x**4 + y**4 + x**2 + y**2"
+    assert view.s_error.value == "" and c.params.s_text == "x**4 + y**4 + x**2 + y**2"
+    view.sliders["q_mode"].value = "constant"
+    assert c.anisotropy.is_constant and view._s_box.layout.display == "none"
