@@ -174,6 +174,8 @@ class ViewSet:
     def __init__(self, window_size=WINDOW_SIZE, scalar_bar: bool = True):
         self.plotters = {name: new_plotter(window_size) for name in VIEWS}
         self.plotters["quality"].renderer.camera = self.plotters["mesh"].renderer.camera
+        for plotter in self.plotters.values():
+            plotter.renderer.camera_set = True    # else pyvista resets it on a first render
         self.scalar_bar = scalar_bar
         self.edges = "auto"
         self.edge_length = 0.0
@@ -259,9 +261,10 @@ class ViewSet:
         top = self.plotters["mesh"]
         top.reset_camera(render=False)                  # centred on the scene
         x0, x1, y0, y1 = top.bounds[:4]
-        w, h = top.render_window.GetSize()
-        aspect = w / h if w > 0 and h > 0 else 1.0
-        top.camera.parallel_scale = 1.08 * max((y1 - y0) / 2, (x1 - x0) / 2 / aspect)
+        sizes = [self.plotters[n].render_window.GetSize() for n in ("mesh", "quality")]
+        aspect = min((w / h if w > 0 and h > 0 else 1.0) for w, h in sizes)   # shared camera
+        margin = 1.45 if self.scalar_bar else 1.08       # VTK's bar sits at 0.86–0.91 of the width
+        top.camera.parallel_scale = margin * max((y1 - y0) / 2, (x1 - x0) / 2 / aspect)
 
     def fit_lifted(self) -> None:
         """Fit the lifted view to its scene, keeping its direction (after a z-scale change)."""

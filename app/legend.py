@@ -75,4 +75,5 @@ def state(info: dict) -> dict:
 def html_legend(name: str) -> None:
     """The trame element showing view `name`'s legend from the state (id legend-NAME)."""
     from trame.widgets import html as h
-    h.Div(v_html=(f"legend_{name}",), id=f"legend-{name}")
+    h.Div(v_html=(f"legend_{name}",), id=f"legend-{name}",
+          style="min-height: 44px")        # two lines: the views keep one height, one scale
