@@ -133,15 +133,17 @@ def browser_latency(mode: str, n: int, repeat: int) -> list:
 
 def browser(modes, sizes, repeat: int) -> None:
     print("3. in Chromium: from the input event to the first changed picture, seconds "
-          "(all three views: the slowest one)")
+          "(all: the slowest view that changed; n/c: the view's picture did not change)")
     print(f"   {'views':<8}{'target':>7}  {'action':<7}{'N shown':>10}{'lifted':>8}{'mesh':>8}"
           f"{'quality':>9}{'all':>7}")
     for n in sizes:
         for mode in modes:
             worst = {}
             for action, shown, lat in browser_latency(mode, n, repeat):
-                vals = list(lat.values())
-                slowest = None if None in vals else max(vals)
+                # a view whose picture is identical after the click (n/c: e.g. an insert stage
+                # that added nothing leaves the lifted view as it was) has nothing to wait for
+                vals = [v for v in lat.values() if v is not None]
+                slowest = max(vals) if vals else None
                 worst.setdefault(action, []).append(slowest)
 
                 def f(x):
@@ -151,8 +153,10 @@ def browser(modes, sizes, repeat: int) -> None:
             for action, xs in worst.items():
                 ok = [x for x in xs if x is not None]
                 med = f"{statistics.median(ok):.3f}" if ok else "-"
-                print(f"   {mode:<8}{n:>7}  {action:<7} median of the slowest view {med} s over "
-                      f"{len(ok)} (n/c = no change within 10 s: {len(xs) - len(ok)})")
+                target = 0.25 if n <= 1000 else 0.6
+                print(f"   {mode:<8}{n:>7}  {action:<7} median of the slowest view {med} s, max "
+                      f"{max(ok) if ok else float('nan'):.3f} s over {len(ok)} clicks "
+                      f"(target {target} s; no view changed: {len(xs) - len(ok)})")
 
 
 def main() -> None:
