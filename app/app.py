@@ -6,10 +6,12 @@ State names are the model's names (`k1`, `k2`, `angle`, `q11`, `q12`, `q22`, `vb
 (the scene functions on three plotters).
 
 Views render on the server (`remote`, the default) or in the browser (`local`, vtk.js).
-`benchmarks/bench_view.py --browser` measured both from the click to the changed picture in
-Chromium: remote answered faster here at every size (the pictures are small JPEGs; vtk.js had
-to fetch and draw the geometry with a software WebGL), once trame-vtk's 0.5 s wait for a frame
-still being encoded was cut to 10 ms (`_fast_image_delivery`).
+`benchmarks/bench_view.py --browser` measured both from the click on Step to the changed picture
+in Chromium (median of the slowest view, load 5–7 on 2 cores): remote 0.23 s at N = 212, 0.24 s
+at N = 1,000 and N = 10,000; local 0.27, 0.21 and 0.63 s, slower to follow a k1 change at every
+size (0.43–0.69 s against 0.19–0.50 s), and vtk.js draws the translucent s(x) over the facets
+of s_h wrongly. Remote got there once trame-vtk's 0.5 s wait for a frame still being encoded
+was cut to 10 ms (`_fast_image_delivery`).
 
 The mesher and the measurements run in one worker thread so the page never freezes (`busy`
 greys the buttons and shows a progress bar); VTK renders only on the event loop's thread.
