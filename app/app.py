@@ -11,7 +11,7 @@ in Chromium (median of the slowest view, load 5–7 on 2 cores): remote 0.23 s a
 at N = 1,000 and N = 10,000; local 0.27, 0.21 and 0.63 s, slower to follow a k1 change at every
 size (0.43–0.69 s against 0.19–0.50 s), and vtk.js draws the translucent s(x) over the facets
 of s_h wrongly. Remote got there once trame-vtk's 0.5 s wait for a frame still being encoded
-was cut to 10 ms (`_fast_image_delivery`).
+was cut to 10 ms (`qmesh_view.delivery`).
 
 The mesher and the measurements run in one worker thread so the page never freezes (`busy`
 greys the buttons and shows a progress bar); VTK renders only on the event loop's thread.
@@ -33,7 +33,7 @@ from trame.widgets import vuetify3 as v3
 
 from qmesh.errors import QmeshError
 
-from . import legend
+from . import delivery, legend
 from .controller import DISK, PARAMS, S_PRESETS, Controller, domain_names, status_text
 from .draw import VIEWS, ViewSet
 
@@ -45,7 +45,6 @@ VIEW_MODES = ("remote", "local")
 CHART_SERIES = (("chart_energy", "energy E per iteration (log scale)", "#1f77b4"),
                 ("chart_kappa2", "κ2 per iteration", "#d62728"),
                 ("chart_n", "N per iteration", "#2ca02c"))
-STALE_RETRY = 0.01   # seconds before a remote view re-pushes a frame still being encoded
 RUN_PAUSE = 0.05     # seconds between animated stages, so every frame reaches the browser
 VIEW_HEIGHT = "calc(100vh - 300px)"   # the views fill the page below the status lines
 
@@ -62,18 +61,6 @@ def convergence_chart(series: dict) -> dict:
             "chart_labels": {"chart_energy": ends(energy, ".3g"),
                              "chart_kappa2": ends(kappa2, ".3g"),
                              "chart_n": ends(series["n_vertices"], "d")}}
-
-
-def _stale_retry(link):
-    """A `render_stale_image` for trame-vtk's image delivery `link` that never drops a frame."""
-    limit = int(2.0 / STALE_RETRY)
-
-    def retry(view_id, stale_count=0):
-        counts = link.stale_handler_count
-        counts[view_id] = max(0, counts.get(view_id, 1) - 1)
-        if stale_count < limit:
-            link.push_render(view_id, False, stale_count + 1)
-    return retry
 
 
 def slider(name: str, label: str, lo, hi, step, shown: str | None = None, **kwargs) -> None:
@@ -175,20 +162,8 @@ class QmeshView(TrameApp):
             view.update()
 
     def _fast_image_delivery(self, **_) -> None:
-        """Remote views: re-push a frame every 10 ms while VTK's encoder is busy, not after 0.5 s.
-
-        trame-vtk's image delivery answers a push with the previous frame while the new one is
-        still being JPEG-encoded in a thread, then waits `delta_stale_time_before_render` (0.5 s)
-        before pushing again: that wait was most of the 0.6 s a click took to reach the screen.
-        Its own retry logic drops the frame when a short wait is not enough twice in a row, so
-        the retry is replaced by a plain one: push again until the frame is encoded (≤ 2 s).
-        """
-        protocol = self.server.protocol
-        for link in protocol.getLinkProtocols() if protocol is not None else ():
-            if hasattr(link, "render_stale_image") and hasattr(link, "push_render"):
-                link.delta_stale_time_before_render = STALE_RETRY
-                link.render_stale_image = _stale_retry(link)
-                self._image_link = link
+        """Remote views: frames re-pushed every 10 ms while being encoded (`delivery`)."""
+        self._image_link = delivery.fast_image_delivery(self.server)
 
     async def _frames_sent(self, timeout: float = 1.0) -> None:
         """Wait (≤ timeout) until the remote views' new frames are encoded and sent.
@@ -197,12 +172,9 @@ class QmeshView(TrameApp):
         N = 1,000 and more; started at once they delayed the frames the user waits for.
         """
         link = getattr(self, "_image_link", None)
-        if link is None:
-            return
         deadline = asyncio.get_running_loop().time() + timeout
-        while (any(link.stale_handler_count.values())
-               and asyncio.get_running_loop().time() < deadline):
-            await asyncio.sleep(STALE_RETRY / 2)
+        while delivery.frames_pending(link) and asyncio.get_running_loop().time() < deadline:
+            await asyncio.sleep(delivery.STALE_RETRY / 2)
 
     # ------------------------------------------------------------------ off-loop work
     async def _work(self, fn):

@@ -40,7 +40,7 @@ import numpy as np
 
 from qmesh.errors import QmeshError
 
-from . import legend
+from . import delivery, legend
 from .controller import DISK, S_PRESETS, Controller, domain_names, status_text
 from .draw import VIEWS, ViewSet
 
@@ -402,6 +402,7 @@ class QmeshWidget(w.VBox):
                 self.view_widgets[name].value = png(image)
         else:
             for view in self.view_widgets.values():
+                delivery.fast_image_delivery(view.viewer.server)   # once its server runs
                 view.viewer.update()
 
     # ------------------------------------------------------------------ life cycle
