@@ -277,14 +277,19 @@ class QmeshView(TrameApp):
             self._redraw()
 
     @change("maximised")
-    def on_maximised(self, **_):
-        """A view grew or shrank: let the remote views fetch frames at their new size."""
+    def on_maximised(self, maximised, **_):
+        """A view grew or shrank: let the remote views fetch frames at their new size, and fit
+        the shared top-down camera to the top views on show."""
+        top = tuple(n for n in ("mesh", "quality") if not maximised or n == maximised)
+        self.views.top_views = top or ("mesh", "quality")
         for view in self.html_views.values():
             view.resize()
         asynchronous.create_task(self._after_resize())
 
     async def _after_resize(self) -> None:
-        await asyncio.sleep(0.2)                     # the browser has laid the page out again
+        await asyncio.sleep(0.3)                     # the browser has laid the page out again
+        self.views.fit_top()
+        self.views.fit_lifted()
         self.views.apply_edges()
         self._push()
 

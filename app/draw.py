@@ -178,6 +178,7 @@ class ViewSet:
             plotter.renderer.camera_set = True    # else pyvista resets it on a first render
         self.scalar_bar = scalar_bar
         self.edges = "auto"
+        self.top_views = ("mesh", "quality")   # the shown views the shared camera is fitted to
         self.edge_length = 0.0
         self.legend: dict = {}
         self._drawn = False
@@ -261,7 +262,7 @@ class ViewSet:
         top = self.plotters["mesh"]
         top.reset_camera(render=False)                  # centred on the scene
         x0, x1, y0, y1 = top.bounds[:4]
-        sizes = [self.plotters[n].render_window.GetSize() for n in ("mesh", "quality")]
+        sizes = [self.plotters[n].render_window.GetSize() for n in self.top_views]
         aspect = min((w / h if w > 0 and h > 0 else 1.0) for w, h in sizes)   # shared camera
         margin = 1.45 if self.scalar_bar else 1.08       # VTK's bar sits at 0.86–0.91 of the width
         top.camera.parallel_scale = margin * max((y1 - y0) / 2, (x1 - x0) / 2 / aspect)

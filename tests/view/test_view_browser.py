@@ -180,6 +180,19 @@ def test_choosing_l_shape_and_uploading_a_polygon_file(tmp_path):
         lshape = {name: b.wait_view_change(page, name, start[name]) for name in b.VIEWS}
         b.save(page, "browser-domain-lshape")
 
+        # maximise the quality view: it takes the row, the others step aside; then restore
+        small = page.locator("#view-quality").bounding_box()
+        page.locator("#max-quality").click()
+        b.until(lambda: page.locator("#view-quality").bounding_box()["width"]
+                > 2.5 * small["width"] or None, 20, "the quality view to grow")
+        assert not page.locator("#view-mesh").is_visible()
+        big = b.wait_view_change(page, "quality", lshape["quality"])   # drawn at its new size
+        assert drawn(big) and big.shape[1] > 2.5 * lshape["quality"].shape[1]
+        b.save(page, "browser-domain-maximised")
+        page.locator("#max-quality").click()
+        b.until(lambda: page.locator("#view-mesh").is_visible() or None, 20, "the views back")
+        b.wait_idle(page)
+
         # a CSV file with an outline and a hole, uploaded from the browser
         path = tmp_path / "plate.csv"
         path.write_text("0,0\n2,0\n2,1\n0,1\n\n0.6,0.3\n0.9,0.3\n0.9,0.7\n0.6,0.7\n")
