@@ -6,12 +6,11 @@ State names are the model's names (`k1`, `k2`, `angle`, `q11`, `q12`, `q22`, `vb
 (the scene functions on three plotters).
 
 Views render on the server (`remote`, the default) or in the browser (`local`, vtk.js).
-`benchmarks/bench_view.py --browser` measured both from the click on Step to the changed picture
-in Chromium (median of the slowest view, load 5–7 on 2 cores): remote 0.23 s at N = 212, 0.24 s
-at N = 1,000 and N = 10,000; local 0.27, 0.21 and 0.63 s, slower to follow a k1 change at every
-size (0.43–0.69 s against 0.19–0.50 s), and vtk.js draws the translucent s(x) over the facets
-of s_h wrongly. Remote got there once trame-vtk's 0.5 s wait for a frame still being encoded
-was cut to 10 ms (`qmesh_view.delivery`).
+`benchmarks/bench_view.py --browser` measured both from the input to the changed picture in
+Chromium (the slowest view, median of 5 Step clicks, load 2.5–4.6 on 2 cores): remote 0.14 s at
+N = 212, 0.18 s at N = 1,000, 0.20 s at N = 10,000; local (vtk.js) 0.17, 0.27 and 0.49 s, and
+vtk.js draws the translucent s(x) over the facets of s_h wrongly. Remote got there once
+trame-vtk's 0.5 s wait for a frame still being encoded was cut to 10 ms (`qmesh_view.delivery`).
 
 The mesher and the measurements run in one worker thread so the page never freezes (`busy`
 greys the buttons and shows a progress bar); VTK renders only on the event loop's thread.
