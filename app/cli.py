@@ -1,4 +1,4 @@
-"""`qmesh-view [--host 127.0.0.1] [--port 8080] [--server]`: start the web GUI.
+"""`qmesh-view [--host 127.0.0.1] [--port 8080] [--server] [--domain NAME] [--s TEXT]`: the web GUI.
 
 Binds 127.0.0.1 unless told otherwise and opens the system browser unless `--server`.
 Sets the off-screen rendering environment of HEADLESS.md before VTK is imported, so the
@@ -28,6 +28,12 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--vb", type=int, default=64, help="seed points on the disk (default 64)")
     p.add_argument("--target-vertices", type=int, default=212,
                    help="target vertex count N (default 212, the chapter's case)")
+    p.add_argument("--domain", default="disk",
+                   help="a named domain: disk (default, with --vb), L-shape, 'square with hole', "
+                        "annulus, 'plate with holes', 'notched square'")
+    p.add_argument("--s", dest="s_text", default=None, metavar="TEXT",
+                   help="start with s(x, y) given as text, e.g. 'exp(x) + y**2' "
+                        "(default: the constant Q = diag(0.1, 10))")
     return p
 
 
@@ -37,7 +43,9 @@ def main(argv: list[str] | None = None) -> int:
     try:
         require_rendering()                 # one clear line, not a segfault inside VTK
         from .app import QmeshView          # after the environment: imports VTK
-        view = QmeshView(view_mode=args.views, vb=args.vb, target_vertices=args.target_vertices)
+        extra = {} if args.s_text is None else {"q_mode": "expression", "s_text": args.s_text}
+        view = QmeshView(view_mode=args.views, vb=args.vb, target_vertices=args.target_vertices,
+                         domain=args.domain, **extra)
     except QmeshError as e:
         print(f"qmesh-view: error: {e}", file=sys.stderr)
         return 2
