@@ -117,6 +117,7 @@ def cmd_mesh(args) -> int:
         "min_quality": float(q.min()),
         "mean_quality": float(q.mean()),
         "q_nonnegative_fraction": measure.q_nonnegative_fraction(mesh, anisotropy),
+        "q_nonnegative_fraction_boundary": measure.q_nonnegative_fraction_boundary(mesh, anisotropy),
         "seconds": seconds,
     }
     if args.json:
@@ -124,9 +125,15 @@ def cmd_mesh(args) -> int:
     else:
         print(f"{out}: N={summary['n_vertices']} triangles={summary['n_triangles']} "
               f"iterations={summary['iterations']} quality min={summary['min_quality']:.3f} "
-              f"mean={summary['mean_quality']:.3f} q_ij>=0: {100 * summary['q_nonnegative_fraction']:.1f}% "
-              f"time={seconds:.2f}s")
+              f"mean={summary['mean_quality']:.3f} "
+              f"q_ij>=0: interior {_percent(summary['q_nonnegative_fraction'])} "
+              f"boundary {_percent(summary['q_nonnegative_fraction_boundary'])} time={seconds:.2f}s")
     return 0
+
+
+def _percent(share: float | None) -> str:
+    """A share as a percentage, "n/a" when there is nothing to count."""
+    return "n/a" if share is None else f"{100 * share:.1f}%"
 
 
 def cmd_report(args) -> int:
@@ -138,7 +145,7 @@ def cmd_report(args) -> int:
     width = max(map(len, rep))
     print(f"{args.meshfile}")
     for key, value in rep.items():
-        text = "-" if value is None else f"{value:.6g}" if isinstance(value, float) else str(value)
+        text = "n/a" if value is None else f"{value:.6g}" if isinstance(value, float) else str(value)
         print(f"  {key:<{width}}  {text}")
     return 0
 

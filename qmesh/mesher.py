@@ -29,6 +29,7 @@ from .errors import QmeshError
 from .geometry import quadratic_form
 from .insert import insert, relocate_degree3, target_area
 from .mesh import Mesh, Stats, Step
+from .options import check_keywords, check_options
 from .triangulate import q_delaunay, restore
 
 BOUNDARY_FACTOR = 1.0   # split boundary edges longer than this many target metric lengths
@@ -37,25 +38,9 @@ MOVE_TOL = 0.02        # converged when the rms metric move is below this fracti
 
 
 def _check_options(target_vertices, size, alpha, quality_threshold, min_area, max_iterations,
-                   seed):
-    if target_vertices is not None and size is not None:
-        raise QmeshError("give either target_vertices or size, not both")
-    if target_vertices is not None:
-        if isinstance(target_vertices, bool) or int(target_vertices) != target_vertices:
-            raise QmeshError(f"target_vertices must be an integer, got {target_vertices!r}")
-        sizing.check_vertex_count(target_vertices, f"target_vertices = {target_vertices}")
-    if size is not None and not (np.isfinite(size) and size > 0):
-        raise QmeshError(f"size must be a finite number > 0, got {size!r}")
-    if not (np.isfinite(alpha) and 0 < alpha <= 1):
-        raise QmeshError(f"alpha must be in (0, 1], got {alpha!r}")
-    if not (0 <= quality_threshold < 1):
-        raise QmeshError(f"quality_threshold must be in [0, 1), got {quality_threshold!r}")
-    if min_area is not None and not (np.isfinite(min_area) and min_area >= 0):
-        raise QmeshError(f"min_area must be a finite number >= 0, got {min_area!r}")
-    if seed is not None and (isinstance(seed, bool) or int(seed) != seed or seed < 0):
-        raise QmeshError(f"seed must be a non-negative integer or None, got {seed!r}")
-    if int(max_iterations) != max_iterations or max_iterations < 0:
-        raise QmeshError(f"max_iterations must be a non-negative integer, got {max_iterations!r}")
+                   seed, boundary_refinement=True):
+    check_options(target_vertices, size, alpha, quality_threshold, min_area, max_iterations,
+                  seed, boundary_refinement)
 
 
 class _State:
@@ -108,7 +93,8 @@ def iterate(domain, anisotropy, *, target_vertices: int | None = None, size: flo
                       the lattice for a constant Q (same seed ⇒ same mesh);
     boundary_refinement  allow vertices on the boundary between the seed points.
     """
-    _check_options(target_vertices, size, alpha, quality_threshold, min_area, max_iterations, seed)
+    _check_options(target_vertices, size, alpha, quality_threshold, min_area, max_iterations, seed,
+                   boundary_refinement)
     seeds = domain.seeds
     anisotropy.check_convex(np.concatenate([seeds, seeds.mean(axis=0, keepdims=True)]))
     area_m = sizing.metric_area(domain, anisotropy)
@@ -230,6 +216,7 @@ def _onto_edges(domain, P, edge_id):
 
 def mesh(domain, anisotropy, **options) -> Mesh:
     """Run Algorithm 2.1 to convergence (or `max_iterations`) and return the final mesh."""
+    check_keywords(options, iterate, "mesh")
     last = None
     for last in iterate(domain, anisotropy, **options):
         pass
