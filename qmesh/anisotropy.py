@@ -41,12 +41,17 @@ class _UserField:
         want = (len(P),) + self.tail
         try:
             with np.errstate(all="ignore"):
-                out = np.asarray(self.f(P), dtype=float)
+                raw = self.f(P)
+                out = np.asarray(raw)
         except QmeshError:
             raise
         except Exception as e:
             raise QmeshError(f"{self.name} raised {type(e).__name__} at {len(P)} points "
                              f"(the first {P[0].tolist() if len(P) else []}): {e}") from e
+        if out.dtype.kind not in "biuf":
+            raise QmeshError(f"{self.name} must return an array of real numbers, "
+                             f"got {checks.describe(raw)}")
+        out = out.astype(float, copy=False)
         if out.shape != want:
             try:   # a constant (2, 2) Hessian or (2,) gradient stands for every point
                 out = np.broadcast_to(out, want)

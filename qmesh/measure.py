@@ -182,7 +182,7 @@ def q_nonnegative_fraction(mesh: Mesh, anisotropy, rtol: float = 1e-9) -> float 
 
     ≥ 0 on every interior edge makes the Dirichlet stiffness matrix an M-matrix.
     """
-    rtol = checks.real(rtol, "rtol", low=0.0)
+    rtol = checks.real(rtol, "rtol", low=0.0, high=1.0)
     return _fraction_nonnegative(_relative_q(mesh, anisotropy)[0], rtol)
 
 
@@ -192,7 +192,7 @@ def q_nonnegative_fraction_boundary(mesh: Mesh, anisotropy, rtol: float = 1e-9) 
     A boundary edge's q_ij is the off-diagonal of its one triangle's element matrix; ≥ 0 there
     as well as inside makes the Neumann stiffness matrix an M-matrix too (issue 9).
     """
-    rtol = checks.real(rtol, "rtol", low=0.0)
+    rtol = checks.real(rtol, "rtol", low=0.0, high=1.0)
     return _fraction_nonnegative(_relative_q(mesh, anisotropy)[1], rtol)
 
 
@@ -213,7 +213,7 @@ def condition_number(mesh: Mesh, anisotropy=None, *, method: str = "auto",
     checks.mesh(mesh)
     checks.anisotropy_or_none(anisotropy)
     checks.choice(method, "method", ("auto", "dense", "sparse"))
-    tol = checks.real(tol, "tol", low=0.0)
+    tol = checks.real(tol, "tol", low=0.0, high=1.0, high_open=True)
     K = stiffness_interior(mesh, anisotropy)
     n = K.shape[0]
     if n == 0:
