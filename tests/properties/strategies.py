@@ -80,6 +80,9 @@ class Case:
     def __repr__(self):
         return self.reproducer()
 
+    def _repr_pretty_(self, p, cycle):      # how hypothesis prints a failing example
+        p.text(self.reproducer())
+
 
 def _fmt(P: np.ndarray) -> str:
     return repr(np.asarray(P).tolist())
