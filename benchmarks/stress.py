@@ -59,7 +59,8 @@ def run_cases(args) -> dict:
         raise SystemExit(f"stress: unknown kinds {unknown}; choose from {list(KINDS)}")
     domains = st.one_of(*[KINDS[k]() for k in kinds])
     found = {"n": 0, "bad": 0, "refused": [], "seconds": [], "by_kind": Counter(), "bad_by_kind": Counter(),
-             "categories": Counter(), "examples": defaultdict(list), "slowest": (0.0, "")}
+             "categories": Counter(), "examples": defaultdict(list), "slowest": (0.0, ""),
+             "bad_not_boundary_q": 0, "refinement_off": Counter()}
 
     @seed(args.seed)
     @settings(max_examples=args.cases, phases=[Phase.generate], database=None, deadline=None,
@@ -82,8 +83,12 @@ def run_cases(args) -> dict:
         if out.defects:
             found["bad"] += 1
             found["bad_by_kind"][case.domain.kind] += 1
-            for cat in sorted({invariants.category(d) for d in out.defects}):
+            cats = {invariants.category(d) for d in out.defects}
+            if cats - {"q_ij-boundary"}:
+                found["bad_not_boundary_q"] += 1
+            for cat in sorted(cats):
                 found["categories"][cat] += 1
+                found["refinement_off"][cat] += not case.options.get("boundary_refinement", True)
                 first = next(d for d in out.defects if invariants.category(d) == cat)
                 found["examples"][cat].append((len(case.reproducer()), case.reproducer(), first))
         if found["n"] % 100 == 0:
@@ -97,15 +102,17 @@ def report(found: dict, args) -> None:
     n, bad = found["n"], found["bad"]
     sec = np.array(found["seconds"]) if found["seconds"] else np.zeros(1)
     print(f"qmesh {qmesh.__version__}: {n} random cases, {bad} with a defect ({100 * bad / max(n, 1):.1f}%)")
+    print(f"with a defect other than boundary q_ij < 0: {found['bad_not_boundary_q']} "
+          f"({100 * found['bad_not_boundary_q'] / max(n, 1):.1f}%)")
     print("by kind: " + ", ".join(f"{k} {found['bad_by_kind'][k]}/{c}" for k, c in sorted(found["by_kind"].items())))
     print(f"time per case: median {np.median(sec):.3f} s, max {sec.max():.2f} s, total {sec.sum():.0f} s")
     print(f"refused with a reason (QmeshError naming the option): {len(found['refused'])}")
     for msg in sorted(set(found["refused"]))[:5]:
         print(f"    {msg[:160]}")
     if found["categories"]:
-        print("defects (cases per category):")
+        print("defects (cases per category; of them with boundary_refinement=False):")
     for cat, count in found["categories"].most_common():
-        print(f"  {cat:<14} {count}")
+        print(f"  {cat:<14} {count:5d}  ({found['refinement_off'][cat]} without refinement)")
         for _, code, first in sorted(found["examples"][cat])[:args.show]:
             print(f"      {first[:200]}")
             print(f"      {code[:600]}")

@@ -204,7 +204,7 @@ def defects(mesh, rings, *, Q=None, target=None, n_holes=None) -> list[str]:
         neg = w < -REL * np.abs(w).max()
         for name, mask in (("interior", count == 2), ("boundary", count == 1)):
             if (neg & mask).any():
-                out.append(f"q_ij: {int((neg & mask).sum())} of {int(mask.sum())} {name} edges have "
+                out.append(f"q_ij-{name}: {int((neg & mask).sum())} of {int(mask.sum())} {name} edges have "
                            f"q_ij < 0 (min relative {w[mask].min() / np.abs(w).max():.3g})")
 
     if target is not None and not abs(n - target) <= 0.1 * target:
@@ -315,3 +315,31 @@ def _rings_of(domain) -> list[np.ndarray]:
 
 def category(defect: str) -> str:
     return defect.split(":", 1)[0]
+
+
+# --------------------------------------------------------------------------- two meshes alike
+
+def difference(a, b, shift=(0.0, 0.0), scale: float = 1.0) -> str | None:
+    """None when mesh b is mesh a scaled by `scale` then moved by `shift` (same N, every vertex
+    where it should be within 1e-6 of the domain's size, the same triangles), else what differs.
+
+    Vertices are matched by position, so the two meshes may number them differently."""
+    from scipy.spatial import cKDTree
+
+    if a.n_vertices != b.n_vertices:
+        return f"N = {a.n_vertices} and {b.n_vertices}"
+    Pa = np.asarray(a.points) * scale + np.asarray(shift, dtype=float)
+    Pb = np.asarray(b.points)
+    size = float(np.ptp(Pb, axis=0).max())
+    dist, match = cKDTree(Pb).query(Pa)
+    tol = 1e-6 * size + 16 * EPS * float(np.abs(Pb).max())
+    if dist.max() > tol or len(np.unique(match)) != len(match):
+        return (f"same N = {a.n_vertices}, but {int((dist > tol).sum())} vertices are not where the "
+                f"moved mesh has one (max distance {dist.max() / size:.3g} of the size)")
+    ta = np.sort(match[np.asarray(a.triangles)], axis=1)
+    tb = np.sort(np.asarray(b.triangles), axis=1)
+    both = np.concatenate([np.unique(ta, axis=0), np.unique(tb, axis=0)])
+    common = len(both) - len(np.unique(both, axis=0))
+    if common != len(ta) or len(ta) != len(tb):
+        return f"same N = {a.n_vertices}, {common} of {len(ta)} and {len(tb)} triangles in common"
+    return None
