@@ -9,13 +9,13 @@ point insertion of the thesis chapter "Q-adapted meshes" (Section 2.3, Algorithm
 """
 
 from .anisotropy import Anisotropy
-from .domain import Disk, Polygon
+from .domain import Disk, Domain, Polygon
 from .errors import QmeshError
 from .mesh import Mesh, Stats, Step
 from .mesher import iterate, mesh
-from . import measure
+from . import domains, measure
 
-__all__ = ["Anisotropy", "Disk", "Polygon", "Mesh", "Step", "Stats", "QmeshError",
+__all__ = ["Anisotropy", "Disk", "Domain", "Polygon", "domains", "Mesh", "Step", "Stats", "QmeshError",
            "iterate", "mesh", "measure"]
 __version__ = "0.1.0"
 

@@ -1,98 +1,320 @@
-"""The domain Ω: a convex polygon whose corners are the fixed seed boundary points.
+"""The domain Ω: an outline and holes (simple polygons) whose points are fixed mesh vertices.
 
-The chapter's test domain is the regular VB-gon inscribed in the unit circle (Section 2.3.3).
-Other boundary vertices the mesher adds lie on the polygon's edges and slide along them.
+GEOMETRY.md §1–§2. Every input point is a seed: a vertex of the mesh that never moves (the
+chapter's polygon corners, Section 2.3.3). The boundary is a list of directed segments, each
+from one seed to the next around its ring, with Ω on the left (outline counter-clockwise, holes
+clockwise); other boundary vertices the mesher adds lie on a segment and slide along it. Each
+segment carries an integer tag (default 1 for the outline, 2, 3, … for the holes) that the
+mesh's boundary edges inherit, so users can put boundary conditions on them by name.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import numpy as np
 
+from . import rings as _rings
 from .errors import QmeshError
 
-
-def _turning(E: np.ndarray) -> tuple[np.ndarray, float]:
-    """Cross products of consecutive edges and the total turning angle (2π for a convex CCW loop)."""
-    En = np.roll(E, -1, axis=0)
-    cross = E[:, 0] * En[:, 1] - E[:, 1] * En[:, 0]
-    dot = np.einsum("ij,ij->i", E, En)
-    return cross, float(np.arctan2(cross, dot).sum())
+MAX_POINTS = 10_000_000
+TOUCH = 1e-9    # a point this close (× the domain's size) to a segment not its own touches it
 
 
-@dataclass(frozen=True)
-class Polygon:
-    """A convex polygon given by its corners in counter-clockwise order.
+def _ring_name(k: int) -> str:
+    return "the outline" if k == 0 else f"hole {k}"
 
-    The corners are the seed boundary points: they are mesh vertices that never move.
+
+def _as_points(ring, name: str) -> np.ndarray:
+    """An (n, 2) float array of a ring's points, or QmeshError naming the ring."""
+    if isinstance(ring, Domain):
+        if len(ring.rings) != 1:
+            raise QmeshError(f"{name}: a domain with holes cannot be used as a ring")
+        return np.array(ring.rings[0])
+    if isinstance(ring, (str, bytes)) or ring is None:
+        raise QmeshError(f"{name} must be an (n, 2) array of points, got {type(ring).__name__}")
+    try:
+        P = np.array(ring, dtype=float)
+    except (TypeError, ValueError):
+        raise QmeshError(f"{name} must be an (n, 2) array of numbers, got {ring!r:.80}") from None
+    if P.ndim != 2 or P.shape[1] != 2:
+        raise QmeshError(f"{name} must have shape (n, 2), got {P.shape}")
+    if len(P) < 3:
+        raise QmeshError(f"{name} needs at least 3 points, got {len(P)}")
+    if len(P) > MAX_POINTS:
+        raise QmeshError(f"{name} has {len(P)} points; the limit is {MAX_POINTS:.0e}")
+    if not np.all(np.isfinite(P)):
+        raise QmeshError(f"{name} has points that are not finite numbers")
+    return P
+
+
+def _check_points(P: np.ndarray, name: str) -> None:
+    """Repeated consecutive points are refused (they would be one vertex)."""
+    E = np.roll(P, -1, axis=0) - P
+    length = np.hypot(E[:, 0], E[:, 1])
+    # points closer than round-off at their magnitude cannot be told apart
+    tiny = length <= 8 * np.finfo(float).eps * np.abs(P).max(axis=1)
+    if tiny.any():
+        i = int(np.flatnonzero(tiny)[0])
+        raise QmeshError(f"{name} has repeated points: point {i} and point {(i + 1) % len(P)} "
+                         f"coincide at {P[i].tolist()}")
+
+
+def _check_ring_area(P: np.ndarray, name: str) -> float:
+    """The signed area of a simple ring, refused when zero."""
+    area = _rings.signed_area(P)
+    if not abs(area) > 0:
+        raise QmeshError(f"{name} has zero area")
+    return area
+
+
+def _ring_tags(tag, n: int, default: int, name: str) -> np.ndarray:
+    """Per-segment tags of one ring from an int or a sequence of n ints."""
+    if tag is None:
+        return np.full(n, default, np.int64)
+    t = np.asarray(tag)
+    if t.dtype == bool or not np.issubdtype(t.dtype, np.integer):
+        raise QmeshError(f"tags of {name} must be integers, got {tag!r:.80}")
+    if t.ndim == 0:
+        t = np.full(n, int(t), np.int64)
+    if t.shape != (n,):
+        raise QmeshError(f"tags of {name} must be one integer or {n} integers (one per segment), "
+                         f"got shape {t.shape}")
+    if np.any(t < 1) or np.any(t > 2**31 - 1):
+        raise QmeshError(f"tags of {name} must be integers from 1 to 2**31 - 1")
+    return t.astype(np.int64)
+
+
+class Domain:
+    """Ω: `outer` a simple polygon (either orientation), `holes` simple polygons strictly
+    inside it and disjoint from each other. `Polygon` and `Disk` objects are accepted as rings.
+
+    `tags`: None (1 for the outline, 2, 3, … for the holes), or one entry per ring, each an int
+    or a sequence of ints, one per segment (segment i runs from point i to point i + 1 as given).
+    `names`: a dict tag → name, or a sequence of names, one per ring.
     """
 
-    points: np.ndarray = field(repr=False)
+    def __init__(self, outer, holes=(), tags=None, names=None):
+        if isinstance(holes, np.ndarray) or holes is None:
+            raise QmeshError("holes must be a sequence of polygons (a list), "
+                             f"got {type(holes).__name__}")
+        try:
+            holes = list(holes)
+        except TypeError:
+            raise QmeshError(f"holes must be a sequence of polygons, got {type(holes).__name__}") from None
+        raw = [_as_points(outer, "the outline")]
+        raw += [_as_points(h, _ring_name(k + 1)) for k, h in enumerate(holes)]
+        for k, P in enumerate(raw):
+            _check_points(P, _ring_name(k))
+        if tags is not None:
+            try:
+                tags = list(tags)
+            except TypeError:
+                raise QmeshError("tags must be a sequence with one entry per ring") from None
+            if len(tags) != len(raw):
+                raise QmeshError(f"tags must have one entry per ring ({len(raw)}), got {len(tags)}")
+        ring_tags = [_ring_tags(None if tags is None else tags[k], len(P), k + 1, _ring_name(k))
+                     for k, P in enumerate(raw)]
+        _check_simple(raw)
+        areas = [_check_ring_area(P, _ring_name(k)) for k, P in enumerate(raw)]
 
-    def __post_init__(self):
-        P = np.asarray(self.points, dtype=float)
-        if P.ndim != 2 or P.shape[1] != 2:
-            raise QmeshError(f"polygon points must have shape (n, 2), got {P.shape}")
-        if len(P) < 3:
-            raise QmeshError(f"a polygon needs at least 3 points, got {len(P)}")
-        if not np.all(np.isfinite(P)):
-            raise QmeshError("polygon points must be finite")
-        E = np.roll(P, -1, axis=0) - P
-        if np.any(np.hypot(E[:, 0], E[:, 1]) <= 1e-12 * np.abs(P).max()):
-            raise QmeshError("polygon has repeated consecutive points")
-        cross, turning = _turning(E)
-        scale = np.abs(E).max() ** 2
-        if np.all(cross < 0) and abs(turning + 2 * np.pi) < 1e-6:
-            raise QmeshError("polygon points must be in counter-clockwise order")
-        if np.any(cross <= 1e-12 * scale):
-            raise QmeshError("polygon is not strictly convex; non-convex domains are not supported yet")
-        if abs(turning - 2 * np.pi) > 1e-6:
-            raise QmeshError("polygon is self-intersecting (it winds more than once); "
-                             "only simple convex polygons are supported yet")
-        P = P.copy()
-        P.setflags(write=False)
-        object.__setattr__(self, "points", P)
+        # orient: the outline counter-clockwise, holes clockwise (Ω on the left of every segment),
+        # keeping each ring's first point first; segment tags follow their segments
+        oriented, seg_tags = [], []
+        for k, (P, a, t) in enumerate(zip(raw, areas, ring_tags)):
+            if (a > 0) != (k == 0):
+                P = np.roll(P[::-1], 1, axis=0)
+                t = t[(-np.arange(len(t)) - 1) % len(t)]
+            P = P.copy()
+            P.setflags(write=False)
+            oriented.append(P)
+            seg_tags.append(t)
+        self._rings = tuple(oriented)
+        seeds = np.concatenate(oriented)
+        seeds.setflags(write=False)
+        self._seeds = seeds
+        offsets = np.cumsum([0] + [len(P) for P in oriented])
+        nxt = np.concatenate([np.roll(np.arange(o, o + len(P)), -1)
+                              for o, P in zip(offsets, oriented)])
+        self._segments = np.column_stack([np.arange(len(seeds)), nxt])
+        self._segments.setflags(write=False)
+        self._segment_tags = np.concatenate(seg_tags)
+        self._segment_tags.setflags(write=False)
+        self._ring_of_seed = np.repeat(np.arange(len(oriented)), np.diff(offsets))
+        self._tag_names = _tag_names(names, ring_tags)
+        self._area = abs(areas[0]) - sum(abs(a) for a in areas[1:])
+
+    # ------------------------------------------------------------------ what the mesher reads
+    @property
+    def rings(self) -> tuple[np.ndarray, ...]:
+        """The rings, outline first (counter-clockwise), then the holes (clockwise)."""
+        return self._rings
+
+    @property
+    def holes(self) -> tuple[np.ndarray, ...]:
+        return self._rings[1:]
 
     @property
     def seeds(self) -> np.ndarray:
-        """The fixed seed boundary points (the corners)."""
-        return self.points
+        """Every input point, ring after ring: the fixed vertices of the mesh."""
+        return self._seeds
+
+    @property
+    def segments(self) -> np.ndarray:
+        """(S, 2) seed indices: segment k runs from seed k to the next seed of its ring."""
+        return self._segments
+
+    @property
+    def segment_tags(self) -> np.ndarray:
+        return self._segment_tags
+
+    @property
+    def tag_names(self) -> dict[int, str]:
+        return dict(self._tag_names)
+
+    @property
+    def ring_of_seed(self) -> np.ndarray:
+        return self._ring_of_seed
+
+    @property
+    def segment_ends(self) -> tuple[np.ndarray, np.ndarray]:
+        """Start and end points (S, 2) of every segment."""
+        return self._seeds[self._segments[:, 0]], self._seeds[self._segments[:, 1]]
 
     @property
     def edges(self) -> tuple[np.ndarray, np.ndarray]:
-        """Edge start points and unit tangents, edge k from corner k to corner k+1."""
-        A = self.points
-        E = np.roll(A, -1, axis=0) - A
+        """Segment start points and unit tangents."""
+        A, B = self.segment_ends
+        E = B - A
         return A, E / np.hypot(E[:, 0], E[:, 1])[:, None]
 
     @property
     def area(self) -> float:
-        x, y = self.points.T
-        return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
+        return self._area
 
-    def contains(self, P: np.ndarray, tol: float = 1e-9) -> np.ndarray:
-        """Boolean mask of points inside or on the polygon (within tol times its diameter)."""
-        A, T = self.edges
-        P = np.asarray(P, dtype=float)
-        # signed distance to the left of every edge (inward for CCW)
-        d = (T[None, :, 0] * (P[:, None, 1] - A[None, :, 1])
-             - T[None, :, 1] * (P[:, None, 0] - A[None, :, 0]))
-        diam = np.ptp(self.points, axis=0).max()
-        return np.all(d >= -tol * diam, axis=1)
+    @property
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        return self._rings[0].min(axis=0), self._rings[0].max(axis=0)
 
-    def edge_of(self, P: np.ndarray, tol: float = 1e-9) -> np.ndarray:
-        """Index of the polygon edge each point lies on, or -1 (corners report their outgoing edge)."""
-        A, T = self.edges
-        P = np.asarray(P, dtype=float)
-        rel = P[:, None, :] - A[None, :, :]
-        d = T[None, :, 0] * rel[..., 1] - T[None, :, 1] * rel[..., 0]
-        t = np.einsum("nkj,kj->nk", rel, T)
-        L = np.hypot(*(np.roll(A, -1, axis=0) - A).T)
-        diam = np.ptp(self.points, axis=0).max()
-        on = (np.abs(d) <= tol * diam) & (t >= -tol * diam) & (t <= L[None, :] + tol * diam)
-        # a corner lies on two edges: report the one it starts (the smaller distance along it)
-        return np.where(on.any(axis=1), np.where(on, t, np.inf).argmin(axis=1), -1)
+    @property
+    def diameter(self) -> float:
+        """The larger side of the outline's bounding box."""
+        lo, hi = self.bounds
+        return float((hi - lo).max())
+
+    def contains(self, P, tol: float = 1e-9) -> np.ndarray:
+        """Boolean mask of points inside Ω or within tol × diameter of its boundary."""
+        P = np.asarray(P, dtype=float).reshape(-1, 2)
+        A, B = self.segment_ends
+        ins = _rings.inside(P, A, B)
+        if tol > 0:
+            ins |= np.isfinite(_rings.distance(P, A, B, tol * self.diameter))
+        return ins
+
+    def scaled(self, center, scale: float) -> "Domain":
+        """The same domain in coordinates (x − center) / scale (tags kept, no re-validation)."""
+        new = object.__new__(Domain)
+        new.__dict__.update(self.__dict__)
+        new.__dict__.pop("_triangulation", None)        # a cache in the old coordinates
+        rings = []
+        for R in self._rings:
+            R = (R - center) / scale
+            R.setflags(write=False)
+            rings.append(R)
+        new._rings = tuple(rings)
+        seeds = np.concatenate(rings)
+        seeds.setflags(write=False)
+        new._seeds = seeds
+        new._area = self._area / scale**2
+        return new
+
+    def edge_of(self, P, tol: float = 1e-9) -> np.ndarray:
+        """Segment each point lies on (within tol × diameter), or -1; input points report the
+        segment they start."""
+        A, B = self.segment_ends
+        return _rings.segment_of(np.asarray(P, dtype=float).reshape(-1, 2), A, B,
+                                 tol * self.diameter)
+
+    def __repr__(self):
+        return (f"Domain({len(self._rings[0])} outline points, {len(self._rings) - 1} holes, "
+                f"area={self._area:.6g})")
+
+
+def _tag_names(names, ring_tags) -> dict[int, str]:
+    if names is None:
+        return {}
+    if isinstance(names, dict):
+        out = {}
+        for k, v in names.items():
+            if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not isinstance(v, str):
+                raise QmeshError(f"names must map integer tags to strings, got {k!r}: {v!r}")
+            out[int(k)] = v
+        return out
+    if isinstance(names, str):
+        raise QmeshError("names must be a dict tag → name or one name per ring, got a string")
+    names = list(names)
+    if len(names) != len(ring_tags):
+        raise QmeshError(f"names must have one entry per ring ({len(ring_tags)}), got {len(names)}")
+    out = {}
+    for k, (name, t) in enumerate(zip(names, ring_tags)):
+        if not isinstance(name, str):
+            raise QmeshError(f"the name of {_ring_name(k)} must be a string, got {name!r}")
+        if len(np.unique(t)) != 1:
+            raise QmeshError(f"{_ring_name(k)} has several tags: name them with a dict tag → name")
+        out[int(t[0])] = name
+    return out
+
+
+def _check_simple(raw: list[np.ndarray]) -> None:
+    """No ring crosses itself or another; holes lie inside the outline and outside each other."""
+    sizes = [len(P) for P in raw]
+    offsets = np.cumsum([0] + sizes)
+    pts = np.concatenate(raw)
+    ia = np.arange(len(pts))
+    ib = np.concatenate([np.roll(np.arange(o, o + n), -1) for o, n in zip(offsets, sizes)])
+    bad = _rings.crossings(pts[ia], pts[ib], ia, ib)
+    if len(bad):
+        i, j = (int(v) for v in bad[0])
+        ri, rj = (int(np.searchsorted(offsets, v, side="right")) - 1 for v in (i, j))
+        si, sj = i - offsets[ri], j - offsets[rj]
+
+        def seg(r, s):
+            return f"segment {s} (point {s} → {(s + 1) % sizes[r]})"
+        if ri == rj:
+            raise QmeshError(f"{_ring_name(ri)} intersects itself: {seg(ri, si)} meets {seg(rj, sj)}")
+        raise QmeshError(f"{_ring_name(rj)} crosses {_ring_name(ri)}: its {seg(rj, sj)} meets "
+                         f"{seg(ri, si)} of {_ring_name(ri)}")
+    # points a hair's breadth from a segment they are not an end of (rings touching, a pinch)
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    near = _rings.near_points(pts, pts[ia], pts[ib], ia, ib, TOUCH * float((hi - lo).max()))
+    if len(near):
+        p, s = (int(v) for v in near[0])
+        rp, rs = (int(np.searchsorted(offsets, v, side="right")) - 1 for v in (p, s))
+        raise QmeshError(f"point {p - offsets[rp]} of {_ring_name(rp)} touches segment "
+                         f"{s - offsets[rs]} of {_ring_name(rs)} (closer than {TOUCH:g} × the "
+                         f"domain's size)")
+    outline = raw[0]
+    oa, ob = outline, np.roll(outline, -1, axis=0)
+    for k, H in enumerate(raw[1:], start=1):
+        if not _rings.inside(H[:1], oa, ob)[0]:
+            raise QmeshError(f"{_ring_name(k)} is not inside the outline")
+        for m, G in enumerate(raw[1:], start=1):
+            if m != k and _rings.inside(H[:1], G, np.roll(G, -1, axis=0))[0]:
+                raise QmeshError(f"{_ring_name(k)} lies inside {_ring_name(m)}; holes must be disjoint")
+
+
+class Polygon(Domain):
+    """A simple polygon (either orientation, convex or not) whose points are the fixed seeds."""
+
+    def __init__(self, points, tags=None, names=None):
+        super().__init__(points, (), tags=None if tags is None else [tags],
+                         names=None if names is None else names)
+
+    @property
+    def points(self) -> np.ndarray:
+        """The corners, counter-clockwise."""
+        return self._rings[0]
+
+    def __repr__(self):
+        return f"Polygon({len(self.points)} points, area={self.area:.6g})"
 
 
 def Disk(vb: int, radius: float = 1.0, center=(0.0, 0.0)) -> Polygon:
@@ -101,12 +323,26 @@ def Disk(vb: int, radius: float = 1.0, center=(0.0, 0.0)) -> Polygon:
         raise QmeshError(f"VB must be an integer, got {vb!r}")
     if vb < 3:
         raise QmeshError(f"VB must be at least 3, got {vb}")
-    if vb > 10_000_000:
-        raise QmeshError(f"VB = {vb} is too large")
+    if vb > MAX_POINTS:
+        raise QmeshError(f"VB = {vb} is too large (the limit is {MAX_POINTS:.0e})")
+    if isinstance(radius, bool) or not isinstance(radius, (int, float, np.integer, np.floating)):
+        raise QmeshError(f"radius must be a number, got {radius!r}")
     if not (np.isfinite(radius) and radius > 0):
         raise QmeshError(f"radius must be finite and > 0, got {radius}")
-    c = np.asarray(center, dtype=float)
+    try:
+        c = np.asarray(center, dtype=float)
+    except (TypeError, ValueError):
+        raise QmeshError(f"center must be two finite numbers, got {center!r}") from None
     if c.shape != (2,) or not np.all(np.isfinite(c)):
         raise QmeshError(f"center must be two finite numbers, got {center!r}")
     t = 2 * np.pi * np.arange(vb) / vb
     return Polygon(c + radius * np.column_stack([np.cos(t), np.sin(t)]))
+
+
+def as_domain(obj, name: str = "domain") -> Domain:
+    """`obj` if it is a Domain (Polygon and Disk are), else QmeshError naming the argument."""
+    if isinstance(obj, Domain):
+        return obj
+    raise QmeshError(f"{name} must be a qmesh.Domain, Polygon or Disk, got {type(obj).__name__}"
+                     + (" (wrap an array of points as qmesh.Polygon(points))"
+                        if isinstance(obj, (np.ndarray, list, tuple)) else ""))

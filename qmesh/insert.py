@@ -100,6 +100,8 @@ def insert(P, T, twin, anisotropy, *, area_threshold, boundary_length, corner_ed
     touched[twin[he[twin[he] >= 0]] // 3] = True
     tri = idx[~by_edge & ~touched[idx]]
     hb, hi = he[twin[he] < 0], he[twin[he] >= 0]
+    if len(hb) + len(hi) + len(tri) == 0:
+        return none
 
     new_b = _midpoints(P, T, hb)
     new_e = _midpoints(P, T, hi)

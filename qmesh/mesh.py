@@ -26,11 +26,18 @@ def frozen(a: np.ndarray, dtype) -> np.ndarray:
 
 @dataclass(frozen=True, eq=False)
 class Mesh:
-    """A triangle mesh: `points (N,2)`, counter-clockwise `triangles (M,3)`, `fixed (N,)` seed mask."""
+    """A triangle mesh: `points (N,2)`, counter-clockwise `triangles (M,3)`, `fixed (N,)` seed mask,
+    and its boundary: `boundary_edges (k,2)` with Ω on the left of each, their integer
+    `boundary_tags (k,)` (inherited from the domain's segments; 1 when not known) and
+    `tag_names` (tag → name). Edges not given are found from the triangles.
+    """
 
     points: np.ndarray = field(repr=False)
     triangles: np.ndarray = field(repr=False)
     fixed: np.ndarray = field(default=None, repr=False)
+    boundary_edges: np.ndarray = field(default=None, repr=False)
+    boundary_tags: np.ndarray = field(default=None, repr=False)
+    tag_names: dict = field(default=None, repr=False)
 
     def __post_init__(self):
         P = frozen(self.points, np.float64)
@@ -45,9 +52,18 @@ class Mesh:
         F = frozen(F, bool)
         if F.shape != (len(P),):
             raise QmeshError(f"fixed must have shape ({len(P)},), got {F.shape}")
-        object.__setattr__(self, "points", P)
-        object.__setattr__(self, "triangles", T)
-        object.__setattr__(self, "fixed", F)
+        E = _boundary_of(T, len(P)) if self.boundary_edges is None else self.boundary_edges
+        E = frozen(np.asarray(E, dtype=np.int64).reshape(-1, 2), np.int64)
+        if E.size and (E.min() < 0 or E.max() >= len(P)):
+            raise QmeshError("boundary_edges refer to points that do not exist")
+        tags = np.ones(len(E), np.int64) if self.boundary_tags is None else self.boundary_tags
+        tags = frozen(tags, np.int64)
+        if tags.shape != (len(E),):
+            raise QmeshError(f"boundary_tags must have shape ({len(E)},), got {tags.shape}")
+        names = {} if self.tag_names is None else {int(k): str(v) for k, v in dict(self.tag_names).items()}
+        for name, value in (("points", P), ("triangles", T), ("fixed", F), ("boundary_edges", E),
+                            ("boundary_tags", tags), ("tag_names", names)):
+            object.__setattr__(self, name, value)
 
     def __repr__(self):
         return f"Mesh(N={self.n_vertices}, triangles={self.n_triangles}, fixed={int(self.fixed.sum())})"
@@ -61,21 +77,20 @@ class Mesh:
         return len(self.triangles)
 
     @cached_property
-    def boundary_edges(self) -> np.ndarray:
-        """Edges (k, 2) that belong to exactly one triangle."""
-        T = self.triangles
-        a, b = T.ravel(), T[:, [1, 2, 0]].ravel()
-        key = np.minimum(a, b) * np.int64(max(self.n_vertices, 1)) + np.maximum(a, b)
-        u, count = np.unique(key, return_counts=True)
-        u = u[count == 1]
-        return np.column_stack([u // self.n_vertices, u % self.n_vertices])
-
-    @cached_property
     def boundary(self) -> np.ndarray:
-        """Boolean mask of vertices on the mesh boundary (from topology, so any mesh has it)."""
+        """Boolean mask of vertices on the mesh boundary."""
         m = np.zeros(self.n_vertices, bool)
         m[self.boundary_edges.ravel()] = True
         return m
+
+
+def _boundary_of(T: np.ndarray, n: int) -> np.ndarray:
+    """Half-edges a→b (in triangle order, so Ω is on their left) whose edge has one triangle."""
+    a, b = T.ravel(), T[:, [1, 2, 0]].ravel()
+    key = np.minimum(a, b) * np.int64(max(n, 1)) + np.maximum(a, b)
+    _, inverse, count = np.unique(key, return_inverse=True, return_counts=True)
+    one = count[inverse] == 1
+    return np.column_stack([a[one], b[one]])
 
 
 class Stats:

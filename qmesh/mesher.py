@@ -22,15 +22,18 @@ from typing import Iterator
 
 import numpy as np
 
-from . import seeding, sizing, topology
+from . import conform, seeding, sizing, topology
 from .adjust import limit_moves, newton_step
+from .anisotropy import Anisotropy
 from .boundary import hold_off_boundary, snap_to_boundary
+from .domain import as_domain
 from .errors import QmeshError
 from .geometry import quadratic_form
 from .insert import insert, relocate_degree3, target_area
-from .mesh import Mesh, Stats, Step
+from .mesh import Mesh, Stats, Step, frozen
+from .normalise import Normalisation
 from .options import check_keywords, check_options
-from .triangulate import q_delaunay, restore
+from .triangulate import restore
 
 BOUNDARY_FACTOR = 1.0   # split boundary edges longer than this many target metric lengths
 LATTICE_FILL = 0.97     # the initial lattice holds this share of the expected interior vertices
@@ -44,102 +47,138 @@ def _check_options(target_vertices, size, alpha, quality_threshold, min_area, ma
 
 
 class _State:
-    """The mutable arrays of one run; Steps get read-only snapshots of them."""
+    """The mutable arrays of one run (normalised coordinates); Steps get read-only snapshots."""
 
-    def __init__(self, domain, anisotropy, P, fixed, edge_id):
-        self.domain, self.anisotropy = domain, anisotropy
-        self.P, self.fixed, self.edge_id = P, fixed, edge_id
-        self.T = q_delaunay(P, anisotropy)
-        self.twin = topology.twins(self.T)
-        self.mesh = Mesh(P, self.T, fixed)
+    def __init__(self, norm: Normalisation, built):
+        self.norm = norm
+        self.domain, self.anisotropy = norm.domain, norm.anisotropy
+        self.P, self.T, self.twin, self.edge_id = built.P, built.T, built.twin, built.edge_id
+        self.fixed = np.zeros(len(self.P), bool)
+        self.fixed[:len(self.domain.seeds)] = True
+        self.pinned = built.pinned
+        self._seen_P = self._seen_T = None
+        self.mesh = self.snapshot()
 
     def tangents(self) -> np.ndarray:
         _, tan = self.domain.edges
         t = np.zeros_like(self.P)
         on = self.edge_id >= 0
         t[on] = tan[self.edge_id[on]]
-        t[self.fixed] = 0.0
+        t[self.fixed | self.pinned] = 0.0
         return t
 
     def on_boundary(self) -> np.ndarray:
-        """Boundary vertices: the seeds and the vertices sliding on the polygon's edges."""
+        """Boundary vertices: the seeds and the vertices sliding on the segments."""
         return self.fixed | (self.edge_id >= 0)
 
     def corner_edge(self) -> np.ndarray:
-        """Polygon edge that starts at each boundary vertex (seeds: their outgoing edge)."""
+        """Segment that starts at each boundary vertex (seed k starts segment k)."""
         ce = self.edge_id.copy()
-        ce[self.fixed] = np.arange(int(self.fixed.sum()))
+        ce[self.fixed] = np.flatnonzero(self.fixed)
         return ce
+
+    def snapshot(self) -> Mesh:
+        """The current mesh in the user's coordinates, with its tagged boundary edges; arrays
+        that did not change since the last snapshot are shared with it."""
+        if self.P is not self._seen_P:
+            self._user_P, self._seen_P = self.norm.to_user(self.P), self.P
+        if self.T is not self._seen_T:
+            hb = np.flatnonzero(self.twin < 0)
+            t, e = np.divmod(hb, 3)
+            a = self.T[t, e]
+            self._edges = frozen(np.column_stack([a, self.T[t, topology.NXT[e]]]), np.int64)
+            self._tags = frozen(self.domain.segment_tags[self.corner_edge()[a]], np.int64)
+            self._user_T, self._seen_T = frozen(self.T, np.int64), self.T
+        return Mesh(self._user_P, self._user_T, self.fixed, self._edges, self._tags,
+                    self.domain.tag_names)
 
     def stats(self, **extra) -> Stats:
         return Stats(self.mesh.n_vertices, self.mesh.n_triangles,
-                     source=(self.mesh, self.anisotropy), **extra)
+                     source=(self.mesh, self.norm.user_anisotropy), **extra)
 
 
 def iterate(domain, anisotropy, *, target_vertices: int | None = None, size: float | None = None,
             alpha: float = 0.5, quality_threshold: float = 0.5, min_area: float | None = None,
             max_iterations: int = 40, seed: int | None = 0,
             boundary_refinement: bool = True) -> Iterator[Step]:
-    """Run Algorithm 2.1, yielding a `Step` after every stage.
+    """Run Algorithm 2.1, yielding a `Step` after every stage; the arguments are checked now.
 
+    domain            a `Domain` (outline and holes), `Polygon` or `Disk`; its points are fixed;
+    anisotropy        an `Anisotropy` (constant Q, principal, from_s, from_expression);
     target_vertices   final vertex count N (lands within a few percent), or
-    size              target metric edge length h (default: the mean metric length of the
-                      domain's edges, so the seed points set the size as in the chapter);
+    size              target metric edge length h in the metric ∇²s (default: the mean metric
+                      length of the domain's segments, so the input points set the size);
     alpha             relaxation of the vertex step (2.92); ½ as in the chapter;
     quality_threshold triangles of metric quality (2.94) below it get a point, unless
     min_area          their metric area is below this (default: 1/16 of the target triangle's);
     max_iterations    cap on the repeat loop;
     seed              seed of the random initial interior points, or of the tiny jitter of
                       the lattice for a constant Q (same seed ⇒ same mesh);
-    boundary_refinement  allow vertices on the boundary between the seed points.
+    boundary_refinement  allow vertices on the boundary between the input points (without
+                      it, only the splits that keep q_ij ≥ 0 on boundary edges are made).
     """
     _check_options(target_vertices, size, alpha, quality_threshold, min_area, max_iterations, seed,
                    boundary_refinement)
-    seeds = domain.seeds
-    anisotropy.check_convex(np.concatenate([seeds, seeds.mean(axis=0, keepdims=True)]))
-    area_m = sizing.metric_area(domain, anisotropy)
-    lengths = sizing.metric_edge_lengths(domain, anisotropy)
+    domain = as_domain(domain)
+    if not isinstance(anisotropy, Anisotropy):
+        raise QmeshError(f"anisotropy must be a qmesh.Anisotropy, got {type(anisotropy).__name__}")
+    norm = Normalisation(domain, anisotropy)
+    dom, A = norm.domain, norm.anisotropy
+    if not A.is_constant:
+        with np.errstate(all="ignore"):
+            probe = seeding.random_interior(dom, 256, np.random.default_rng(0))
+        anisotropy.check_convex(norm.to_user(np.concatenate([dom.seeds, probe])))
+    area_m = sizing.metric_area(dom, A)
+    lengths = sizing.metric_edge_lengths(dom, A)
     bfac = BOUNDARY_FACTOR if boundary_refinement else None
     if target_vertices is not None:
-        if target_vertices <= len(seeds):
+        if target_vertices <= len(dom.seeds):
             raise QmeshError(f"target_vertices = {target_vertices} must exceed the "
-                             f"{len(seeds)} seed boundary points")
+                             f"{len(dom.seeds)} input points of the domain")
         h = sizing.size_for_vertices(area_m, lengths, target_vertices, bfac)
     else:
-        h = float(size) if size is not None else float(lengths.mean())
+        h = norm.metric_length(float(size)) if size is not None else float(lengths.mean())
         sizing.check_vertex_count(sizing.vertices_for_size(area_m, lengths, h, bfac),
-                                  f"size = {h:.3g}")
-    min_area = target_area(h) / 16 if min_area is None else float(min_area)
-    rng = np.random.default_rng(seed)
+                                  f"size = {norm.scale * np.sqrt(norm.k) * h:.3g}")
+    min_area = target_area(h) / 16 if min_area is None else norm.metric_area(float(min_area))
+    return _run(norm, h, area_m, lengths, target_vertices, alpha, quality_threshold, min_area,
+                max_iterations, np.random.default_rng(seed), boundary_refinement)
 
-    # 1. read the boundary points; select initial interior points: the metric lattice for a
-    #    constant Q, else about as many random points as boundary points (seeding.py)
+
+def _run(norm, h, area_m, lengths, target_vertices, alpha, quality_threshold, min_area,
+         max_iterations, rng, boundary_refinement) -> Iterator[Step]:
+    domain, anisotropy = norm.domain, norm.anisotropy
+    seeds = domain.seeds
+    bfac = BOUNDARY_FACTOR if boundary_refinement else None
+
+    # 1. read the boundary points (the input points, and the segments split to the target
+    #    size); select initial interior points: the metric lattice for a constant Q, else about
+    #    as many random points as boundary points (seeding.py)
+    bpts, bseg = seeding.boundary_points(domain, anisotropy, h, bfac)
+    n_b = len(seeds) + len(bpts)
     if anisotropy.is_constant:
         if target_vertices is None:
             inner = seeding.metric_lattice(domain, anisotropy.H, h, rng)
         else:
-            n_b = sizing.boundary_vertices(lengths, h, bfac)
             inner = seeding.lattice_for_count(domain, anisotropy.H,
                                               LATTICE_FILL * (target_vertices - n_b), rng)
     else:
-        n_int = len(seeds) if target_vertices is None else min(len(seeds),
-                                                                target_vertices - len(seeds))
+        n_int = n_b if target_vertices is None else max(0, min(n_b, target_vertices - n_b))
         inner = seeding.random_interior(domain, n_int, rng)
-    P = np.concatenate([seeds, inner])
-    fixed = np.zeros(len(P), bool)
-    fixed[:len(seeds)] = True
-    edge_id = np.full(len(P), -1, np.int64)
+    P = np.concatenate([seeds, bpts, inner])
+    edge_id = np.concatenate([np.full(len(seeds), -1), bseg, np.full(len(inner), -1)]).astype(np.int64)
 
-    # 2. construct the Q-weighted Delaunay triangulation from scratch (Qhull)
+    # 2. construct the conforming Q-Delaunay triangulation of Ω from scratch (Qhull)
     t0 = time.perf_counter()
-    st = _State(domain, anisotropy, P, fixed, edge_id)
+    st = _State(norm, conform.conforming_delaunay(domain, P, edge_id, anisotropy))
     yield Step("triangulate", 0, st.mesh, st.stats(seconds=time.perf_counter() - t0))
 
     for it in range(1, max_iterations + 1):
         # 3. adjust vertices (2.91)–(2.93); those sent out of Ω go onto the boundary
         t0 = time.perf_counter()
         P0, T0 = st.P, st.T
-        d = newton_step(P0, T0, anisotropy, fixed=st.fixed, tangent=st.tangents(), alpha=alpha)
+        d = newton_step(P0, T0, anisotropy, fixed=st.fixed | st.pinned, tangent=st.tangents(),
+                        alpha=alpha)
         keep = None
         if boundary_refinement:
             snap = snap_to_boundary(P0, T0, st.twin, d, st.on_boundary(), st.corner_edge(),
@@ -160,9 +199,10 @@ def iterate(domain, anisotropy, *, target_vertices: int | None = None, size: flo
         max_move = float(np.sqrt(move2.max()) / h)
         rms_move = float(np.sqrt(move2.mean()) / h)
         st.P = Pn
-        st.mesh = Mesh(Pn, st.T if st.T is not T0 else st.mesh.triangles, st.fixed)
+        st.mesh = st.snapshot()
         yield Step("adjust", it, st.mesh,
-                   st.stats(max_move=max_move, rms_move=rms_move, seconds=time.perf_counter() - t0), moved=Pn - P0)
+                   st.stats(max_move=max_move, rms_move=rms_move, seconds=time.perf_counter() - t0),
+                   moved=norm.scale * (Pn - P0))
 
         # 4. add new points near bad or oversized triangles (2.94)
         t0 = time.perf_counter()
@@ -183,22 +223,33 @@ def iterate(domain, anisotropy, *, target_vertices: int | None = None, size: flo
                      refine_boundary=boundary_refinement)
         k = len(ins.points)
         st.T, st.twin = ins.T, ins.twin
-        st.P = np.concatenate([st.P, ins.points])
-        st.fixed = np.concatenate([st.fixed, np.zeros(k, bool)])
-        st.edge_id = np.concatenate([st.edge_id, ins.edge_id])
+        if k:
+            st.P = np.concatenate([st.P, ins.points])
+            st.fixed = np.concatenate([st.fixed, np.zeros(k, bool)])
+            st.pinned = np.concatenate([st.pinned, np.zeros(k, bool)])
+            st.edge_id = np.concatenate([st.edge_id, ins.edge_id])
         added = np.concatenate([relocated, np.arange(n_old, n_old + k)])
-        st.mesh = Mesh(st.P, st.T, st.fixed) if len(added) else st.mesh
+        st.mesh = st.snapshot()
         yield Step("insert", it, st.mesh,
                    st.stats(added=len(added), seconds=time.perf_counter() - t0), added=added)
 
-        # 5. construct the Q-Delaunay triangulation again, by flips on the kept connectivity
+        # 5. construct the Q-Delaunay triangulation again: flips on the kept connectivity,
+        #    then split the boundary subsegments that a vertex encroaches (conform.py)
         t0 = time.perf_counter()
         st.T, st.twin, flips = restore(st.P, st.T, st.twin, anisotropy)
-        st.mesh = Mesh(st.mesh.points, st.T, st.fixed) if flips else st.mesh
+        c = conform.restore_conformity(st.P, st.T, st.twin, st.edge_id, st.fixed, st.pinned,
+                                       anisotropy)
+        pushed = None if c.P[:len(st.P)] is st.P or np.array_equal(c.P[:len(st.P)], st.P) \
+            else norm.scale * (c.P[:len(st.P)] - st.P)
+        st.P, st.T, st.twin, st.edge_id, st.fixed, st.pinned = c.P, c.T, c.twin, c.edge_id, c.fixed, c.pinned
+        flips += c.flips
+        st.mesh = st.snapshot()
         n_edges = len(st.twin) // 2
-        converged = (len(added) == 0 and flips <= max(2, 1e-3 * n_edges) and rms_move < MOVE_TOL)
+        converged = (len(added) == 0 and len(c.added) == 0
+                     and flips <= max(2, 1e-3 * n_edges) and rms_move < MOVE_TOL)
         yield Step("triangulate", it, st.mesh,
-                   st.stats(flips=flips, seconds=time.perf_counter() - t0), converged=converged)
+                   st.stats(flips=flips, added=len(c.added), seconds=time.perf_counter() - t0),
+                   moved=pushed, added=c.added, converged=converged)
         if converged:
             return
 
@@ -215,9 +266,31 @@ def _onto_edges(domain, P, edge_id):
 
 
 def mesh(domain, anisotropy, **options) -> Mesh:
-    """Run Algorithm 2.1 to convergence (or `max_iterations`) and return the final mesh."""
+    """Run Algorithm 2.1 to convergence (or `max_iterations`) and return the final mesh.
+
+    With `target_vertices`, a mesh whose vertex count misses the target by more than 10%
+    raises QmeshError saying why (the boundary alone needs more vertices to keep q_ij ≥ 0, or
+    cannot carry that many).
+    """
     check_keywords(options, iterate, "mesh")
     last = None
     for last in iterate(domain, anisotropy, **options):
         pass
-    return last.mesh
+    m = last.mesh
+    _check_count(m, options.get("target_vertices"), options.get("boundary_refinement", True))
+    return m
+
+
+def _check_count(m: Mesh, target, boundary_refinement) -> None:
+    if target is None or abs(m.n_vertices - target) <= 0.1 * target:
+        return
+    if m.n_vertices > target:
+        raise QmeshError(f"target_vertices = {target} is too few: keeping every q_ij >= 0 on the "
+                         f"boundary needs {m.n_vertices} vertices here; ask for at least "
+                         f"{m.n_vertices}")
+    interior = int((~m.boundary).sum())
+    why = (" (the domain is thinner than one element at this size, so no interior vertex fits)"
+           if interior == 0 else "")
+    hint = "" if boundary_refinement else "; allow boundary_refinement to add boundary vertices"
+    raise QmeshError(f"target_vertices = {target} cannot be met: the mesh has {m.n_vertices} "
+                     f"vertices{why}{hint}")

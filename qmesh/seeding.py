@@ -1,4 +1,4 @@
-"""Initial interior points of Algorithm 2.1 ("select initial interior points").
+"""Initial points of Algorithm 2.1 ("read the boundary points; select initial interior points").
 
 The chapter starts from about as many random interior points as boundary points and lets the
 insertions grow the mesh. For a constant Q the optimal mesh is known in shape: equilateral in
@@ -7,68 +7,91 @@ at the target density leaves the vertex step only the boundary layer to settle, 
 lattice defects (vertices of degree 5 and 7) that a random start freezes in, which raise the
 largest stiffness eigenvalue and so κ2. For a varying s there is no global lattice, and the
 random start is used.
+
+The lattice is laid out row by row along the domain's longest metric direction and only inside
+Ω (scanlines against the boundary segments), so its cost follows the number of points made,
+however thin or rotated Ω is in the metric.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from . import rings
+from .sizing import domain_triangulation
+
 MARGIN = 0.3        # lattice points keep this many metric edge lengths from the boundary
 JITTER = 1e-3       # random perturbation of lattice points, in metric edge lengths
 
 
-def random_interior(domain, k, rng) -> np.ndarray:
-    """k points uniformly distributed inside the convex polygon, kept off its boundary.
+def boundary_points(domain, anisotropy, h: float, factor: float | None):
+    """Points splitting every segment into pieces of metric length at most factor·h (none when
+    factor is None): arrays (points (k, 2), segment of each (k,))."""
+    from .sizing import metric_edge_lengths
+    if factor is None:
+        return np.empty((0, 2)), np.empty(0, np.int64)
+    pieces = np.maximum(1, np.ceil(metric_edge_lengths(domain, anisotropy) / (factor * h))).astype(np.int64)
+    seg = np.repeat(np.arange(len(pieces)), pieces - 1)
+    k = np.arange(len(seg)) - np.repeat(np.cumsum(pieces - 1) - (pieces - 1), pieces - 1) + 1
+    A, B = domain.segment_ends
+    t = (k / pieces[seg])[:, None]
+    return A[seg] + t * (B[seg] - A[seg]), seg
 
-    Sampled in the fan of triangles (centroid, corner k, corner k+1), chosen by area; the
-    barycentric weight of the boundary edge is capped at 1 − 1e-3 so no point touches it.
+
+def random_interior(domain, k, rng) -> np.ndarray:
+    """k points uniformly distributed inside Ω, kept off its boundary.
+
+    Sampled in the triangles of a triangulation of Ω, chosen by area; the barycentric
+    coordinates are pulled 1e-3 towards the triangle's centroid so no point touches an edge.
     """
-    A = domain.points
-    B = np.roll(A, -1, axis=0)
-    c = A.mean(axis=0)
-    area = 0.5 * np.abs((A - c)[:, 0] * (B - c)[:, 1] - (A - c)[:, 1] * (B - c)[:, 0])
-    fan = rng.choice(len(A), size=k, p=area / area.sum())
+    P, T = domain_triangulation(domain)
+    A, B, C = P[T[:, 0]], P[T[:, 1]], P[T[:, 2]]
+    area = 0.5 * np.abs((B - A)[:, 0] * (C - A)[:, 1] - (B - A)[:, 1] * (C - A)[:, 0])
+    tri = rng.choice(len(T), size=k, p=area / area.sum())
     r1, r2 = rng.random(k), rng.random(k)
-    s = np.sqrt(r1) * (1.0 - 1e-3)                 # distance from the centroid towards the edge
-    return c + s[:, None] * ((1.0 - r2)[:, None] * (A[fan] - c) + r2[:, None] * (B[fan] - c))
+    s = np.sqrt(r1)
+    w = np.column_stack([1.0 - s, s * (1.0 - r2), s * r2])
+    w = (1.0 - 1e-3) * w + 1e-3 / 3.0
+    return w[:, 0:1] * A[tri] + w[:, 1:2] * B[tri] + w[:, 2:3] * C[tri]
+
+
+def _metric_frame(domain, H):
+    """The map x ↦ x L R to metric coordinates whose x axis is Ω's longest direction."""
+    L = np.linalg.cholesky(H)                      # H = L Lᵀ; metric coordinates x' = Lᵀ x
+    X = domain.seeds @ L
+    A, B = domain.segment_ends
+    w = np.hypot(*((B - A) @ L).T)                 # weight corners by their segments' length
+    c = (X * w[:, None]).sum(axis=0) / w.sum()
+    cov = ((X - c).T * w) @ (X - c)
+    _, vec = np.linalg.eigh(cov)
+    R = vec[:, ::-1]                               # columns: longest direction first
+    if np.linalg.det(R) < 0:
+        R[:, 1] *= -1
+    return L @ R
 
 
 def metric_lattice(domain, H, h, rng) -> np.ndarray:
-    """Hexagonal lattice of metric spacing h, mapped back, at least MARGIN·h inside the polygon."""
-    L = np.linalg.cholesky(H)                      # H = L Lᵀ; metric coordinates x' = Lᵀ x
-    corners = domain.points @ L                    # rows: (Lᵀ x)ᵀ = xᵀ L
-    lo, hi = corners.min(axis=0), corners.max(axis=0)
+    """Hexagonal lattice of metric spacing h, mapped back, at least MARGIN·h inside Ω."""
+    M = _metric_frame(domain, H)
+    A, B = domain.segment_ends
+    Am, Bm = A @ M, B @ M
+    lo = np.minimum(Am.min(axis=0), Bm.min(axis=0))
+    hi = np.maximum(Am.max(axis=0), Bm.max(axis=0))
     dy = h * np.sqrt(3.0) / 2.0
-    ny, nx = int(np.ceil((hi[1] - lo[1]) / dy)) + 1, int(np.ceil((hi[0] - lo[0]) / h)) + 2
-    j, i = np.divmod(np.arange(nx * ny), nx)
-    X = np.column_stack([lo[0] + (i + 0.5 * (j % 2)) * h, lo[1] + j * dy])
+    n_rows = int(np.ceil((hi[1] - lo[1]) / dy)) + 1
+    if n_rows > 10 * 50_000_000:
+        return np.empty((0, 2))
+    y = lo[1] + (np.arange(n_rows) + 0.5) * dy
+    row, x0, x1 = rings.scanline_intervals(y, Am, Bm)
+    off = lo[0] + 0.5 * h * (row % 2)
+    i0 = np.ceil((x0 - off) / h).astype(np.int64)
+    count = np.maximum(np.floor((x1 - off) / h).astype(np.int64) - i0 + 1, 0)
+    r = np.repeat(row, count)
+    i = np.repeat(i0, count) + np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
+    X = np.column_stack([lo[0] + (i + 0.5 * (r % 2)) * h, y[r]])
     X += rng.uniform(-JITTER, JITTER, X.shape) * h
-    return X[_inside_by(corners, X, MARGIN * h)] @ np.linalg.inv(L)
-
-
-def _inside_by(corners, X, margin) -> np.ndarray:
-    """Points of X at distance > margin inside the convex CCW polygon `corners`.
-
-    Each point is tested against the edge its direction from the centroid crosses (found by
-    binary search on the corners' angles), which decides inside or outside exactly, and that
-    edge's two neighbours; where edges are shorter than the margin (a fine boundary) a point
-    may keep less than the margin from a farther edge, which the vertex step then settles.
-    O(len(X) log n) instead of O(len(X) n).
-    """
-    c = corners.mean(axis=0)
-    ang = np.arctan2(corners[:, 1] - c[1], corners[:, 0] - c[0])
-    start = np.argmin(ang)
-    corners = np.roll(corners, -start, axis=0)
-    ang = np.roll(ang, -start)
-    n = len(corners)
-    k = (np.searchsorted(ang, np.arctan2(X[:, 1] - c[1], X[:, 0] - c[0]), side="right") - 1) % n
-    E = np.roll(corners, -1, axis=0) - corners
-    nrm = np.column_stack([-E[:, 1], E[:, 0]]) / np.hypot(E[:, 0], E[:, 1])[:, None]
-    ok = np.ones(len(X), bool)
-    for shift in (-1, 0, 1):
-        e = (k + shift) % n
-        ok &= np.einsum("ij,ij->i", X - corners[e], nrm[e]) > margin
-    return ok
+    X = X[~np.isfinite(rings.distance(X, Am, Bm, MARGIN * h))]
+    return X @ np.linalg.inv(M)
 
 
 def lattice_for_count(domain, H, n, rng) -> np.ndarray:
@@ -79,8 +102,9 @@ def lattice_for_count(domain, H, n, rng) -> np.ndarray:
     """
     if n < 1:
         return np.empty((0, 2))
-    corners = domain.points @ np.linalg.cholesky(H)
-    E = np.roll(corners, -1, axis=0) - corners
+    A, B = domain.segment_ends
+    L = np.linalg.cholesky(H)
+    E = (B - A) @ L
     area_m = domain.area * np.sqrt(np.linalg.det(H))
     perimeter_m = np.hypot(E[:, 0], E[:, 1]).sum()
     cell = np.sqrt(3.0) / 2.0                      # lattice area per point is cell·h²

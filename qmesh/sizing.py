@@ -1,4 +1,4 @@
-"""How big the mesh should be: metric area and perimeter of the domain, and the size h ↔ N relation.
+"""How big the mesh should be: metric area and boundary length of Ω, and the size h ↔ N relation.
 
 Lengths and areas are measured in the metric H = ∇²s (MATH.md "Quality"): a mesh of metric
 edge length h has triangles of metric area ≈ √3/4 h², and Euler's relation M = 2N − N_b − 2
@@ -19,12 +19,11 @@ MAX_VERTICES = 50_000_000   # about 25 GB of working memory at ~500 bytes per ve
 
 
 def metric_area(domain, anisotropy) -> float:
-    """∫_Ω √det ∇²s, exact for constant Q, by a 4096-triangle midpoint rule otherwise."""
+    """∫_Ω √det ∇²s: exact for constant Q; otherwise a midpoint rule on 64 sub-triangles of
+    every triangle of a triangulation of Ω (holes and notches excluded)."""
     if anisotropy.is_constant:
         return domain.area * float(np.sqrt(np.linalg.det(anisotropy.H)))
-    P = domain.points
-    c = P.mean(axis=0)
-    # fan triangles (c, P_k, P_k+1) sampled by a uniform barycentric grid of 64 points each
+    P, T = domain_triangulation(domain)
     m = 8
     i, j = np.meshgrid(np.arange(m), np.arange(m), indexing="ij")
     keep = i + j < m
@@ -32,18 +31,33 @@ def metric_area(domain, anisotropy) -> float:
     low = i + j < m - 1
     dn = np.column_stack([(i[low] + 2 / 3) / m, (j[low] + 2 / 3) / m])
     bary = np.concatenate([up, dn])                       # centroids of the m² sub-triangles
-    A, B = P, np.roll(P, -1, axis=0)
-    X = c + bary[None, :, 0:1] * (A - c)[:, None] + bary[None, :, 1:2] * (B - c)[:, None]
+    A, B, C = P[T[:, 0]], P[T[:, 1]], P[T[:, 2]]
+    X = A[:, None] + bary[None, :, 0:1] * (B - A)[:, None] + bary[None, :, 1:2] * (C - A)[:, None]
     Hs = np.asarray(anisotropy.hessian(X.reshape(-1, 2)), dtype=float)
     dets = np.clip(Hs[:, 0, 0] * Hs[:, 1, 1] - Hs[:, 0, 1] * Hs[:, 1, 0], 0.0, None)
-    fan = 0.5 * np.abs((A - c)[:, 0] * (B - c)[:, 1] - (A - c)[:, 1] * (B - c)[:, 0])
-    return float((np.sqrt(dets).reshape(len(P), -1).mean(axis=1) * fan).sum())
+    area = 0.5 * np.abs((B - A)[:, 0] * (C - A)[:, 1] - (B - A)[:, 1] * (C - A)[:, 0])
+    return float((np.sqrt(dets).reshape(len(T), -1).mean(axis=1) * area).sum())
+
+
+def domain_triangulation(domain) -> tuple[np.ndarray, np.ndarray]:
+    """A triangulation (P, T) of Ω itself (Euclidean conforming Delaunay of its boundary),
+    kept on the domain: sizing and random seeding integrate and sample over it."""
+    cached = domain.__dict__.get("_triangulation")
+    if cached is None:
+        from .anisotropy import Anisotropy
+        from .conform import conforming_delaunay
+        seeds = np.asarray(domain.seeds)
+        c = conforming_delaunay(domain, seeds, np.full(len(seeds), -1, np.int64),
+                                Anisotropy.constant(np.eye(2)))
+        cached = (c.P, c.T)
+        domain.__dict__["_triangulation"] = cached
+    return cached
 
 
 def metric_edge_lengths(domain, anisotropy) -> np.ndarray:
-    """Metric length ∫ √(τᵀHτ) of each polygon edge."""
-    A = domain.points
-    E = np.roll(A, -1, axis=0) - A
+    """Metric length ∫ √(τᵀHτ) of each boundary segment."""
+    A, B = domain.segment_ends
+    E = B - A
     X = A[:, None, :] + _GL_X[None, :, None] * E[:, None, :]
     Hs = (np.broadcast_to(anisotropy.H, (X.shape[0] * X.shape[1], 2, 2)) if anisotropy.is_constant
           else np.asarray(anisotropy.hessian(X.reshape(-1, 2)), dtype=float))

@@ -1,0 +1,308 @@
+"""Conforming Q-Delaunay triangulation of a domain with holes (GEOMETRY.md §1).
+
+The lower hull of the lifted vertices triangulates their convex hull, not Ω. Two things make it
+a mesh of Ω on which every stiffness off-diagonal q_ij is ≥ 0, interior and boundary edges alike:
+
+1. no boundary subsegment is *encroached*: no vertex lies below the plane through the lifted
+   ends of the subsegment whose slope across it is ∇s at its midpoint — for a constant Q the
+   diametral ellipse (p − m)ᵀH(p − m) < ¼ (b − a)ᵀH(b − a). Then every subsegment is an edge of
+   the Q-Delaunay triangulation, and its own q_ij (½ cot of the metric angle facing it) is ≥ 0;
+2. the triangles outside Ω (in notches and holes) are removed: connected components of the
+   triangles across edges that are not subsegments, labelled by the side of a subsegment they
+   touch.
+
+Encroached subsegments are split (Ruppert 1995): at the midpoint, or, next to an input point,
+at a power-of-two metric distance from it ("concentric shells", Shewchuk's Triangle), so that
+segments meeting at a small metric angle are split at matching distances and the splitting
+cannot run away. During the mesher's iterations the boundary subsegments are the boundary
+half-edges of the kept triangulation: flips never touch them, so the flips restore the
+constrained Q-Delaunay triangulation, and splitting the encroached ones makes it the
+conforming one restricted to Ω.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
+
+from . import topology
+from .errors import QmeshError
+from .geometry import signed_areas
+from .triangulate import framed_q_delaunay, restore
+
+ENCROACH_TOL = 1e-9     # relative depth below the plane that counts as encroaching
+MAX_ROUNDS = 200        # split rounds before giving up (never reached on valid input)
+SHORTEST = 1e-9         # subsegments shorter than this (metric, normalised units) are not split
+PUSH = 1.02             # an encroaching interior vertex goes this far out (× the ellipse radius)
+PUSH_ROUNDS = 20        # rounds that may push vertices before only splits are made
+MIN_KEPT = 0.1          # a push must leave every triangle of the star this share of its area
+
+
+# --------------------------------------------------------------------------- the test
+
+def _metric_at(anisotropy, X: np.ndarray) -> np.ndarray:
+    if anisotropy.is_constant:
+        return np.broadcast_to(anisotropy.H, (len(X), 2, 2))
+    return np.asarray(anisotropy.hessian(X), dtype=float)
+
+
+def encroached(A: np.ndarray, B: np.ndarray, C: np.ndarray, anisotropy) -> np.ndarray:
+    """Whether point C[k] encroaches the subsegment A[k]→B[k] (GEOMETRY.md §1, the lifted test).
+
+    Constant Q: C lies inside the diametral ellipse of AB in the metric H. Varying s: C lies
+    below the plane through the lifted A and B whose slope across AB is ∇s(m)·n.
+    """
+    M = 0.5 * (A + B)
+    E = B - A
+    Hm = _metric_at(anisotropy, M)
+    L2 = np.einsum("ki,kij,kj->k", E, Hm, E)                 # (b − a)ᵀH(b − a)
+    if anisotropy.is_constant:
+        D = C - M
+        depth = 0.5 * np.einsum("ki,kij,kj->k", D, Hm, D) - 0.125 * L2
+    else:
+        length = np.hypot(E[:, 0], E[:, 1])
+        t = E / length[:, None]
+        n = np.column_stack([-t[:, 1], t[:, 0]])
+        sA = np.asarray(anisotropy.s(A), dtype=float)
+        sB = np.asarray(anisotropy.s(B), dtype=float)
+        sC = np.asarray(anisotropy.s(C), dtype=float)
+        gm = np.asarray(anisotropy.grad(M), dtype=float)
+        g = ((sB - sA) / length)[:, None] * t + np.einsum("ki,ki->k", gm, n)[:, None] * n
+        depth = sC - sA - np.einsum("ki,ki->k", g, C - A)
+    return depth < -ENCROACH_TOL * L2
+
+
+def split_points(A: np.ndarray, B: np.ndarray, a_is_seed: np.ndarray, b_is_seed: np.ndarray,
+                 anisotropy) -> np.ndarray:
+    """Where to split subsegments A→B: the midpoint, or a concentric-shell point next to a seed.
+
+    With exactly one end an input point, the split lies at the power of two (in metric length,
+    measured with the metric at that seed) nearest to half the subsegment, from that seed.
+    """
+    frac = np.full(len(A), 0.5)
+    shell = a_is_seed != b_is_seed
+    if shell.any():
+        seed = np.where(a_is_seed[shell, None], A[shell], B[shell])
+        E = B[shell] - A[shell]
+        H = _metric_at(anisotropy, seed)
+        L = np.sqrt(np.einsum("ki,kij,kj->k", E, H, E))
+        d = np.exp2(np.round(np.log2(0.5 * L)))
+        f = np.clip(d / L, 0.25, 0.75)
+        frac[shell] = np.where(a_is_seed[shell], f, 1.0 - f)
+    return A + frac[:, None] * (B - A)
+
+
+def metric_lengths2(A: np.ndarray, B: np.ndarray, anisotropy) -> np.ndarray:
+    E = B - A
+    return np.einsum("ki,kij,kj->k", E, _metric_at(anisotropy, 0.5 * (A + B)), E)
+
+
+# --------------------------------------------------------------------------- from scratch
+
+@dataclass
+class Conforming:
+    """A conforming Q-Delaunay triangulation of Ω and its vertices."""
+
+    P: np.ndarray           # (N, 2) points: the seeds first, then the rest
+    T: np.ndarray           # (M, 3) counter-clockwise triangles inside Ω
+    twin: np.ndarray        # half-edge twins of T
+    edge_id: np.ndarray     # (N,) segment a non-seed boundary vertex lies on, else -1
+    pinned: np.ndarray      # (N,) boundary points split in where two segments crowd each other
+
+
+def _subsegments(domain, n_seeds, edge_id, t):
+    """Consecutive boundary points along every segment: arrays (a, b) of point indices."""
+    seg = domain.segments
+    S = len(seg)
+    on = np.flatnonzero(edge_id >= 0)
+    keys_seg = np.concatenate([np.arange(S), edge_id[on], np.arange(S)])
+    keys_t = np.concatenate([np.zeros(S), t[on], np.ones(S)])
+    idx = np.concatenate([seg[:, 0], on, seg[:, 1]])
+    order = np.lexsort((keys_t, keys_seg))
+    keys_seg, idx = keys_seg[order], idx[order]
+    same = keys_seg[1:] == keys_seg[:-1]
+    return idx[:-1][same], idx[1:][same]
+
+
+def _find_half_edges(T: np.ndarray, n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Half-edge id of a→b in T, or -1 where there is none."""
+    key = T.astype(np.int64) * n + T[:, topology.NXT]
+    flat = key.ravel()
+    order = np.argsort(flat, kind="stable")
+    want = a.astype(np.int64) * n + b
+    pos = np.searchsorted(flat[order], want)
+    pos = np.minimum(pos, len(flat) - 1)
+    hit = flat[order][pos] == want
+    return np.where(hit, order[pos], -1)
+
+
+def inside_triangles(T: np.ndarray, twin: np.ndarray, h_in: np.ndarray) -> np.ndarray:
+    """Mask of the triangles of Ω: components across non-boundary edges, labelled by the
+    subsegment half-edges h_in (Ω on their left) and their twins (outside)."""
+    M = len(T)
+    cut = np.zeros(3 * M, bool)
+    cut[h_in] = True
+    tw = twin[h_in]
+    cut[tw[tw >= 0]] = True
+    h = np.flatnonzero((twin >= 0) & ~cut)
+    g = sp.coo_matrix((np.ones(len(h)), (h // 3, twin[h] // 3)), shape=(M, M))
+    _, comp = connected_components(g, directed=False)
+    label = np.zeros(comp.max() + 1 if M else 0, np.int8)
+    np.maximum.at(label, comp[h_in // 3], 1)
+    out = comp[tw[tw >= 0] // 3]
+    if np.any(label[out] == 1):
+        raise QmeshError("the boundary is not conforming: a region lies on both sides of it; "
+                         "please report this domain")
+    return label[comp] == 1
+
+
+def conforming_delaunay(domain, P: np.ndarray, edge_id: np.ndarray, anisotropy) -> Conforming:
+    """The conforming Q-Delaunay triangulation of Ω from scratch (Qhull), restricted to Ω.
+
+    P holds the seeds first (as `domain.seeds`), then points on segments (`edge_id` ≥ 0), then
+    interior points. Free interior points that encroach a subsegment are dropped (the mesher's
+    insertion stage puts points back where they are missing); subsegments that are not edges or
+    are encroached by a boundary point are split; Qhull runs again until neither happens.
+    """
+    n_seeds = len(domain.seeds)
+    A, Bend = domain.segment_ends
+    seg_len2 = np.einsum("ki,ki->k", Bend - A, Bend - A)
+    is_seed_pt = lambda i: i < n_seeds                                     # noqa: E731
+    pinned = np.zeros(len(P), bool)
+    for _ in range(MAX_ROUNDS):
+        n = len(P)
+        t = np.zeros(n)
+        on = edge_id >= 0
+        t[on] = np.einsum("ki,ki->k", P[on] - A[edge_id[on]], Bend[edge_id[on]] - A[edge_id[on]]) \
+            / seg_len2[edge_id[on]]
+        a, b = _subsegments(domain, n_seeds, edge_id, t)
+        T = framed_q_delaunay(P, anisotropy)
+        h = _find_half_edges(T, n, a, b)
+        missing = h < 0
+        apex = np.where(missing, 0, T.ravel()[np.where(missing, 0, (h - h % 3) + topology.PRV[h % 3])])
+        enc = ~missing & encroached(P[a], P[b], P[apex], anisotropy)
+        free = (apex >= n_seeds) & (edge_id[apex] < 0)
+        drop = np.unique(apex[enc & free])
+        split = missing | (enc & ~free)
+        split &= metric_lengths2(P[a], P[b], anisotropy) > SHORTEST ** 2
+        if not len(drop) and not split.any():
+            twin = topology.twins(T)
+            keep = inside_triangles(T, twin, h)
+            T = T[keep]
+            used = np.zeros(n, bool)
+            used[T.ravel()] = True
+            if not used.all():
+                raise QmeshError(f"{int((~used).sum())} points lie outside the domain; "
+                                 "please report this domain")
+            return Conforming(P, T, topology.twins(T), edge_id, pinned)
+        crowd = ~missing[split] & ~free[split]              # split for another boundary point
+        a, b = a[split], b[split]
+        new = split_points(P[a], P[b], is_seed_pt(a), is_seed_pt(b), anisotropy)
+        new_seg = np.where(a < n_seeds, a, edge_id[a])        # seed k starts segment k
+        keep = np.ones(n, bool)
+        keep[drop] = False
+        P = np.concatenate([P[keep], new])
+        edge_id = np.concatenate([edge_id[keep], new_seg])
+        pinned = np.concatenate([pinned[keep], crowd])
+    raise QmeshError("the conforming triangulation did not settle; please report this domain")
+
+
+# --------------------------------------------------------------------------- kept connectivity
+
+@dataclass
+class Conformed:
+    P: np.ndarray
+    T: np.ndarray
+    twin: np.ndarray
+    edge_id: np.ndarray
+    fixed: np.ndarray
+    pinned: np.ndarray      # boundary points that do not slide (see restore_conformity)
+    added: np.ndarray       # indices of the boundary points split in
+    flips: int
+
+
+def _push_out(P, a, b, c, anisotropy):
+    """Positions just outside the diametral ellipse of a→b for the apexes c (metric at the
+    midpoint): along the metric ray from the midpoint, or along the inward normal."""
+    A, B, C = P[a], P[b], P[c]
+    M = 0.5 * (A + B)
+    H = _metric_at(anisotropy, M)
+    E, D = B - A, C - M
+    R = 0.5 * np.sqrt(np.einsum("ki,kij,kj->k", E, H, E))
+    r = np.sqrt(np.einsum("ki,kij,kj->k", D, H, D))
+    normal = np.column_stack([-E[:, 1], E[:, 0]])
+    nlen = np.sqrt(np.einsum("ki,kij,kj->k", normal, H, normal))
+    D = np.where((r > 1e-3 * R)[:, None], D / np.maximum(r, 1e-300)[:, None], normal / nlen[:, None])
+    return M + (PUSH * R)[:, None] * D
+
+
+def restore_conformity(P, T, twin, edge_id, fixed, pinned, anisotropy) -> Conformed:
+    """Make no boundary half-edge of a constrained Q-Delaunay triangulation of Ω encroached.
+
+    An interior vertex that encroaches the subsegment it faces is pushed just outside its
+    diametral ellipse when that keeps every triangle of its star (it adds no vertex, and the
+    boundary keeps its own spacing); otherwise the subsegment is split and the new point slides
+    on its segment. Flips follow each round. A point split in because another boundary vertex
+    encroached (two segments meeting at a small metric angle, or facing each other across a
+    thin part) is pinned: it stays at its concentric-shell distance instead of sliding, which
+    would undo the matching splits and start them again at every iteration.
+    """
+    n0, flips = len(P), 0
+    corner = edge_id.copy()
+    corner[fixed] = np.flatnonzero(fixed)                   # seed k starts segment k
+    P0 = P
+    for rounds in range(MAX_ROUNDS):
+        hb = np.flatnonzero(twin < 0)
+        tb, eb = np.divmod(hb, 3)
+        a, b, c = T[tb, eb], T[tb, topology.NXT[eb]], T[tb, topology.PRV[eb]]
+        enc = encroached(P[a], P[b], P[c], anisotropy)
+        enc &= metric_lengths2(P[a], P[b], anisotropy) > SHORTEST ** 2
+        if not enc.any():
+            break
+        hb, a, b, c, tb = hb[enc], a[enc], b[enc], c[enc], tb[enc]
+        # interior apexes: pushed out when their star stays valid (one edge per vertex)
+        free = (edge_id[c] < 0) & ~fixed[c] & (rounds < PUSH_ROUNDS)
+        moved = np.zeros(len(hb), bool)
+        if free.any():
+            k = np.flatnonzero(free)
+            _, first = np.unique(c[k], return_index=True)
+            k = k[first]
+            Pn = P.copy()
+            Pn[c[k]] = _push_out(P, a[k], b[k], c[k], anisotropy)
+            star = np.flatnonzero(np.isin(T, c[k]).any(axis=1))
+            ok_t = signed_areas(Pn, T[star]) > MIN_KEPT * signed_areas(P, T[star])
+            bad_v = np.zeros(len(P), bool)
+            bad_v[T[star[~ok_t]].ravel()] = True
+            k = k[~bad_v[c[k]]]
+            if len(k):
+                P = P.copy() if P is P0 else P
+                P[c[k]] = Pn[c[k]]
+                moved[k] = True
+                moved |= np.isin(c, c[k])
+                stars = np.flatnonzero(np.isin(T, c[k]).any(axis=1))
+                cand = (3 * stars[:, None] + np.arange(3)).ravel()
+                T, twin, f = restore(P, T, twin, anisotropy, candidates=cand)
+                flips += f
+                continue
+        # the rest: split, at most one half-edge per triangle
+        keep = ~moved
+        hb, a, b, c, tb = hb[keep], a[keep], b[keep], c[keep], tb[keep]
+        _, first = np.unique(tb, return_index=True)
+        hb, a, b, c = hb[first], a[first], b[first], c[first]
+        new = split_points(P[a], P[b], fixed[a], fixed[b], anisotropy)
+        n = len(P)
+        T, twin = topology.split_boundary_edges(T, twin, hb, n + np.arange(len(hb)))
+        seg = corner[a]
+        P = np.concatenate([P, new])
+        edge_id = np.concatenate([edge_id, seg])
+        corner = np.concatenate([corner, seg])
+        fixed = np.concatenate([fixed, np.zeros(len(hb), bool)])
+        pinned = np.concatenate([pinned, fixed[c] | (edge_id[c] >= 0)])
+        touched = np.concatenate([hb // 3, len(T) - len(hb) + np.arange(len(hb))])
+        cand = (3 * touched[:, None] + np.arange(3)).ravel()
+        T, twin, f = restore(P, T, twin, anisotropy, candidates=cand)
+        flips += f
+    return Conformed(P, T, twin, edge_id, fixed, pinned, np.arange(n0, len(P)), flips)

@@ -1,0 +1,80 @@
+"""Mesh in normalised coordinates, so position, scale and the size of Q do not matter.
+
+GEOMETRY.md §3: the mesher works on y = (x − c)/d, c the centre of the outline's bounding box
+and d its larger side, with s divided by d²·k (k a typical size of ∇²s), so ∇²s is about 1 in
+norm and Ω about 1 across. Qhull, shoelace areas and the "repeated point" tests then see
+numbers of order one whatever the domain's position or size, and c·Q meshes like Q. Results
+are mapped back once per stage; the domain's input points are put back bit-exactly.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .anisotropy import Anisotropy
+from .errors import QmeshError
+
+
+def _hessian_scale(anisotropy, X: np.ndarray) -> float:
+    """A typical spectral norm of ∇²s: exact for constant Q, the median over X otherwise."""
+    H = anisotropy.H if anisotropy.is_constant else np.asarray(anisotropy.hessian(X), dtype=float)
+    H = np.asarray(H, dtype=float).reshape(-1, 2, 2)
+    # spectral norm of a symmetric 2×2 matrix: |mean| + radius, scaled first so nothing overflows
+    m = np.abs(H).max(axis=(1, 2))
+    m = np.where(m > 0, m, 1.0)
+    a, b, c = H[:, 0, 0] / m, H[:, 0, 1] / m, H[:, 1, 1] / m
+    norm = m * (np.abs(0.5 * (a + c)) + np.hypot(0.5 * (a - c), b))
+    k = float(np.median(norm))
+    if not (np.isfinite(k) and k > 0):
+        raise QmeshError(f"the Hessian of s has norm {k:g} on the domain; it must be finite and > 0")
+    return k
+
+
+class Normalisation:
+    """The map x = c + d·y, and s scaled by 1/(d²k): the domain and anisotropy the mesher sees."""
+
+    def __init__(self, domain, anisotropy):
+        lo, hi = domain.bounds
+        self.center = 0.5 * (lo + hi)
+        self.scale = float((hi - lo).max())
+        self.k = _hessian_scale(anisotropy, domain.seeds)
+        self.user_domain, self.user_anisotropy = domain, anisotropy
+        self.domain = domain.scaled(self.center, self.scale)
+        self.anisotropy = self._anisotropy(anisotropy)
+
+    def _anisotropy(self, A) -> Anisotropy:
+        c, d, k = self.center, self.scale, self.k
+        if A.is_constant:
+            H = np.asarray(A.H, dtype=float) / k
+            return Anisotropy.constant([[H[1, 1], -H[0, 1]], [-H[1, 0], H[0, 0]]])   # Q = adj H
+        s0 = float(np.asarray(A.s(c[None]), dtype=float)[0])
+        g0 = np.asarray(A.grad(c[None]), dtype=float)[0]
+
+        def x(Y):
+            return c + d * np.asarray(Y, dtype=float)
+
+        def s(Y):      # the affine part at c removed: it changes no hull, and keeps s small
+            Y = np.asarray(Y, dtype=float)
+            return (np.asarray(A.s(x(Y)), dtype=float) - s0 - d * (Y @ g0)) / (d * d * k)
+
+        def grad(Y):
+            return (np.asarray(A.grad(x(Y)), dtype=float) - g0) / (d * k)
+
+        def hessian(Y):
+            return np.asarray(A.hessian(x(Y)), dtype=float) / k
+
+        return Anisotropy(s, grad, hessian, None, A.label)
+
+    # lengths and areas measured in the metric ∇²s
+    def metric_length(self, h_user: float) -> float:
+        return h_user / (self.scale * np.sqrt(self.k))
+
+    def metric_area(self, a_user: float) -> float:
+        return a_user / (self.scale**2 * self.k)
+
+    def to_user(self, Y: np.ndarray, fixed: np.ndarray | None = None) -> np.ndarray:
+        """Points mapped back; the first len(seeds) fixed points become the input points exactly."""
+        X = self.center + self.scale * Y
+        seeds = self.user_domain.seeds
+        X[:len(seeds)] = seeds
+        return X
