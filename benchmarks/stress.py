@@ -14,6 +14,7 @@ the time per case.
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 import time
 from collections import Counter, defaultdict
@@ -60,7 +61,7 @@ def run_cases(args) -> dict:
     domains = st.one_of(*[KINDS[k]() for k in kinds])
     found = {"n": 0, "bad": 0, "refused": [], "seconds": [], "by_kind": Counter(), "bad_by_kind": Counter(),
              "categories": Counter(), "examples": defaultdict(list), "slowest": (0.0, ""),
-             "bad_not_boundary_q": 0, "refinement_off": Counter()}
+             "bad_not_boundary_q": 0, "refinement_off": Counter(), "messages": Counter()}
 
     @seed(args.seed)
     @settings(max_examples=args.cases, phases=[Phase.generate], database=None, deadline=None,
@@ -86,6 +87,9 @@ def run_cases(args) -> dict:
             cats = {invariants.category(d) for d in out.defects}
             if cats - {"q_ij-boundary"}:
                 found["bad_not_boundary_q"] += 1
+            for d in out.defects:
+                if invariants.category(d) in ("error", "exception", "warning", "refused-domain"):
+                    found["messages"][re.sub(r"[-+]?\d[\d.e+-]*", "#", d)[:110]] += 1
             for cat in sorted(cats):
                 found["categories"][cat] += 1
                 found["refinement_off"][cat] += not case.options.get("boundary_refinement", True)
@@ -116,6 +120,10 @@ def report(found: dict, args) -> None:
         for _, code, first in sorted(found["examples"][cat])[:args.show]:
             print(f"      {first[:200]}")
             print(f"      {code[:600]}")
+    if found["messages"]:
+        print("errors, exceptions and warnings (numbers replaced by #):")
+    for msg, count in found["messages"].most_common():
+        print(f"  {count:5d}  {msg}")
     if found["slowest"][1]:
         print(f"slowest case ({found['slowest'][0]:.2f} s): {found['slowest'][1][:300]}")
 
