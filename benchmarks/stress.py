@@ -37,6 +37,7 @@ KINDS = {
     "convex": strategies.convex_domains,
     "thin": strategies.thin_domains,
     "holed": strategies.holed_domains,
+    "named": strategies.named_domains,
 }
 
 
@@ -44,7 +45,7 @@ def parse_args(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--cases", type=int, default=2000, help="random cases to mesh (default 2000)")
     p.add_argument("--seed", type=int, default=1, help="hypothesis seed (default 1)")
-    p.add_argument("--kinds", default="regular,convex,thin" + (",holed" if strategies.HAS_DOMAIN else ""),
+    p.add_argument("--kinds", default="regular,convex,thin" + (",holed,named" if strategies.HAS_DOMAIN else ""),
                    help="domain kinds, comma-separated: " + ", ".join(KINDS))
     p.add_argument("--conductivity", default="any", choices=["constant", "varying", "any"])
     p.add_argument("--max-target", type=int, default=strategies.MAX_TARGET)

@@ -75,6 +75,9 @@ CASES = {
                                                   (0.0, 2.5218515203656295), 0.6564205448619959)),
                 dict(target_vertices=637, alpha=0.5364646753662948, quality_threshold=0.17724404287167994,
                      seed=7073392, boundary_refinement=False)),
+    "K18": Case(DomainSpec("named", "qmesh.domains.lshape()", lambda: qmesh.domains.lshape(), 6,
+                           (np.array([[-1, -1], [1, -1], [1, 0], [0, 0], [0, 1], [-1, 1]], dtype=float),)),
+                constant(I), dict(target_vertices=3000, boundary_refinement=False)),
     "K13": Case(polygon(np.array([[0, 0], [1, 0], [0.5, 1e-3]]) @ np.array([[0.75**0.5, 0.5], [-0.5, 0.75**0.5]])),
                 principal(1, 1e4, 90), dict(target_vertices=2000, boundary_refinement=False)),
 }

@@ -209,11 +209,22 @@ def holed_domains(draw, max_holes: int = 3):
     return polygon_spec("holed", shift + size * outline, [shift + size * h for h in holes], shift, size)
 
 
+@st.composite
+def named_domains(draw):
+    """qmesh.domains.NAMED (L-shape, notched square, plate with holes…) rotated, scaled, moved."""
+    name = draw(st.sampled_from(sorted(qmesh.domains.NAMED)))
+    rings = [np.asarray(R) for R in qmesh.domains.NAMED[name]().rings]
+    R = _rotation(draw(st.floats(0, 2 * np.pi)))
+    size, shift = draw(sizes()), draw(offsets())
+    moved_rings = [shift + size * (P @ R.T) for P in rings]
+    return polygon_spec("named", moved_rings[0], moved_rings[1:], shift, size)
+
+
 def any_domain():
     """Every kind of domain this core can take."""
     kinds = [regular_domains(), convex_domains(), thin_domains()]
     if HAS_DOMAIN:
-        kinds.append(holed_domains())
+        kinds += [holed_domains(), named_domains()]
     return st.one_of(*kinds)
 
 

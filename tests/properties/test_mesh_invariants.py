@@ -4,12 +4,11 @@ One test per kind of input, so each kind's first failure is reported on its own.
 message is the list of defects and a `qmesh.mesh(...)` call that reproduces them.
 """
 
-import pytest
 from hypothesis import given
 
 import invariants
-import strategies
-from strategies import cases, convex_domains, examples, holed_domains, regular_domains, thin_domains
+from strategies import (cases, convex_domains, examples, holed_domains, named_domains,
+                        regular_domains, thin_domains)
 
 
 def check(case):
@@ -48,8 +47,8 @@ def test_seed_only_boundary(case):
     check(case)
 
 
-@pytest.mark.skipif(not strategies.HAS_DOMAIN, reason="qmesh.Domain (issue 9) is not on this core yet")
 @examples(0.5)
-@given(cases(holed_domains(), conductivity="any"))
+@given(cases(holed_domains() | named_domains(), conductivity="any"))
 def test_non_convex_domains_with_holes(case):
+    """Issue 9: star-shaped outlines with up to three holes, and the named domains, anywhere."""
     check(case)
