@@ -110,6 +110,9 @@ class Anisotropy:
         k1 = checks.real(k1, "k1", low=0.0, low_open=True)
         k2 = checks.real(k2, "k2", low=0.0, low_open=True)
         angle_deg = checks.real(angle_deg, "angle_deg")
+        if min(k1, k2) <= 4 * np.finfo(float).eps * max(k1, k2):
+            raise QmeshError(f"k1 = {k1:g} and k2 = {k2:g} are too far apart: the smaller is "
+                             f"round-off next to the larger, so Q would be singular")
         t = np.deg2rad(angle_deg)
         R = np.array([[np.cos(t), -np.sin(t)], [np.sin(t), np.cos(t)]])
         return cls.constant(R @ np.diag([k1, k2]) @ R.T)
