@@ -3,6 +3,7 @@
     python benchmarks/bench_mesher.py                 # ~1e5 vertices
     python benchmarks/bench_mesher.py --big           # ~1e5 and ~1e6 vertices
     python benchmarks/bench_mesher.py --sizes 2e5 --vb 1024
+    python benchmarks/bench_mesher.py --domains --no-mmg  # holed domains against the disk
 
 Every case runs in its own subprocess, so peak memory (ru_maxrss) does not mix between cases;
 the baseline (interpreter + imports) is printed beside the peak. qmesh is timed over the whole
@@ -31,9 +32,26 @@ def _rss_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
-def child_qmesh(n: int, vb: int) -> dict:
+HOLED = ("square with hole", "plate with holes", "annulus", "L-shape")
+"""Named domains (qmesh.domains.NAMED) timed by --domains, with more input points so their
+boundary is as fine, relative to the interior, as the disk's at the same N."""
+
+
+def _domain(spec: str):
+    """Disk(VB) for a number, else a named domain with finer holes/outline (see HOLED)."""
     import qmesh
-    domain, aniso = qmesh.Disk(vb), qmesh.Anisotropy.constant(CHAPTER_Q)
+    from qmesh import domains
+    if spec.isdigit():
+        return qmesh.Disk(int(spec))
+    fine = {"square with hole": lambda: domains.square_with_hole(hole_points=256),
+            "plate with holes": lambda: domains.plate_with_holes(hole_points=128),
+            "annulus": lambda: domains.annulus(outer_points=512, inner_points=256)}
+    return fine.get(spec, domains.NAMED[spec])()
+
+
+def child_qmesh(n: int, vb: str) -> dict:
+    import qmesh
+    domain, aniso = _domain(vb), qmesh.Anisotropy.constant(CHAPTER_Q)
     base = _rss_mb()
     stages, iterations, last = defaultdict(float), 0, None
     t0 = time.perf_counter()
@@ -64,7 +82,7 @@ def child_mmg(n: int, vb: int) -> dict:
             "baseline_mb": base, "peak_mb": _rss_mb()}
 
 
-def run_case(kind: str, n: int, vb: int, timeout: float) -> dict:
+def run_case(kind: str, n: int, vb, timeout: float) -> dict:
     """One case in a fresh interpreter; its JSON result (or why it failed)."""
     cmd = [sys.executable, __file__, "--child", kind, str(n), str(vb)]
     try:
@@ -104,12 +122,14 @@ def main(argv=None) -> int:
     p.add_argument("--big", action="store_true", help="add the ~1e6-vertex case")
     p.add_argument("--vb", type=int, default=512, help="boundary seed points of the disk")
     p.add_argument("--no-mmg", action="store_true", help="time qmesh only")
+    p.add_argument("--domains", action="store_true",
+                   help="also time qmesh on holed and non-convex domains at the same N")
     p.add_argument("--timeout", type=float, default=3600.0, help="seconds per case")
     p.add_argument("--child", nargs=3, metavar=("KIND", "N", "VB"), help=argparse.SUPPRESS)
     args = p.parse_args(argv)
     if args.child:
-        kind, n, vb = args.child[0], int(args.child[1]), int(args.child[2])
-        print(json.dumps((child_qmesh if kind == "qmesh" else child_mmg)(n, vb)))
+        kind, n, vb = args.child[0], int(args.child[1]), args.child[2]
+        print(json.dumps(child_qmesh(n, vb) if kind == "qmesh" else child_mmg(n, int(vb))))
         return 0
     sizes = args.sizes or ([1e5, 1e6] if args.big else [1e5])
     if args.big and args.sizes:
@@ -120,6 +140,15 @@ def main(argv=None) -> int:
         m = ({"mesher": "mmg2d", "skipped": "--no-mmg"} if args.no_mmg
              else run_case("mmg2d", n, args.vb, args.timeout))
         report(n, args.vb, q, m)
+        if args.domains:
+            for name in HOLED:
+                r = run_case("qmesh", n, name, args.timeout)
+                if "seconds" not in r:
+                    print(f"  {name}: FAILED: {r.get('failed')}")
+                    continue
+                ratio = r["seconds"] / q["seconds"] if "seconds" in q else float("nan")
+                print(f"  qmesh on {name}: {r['seconds']:.2f} s, N = {r['n_vertices']:,}, "
+                      f"{ratio:.2f}x the disk's time, peak {r['peak_mb']:,.0f} MB")
     return 0
 
 

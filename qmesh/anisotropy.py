@@ -66,7 +66,8 @@ class _UserField:
 class Anisotropy:
     """s, ∇s, ∇²s and Q = adj ∇²s as vectorised callables.
 
-    Build it with `constant`, `principal` or `from_s`. `H` is the constant Hessian when Q is
+    Build it with `constant`, `principal`, `from_s` or `from_expression` (s typed as text,
+    kept in `expression`). `H` is the constant Hessian when Q is
     constant (None otherwise); code paths that can exploit a constant metric check it.
     """
 
@@ -75,6 +76,7 @@ class Anisotropy:
     hessian: Field
     H: np.ndarray | None = None
     label: str = ""
+    expression: str | None = None
 
     def Q(self, P: np.ndarray) -> np.ndarray:
         """Conductivity at points P (n, 2) → (n, 2, 2): Q = adj ∇²s."""
@@ -131,6 +133,19 @@ class Anisotropy:
                             _UserField(hessian, "hessian", (2, 2)))
         return cls(s, grad, hessian, None, label)
 
+    @classmethod
+    def from_expression(cls, text: str) -> "Anisotropy":
+        """s(x, y) typed as text, e.g. "exp(x) + y**2": exact s, ∇s, ∇²s (qmesh.expression).
+
+        The text is parsed against a whitelist, never run; QmeshError points at what is refused.
+        A Hessian that is constant and not SPD is refused here; one that varies is checked on
+        the domain by `check_convex`. A constant Hessian makes this a constant-Q anisotropy.
+        """
+        from .expression import parse_s
+
+        e = parse_s(text)
+        return cls(e.s, e.grad, e.hessian, e.H, label=text, expression=text)
+
     def check_convex(self, P: np.ndarray) -> None:
         """Raise QmeshError unless ∇²s is finite, symmetric and positive definite at every point of P.
 
@@ -158,7 +173,7 @@ class Anisotropy:
         a, b, c = Hn[:, 0, 0], 0.5 * (Hn[:, 0, 1] + Hn[:, 1, 0]), Hn[:, 1, 1]
         not_spd = (m == 0) | (a <= 0) | (a * c - b * b <= 0)
         for mask, what in ((asym, "not symmetric"),
-                           (not_spd, "not positive definite (s must be strictly convex on the domain)")):
+                           (not_spd, "not SPD (s must be strictly convex on the domain)")):
             if mask.any():
                 i = int(np.flatnonzero(mask)[0])
                 raise QmeshError(f"the Hessian of s is {what} at {mask.sum()} of {len(P)} points; "

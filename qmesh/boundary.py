@@ -66,6 +66,24 @@ def hold_off_boundary(P, T, twin, d, on_boundary, anisotropy) -> np.ndarray:
     return d
 
 
+def hold_out_of_ellipses(P, T, twin, d, on_boundary, anisotropy) -> np.ndarray:
+    """d with the moves of interior vertices undone where they would carry the vertex into the
+    diametral ellipse of the boundary edge it faces (GEOMETRY.md §1).
+
+    The triangulate stage would push such a vertex back out (conform.py) and the next vertex
+    step pull it in again, for ever; holding it keeps the boundary q_ij ≥ 0 without that cycle.
+    """
+    from .conform import encroached
+    _, a, b, v = _boundary_triangles(T, twin)
+    inner = ~on_boundary[v]
+    a, b, v = a[inner], b[inner], v[inner]
+    Pn = P + d
+    into = encroached(Pn[a], Pn[b], Pn[v], anisotropy) & ~encroached(P[a], P[b], P[v], anisotropy)
+    d = d.copy()
+    d[v[into]] = 0.0
+    return d
+
+
 def snap_to_boundary(P, T, twin, d, on_boundary, corner_edge, anisotropy) -> Snap:
     """Project interior vertices whose move `d` leaves the domain onto the boundary edge crossed.
 

@@ -1,8 +1,9 @@
 """The `qmesh` command: mesh a domain, report on any mesh file, reproduce the chapter's tables.
 
-    qmesh mesh   [--Q Q11 Q12 Q22 | --principal K1 K2 ANGLE] [--disk VB | --polygon FILE.csv]
+    qmesh mesh   [--Q Q11 Q12 Q22 | --principal K1 K2 ANGLE | --s TEXT] [--disk VB | --polygon FILE]
                  [--target-vertices N | --size H] [--alpha A] [--seed S] [--max-iterations K] -o OUT
-    qmesh report MESHFILE [--Q ... | --principal ...] [--json]
+    qmesh report MESHFILE [--Q ... | --principal ... | --s TEXT] [--json]
+                 (default Q: the one stored in the file)
     qmesh table  [--vb VB ...] [--out DIR] [--peers] [--solve]
 
 Defaults are the chapter's case: Q = diag(0.1, 10) (2.95) on the regular 64-gon. Bad input
@@ -17,48 +18,19 @@ import inspect
 import json
 import sys
 import time
-from pathlib import Path
-
-import numpy as np
 
 from . import CHAPTER_Q, __version__, io, measure
 from .anisotropy import Anisotropy
-from .domain import Disk, Polygon
+from .domain import Disk
 from .errors import QmeshError
+from .file_conductivity import PREFIX as RECORD_PREFIX, record_of
 from .mesher import iterate
+from .polygon_file import read_domain
 
 _MESHER_DEFAULTS = {k: v.default for k, v in inspect.signature(iterate).parameters.items()}
 
 
 # --------------------------------------------------------------------------- inputs
-
-def read_polygon_csv(path) -> Polygon:
-    """A polygon from a CSV file of x,y rows (an optional header line; `#` comments allowed)."""
-    path = Path(path)
-    try:
-        lines = [ln for ln in path.read_text().splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
-    except (OSError, UnicodeDecodeError) as e:
-        raise QmeshError(f"cannot read polygon file {str(path)!r}: {e}") from e
-    if lines and not _is_numeric_row(lines[0]):
-        lines = lines[1:]  # header
-    if not lines:
-        raise QmeshError(f"polygon file {str(path)!r} has no points")
-    try:
-        P = np.loadtxt(lines, delimiter=",", ndmin=2, dtype=float)
-    except ValueError as e:
-        raise QmeshError(f"polygon file {str(path)!r} is not a CSV of x,y numbers: {e}") from e
-    if P.shape[1] != 2:
-        raise QmeshError(f"polygon file {str(path)!r} must have two columns x,y, got {P.shape[1]}")
-    return Polygon(P)
-
-
-def _is_numeric_row(line: str) -> bool:
-    try:
-        [float(f) for f in line.split(",")]
-    except ValueError:
-        return False
-    return True
-
 
 def _non_negative_int(text: str) -> int:
     """argparse type for --seed (numpy's generators take no negative seed)."""
@@ -72,12 +44,14 @@ def _non_negative_int(text: str) -> int:
 
 
 def anisotropy_from(args) -> Anisotropy:
-    """--Q Q11 Q12 Q22 or --principal K1 K2 ANGLE; the chapter's Q = diag(0.1, 10) by default."""
+    """--Q Q11 Q12 Q22, --principal K1 K2 ANGLE or --s TEXT; the chapter's Q = diag(0.1, 10) by default."""
     if args.Q is not None:
         q11, q12, q22 = args.Q
         return Anisotropy.constant([[q11, q12], [q12, q22]])
     if args.principal is not None:
         return Anisotropy.principal(*args.principal)
+    if args.s is not None:
+        return Anisotropy.from_expression(args.s)
     return Anisotropy.constant(CHAPTER_Q)
 
 
@@ -92,7 +66,7 @@ def _progress(step, out) -> None:
 def cmd_mesh(args) -> int:
     out = io.check_writable(args.output)
     anisotropy = anisotropy_from(args)
-    domain = read_polygon_csv(args.polygon) if args.polygon else Disk(args.disk)
+    domain = read_domain(args.polygon) if args.polygon else Disk(args.disk)
     show = not args.quiet and (args.progress or sys.stderr.isatty())
 
     start = time.perf_counter()
@@ -136,14 +110,39 @@ def _percent(share: float | None) -> str:
     return "n/a" if share is None else f"{100 * share:.1f}%"
 
 
+def conductivity_for_report(args) -> tuple[Anisotropy, str]:
+    """The Q to measure a mesh file with, and where it came from.
+
+    The command line's --Q/--principal/--s when given; else the conductivity the file stores
+    (`qmesh.io.read_anisotropy`); else the chapter's Q (2.95), which the caller must announce.
+    """
+    given = any(getattr(args, name, None) is not None for name in ("Q", "principal", "s"))
+    if given:
+        return anisotropy_from(args), "command line"
+    stored = io.read_anisotropy(args.meshfile)
+    if stored is not None:
+        return stored, "file"
+    return Anisotropy.constant(CHAPTER_Q), "default"
+
+
+def _conductivity_text(anisotropy: Anisotropy) -> str:
+    record = record_of(anisotropy)
+    return record[len(RECORD_PREFIX):] if record else anisotropy.label
+
+
 def cmd_report(args) -> int:
     mesh = io.read(args.meshfile)
-    rep = measure.report(mesh, anisotropy_from(args))
+    anisotropy, source = conductivity_for_report(args)
+    conductivity = _conductivity_text(anisotropy)
+    where = {"file": "stored in the file", "command line": "from the command line",
+             "default": "the chapter's default: the file stores none"}[source]
+    rep = measure.report(mesh, anisotropy)
     if args.json:
-        print(json.dumps({"file": str(args.meshfile), **rep}, indent=2))
+        print(json.dumps({"file": str(args.meshfile), "conductivity": conductivity,
+                          "conductivity_source": source, **rep}, indent=2))
         return 0
     width = max(map(len, rep))
-    print(f"{args.meshfile}")
+    print(f"{args.meshfile}: conductivity {conductivity} ({where})")
     for key, value in rep.items():
         text = "n/a" if value is None else f"{value:.6g}" if isinstance(value, float) else str(value)
         print(f"  {key:<{width}}  {text}")
@@ -167,6 +166,10 @@ def _add_anisotropy(p) -> None:
                    help="constant SPD conductivity [[Q11, Q12], [Q12, Q22]] (default: 0.1 0 10)")
     g.add_argument("--principal", nargs=3, type=float, metavar=("K1", "K2", "ANGLE"),
                    help="principal conductivities K1, K2 > 0 and the angle of K1's axis in degrees")
+    g.add_argument("--s", metavar="TEXT",
+                   help="a varying conductivity Q = adj ∇²s from a convex s(x, y) typed as text, "
+                   "e.g. 'exp(x) + y**2': numbers, x, y, pi, e, + - * / **, and exp log log1p sqrt "
+                   "sin cos tan sinh cosh tanh arctan abs (write --s=TEXT when TEXT starts with -)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -176,13 +179,15 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     p = sub.add_parser("mesh", help="mesh a domain and write the mesh file",
-                       description="Mesh a convex domain for the conductivity Q and write OUT "
+                       description="Mesh a domain for the conductivity Q and write OUT "
                        "(format from the extension: " + ", ".join(io.FORMATS) + ").")
     _add_anisotropy(p)
     g = p.add_mutually_exclusive_group()
     g.add_argument("--disk", type=int, default=64, metavar="VB",
                    help="the regular VB-gon inscribed in the unit circle (default: 64)")
-    g.add_argument("--polygon", metavar="FILE.csv", help="a convex polygon: CSV of x,y rows, counter-clockwise")
+    g.add_argument("--polygon", metavar="FILE", help="a domain file: CSV of x,y rows (a blank line between "
+                   "rings: the outline first, then holes) or GeoJSON (.geojson/.json: a Polygon, or a Feature "
+                   "holding one)")
     g = p.add_mutually_exclusive_group()
     g.add_argument("--target-vertices", type=int, metavar="N", help="aim for N vertices (within ±10%%)")
     g.add_argument("--size", type=float, metavar="H", help="target metric edge length")
@@ -198,7 +203,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(handler=cmd_mesh)
 
     p = sub.add_parser("report", help="measure a mesh file (q_ij, κ2, errors, quality)",
-                       description="Print qmesh.measure.report of a mesh file, written by qmesh or any other program.")
+                       description="Print qmesh.measure.report of a mesh file, written by qmesh or any other "
+                       "program. Without --Q/--principal it measures with the conductivity the file stores "
+                       "(qmesh mesh stores it), else with the chapter's Q = diag(0.1, 10) and a note; "
+                       "the 'conductivity' line says which.")
     p.add_argument("meshfile", metavar="MESHFILE")
     _add_anisotropy(p)
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")

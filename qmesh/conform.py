@@ -31,7 +31,7 @@ from scipy.sparse.csgraph import connected_components
 from . import topology
 from .errors import QmeshError
 from .geometry import signed_areas
-from .triangulate import framed_q_delaunay, restore
+from .triangulate import lower_hull, restore
 
 ENCROACH_TOL = 1e-9     # relative depth below the plane that counts as encroaching
 MAX_ROUNDS = 200        # split rounds before giving up (never reached on valid input)
@@ -127,6 +127,14 @@ def _subsegments(domain, n_seeds, edge_id, t):
     return idx[:-1][same], idx[1:][same]
 
 
+def _canonical_order(T: np.ndarray) -> np.ndarray:
+    """Triangles rotated to start at their smallest vertex and sorted: Qhull lists them in an
+    order that depends on the coordinates' round-off, the mesher's later choices on the order."""
+    r = np.argmin(T, axis=1)
+    T = np.take_along_axis(T, (r[:, None] + np.arange(3)) % 3, axis=1)
+    return T[np.lexsort((T[:, 2], T[:, 1], T[:, 0]))]
+
+
 def _find_half_edges(T: np.ndarray, n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Half-edge id of a→b in T, or -1 where there is none."""
     key = T.astype(np.int64) * n + T[:, topology.NXT]
@@ -159,19 +167,78 @@ def inside_triangles(T: np.ndarray, twin: np.ndarray, h_in: np.ndarray) -> np.nd
     return label[comp] == 1
 
 
-def conforming_delaunay(domain, P: np.ndarray, edge_id: np.ndarray, anisotropy) -> Conforming:
+class TooManySplits(QmeshError):
+    """Keeping the boundary conforming needs more vertices than the run allows."""
+
+
+def _too_many(n: int, limit: int):
+    return TooManySplits(
+        f"keeping every q_ij >= 0 on the boundary needs more than {limit} vertices here "
+        f"(reached {n}): the domain is thinner, or its corners sharper, in the metric than the "
+        "requested element size; ask for more vertices (a smaller size), or simplify the domain")
+
+
+def _encroaching_free(domain, P, edge_id, anisotropy) -> np.ndarray:
+    """Mask of the points to keep: interior points inside the diametral ellipse of a subsegment
+    are dropped before the first Qhull run (constant Q: discs in metric coordinates, found with
+    a k-d tree), so that run is usually the only one."""
+    from scipy.spatial import cKDTree
+    n_seeds = len(domain.seeds)
+    free = np.flatnonzero((np.arange(len(P)) >= n_seeds) & (edge_id < 0))
+    if not len(free):
+        return np.ones(len(P), bool)
+    A, B = domain.segment_ends
+    on = edge_id >= 0
+    t = np.zeros(len(P))
+    E = B - A
+    t[on] = np.einsum("ki,ki->k", P[on] - A[edge_id[on]], E[edge_id[on]]) / \
+        np.einsum("ki,ki->k", E, E)[edge_id[on]]
+    a, b = _subsegments(domain, n_seeds, edge_id, t)
+    L = np.linalg.cholesky(anisotropy.H)
+    X = P @ L
+    M = 0.5 * (X[a] + X[b])
+    r = 0.5 * np.hypot(*(X[b] - X[a]).T)
+    hits = cKDTree(X[free]).query_ball_point(M, r * (1 + 1e-9))
+    inside = np.unique(np.fromiter((i for h in hits for i in h), np.int64))
+    keep = np.ones(len(P), bool)
+    keep[free[inside]] = False
+    return keep
+
+
+def conforming_delaunay(domain, P: np.ndarray, edge_id: np.ndarray, anisotropy,
+                        max_points: int | None = None, pinned: np.ndarray | None = None,
+                        target: int | None = None, rng=None) -> Conforming:
     """The conforming Q-Delaunay triangulation of Ω from scratch (Qhull), restricted to Ω.
 
     P holds the seeds first (as `domain.seeds`), then points on segments (`edge_id` ≥ 0), then
     interior points. Free interior points that encroach a subsegment are dropped (the mesher's
     insertion stage puts points back where they are missing); subsegments that are not edges or
     are encroached by a boundary point are split; Qhull runs again until neither happens.
+    More than `max_points` points raises TooManySplits (a QmeshError). With a `target` vertex
+    count, the splits take the place of as many interior points (drawn with `rng`), and the
+    triangulation is built once more without them.
     """
+    built = _conforming(domain, P, edge_id, anisotropy, max_points, pinned)
+    excess = len(built.P) - target if target is not None else 0
+    free = np.flatnonzero((np.arange(len(built.P)) >= len(domain.seeds)) & (built.edge_id < 0))
+    if excess <= 0 or not len(free):
+        return built
+    keep = np.ones(len(built.P), bool)
+    keep[rng.choice(free, size=min(excess, len(free)), replace=False)] = False
+    return _conforming(domain, built.P[keep], built.edge_id[keep], anisotropy, max_points,
+                       built.pinned[keep])
+
+
+def _conforming(domain, P, edge_id, anisotropy, max_points, pinned) -> Conforming:
+    """One conforming build (see conforming_delaunay)."""
     n_seeds = len(domain.seeds)
     A, Bend = domain.segment_ends
     seg_len2 = np.einsum("ki,ki->k", Bend - A, Bend - A)
     is_seed_pt = lambda i: i < n_seeds                                     # noqa: E731
-    pinned = np.zeros(len(P), bool)
+    pinned = np.zeros(len(P), bool) if pinned is None else pinned
+    if anisotropy.is_constant:
+        keep = _encroaching_free(domain, P, edge_id, anisotropy)
+        P, edge_id, pinned = P[keep], edge_id[keep], pinned[keep]
     for _ in range(MAX_ROUNDS):
         n = len(P)
         t = np.zeros(n)
@@ -179,7 +246,7 @@ def conforming_delaunay(domain, P: np.ndarray, edge_id: np.ndarray, anisotropy) 
         t[on] = np.einsum("ki,ki->k", P[on] - A[edge_id[on]], Bend[edge_id[on]] - A[edge_id[on]]) \
             / seg_len2[edge_id[on]]
         a, b = _subsegments(domain, n_seeds, edge_id, t)
-        T = framed_q_delaunay(P, anisotropy)
+        T = lower_hull(P, anisotropy)
         h = _find_half_edges(T, n, a, b)
         missing = h < 0
         apex = np.where(missing, 0, T.ravel()[np.where(missing, 0, (h - h % 3) + topology.PRV[h % 3])])
@@ -197,9 +264,12 @@ def conforming_delaunay(domain, P: np.ndarray, edge_id: np.ndarray, anisotropy) 
             if not used.all():
                 raise QmeshError(f"{int((~used).sum())} points lie outside the domain; "
                                  "please report this domain")
+            T = _canonical_order(T)
             return Conforming(P, T, topology.twins(T), edge_id, pinned)
         crowd = ~missing[split] & ~free[split]              # split for another boundary point
         a, b = a[split], b[split]
+        if max_points is not None and n + len(a) > max_points:
+            raise _too_many(n + len(a), max_points)
         new = split_points(P[a], P[b], is_seed_pt(a), is_seed_pt(b), anisotropy)
         new_seg = np.where(a < n_seeds, a, edge_id[a])        # seed k starts segment k
         keep = np.ones(n, bool)
@@ -239,7 +309,8 @@ def _push_out(P, a, b, c, anisotropy):
     return M + (PUSH * R)[:, None] * D
 
 
-def restore_conformity(P, T, twin, edge_id, fixed, pinned, anisotropy) -> Conformed:
+def restore_conformity(P, T, twin, edge_id, fixed, pinned, anisotropy,
+                       max_points: int | None = None) -> Conformed:
     """Make no boundary half-edge of a constrained Q-Delaunay triangulation of Ω encroached.
 
     An interior vertex that encroaches the subsegment it faces is pushed just outside its
@@ -292,8 +363,10 @@ def restore_conformity(P, T, twin, edge_id, fixed, pinned, anisotropy) -> Confor
         hb, a, b, c, tb = hb[keep], a[keep], b[keep], c[keep], tb[keep]
         _, first = np.unique(tb, return_index=True)
         hb, a, b, c = hb[first], a[first], b[first], c[first]
-        new = split_points(P[a], P[b], fixed[a], fixed[b], anisotropy)
         n = len(P)
+        if max_points is not None and n + len(hb) > max_points:
+            raise _too_many(n + len(hb), max_points)
+        new = split_points(P[a], P[b], fixed[a], fixed[b], anisotropy)
         T, twin = topology.split_boundary_edges(T, twin, hb, n + np.arange(len(hb)))
         seg = corner[a]
         P = np.concatenate([P, new])

@@ -108,3 +108,14 @@ def metric_quality(P: np.ndarray, T: np.ndarray, H: np.ndarray) -> np.ndarray:
     """Quality (2.94) in metric space, normalised to 1 for an equilateral triangle: 4√3 Ã / Σ l̃²."""
     l2 = metric_edge_lengths2(P, T, H).sum(axis=1)
     return 4.0 * np.sqrt(3.0) * metric_areas(P, T, H) / l2
+
+
+def rounded(x: np.ndarray, bits: int = 32) -> np.ndarray:
+    """x with its mantissa rounded to `bits` bits (about 1e-10 relative).
+
+    Decisions made by comparing or ranking measured values (which triangle to refine first,
+    which is larger than a threshold) then do not depend on round-off, so a domain moved far
+    away or scaled gives the same choices, ties included, as at the origin (issue 10).
+    """
+    m, e = np.frexp(np.asarray(x, dtype=float))
+    return np.ldexp(np.round(m * 2.0**bits) / 2.0**bits, e)

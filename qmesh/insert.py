@@ -22,7 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import topology
-from .geometry import metric_areas, metric_edge_lengths2, metric_hessians, metric_quality
+from .geometry import (metric_areas, metric_edge_lengths2, metric_hessians, metric_quality,
+                       rounded)
 
 GROSS = 4.0             # above this multiple of the threshold, neighbours may be refined together
 
@@ -54,14 +55,15 @@ def insert(P, T, twin, anisotropy, *, area_threshold, boundary_length, corner_ed
     if budget <= 0:
         return none
     Hm = metric_hessians(anisotropy, P, T)
-    area = metric_areas(P, T, Hm)
-    quality = metric_quality(P, T, Hm)
-    L2 = metric_edge_lengths2(P, T, Hm)                        # edge opposite each corner
+    area = rounded(metric_areas(P, T, Hm))
+    quality = rounded(metric_quality(P, T, Hm))
+    L2 = rounded(metric_edge_lengths2(P, T, Hm))               # edge opposite each corner
     At = area_threshold
     cand = (area > At) | ((quality < quality_threshold) & (area > min_area))
     # badly shaped triangles first (they have a budget only while N is below its target),
     # then the largest
-    priority = area / At / np.maximum(quality, 1e-3) + np.where(quality < quality_threshold, 10.0, 0.0)
+    priority = rounded(area / At / np.maximum(quality, 1e-3)
+                       + np.where(quality < quality_threshold, 10.0, 0.0))
 
     # the longest metric edge of each triangle, as a half-edge (edge opposite corner c is c+1→c+2)
     c = np.argmax(L2, axis=1)
@@ -171,7 +173,7 @@ def relocate_degree3(P, T, twin, anisotropy, on_boundary):
     tri, vert = tri[order], vert[order]
     v, star = vert[::3], tri.reshape(-1, 3)
     Hm = metric_hessians(anisotropy, P, T)
-    size = metric_areas(P, T, Hm) / np.maximum(metric_quality(P, T, Hm), 1e-3)
+    size = rounded(metric_areas(P, T, Hm) / np.maximum(metric_quality(P, T, Hm), 1e-3))
     size[star.ravel()] = -np.inf
     target = np.argsort(-size, kind="stable")[:len(v)]
     P = P.copy()

@@ -25,7 +25,7 @@ import numpy as np
 from . import conform, seeding, sizing, topology
 from .adjust import limit_moves, newton_step
 from .anisotropy import Anisotropy
-from .boundary import hold_off_boundary, snap_to_boundary
+from .boundary import hold_off_boundary, hold_out_of_ellipses, snap_to_boundary
 from .domain import as_domain
 from .errors import QmeshError
 from .geometry import quadratic_form
@@ -170,7 +170,11 @@ def _run(norm, h, area_m, lengths, target_vertices, alpha, quality_threshold, mi
 
     # 2. construct the conforming Q-Delaunay triangulation of Ω from scratch (Qhull)
     t0 = time.perf_counter()
-    st = _State(norm, conform.conforming_delaunay(domain, P, edge_id, anisotropy))
+    expected = target_vertices or sizing.vertices_for_size(area_m, lengths, h, bfac)
+    cap = int(min(sizing.MAX_VERTICES, 4 * expected + 4 * len(seeds) + 100))
+    built = conform.conforming_delaunay(domain, P, edge_id, anisotropy, cap,
+                                        target=target_vertices, rng=rng)
+    st = _State(norm, built)
     yield Step("triangulate", 0, st.mesh, st.stats(seconds=time.perf_counter() - t0))
 
     for it in range(1, max_iterations + 1):
@@ -192,9 +196,10 @@ def _run(norm, h, area_m, lengths, target_vertices, alpha, quality_threshold, mi
                 keep[snap.vertices] = True
         else:
             d = hold_off_boundary(P0, T0, st.twin, d, st.on_boundary(), anisotropy)
+        d = hold_out_of_ellipses(P0, st.T, st.twin, d, st.on_boundary(), anisotropy)
         Pn, d = limit_moves(P0, st.T, d, keep)
         Pn = _onto_edges(domain, Pn, st.edge_id)
-        Hv = anisotropy.H if anisotropy.is_constant else np.asarray(anisotropy.hessian(P0))
+        Hv = anisotropy.H if anisotropy.is_constant else _hessian_at_vertices(norm, P0)
         move2 = quadratic_form(d[:, None], Hv)
         max_move = float(np.sqrt(move2.max()) / h)
         rms_move = float(np.sqrt(move2.mean()) / h)
@@ -238,7 +243,7 @@ def _run(norm, h, area_m, lengths, target_vertices, alpha, quality_threshold, mi
         t0 = time.perf_counter()
         st.T, st.twin, flips = restore(st.P, st.T, st.twin, anisotropy)
         c = conform.restore_conformity(st.P, st.T, st.twin, st.edge_id, st.fixed, st.pinned,
-                                       anisotropy)
+                                       anisotropy, cap)
         pushed = None if c.P[:len(st.P)] is st.P or np.array_equal(c.P[:len(st.P)], st.P) \
             else norm.scale * (c.P[:len(st.P)] - st.P)
         st.P, st.T, st.twin, st.edge_id, st.fixed, st.pinned = c.P, c.T, c.twin, c.edge_id, c.fixed, c.pinned
@@ -252,6 +257,20 @@ def _run(norm, h, area_m, lengths, target_vertices, alpha, quality_threshold, mi
                    moved=pushed, added=c.added, converged=converged)
         if converged:
             return
+
+
+def _hessian_at_vertices(norm, P) -> np.ndarray:
+    """∇²s at the vertices; QmeshError naming a point (user coordinates) where it is not finite
+    and SPD: the probe before the run samples Ω, this catches what the probe missed."""
+    with np.errstate(all="ignore"):
+        H = np.asarray(norm.anisotropy.hessian(P), dtype=float)
+    det = H[:, 0, 0] * H[:, 1, 1] - H[:, 0, 1] * H[:, 1, 0]
+    bad = ~(np.isfinite(H).all(axis=(1, 2)) & (H[:, 0, 0] > 0) & (det > 0))
+    if bad.any():
+        x = norm.center + norm.scale * P[np.flatnonzero(bad)[0]]
+        raise QmeshError(f"the Hessian of s is not finite and positive definite at "
+                         f"({x[0]:.6g}, {x[1]:.6g}), a vertex of the mesh inside the domain")
+    return H
 
 
 def _onto_edges(domain, P, edge_id):
@@ -268,17 +287,29 @@ def _onto_edges(domain, P, edge_id):
 def mesh(domain, anisotropy, **options) -> Mesh:
     """Run Algorithm 2.1 to convergence (or `max_iterations`) and return the final mesh.
 
-    With `target_vertices`, a mesh whose vertex count misses the target by more than 10%
-    raises QmeshError saying why (the boundary alone needs more vertices to keep q_ij ≥ 0, or
-    cannot carry that many).
+    With `target_vertices`, the boundary splits that keep q_ij ≥ 0 can carry N past the target;
+    when they carry it more than 10% past, the run is repeated once with the interior budget
+    reduced by the excess. A mesh still more than 10% off raises QmeshError saying why (the
+    boundary alone needs more vertices to keep q_ij ≥ 0, or cannot carry that many).
     """
     check_keywords(options, iterate, "mesh")
-    last = None
-    for last in iterate(domain, anisotropy, **options):
-        pass
-    m = last.mesh
-    _check_count(m, options.get("target_vertices"), options.get("boundary_refinement", True))
+    m = _final(iterate(domain, anisotropy, **options))
+    target = options.get("target_vertices")
+    if target is not None and m.n_vertices > 1.1 * target:
+        fewer = target - (m.n_vertices - target)
+        if fewer > len(as_domain(domain).seeds):
+            again = _final(iterate(domain, anisotropy, **{**options, "target_vertices": fewer}))
+            if abs(again.n_vertices - target) < abs(m.n_vertices - target):
+                m = again
+    _check_count(m, target, options.get("boundary_refinement", True))
     return m
+
+
+def _final(steps) -> Mesh:
+    last = None
+    for last in steps:
+        pass
+    return last.mesh
 
 
 def _check_count(m: Mesh, target, boundary_refinement) -> None:

@@ -24,6 +24,7 @@ from .errors import QmeshError
 from .geometry import signed_areas
 
 FLIP_TOL = 1e-10   # relative violation below which an edge counts as regular (ties stay put)
+VERTICAL = 1e-6   # |n_z| of a lifted facet below this: vertical (collinear points on the hull), not lower
 
 
 def lifted_heights(P: np.ndarray, anisotropy) -> np.ndarray:
@@ -53,16 +54,23 @@ def lower_hull(P: np.ndarray, anisotropy) -> np.ndarray:
     duplicate, and is reported as an error.
     """
     P = np.asarray(P, dtype=float)
+    if len(P) == 3:                                     # one triangle: Qhull needs four points
+        return orient_ccw(P, np.array([[0, 1, 2]]))
     scale = np.ptp(P, axis=0).max()
     z = lifted_heights(P, anisotropy)
     zs = np.ptp(z)
-    X = np.column_stack([(P - P.mean(axis=0)) / scale, z / (zs if zs > 0 else 1.0)])
-    try:
-        hull = ConvexHull(X, qhull_options="Qt")
-    except QhullError as err:
-        raise QmeshError(f"Qhull could not triangulate the points: {err}") from None
-    lower = hull.equations[:, 2] < -1e-12
-    T = orient_ccw(P, hull.simplices[lower])
+    if not zs > 1e-12 * (np.abs(z).max() + scale * scale):
+        # every lifted point on one plane (say the input points of a disk under a radial s, and
+        # no others): every triangulation of their convex position is regular; take Delaunay's
+        T = _delaunay(P)
+    else:
+        X = np.column_stack([(P - P.mean(axis=0)) / scale, z / zs])
+        try:
+            hull = ConvexHull(X, qhull_options="Qt")
+        except QhullError as err:
+            raise QmeshError(f"Qhull could not triangulate the points: {err}") from None
+        T = hull.simplices[hull.equations[:, 2] < -VERTICAL]   # vertical ones: hull boundary
+    T = orient_ccw(P, T)
     T = T[signed_areas(P, T) > 0]
     used = np.zeros(len(P), bool)
     used[T.ravel()] = True
@@ -70,6 +78,13 @@ def lower_hull(P: np.ndarray, anisotropy) -> np.ndarray:
         raise QmeshError(f"{int((~used).sum())} points are not vertices of the lower hull "
                          "(duplicate points, or s is not strictly convex there)")
     return T
+
+
+def _delaunay(X: np.ndarray) -> np.ndarray:
+    try:
+        return Delaunay(X).simplices
+    except QhullError as err:
+        raise QmeshError(f"Qhull could not triangulate the points: {err}") from None
 
 
 def q_delaunay(P: np.ndarray, anisotropy) -> np.ndarray:
@@ -90,60 +105,6 @@ def q_delaunay(P: np.ndarray, anisotropy) -> np.ndarray:
         raise QmeshError(f"{len(tri.coplanar)} points are not vertices of the triangulation "
                          "(duplicate points?)")
     return orient_ccw(P, tri.simplices)
-
-
-def framed_q_delaunay(P: np.ndarray, anisotropy) -> np.ndarray:
-    """The Q-Delaunay triangulation of P from scratch, robust to collinear points on the hull.
-
-    Points along a straight boundary segment lie on one line; where that line is part of the
-    convex hull, Qhull can only close it with a flat triangle. Four frame points far outside
-    (lifted above every facet plane of the real points, so they change none of the real
-    facets) make every real point interior; the triangles that use them are then dropped.
-    """
-    P = np.asarray(P, dtype=float)
-    n = len(P)
-    if anisotropy.is_constant:
-        L = np.linalg.cholesky(anisotropy.H)
-        X = P @ L
-        lo, hi = X.min(axis=0), X.max(axis=0)
-        c, R = 0.5 * (lo + hi), 0.5 * float(np.hypot(*(hi - lo))) + 1e-300
-        frame = c + 10.0 * R * np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]])
-        try:
-            tri = Delaunay(np.concatenate([X, frame]))
-        except QhullError as err:
-            raise QmeshError(f"Qhull could not triangulate the points: {err}") from None
-        if len(tri.coplanar):
-            raise QmeshError(f"{len(tri.coplanar)} points are not vertices of the triangulation "
-                             "(duplicate points?)")
-        T = tri.simplices
-    else:
-        lo, hi = P.min(axis=0), P.max(axis=0)
-        c, R = 0.5 * (lo + hi), 0.5 * float(np.hypot(*(hi - lo))) + 1e-300
-        frame = c + 3.0 * R * np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]])
-        z = lifted_heights(P, anisotropy)
-        m = P.mean(axis=0)
-        g = np.asarray(anisotropy.grad(P), dtype=float) - np.asarray(anisotropy.grad(m[None]), dtype=float)
-        slope = float(np.hypot(g[:, 0], g[:, 1]).max())
-        # above every plane through lifted points: max z plus the largest slope over the reach
-        zf = z.max() + 2.0 * (slope + 1e-12) * 6.0 * R
-        Q = np.concatenate([P, frame])
-        Z = np.concatenate([z, np.full(4, zf)])
-        scale = np.ptp(Q, axis=0).max()
-        X3 = np.column_stack([(Q - Q.mean(axis=0)) / scale, Z / np.ptp(Z)])
-        try:
-            hull = ConvexHull(X3, qhull_options="Qt")
-        except QhullError as err:
-            raise QmeshError(f"Qhull could not triangulate the points: {err}") from None
-        T = hull.simplices[hull.equations[:, 2] < -1e-12]
-    T = T[np.all(T < n, axis=1)]
-    T = orient_ccw(P, T)
-    T = T[signed_areas(P, T) > 0]
-    used = np.zeros(n, bool)
-    used[T.ravel()] = True
-    if not used.all():
-        raise QmeshError(f"{int((~used).sum())} points are not vertices of the triangulation "
-                         "(duplicate points, or s is not strictly convex there)")
-    return T
 
 
 def _violation(P, T, twin, h, anisotropy, s, g):

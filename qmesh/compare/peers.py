@@ -139,25 +139,41 @@ too long in the metric once N exceeds ~1e4 (median metric length 1.49 at 5e4 ver
 It is run again on its own output until the median metric edge length is within 10% of 1."""
 
 
-def _mmg_once(seeds: np.ndarray, M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def mmg_remesh(P: np.ndarray, T: np.ndarray, edges: np.ndarray, n_required: int, tensor,
+               median_length, *, keep_sides: bool) -> tuple[np.ndarray, np.ndarray]:
+    """MMG2D from the mesh (P, T) whose boundary is `edges` and whose first n_required points
+    are required, with the metric tensor(V) → (n, 3) [m11, m12, m22] at its vertices V,
+    re-evaluated and MMG re-run on its own output until median_length(P, T) ≤ 1.1.
+
+    keep_sides: every boundary edge required (sides kept whole); else the required points are
+    corners, so the points MMG adds on the straight sides stay on them.
+    """
     mmgpy = require("mmgpy", "the MMG2D peer")
-    P, T = _fan(seeds)
-    n = len(seeds)
-    edges = np.column_stack([np.arange(n), (np.arange(n) + 1) % n]).astype(np.int32)
     m = mmgpy.MmgMesh2D()
-    m.set_mesh_size(vertices=len(P), triangles=len(T), edges=n)
-    m.set_vertices(P)
-    m.set_triangles(T.astype(np.int32))
-    m.set_edges(edges)
-    m.set_required_vertices(np.arange(n, dtype=np.int32))
-    m.set_required_edges(np.arange(n, dtype=np.int32))
+    m.set_mesh_size(vertices=len(P), triangles=len(T), edges=len(edges))
+    m.set_vertices(np.asarray(P, dtype=float))
+    m.set_triangles(np.asarray(T).astype(np.int32))
+    m.set_edges(np.asarray(edges).astype(np.int32))
+    required = np.arange(n_required, dtype=np.int32)
+    m.set_required_vertices(required)
+    if keep_sides:
+        m.set_required_edges(np.arange(len(edges), dtype=np.int32))
+    else:
+        m.set_corners(required)
     for _ in range(MMG_PASSES):
-        m.set_field("tensor", np.tile([M[0, 0], M[0, 1], M[1, 1]], (len(m.get_vertices()), 1)))
+        m.set_field("tensor", tensor(m.get_vertices()[:, :2]))
         m.remesh(nosizreq=1, hgradreq=-1, verbose=-1)
-        P, T = m.get_vertices(), m.get_triangles()
-        if _median_metric_length(P, T, M) <= 1.1:
+        P, T = m.get_vertices()[:, :2], m.get_triangles()
+        if median_length(P, T) <= 1.1:
             break
     return P, T
+
+
+def _mmg_once(seeds: np.ndarray, M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    n = len(seeds)
+    edges = np.column_stack([np.arange(n), (np.arange(n) + 1) % n])
+    return mmg_remesh(*_fan(seeds), edges, n, lambda V: np.tile([M[0, 0], M[0, 1], M[1, 1]], (len(V), 1)),
+                      lambda P, T: _median_metric_length(P, T, M), keep_sides=True)
 
 
 # --------------------------------------------------------------------------- calibration
@@ -177,29 +193,45 @@ def peer_mesh(peer: str, domain, anisotropy, target_vertices: int, *, rtol: floa
     H = _constant_metric(anisotropy)
     seeds = np.asarray(domain.seeds, dtype=float)
     n_b = len(seeds)
-    want = int(target_vertices) - n_b
-    if want < 1:
+    if int(target_vertices) - n_b < 1:
         raise QmeshError(f"target_vertices must exceed the {n_b} boundary points")
     metric_area = np.sqrt(np.linalg.det(H)) * domain.area
-    h = np.sqrt(2.0 * metric_area / (np.sqrt(3.0) * want))   # equilateral metric triangles
-    history, best = [], None
+    h = np.sqrt(2.0 * metric_area / (np.sqrt(3.0) * (int(target_vertices) - n_b)))   # equilateral metric triangles
+
+    def once(h):
+        P, T = _ONCE[peer](seeds, H / h**2)
+        return _with_fixed(P, T, seeds)
+
+    return calibrate(once, h, target_vertices, n_b, rtol=rtol, max_runs=max_runs)
+
+
+def calibrate(run_once, h0: float, target_vertices: int, n_fixed: int, *, rtol: float = 0.03,
+              max_runs: int = 10, slope0: float = -2.0) -> PeerMesh:
+    """Call run_once(h) → Mesh until N is within rtol of the target; the closest run is returned.
+
+    N − n_fixed scales like h^slope (−2 in 2-D); each run refits the slope from the last two
+    runs (a secant step in log-log).
+    """
+    want = int(target_vertices) - n_fixed
+    if want < 1:
+        raise QmeshError(f"target_vertices must exceed the {n_fixed} fixed points")
+    h, history, best = float(h0), [], None
     for run in range(1, max_runs + 1):
         t0 = time.perf_counter()
-        P, T = _ONCE[peer](seeds, H / h**2)
+        mesh = run_once(h)
         seconds = time.perf_counter() - t0
-        got = max(len(P) - n_b, 1)
-        result = PeerMesh(_with_fixed(P, T, seeds), seconds, run, float(h))
-        miss = abs(len(P) - target_vertices) / target_vertices
+        miss = abs(mesh.n_vertices - target_vertices) / target_vertices
         if best is None or miss < best[0]:
-            best = (miss, result)
+            best = (miss, PeerMesh(mesh, seconds, run, h))
         if miss <= rtol:
             break
+        got = max(mesh.n_vertices - n_fixed, 1)
         history.append((np.log(h), np.log(got)))
-        slope = -2.0
+        slope = slope0
         if len(history) >= 2:
             (x0, y0), (x1, y1) = history[-2:]
-            if abs(x1 - x0) > 1e-9:
+            if abs(x1 - x0) > 1e-9 and y1 != y0:
                 slope = float(np.clip((y1 - y0) / (x1 - x0), -4.0, -0.5))
         h *= float(np.exp(np.log(want / got) / slope))
-    miss, result = best
+    _, result = best
     return PeerMesh(result.mesh, result.seconds, run, result.h)

@@ -132,3 +132,135 @@ def test_write_errors_leave_no_file(tmp_path, delaunay_mesh):
     assert list(tmp_path.iterdir()) == []
     with pytest.raises(QmeshError, match="qmesh.Mesh"):
         io.write(tmp_path / "m.vtu", "not a mesh")
+
+
+# --------------------------------------------------------------------------- the stored conductivity
+
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+from qmesh import file_conductivity  # noqa: E402
+
+ROTATED = qmesh.Anisotropy.principal(1, 100, 30)
+
+
+def _with_expression(text):
+    """An Anisotropy carrying `expression` as Anisotropy.from_expression's will (s itself unused here)."""
+    a = qmesh.Anisotropy.constant(np.eye(2))
+    object.__setattr__(a, "expression", text)
+    return a
+
+
+@pytest.mark.parametrize("ext", sorted(io.KEEPS_CONDUCTIVITY))
+def test_constant_q_comes_back_exactly(tmp_path, delaunay_mesh, ext):
+    path = tmp_path / f"m{ext}"
+    io.write(path, delaunay_mesh, anisotropy=ROTATED)
+    back = io.read_anisotropy(path)
+    assert back.is_constant
+    np.testing.assert_array_equal(back.H, ROTATED.H)  # bit for bit: the record holds repr(float)
+    np.testing.assert_array_equal(io.read(path).points, io.read(path).points)
+    assert io.read(path).n_triangles == delaunay_mesh.n_triangles  # the record does not disturb the mesh
+
+
+@pytest.mark.parametrize("ext", sorted(io.FORMATS))
+def test_no_conductivity_without_anisotropy(tmp_path, delaunay_mesh, ext):
+    path = tmp_path / f"m{ext}"
+    io.write(path, delaunay_mesh)
+    assert io.read_anisotropy(path) is None
+
+
+@pytest.mark.parametrize("ext", [".vtu", ".msh", ".mesh"])
+def test_file_from_another_program_has_no_conductivity(tmp_path, delaunay_mesh, ext):
+    P = np.column_stack([delaunay_mesh.points, np.zeros(delaunay_mesh.n_vertices)])
+    other = meshio.Mesh(P, [("triangle", delaunay_mesh.triangles)])
+    if ext == ".msh":  # meshio.write would take .msh for ANSYS
+        meshio.gmsh.write(tmp_path / f"other{ext}", other, binary=True)
+    else:
+        meshio.write(tmp_path / f"other{ext}", other)
+    assert io.read_anisotropy(tmp_path / f"other{ext}") is None
+
+
+@settings(max_examples=40, deadline=None, derandomize=True)
+@given(k1=st.floats(1e-6, 1e6), k2=st.floats(1e-6, 1e6), angle=st.floats(-360, 360))
+def test_any_spd_q_record_round_trips_exactly(k1, k2, angle):
+    a = qmesh.Anisotropy.principal(k1, k2, angle)
+    back = file_conductivity.anisotropy_of(file_conductivity.record_of(a), "test")
+    np.testing.assert_array_equal(back.H, a.H)
+
+
+EXPRESSION = "x**2 + 0.5*y**4 + exp(-x) * (x < y) & 1 + π"  # <, &, non-ASCII: escaping is exercised
+
+
+@pytest.mark.parametrize("ext", sorted(io.KEEPS_CONDUCTIVITY))
+def test_expression_is_stored_as_text(tmp_path, delaunay_mesh, ext, monkeypatch):
+    path = tmp_path / f"m{ext}"
+    io.write(path, delaunay_mesh, anisotropy=_with_expression(EXPRESSION))
+    fmt = io.FORMATS[ext]
+    field_data = meshio.read(path).field_data if fmt == "gmsh" else None
+    assert file_conductivity.read_from_file(path, fmt, field_data) == f"qmesh conductivity: s(x, y) = {EXPRESSION}"
+    seen = []
+    monkeypatch.setattr(qmesh.Anisotropy, "from_expression",
+                        classmethod(lambda cls, text: seen.append(text) or ROTATED), raising=False)
+    assert io.read_anisotropy(path) is ROTATED and seen == [EXPRESSION]
+
+
+def test_expression_needs_from_expression_to_be_read(tmp_path, delaunay_mesh, monkeypatch):
+    path = tmp_path / "m.vtu"
+    io.write(path, delaunay_mesh, anisotropy=_with_expression("x**2 + y**2"))
+    monkeypatch.delattr(qmesh.Anisotropy, "from_expression", raising=False)
+    with pytest.raises(QmeshError, match="stores s\\(x, y\\) = x\\*\\*2 \\+ y\\*\\*2"):
+        io.read_anisotropy(path)
+
+
+def test_gmsh_conductivity_survives_a_meshio_read_write(tmp_path, delaunay_mesh):
+    io.write(tmp_path / "a.msh", delaunay_mesh, anisotropy=ROTATED)
+    meshio.gmsh.write(tmp_path / "b.msh", meshio.read(tmp_path / "a.msh"), binary=True)
+    np.testing.assert_array_equal(io.read_anisotropy(tmp_path / "b.msh").H, ROTATED.H)
+
+
+def test_callable_s_is_not_stored(tmp_path, delaunay_mesh):
+    s = qmesh.Anisotropy.from_s(lambda P: (P ** 4).sum(1), lambda P: 4 * P ** 3,
+                                lambda P: np.einsum("ni,ij->nij", 12 * P ** 2 + 1, np.eye(2)))
+    io.write(tmp_path / "m.vtu", delaunay_mesh, anisotropy=s)
+    assert io.read_anisotropy(tmp_path / "m.vtu") is None
+
+
+def test_records_a_format_cannot_hold_are_refused(tmp_path, delaunay_mesh):
+    with pytest.raises(QmeshError, match="anisotropy: .vtk keeps a conductivity of at most 256"):
+        io.write(tmp_path / "m.vtk", delaunay_mesh, anisotropy=_with_expression("x**2 + " * 50 + "y**2"))
+    with pytest.raises(QmeshError, match="anisotropy: a gmsh physical name cannot hold quotes"):
+        io.write(tmp_path / "m.msh", delaunay_mesh, anisotropy=_with_expression("x**2 + y**2 # 'a'"))
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_bad_stored_record_is_a_clear_error(tmp_path, delaunay_mesh):
+    path = tmp_path / "m.obj"
+    io.write(path, delaunay_mesh)
+    path.write_text("# qmesh conductivity: Q = [[1.0, 0.0], [0.0, -1.0]]\n" + path.read_text())
+    with pytest.raises(QmeshError, match="m.obj.*stored conductivity is not valid"):
+        io.read_anisotropy(path)
+    path.write_text("# qmesh conductivity: Q is the identity\n" + path.read_text())
+    with pytest.raises(QmeshError, match="unreadable conductivity record"):
+        io.read_anisotropy(path)
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda p, m: io.write(123, m), "path must be a file name"),
+    (lambda p, m: io.write(None, m), "path must be a file name"),
+    (lambda p, m: io.write(p / "m.vtu", m.points), "mesh must be a qmesh.Mesh"),
+    (lambda p, m: io.write(p / "m.vtu", m, anisotropy=np.eye(2)), "anisotropy must be a qmesh.Anisotropy"),
+    (lambda p, m: io.write(p / "m.vtu", m, point_data=[1, 2]), "point data must be a dict"),
+    (lambda p, m: io.write(p / "m.vtu", m, point_data={1: np.zeros(m.n_vertices)}), "names must be non-empty strings"),
+    (lambda p, m: io.write(p / "m.vtu", m, point_data={"s": ["a"] * m.n_vertices}), "point data\\['s'\\] must hold real numbers"),
+    (lambda p, m: io.write(p / "m.vtu", m, cell_data={"c": np.zeros(m.n_triangles, complex)}), "real numbers"),
+    (lambda p, m: io.write(p / "m.vtu", m, cell_data={"c": np.zeros((m.n_triangles, 2, 2))}), "must have 94 rows"),
+    (lambda p, m: io.write(p / "m.vtu", m, point_data={"r": [[1], [1, 2]]}), "is not an array"),
+    (lambda p, m: io.read(3.5), "path must be a file name"),
+    (lambda p, m: io.read_anisotropy(["m.vtu"]), "path must be a file name"),
+    (lambda p, m: io.read_anisotropy(p / "none.vtu"), "no such mesh file"),
+    (lambda p, m: io.check_writable(object()), "path must be a file name"),
+])
+def test_every_argument_is_checked(tmp_path, delaunay_mesh, call, message):
+    with pytest.raises(QmeshError, match=message):
+        call(tmp_path, delaunay_mesh)
+    assert list(tmp_path.iterdir()) == []

@@ -129,7 +129,7 @@ def test_check_convex_names_the_first_point_where_the_hessian_is_not_spd():
         H[:, 0, 0], H[:, 1, 1] = 2 + 12 * P[:, 0] ** 2, np.where(P[:, 1] > 0.1, -2.0, 2.0)
         return H
     P = np.array([[0.0, 0.0], [0.3, 0.2], [0.1, 0.5]])
-    with pytest.raises(QmeshError, match=r"not positive definite .* at 2 of 3 points; the first: \[0.3, 0.2\]"):
+    with pytest.raises(QmeshError, match=r"not SPD \(s must be strictly convex .* at 2 of 3 points; the first: \[0.3, 0.2\]"):
         _quadratic(hessian).check_convex(P)
 
 

@@ -1,0 +1,197 @@
+"""Domain files: a polygon outline with holes, from CSV or GeoJSON, for `qmesh mesh --polygon`.
+
+- CSV (any extension but .geojson/.json): one `x,y` row per point; an optional header line
+  first; `#` starts a comment line; a blank line ends a ring. The first ring is the outline,
+  the others are holes.
+- GeoJSON (`.geojson`, `.json`, RFC 7946): a Polygon (its first ring the outline, the others
+  holes), a Feature whose geometry is one, or a FeatureCollection holding exactly one such
+  Feature. Refused, each with its reason: MultiPolygon and other geometry types, several or
+  no features, a Feature without geometry, positions that are not 2 or 3 finite numbers (a
+  third coordinate, the altitude, is dropped).
+
+`read_domain(path)` reads a file; `domain_from_text(content, name)` takes its content (an
+upload in the viewer). In both formats, a ring's last point is dropped when it repeats the
+first (GeoJSON rings are closed that way). Every defect raises one QmeshError naming the file
+and, where it can, the line (CSV, JSON syntax) or the ring and point.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from .domain import Domain
+from .errors import QmeshError
+
+GEOJSON_SUFFIXES = {".geojson", ".json"}
+
+
+def read_domain(path) -> Domain:
+    """The domain a polygon file describes (a `qmesh.Domain` of the outline and its holes)."""
+    path = _path(path)
+    return domain_from_rings(read_rings(path), path)
+
+
+def read_rings(path) -> list[np.ndarray]:
+    """The rings of a polygon file, (k, 2) float arrays, outline first, closing points dropped."""
+    path = _path(path)
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except (OSError, UnicodeDecodeError) as e:
+        raise QmeshError(f"cannot read polygon file {str(path)!r}: {e}") from e
+    return _rings_from_text(text, str(path))
+
+
+def domain_from_text(content, name: str) -> Domain:
+    """The domain in a polygon file's content (str or UTF-8 bytes, e.g. a browser upload);
+    `name`, the file's name, chooses GeoJSON or CSV by its suffix and names it in errors."""
+    if not isinstance(name, str):
+        raise QmeshError(f"name must be the file's name (a str), got {type(name).__name__}")
+    if isinstance(content, (bytes, bytearray)):
+        try:
+            content = bytes(content).decode("utf-8-sig")
+        except UnicodeDecodeError as e:
+            raise QmeshError(f"cannot read polygon file {name!r}: {e}") from e
+    if not isinstance(content, str):
+        raise QmeshError(f"content must be text or bytes, got {type(content).__name__}")
+    return domain_from_rings(_rings_from_text(content.removeprefix("\ufeff"), name), name)
+
+
+def _rings_from_text(text: str, name: str) -> list[np.ndarray]:
+    where = f"polygon file {name!r}"
+    geojson = Path(name).suffix.lower() in GEOJSON_SUFFIXES
+    rings = _geojson_rings(text, where) if geojson else _csv_rings(text, where)
+    return [_checked_ring(r, i, where) for i, r in enumerate(rings)]
+
+
+def domain_from_rings(rings: list[np.ndarray], path) -> Domain:
+    """`qmesh.Domain(outline, holes)` with the default tags (1 the outline, 2, 3, … the holes)
+    named "outline", "hole 1", "hole 2", …; the file is named in any geometry error."""
+    names = {1: "outline", **{k + 2: f"hole {k + 1}" for k in range(len(rings) - 1)}}
+    try:
+        return Domain(rings[0], holes=rings[1:], names=names)
+    except QmeshError as e:
+        raise QmeshError(f"polygon file {str(path)!r}: {e}") from e
+
+
+# --------------------------------------------------------------------------- CSV
+
+def _csv_rings(text: str, where: str) -> list[np.ndarray]:
+    rings, ring, seen_data = [], [], False
+    for number, raw in enumerate(text.splitlines(), start=1):
+        line = raw.strip()
+        if line.startswith("#"):
+            continue
+        if not line:
+            if ring:
+                rings.append(np.array(ring))
+                ring = []
+            continue
+        fields = [f.strip() for f in line.split(",")]
+        if not seen_data and not _numeric(fields):
+            seen_data = True  # a header: only the first line with content may be one
+            continue
+        seen_data = True
+        if len(fields) != 2:
+            raise QmeshError(f"{where}, line {number}: expected two columns x,y, got {len(fields)}: {raw.strip()!r}")
+        if not _numeric(fields):
+            raise QmeshError(f"{where} is not a CSV of x,y numbers: line {number} reads {raw.strip()!r}")
+        x, y = (float(f) for f in fields)
+        if not (math.isfinite(x) and math.isfinite(y)):
+            raise QmeshError(f"{where}, line {number}: coordinates must be finite, got {raw.strip()!r}")
+        ring.append((x, y))
+    if ring:
+        rings.append(np.array(ring))
+    if not rings:
+        raise QmeshError(f"{where} has no points")
+    return rings
+
+
+def _numeric(fields: list[str]) -> bool:
+    try:
+        [float(f) for f in fields]
+    except ValueError:
+        return False
+    return True
+
+
+# --------------------------------------------------------------------------- GeoJSON
+
+def _geojson_rings(text: str, where: str) -> list[np.ndarray]:
+    try:
+        doc = json.loads(text)
+    except json.JSONDecodeError as e:
+        raise QmeshError(f"{where}, line {e.lineno} column {e.colno}: not valid JSON: {e.msg}") from e
+    geometry = _polygon_geometry(doc, where)
+    coords = geometry.get("coordinates")
+    if not isinstance(coords, list) or not coords:
+        raise QmeshError(f"{where}: a Polygon needs 'coordinates', a non-empty list of rings")
+    return [_geojson_ring(ring, i, where) for i, ring in enumerate(coords)]
+
+
+def _polygon_geometry(doc, where: str) -> dict:
+    """The one Polygon geometry of a GeoJSON document, or QmeshError saying what was found."""
+    if not isinstance(doc, dict):
+        raise QmeshError(f"{where}: a GeoJSON document must be an object, got {type(doc).__name__}")
+    kind = doc.get("type")
+    if kind == "FeatureCollection":
+        features = doc.get("features")
+        if not isinstance(features, list) or len(features) != 1:
+            count = len(features) if isinstance(features, list) else "no"
+            raise QmeshError(f"{where}: a FeatureCollection must hold exactly one Feature (one domain), "
+                             f"it holds {count}")
+        doc, kind = features[0], features[0].get("type") if isinstance(features[0], dict) else None
+        if kind != "Feature":
+            raise QmeshError(f"{where}: the FeatureCollection's member is a {kind!r}, not a Feature")
+    if kind == "Feature":
+        geometry = doc.get("geometry")
+        if not isinstance(geometry, dict):
+            raise QmeshError(f"{where}: the Feature has no geometry")
+        doc, kind = geometry, geometry.get("type")
+    if kind == "MultiPolygon":
+        raise QmeshError(f"{where}: a MultiPolygon (several domains) is not supported; give one Polygon")
+    if kind != "Polygon":
+        raise QmeshError(f"{where}: expected a Polygon, a Feature holding one, or a FeatureCollection "
+                         f"of one such Feature; got type {kind!r}")
+    return doc
+
+
+def _geojson_ring(ring, index: int, where: str) -> np.ndarray:
+    name = _ring_name(index)
+    if not isinstance(ring, list):
+        raise QmeshError(f"{where}: {name} must be a list of positions, got {type(ring).__name__}")
+    out = np.empty((len(ring), 2))
+    for k, position in enumerate(ring):
+        ok = (isinstance(position, list) and len(position) in (2, 3)
+              and all(isinstance(c, (int, float)) and not isinstance(c, bool) and math.isfinite(c)
+                      for c in position))
+        if not ok:
+            raise QmeshError(f"{where}: {name}, point {k + 1}: a position must be 2 or 3 finite numbers, "
+                             f"got {json.dumps(position)[:60]}")
+        out[k] = position[:2]
+    return out
+
+
+# --------------------------------------------------------------------------- rings
+
+def _ring_name(index: int) -> str:
+    return "ring 1 (the outline)" if index == 0 else f"ring {index + 1} (hole {index})"
+
+
+def _checked_ring(P: np.ndarray, index: int, where: str) -> np.ndarray:
+    if len(P) > 1 and np.array_equal(P[0], P[-1]):
+        P = P[:-1]  # a closing point
+    if len(P) < 3:
+        raise QmeshError(f"{where}: {_ring_name(index)} has {len(P)} distinct points; a ring needs at least 3 points")
+    return P
+
+
+def _path(path) -> Path:
+    if isinstance(path, bytes):
+        path = path.decode()
+    if not isinstance(path, (str, Path)) and not hasattr(path, "__fspath__"):
+        raise QmeshError(f"path must be a file name (str or os.PathLike), got {type(path).__name__}")
+    return Path(path)

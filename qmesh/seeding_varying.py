@@ -1,0 +1,191 @@
+"""Initial interior points for a varying s: hexagonal lattices in the local metric, patch by patch.
+
+For a constant Q the start is the metric lattice (seeding.py): the optimal mesh is equilateral
+in the metric, and a random start freezes lattice defects that the vertex step cannot anneal.
+A varying s has no global lattice, but the metric ∇²s changes slowly on the scale of a few
+edges, so a lattice per patch is nearly optimal inside the patch:
+
+1. patches tile the seeds' bounding box in y = x L̄ (L̄L̄ᵀ the mean Hessian over Ω), PATCH
+   lattice spacings wide; each carries the hexagonal lattice of metric spacing h in the metric
+   at its centre (basis H_c^{-1/2}, so neighbouring lattices have nearly the same orientation),
+   reaching past the patch so that neighbours overlap; points outside Ω or closer than MARGIN·h
+   (metric) to its boundary are dropped;
+2. two points conflict when closer than CONFLICT·h in the metric ½(H_i + H_j) (a KD-tree in
+   y-coordinates, binned by search reach);
+3. a maximal independent set of the conflict graph (Luby's rounds, vectorised) keeps every
+   patch's core and fills the seams from whichever lattice fits;
+4. h comes from the metric area ∫√det ∇²s (Monte Carlo) and is rescaled from the count.
+It uses only `domain.contains`, `domain.seeds` and the seeds' bounds.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+PATCH = 6.0           # lattice patches span this many lattice spacings (in the mean metric)
+OVERLAP = 0.75        # each patch's lattice reaches this share of a patch size from its centre
+CONFLICT = 0.9        # points closer than this many spacings (metric) conflict
+MARGIN = 0.5          # points keep this many spacings (metric) inside Ω
+PASSES = 3            # draws to land the count
+MAX_LATTICE = 2e7     # at most about this many lattice points before filtering
+
+
+def _sym_eig_min(H: np.ndarray) -> np.ndarray:
+    """Smallest eigenvalue of symmetric 2×2 matrices (…, 2, 2)."""
+    a, b, c = H[..., 0, 0], H[..., 0, 1], H[..., 1, 1]
+    return 0.5 * (a + c) - np.hypot(0.5 * (a - c), b)
+
+
+def _inv_sqrt_spd(H: np.ndarray) -> np.ndarray:
+    """H^{-1/2} of symmetric positive definite 2×2 matrices (n, 2, 2)."""
+    w, V = np.linalg.eigh(H)
+    return np.einsum("nij,nj,nkj->nik", V, 1.0 / np.sqrt(w), V)
+
+
+def _conflicts(X: np.ndarray, H: np.ndarray, r: float, Lbar: np.ndarray):
+    """Pairs (i < j) closer than r in the metric ½(H_i + H_j).
+
+    Searched in y = x L̄ (L̄L̄ᵀ the mean metric), where a metric distance r is at most
+    reach = r/√λ_min(G) (G = H in y-coordinates; λ_min of the pair's mean metric is at least
+    the smaller of the two). Points are binned by reach (factors of 2); a pair is searched among
+    the points up to its higher bin with that bin's reach: one KD-tree query per bin.
+    """
+    Y = X @ Lbar
+    Linv = np.linalg.inv(Lbar)
+    G = np.einsum("ji,njk,kl->nil", Linv, H, Linv)
+    reach = r / np.sqrt(np.clip(_sym_eig_min(G), 1e-300, None))
+    level = np.floor(np.log2(reach / reach.min())).astype(np.int64)
+    found = []
+    for b in np.unique(level):
+        idx = np.flatnonzero(level <= b)
+        p = cKDTree(Y[idx]).query_pairs(float(reach.min() * 2.0 ** (b + 1)), output_type="ndarray")
+        p = idx[p]
+        found.append(p[np.maximum(level[p[:, 0]], level[p[:, 1]]) == b])
+    i, j = np.concatenate(found).T
+    E = X[j] - X[i]
+    d2 = np.einsum("ni,nij,nj->n", E, 0.5 * (H[i] + H[j]), E)
+    close = d2 < r * r
+    return i[close], j[close]
+
+
+def _luby(n: int, i: np.ndarray, j: np.ndarray, rng, priority=None) -> np.ndarray:
+    """A maximal independent set of the graph on n nodes with edges (i, j): boolean mask.
+
+    Lower `priority` wins a conflict (random when None)."""
+    order = rng.permutation(n) if priority is None else np.lexsort((rng.random(n), priority))
+    prio = np.empty(n, np.int64)
+    prio[order] = np.arange(n)
+    state = np.zeros(n, np.int8)                  # 0 undecided, 1 kept, −1 dropped
+    while True:
+        live = (state[i] == 0) & (state[j] == 0)
+        a, b = i[live], j[live]
+        best = prio.copy()                          # lowest priority among undecided neighbours
+        np.minimum.at(best, a, prio[b])
+        np.minimum.at(best, b, prio[a])
+        undecided = state == 0
+        if not undecided.any():
+            return state == 1
+        win = undecided & (best == prio)
+        state[win] = 1
+        drop = np.zeros(n, bool)
+        drop[a[win[b]]] = True
+        drop[b[win[a]]] = True
+        state[drop & (state == 0)] = -1
+
+
+def _mean_metric(domain, anisotropy, rng) -> np.ndarray:
+    """L̄ with L̄L̄ᵀ the mean Hessian over random points of Ω (the coordinates of the search)."""
+    lo, hi = domain.seeds.min(axis=0), domain.seeds.max(axis=0)
+    X = lo + rng.random((512, 2)) * (hi - lo)
+    X = X[domain.contains(X, tol=0.0)]
+    if not len(X):
+        X = domain.seeds
+    return np.linalg.cholesky(np.asarray(anisotropy.hessian(X), dtype=float).mean(axis=0))
+
+
+def metric_area_estimate(domain, anisotropy, rng, k: int = 4096) -> float:
+    """∫_Ω √det ∇²s by Monte Carlo over the seeds' bounding box."""
+    lo, hi = domain.seeds.min(axis=0), domain.seeds.max(axis=0)
+    X = lo + rng.random((k, 2)) * (hi - lo)
+    inside = domain.contains(X, tol=0.0)
+    H = np.asarray(anisotropy.hessian(X[inside]), dtype=float)
+    det = np.clip(H[:, 0, 0] * H[:, 1, 1] - H[:, 0, 1] ** 2, 0.0, None)
+    return float(np.sqrt(det).sum() / k * np.prod(hi - lo))
+
+
+def _inside_with_margin(domain, X, H, margin: float) -> np.ndarray:
+    """Points whose six probes at metric distance `margin` (x + margin·H^{-1/2} u) are inside Ω."""
+    t = np.pi * np.arange(6) / 3
+    U = np.column_stack([np.cos(t), np.sin(t)])
+    probes = X[:, None, :] + margin * np.einsum("nij,kj->nki", _inv_sqrt_spd(H), U)
+    return domain.contains(probes.reshape(-1, 2), tol=0.0).reshape(len(X), 6).all(axis=1)
+
+
+def _patch_lattices(domain, anisotropy, h: float, Lbar: np.ndarray):
+    """Hexagonal lattices of metric spacing h, one per patch, each in the metric at its centre.
+
+    Patches tile the seeds' bounding box in y = x L̄; each lattice reaches OVERLAP·PATCH·h from
+    its centre so neighbours overlap. Returns the points, their Hessians and their priority
+    (distance from their own patch centre in patch half-sizes: the core of a patch wins).
+    """
+    S = PATCH * h
+    Y0 = domain.seeds @ Lbar
+    lo, hi = Y0.min(axis=0), Y0.max(axis=0)
+    gx = lo[0] + S * (np.arange(int(np.ceil((hi[0] - lo[0]) / S)) + 1)) - 0.5 * S
+    gy = lo[1] + S * (np.arange(int(np.ceil((hi[1] - lo[1]) / S)) + 1)) - 0.5 * S
+    Yc = np.stack(np.meshgrid(gx, gy, indexing="ij"), axis=-1).reshape(-1, 2)
+    Linv = np.linalg.inv(Lbar)
+    Xc = Yc @ Linv
+    with np.errstate(all="ignore"):
+        Hc = np.asarray(anisotropy.hessian(Xc), dtype=float)
+    ok = np.all(np.isfinite(Hc), axis=(1, 2)) & (Hc[:, 0, 0] > 0) & \
+        (Hc[:, 0, 0] * Hc[:, 1, 1] - Hc[:, 0, 1] ** 2 > 0)
+    Yc, Xc, Hc = Yc[ok], Xc[ok], Hc[ok]
+    B = _inv_sqrt_spd(Hc)                                          # lattice basis: H^{-1/2}
+    # lattice steps needed to reach OVERLAP·S in y: the shortest y-length of a unit metric step
+    YB = np.einsum("kij,jl->kil", np.transpose(B, (0, 2, 1)), Lbar)  # rows: y-image of the metric axes
+    shortest = np.sqrt(np.clip(_sym_eig_min(np.einsum("kij,klj->kil", YB, YB)), 1e-300, None))
+    m = int(np.ceil(OVERLAP * S * np.sqrt(2.0) / (h * shortest.min())) + 1)
+    m = max(2, min(m, 60, int(np.sqrt(MAX_LATTICE / len(Xc)) / 2)))   # bounded memory
+    i, j = np.meshgrid(np.arange(-m, m + 1), np.arange(-m, m + 1), indexing="ij")
+    Z = h * np.column_stack([(i + 0.5 * j).ravel(), (np.sqrt(3.0) / 2.0 * j).ravel()])
+    X = Xc[:, None, :] + np.einsum("kij,nj->kni", B, Z)             # (K, (2m+1)², 2)
+    Y = X @ Lbar
+    d = np.abs(Y - Yc[:, None, :]).max(axis=2) / (0.5 * S)
+    keep = d <= 2.0 * OVERLAP
+    X, d = X[keep], d[keep]
+    inside = domain.contains(X, tol=0.0)
+    X, d = X[inside], d[inside]
+    H = np.asarray(anisotropy.hessian(X), dtype=float)
+    return X, H, d
+
+
+def initial_points(domain, anisotropy, n: int, rng) -> np.ndarray:
+    """About n (never more) interior points: patch lattices in the local metric, merged by a
+    maximal independent set that prefers each patch's core."""
+    n = int(n)
+    if n < 1:
+        return np.empty((0, 2))
+    Lbar = _mean_metric(domain, anisotropy, rng)
+    area_m = metric_area_estimate(domain, anisotropy, rng)
+    cell = np.sqrt(3.0) / 2.0                         # lattice area per point is cell·h²
+    h = np.sqrt(area_m / (cell * n))
+    best = np.empty((0, 2))
+    for _ in range(PASSES):
+        X, H, prio = _patch_lattices(domain, anisotropy, h, Lbar)
+        inside = _inside_with_margin(domain, X, H, MARGIN * h)
+        X, H, prio = X[inside], H[inside], prio[inside]
+        i, j = _conflicts(X, H, CONFLICT * h, Lbar)
+        P = X[_luby(len(X), i, j, rng, prio)]
+        if abs(len(P) - n) < abs(len(best) - n):
+            best = P
+        if abs(len(P) - n) <= 0.03 * n:
+            break
+        # the count is (area_m − band·h) / (cell·h²): the margin and the seams lose a band whose
+        # metric length this pass measures; solve cell·n·h² + band·h = area_m for the next h
+        band = max((area_m - len(P) * cell * h * h) / h, 0.0)
+        h = (-band + np.sqrt(band * band + 4.0 * cell * n * area_m)) / (2.0 * cell * n)
+    if len(best) > n:
+        best = best[rng.choice(len(best), n, replace=False)]
+    return best
