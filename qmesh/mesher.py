@@ -141,8 +141,19 @@ def iterate(domain, anisotropy, *, target_vertices: int | None = None, size: flo
         sizing.check_vertex_count(sizing.vertices_for_size(area_m, lengths, h, bfac),
                                   f"size = {norm.scale * np.sqrt(norm.k) * h:.3g}")
     min_area = target_area(h) / 16 if min_area is None else norm.metric_area(float(min_area))
-    return _run(norm, h, area_m, lengths, target_vertices, alpha, quality_threshold, min_area,
-                max_iterations, np.random.default_rng(seed), boundary_refinement)
+    steps = _run(norm, h, area_m, lengths, target_vertices, alpha, quality_threshold, min_area,
+                 max_iterations, np.random.default_rng(seed), boundary_refinement)
+    option = (f"target_vertices = {target_vertices} is too few" if target_vertices is not None
+              else f"size = {norm.scale * np.sqrt(norm.k) * h:.3g} is too large")
+    return _explained(steps, option)
+
+
+def _explained(steps, option: str) -> Iterator[Step]:
+    """The steps, with a conformity that runs out of vertices blamed on the option that set N."""
+    try:
+        yield from steps
+    except conform.TooManySplits as e:
+        raise QmeshError(f"{option} for this domain: {e}") from None
 
 
 def _run(norm, h, area_m, lengths, target_vertices, alpha, quality_threshold, min_area,

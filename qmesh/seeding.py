@@ -18,10 +18,12 @@ from __future__ import annotations
 import numpy as np
 
 from . import rings
+from .geometry import rounded
 from .sizing import domain_triangulation
 
 MARGIN = 0.3        # lattice points keep this many metric edge lengths from the boundary
 JITTER = 1e-3       # random perturbation of lattice points, in metric edge lengths
+ELONGATED = 4.0     # rows follow Ω's long axis only when its inertia is this many times the other
 
 
 def boundary_points(domain, anisotropy, h: float, factor: float | None):
@@ -63,8 +65,11 @@ def _metric_frame(domain, H):
     w = np.hypot(*((B - A) @ L).T)                 # weight corners by their segments' length
     c = (X * w[:, None]).sum(axis=0) / w.sum()
     cov = ((X - c).T * w) @ (X - c)
-    _, vec = np.linalg.eigh(cov)
+    val, vec = np.linalg.eigh(cov)
+    if val[1] < ELONGATED * val[0]:
+        return L                                   # not elongated: keep the metric's own axes
     R = vec[:, ::-1]                               # columns: longest direction first
+    R *= np.where(np.abs(R[0]) >= np.abs(R[1]), np.sign(R[0]), np.sign(R[1]))   # a fixed sign
     if np.linalg.det(R) < 0:
         R[:, 1] *= -1
     return L @ R
@@ -78,19 +83,19 @@ def metric_lattice(domain, H, h, rng) -> np.ndarray:
     lo = np.minimum(Am.min(axis=0), Bm.min(axis=0))
     hi = np.maximum(Am.max(axis=0), Bm.max(axis=0))
     dy = h * np.sqrt(3.0) / 2.0
-    n_rows = int(np.ceil((hi[1] - lo[1]) / dy)) + 1
+    n_rows = int(np.ceil(rounded((hi[1] - lo[1]) / dy))) + 1
     if n_rows > 10 * 50_000_000:
         return np.empty((0, 2))
     y = lo[1] + (np.arange(n_rows) + 0.5) * dy
     row, x0, x1 = rings.scanline_intervals(y, Am, Bm)
     off = lo[0] + 0.5 * h * (row % 2)
-    i0 = np.ceil((x0 - off) / h).astype(np.int64)
-    count = np.maximum(np.floor((x1 - off) / h).astype(np.int64) - i0 + 1, 0)
+    i0 = np.ceil(rounded((x0 - off) / h)).astype(np.int64)       # rounded: same points anywhere
+    count = np.maximum(np.floor(rounded((x1 - off) / h)).astype(np.int64) - i0 + 1, 0)
     r = np.repeat(row, count)
     i = np.repeat(i0, count) + np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
     X = np.column_stack([lo[0] + (i + 0.5 * (r % 2)) * h, y[r]])
     X += rng.uniform(-JITTER, JITTER, X.shape) * h
-    X = X[~np.isfinite(rings.distance(X, Am, Bm, MARGIN * h))]
+    X = X[~np.isfinite(rings.distance(X, Am, Bm, rounded(MARGIN * h)))]
     return X @ np.linalg.inv(M)
 
 

@@ -32,8 +32,11 @@ def test_mesh_and_report_with_s_as_text(tmp_path, capsys):
     assert code == 0, err
     rep = json.loads(out)
     assert rep["kappa2"] == pytest.approx(qmesh.measure.report(m, A)["kappa2"], rel=1e-9)
-    # the same file against the chapter's constant Q measures something else
+    # without --s the file's stored expression is used; the chapter's constant Q measures
+    # something else
     code, out, _ = run(capsys, "report", out_file, "--json")
+    assert json.loads(out)["kappa2"] == pytest.approx(rep["kappa2"], rel=1e-9)
+    code, out, _ = run(capsys, "report", out_file, "--Q", "0.1", "0", "10", "--json")
     assert json.loads(out)["kappa2"] != pytest.approx(rep["kappa2"], rel=1e-3)
 
 
