@@ -12,7 +12,9 @@
 widget all consume this one loop. Only the first triangulation is built from scratch (Qhull);
 later ones restore the Q-Delaunay property by edge flips on the kept connectivity, so the cost
 of an iteration is O(N) array work. A constant Q starts from the metric lattice at the target
-density (seeding.py); a varying s starts from random points and grows coarse to fine.
+density (seeding.py); a varying s from hexagonal lattices in the local metric, patch by patch
+(seeding_varying.py). The mesher works in normalised coordinates (normalise.py) and keeps the
+boundary conforming, so that every q_ij ≥ 0 on interior and boundary edges (conform.py).
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ from typing import Iterator
 
 import numpy as np
 
-from . import conform, seeding, sizing, topology
+from . import conform, seeding, seeding_varying, sizing, topology
 from .adjust import limit_moves, newton_step
 from .anisotropy import Anisotropy
 from .boundary import hold_off_boundary, hold_out_of_ellipses, snap_to_boundary
@@ -163,8 +165,8 @@ def _run(norm, h, area_m, lengths, target_vertices, alpha, quality_threshold, mi
     bfac = BOUNDARY_FACTOR if boundary_refinement else None
 
     # 1. read the boundary points (the input points, and the segments split to the target
-    #    size); select initial interior points: the metric lattice for a constant Q, else about
-    #    as many random points as boundary points (seeding.py)
+    #    size); select initial interior points: the metric lattice for a constant Q, local
+    #    metric lattices for a varying s (seeding.py, seeding_varying.py)
     bpts, bseg = seeding.boundary_points(domain, anisotropy, h, bfac)
     n_b = len(seeds) + len(bpts)
     if anisotropy.is_constant:
@@ -174,8 +176,9 @@ def _run(norm, h, area_m, lengths, target_vertices, alpha, quality_threshold, mi
             inner = seeding.lattice_for_count(domain, anisotropy.H,
                                               LATTICE_FILL * (target_vertices - n_b), rng)
     else:
-        n_int = n_b if target_vertices is None else max(0, min(n_b, target_vertices - n_b))
-        inner = seeding.random_interior(domain, n_int, rng)
+        expected = target_vertices or sizing.vertices_for_size(area_m, lengths, h, bfac)
+        inner = seeding_varying.initial_points(domain, anisotropy,
+                                               int(LATTICE_FILL * (expected - n_b)), rng)
     P = np.concatenate([seeds, bpts, inner])
     edge_id = np.concatenate([np.full(len(seeds), -1), bseg, np.full(len(inner), -1)]).astype(np.int64)
 

@@ -23,6 +23,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from . import rings, seeding, sizing
+
 PATCH = 6.0           # lattice patches span this many lattice spacings (in the mean metric)
 OVERLAP = 0.75        # each patch's lattice reaches this share of a patch size from its centre
 CONFLICT = 0.9        # points closer than this many spacings (metric) conflict
@@ -96,22 +98,8 @@ def _luby(n: int, i: np.ndarray, j: np.ndarray, rng, priority=None) -> np.ndarra
 
 def _mean_metric(domain, anisotropy, rng) -> np.ndarray:
     """L̄ with L̄L̄ᵀ the mean Hessian over random points of Ω (the coordinates of the search)."""
-    lo, hi = domain.seeds.min(axis=0), domain.seeds.max(axis=0)
-    X = lo + rng.random((512, 2)) * (hi - lo)
-    X = X[domain.contains(X, tol=0.0)]
-    if not len(X):
-        X = domain.seeds
+    X = seeding.random_interior(domain, 512, rng)
     return np.linalg.cholesky(np.asarray(anisotropy.hessian(X), dtype=float).mean(axis=0))
-
-
-def metric_area_estimate(domain, anisotropy, rng, k: int = 4096) -> float:
-    """∫_Ω √det ∇²s by Monte Carlo over the seeds' bounding box."""
-    lo, hi = domain.seeds.min(axis=0), domain.seeds.max(axis=0)
-    X = lo + rng.random((k, 2)) * (hi - lo)
-    inside = domain.contains(X, tol=0.0)
-    H = np.asarray(anisotropy.hessian(X[inside]), dtype=float)
-    det = np.clip(H[:, 0, 0] * H[:, 1, 1] - H[:, 0, 1] ** 2, 0.0, None)
-    return float(np.sqrt(det).sum() / k * np.prod(hi - lo))
 
 
 def _inside_with_margin(domain, X, H, margin: float) -> np.ndarray:
@@ -141,6 +129,10 @@ def _patch_lattices(domain, anisotropy, h: float, Lbar: np.ndarray):
         Hc = np.asarray(anisotropy.hessian(Xc), dtype=float)
     ok = np.all(np.isfinite(Hc), axis=(1, 2)) & (Hc[:, 0, 0] > 0) & \
         (Hc[:, 0, 0] * Hc[:, 1, 1] - Hc[:, 0, 1] ** 2 > 0)
+    # only patches that reach Ω: the cost follows Ω's area, not its bounding box's
+    A, Bs = domain.segment_ends
+    reach = float(np.abs(Linv).sum(axis=0).max()) * S
+    ok &= domain.contains(Xc, tol=0.0) | np.isfinite(rings.distance(Xc, A, Bs, reach))
     Yc, Xc, Hc = Yc[ok], Xc[ok], Hc[ok]
     B = _inv_sqrt_spd(Hc)                                          # lattice basis: H^{-1/2}
     # lattice steps needed to reach OVERLAP·S in y: the shortest y-length of a unit metric step
@@ -168,7 +160,7 @@ def initial_points(domain, anisotropy, n: int, rng) -> np.ndarray:
     if n < 1:
         return np.empty((0, 2))
     Lbar = _mean_metric(domain, anisotropy, rng)
-    area_m = metric_area_estimate(domain, anisotropy, rng)
+    area_m = sizing.metric_area(domain, anisotropy)
     cell = np.sqrt(3.0) / 2.0                         # lattice area per point is cell·h²
     h = np.sqrt(area_m / (cell * n))
     best = np.empty((0, 2))
