@@ -81,6 +81,9 @@ CASES = {
     "K19": Case(polygon([[-0.7706259881144901, -0.6372876795000557], [-0.2535717890140863, -0.9673165706304196],
                          [0.9810003343335807, 0.1940060412394492], [-0.9977212827349182, -0.06747030441453072]]),
                 constant(I), dict(target_vertices=5, boundary_refinement=False)),
+    "K20": Case(disk(8), ConductivitySpec('qmesh.Anisotropy.from_expression("exp(x) + y**2")',
+                                          lambda: qmesh.Anisotropy.from_expression("exp(x) + y**2")),
+                dict(target_vertices=16)),
     "K13": Case(polygon(np.array([[0, 0], [1, 0], [0.5, 1e-3]]) @ np.array([[0.75**0.5, 0.5], [-0.5, 0.75**0.5]])),
                 principal(1, 1e4, 90), dict(target_vertices=2000, boundary_refinement=False)),
 }
