@@ -84,6 +84,10 @@ CASES = {
     "K20": Case(disk(8), ConductivitySpec('qmesh.Anisotropy.from_expression("exp(x) + y**2")',
                                           lambda: qmesh.Anisotropy.from_expression("exp(x) + y**2")),
                 dict(target_vertices=16)),
+    "K21": Case(polygon([[0, 0], [1, 0], [1, 1], [0, 1]]),
+                ConductivitySpec('qmesh.Anisotropy.from_expression("x**4 + y**4 + x**2 + y**2")',
+                                 lambda: qmesh.Anisotropy.from_expression("x**4 + y**4 + x**2 + y**2")),
+                dict(target_vertices=1000, boundary_refinement=False)),
     "K13": Case(polygon(np.array([[0, 0], [1, 0], [0.5, 1e-3]]) @ np.array([[0.75**0.5, 0.5], [-0.5, 0.75**0.5]])),
                 principal(1, 1e4, 90), dict(target_vertices=2000, boundary_refinement=False)),
 }
