@@ -5,6 +5,10 @@
     "long" HYPOTHESIS_PROFILE=long: 20× the examples, random, with shrinking to a minimal case,
            for runs by hand.
 
+Deterministic means: the same cases for the same set of collected test modules (Hypothesis
+also draws constants it finds in loaded source, so running this folder alone and the whole
+suite may draw different cases).
+
 Each test takes a share of the profile's max_examples (`strategies.examples`). The profiles
 are registered, not loaded, so the rest of the test suite keeps its own settings. Every test
 in this folder is marked `properties`: `pytest -m "not properties"` leaves them out.
