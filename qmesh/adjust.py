@@ -19,9 +19,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from .geometry import Frame, quadratic_form_xy, area_gradients, signed_areas
+from .topology import NXT, PRV
+from .geometry import (Frame, area_gradients, metric_hessians, quadratic_form,
+                       quadratic_form_xy, signed_areas)
 
 STAR_SHRINK = 0.5      # largest fraction of a triangle's area one vertex's move may remove
+FAN_WEIGHT = 0.15     # shape_step's weight of triangles with two boundary corners (see there)
 MIN_AREA_KEPT = 0.1    # after all moves every triangle keeps at least this fraction of its area
 
 
@@ -91,6 +94,79 @@ def newton_step(P, T, anisotropy, *, fixed, tangent, alpha=0.5):
     d[sliding] = tangent[sliding] * (tb / tHt)[:, None]
     d[fixed] = 0.0
     return alpha * d                                            # (2.92)
+
+
+def shape_step(P, T, anisotropy, movable, on_boundary=None):
+    """A Newton step per vertex on the shape of its star, for the `movable` vertices (zero rows
+    for the others): minimises Σ_{T∋i} w_T Σ l̃²/Ã, a weighted sum of the inverse metric qualities
+    (2.94) of its triangles (up to 4√3), convex in x_i (quadratic over linear functions).
+
+    For a constant Q the trace of the stiffness matrix is ½√det Q Σ_T Σ_{interior corners}
+    l̃²_opp/Ã, so the step keeps the diagonal, and with it λ_max, low where the vertex step
+    (2.91) has no good place for a vertex: next to boundary points much finer than h. A triangle
+    with two corners in `on_boundary` adds only its short boundary edge to that trace, so it
+    weighs FAN_WEIGHT (its shape still counts, for the minimum quality).
+    """
+    T = T[movable[T].any(axis=1)]                             # the stars of the movable vertices
+    if not len(T):
+        return np.zeros((len(P), 2))
+    F = Frame(P, T)
+    Hm = metric_hessians(anisotropy, P, T)
+    sq = np.sqrt(Hm[:, 0, 0] * Hm[:, 1, 1] - Hm[:, 0, 1] * Hm[:, 1, 0])
+    E = F.E                                                   # (M, 3, 2) edge opposite each corner
+    A = sq * F.A                                              # metric areas
+    l2 = quadratic_form(E, Hm)
+    S = l2.sum(axis=1)                                        # Σ l̃² (2.94)
+    wt = None
+    if on_boundary is not None and FAN_WEIGHT != 1:
+        # a triangle with two boundary corners adds l̃²_b/Ã of its boundary edge b to the trace:
+        # weight it by that share of S/3 (equilateral: 1), but at least FAN_WEIGHT
+        ob = on_boundary[T]
+        fan = ob.sum(axis=1) == 2
+        lb2 = l2[np.arange(len(T)), np.argmin(ob, axis=1)]
+        wt = np.where(fan, np.clip(3.0 * lb2 / S, FAN_WEIGHT, 1.0), 1.0)[:, None]
+    U = E[:, NXT] - E[:, PRV]                                 # (x_c − x_a) + (x_c − x_b) per corner
+    if Hm.strides[0] == 0:
+        dS = 2.0 * U @ Hm[0].T
+    else:
+        dS = 2.0 * np.einsum("mij,mcj->mci", Hm, U)
+    dA = sq[:, None, None] * np.stack([F.gx, F.gy], axis=-1)  # ∂Ã/∂x_c
+    iA = 1.0 / A[:, None, None]
+    g = dS * iA - (S[:, None, None] * iA * iA) * dA          # ∂(S/Ã)/∂x_c
+    # its Hessian 4H/Ã − (∇S ∇Ãᵀ + ∇Ã ∇Sᵀ)/Ã² + 2S ∇Ã ∇Ãᵀ/Ã³, entries 00, 01, 11
+    ia = iA[:, :, 0]
+    c1, c2 = 2.0 * S[:, None] * ia ** 3, ia ** 2
+    (sx, sy), (ax, ay) = np.moveaxis(dS, -1, 0), np.moveaxis(dA, -1, 0)
+    h00 = 4.0 * Hm[:, None, 0, 0] * ia - 2.0 * c2 * sx * ax + c1 * ax * ax
+    h11 = 4.0 * Hm[:, None, 1, 1] * ia - 2.0 * c2 * sy * ay + c1 * ay * ay
+    h01 = 4.0 * Hm[:, None, 0, 1] * ia - c2 * (sx * ay + sy * ax) + c1 * ax * ay
+    if wt is not None:
+        g, h00, h01, h11 = g * wt[..., None], h00 * wt, h01 * wt, h11 * wt
+    v = T.ravel()
+    on = movable[v]
+    idx = np.flatnonzero(movable)
+    local = np.full(len(P), -1, np.int64)
+    local[idx] = np.arange(len(idx))
+    li = local[v[on]]
+    sums = [np.bincount(li, x.ravel()[on], minlength=len(idx))
+            for x in (g[..., 0], g[..., 1], h00, h01, h11)]
+    gx, gy, k00, k01, k11 = sums
+    det = k00 * k11 - k01 * k01
+    ok = det > 0                                              # the star's Hessian (convex sum)
+    det = np.where(ok, det, 1.0)
+    d = np.zeros((len(P), 2))
+    d[idx] = np.where(ok[:, None], -np.column_stack([k11 * gx - k01 * gy, k00 * gy - k01 * gx])
+                      / det[:, None], 0.0)
+    return d
+
+
+def boundary_layer(T, on_boundary, rings):
+    """Interior vertices at most `rings` edges away from a boundary vertex."""
+    near = on_boundary.copy()
+    for _ in range(int(rings)):
+        near = near.copy()
+        near[T[near[T].any(axis=1)].ravel()] = True
+    return near & ~on_boundary
 
 
 def limit_moves(P, T, d, keep=None):

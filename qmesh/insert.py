@@ -13,6 +13,12 @@ interior.
 
 Neighbouring triangles are not both refined in one round unless they are grossly oversized; the
 highest-priority (largest area / quality) candidates win, up to the vertex budget.
+
+One exception to `min_area` and to "the point is not critical": next to boundary points much
+finer than h (the tips of the chapter's disk, ten times finer in the metric) a triangle with a
+short boundary edge and a far apex, or three points of a tightly curved run, cannot be shaped by
+moving its apex; it gets its metric circumcentre (Ruppert's point), first in the budget, which
+grades the mesh down to the boundary's spacing.
 """
 
 from __future__ import annotations
@@ -20,12 +26,16 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from . import topology
 from .geometry import (metric_areas, metric_edge_lengths2, metric_hessians, metric_quality,
                        rounded)
 
 GROSS = 4.0             # above this multiple of the threshold, neighbours may be refined together
+GRADE_QUALITY = 0.35    # below this metric quality, a triangle whose shortest edge is a boundary
+                        # edge gets its metric circumcentre
+LOCATE_STEPS = 16       # walk at most this many triangles from a bad triangle to its circumcentre
 
 
 @dataclass
@@ -82,12 +92,23 @@ def insert(P, T, twin, anisotropy, *, area_threshold, boundary_length, corner_ed
         cand &= ~on_boundary
         on_boundary[:] = False
 
+    # a triangle of low quality whose shortest edge is a boundary edge — two boundary points much
+    # closer than h and a far apex, or three points of a tightly curved run — gets its metric
+    # circumcentre (Ruppert's point), which grades the mesh down to the boundary spacing; these
+    # are not bound by min_area and come first in the budget. (At a sharp corner the shortest
+    # edge faces the corner's small angle, which no point can widen: those are left alone.)
+    shortest = 3 * np.arange(len(T)) + topology.NXT[np.argmin(L2, axis=1)]
+    grade = (twin[shortest] < 0) & (quality < GRADE_QUALITY) & ~long_bnd
+    g_tri, g_pts, g_host = _grading_points(P, T, twin, Hm, quality, grade, budget)
+    budget -= len(g_tri)
+    cand[g_tri] = False
+
     want = cand | long_bnd
     prio = np.where(long_bnd, np.maximum(priority, 2.0), priority)
     gross = (area > GROSS * At) & ~long_bnd
     chosen = want & (_local_max(T, twin, np.where(want, prio, -np.inf)) | gross | long_bnd)
     idx = np.flatnonzero(chosen)
-    idx = idx[np.argsort(-prio[idx], kind="stable")][:budget]
+    idx = idx[np.argsort(-prio[idx], kind="stable")][:max(budget, 0)]
 
     # each chosen triangle splits an edge: its longest one, or its longest boundary edge when
     # that one is too long; grossly oversized triangles are split at their centroid instead
@@ -97,17 +118,21 @@ def insert(P, T, twin, anisotropy, *, area_threshold, boundary_length, corner_ed
     edge = np.where(long_bnd[idx] & ~on_boundary[idx], longest_bnd, longest[idx])
     by_edge = ~gross[idx]
     he = _independent(T, twin, edge[by_edge], prio[idx[by_edge]])
-    touched = np.zeros(len(T), bool)
+    hosted = np.zeros(len(T), bool)
+    hosted[g_host] = True
+    he = he[~hosted[he // 3] & ~hosted[np.where(twin[he] >= 0, twin[he], he) // 3]]
+    touched = hosted.copy()
     touched[he // 3] = True
     touched[twin[he[twin[he] >= 0]] // 3] = True
     tri = idx[~by_edge & ~touched[idx]]
     hb, hi = he[twin[he] < 0], he[twin[he] >= 0]
-    if len(hb) + len(hi) + len(tri) == 0:
+    if len(hb) + len(hi) + len(tri) + len(g_host) == 0:
         return none
 
     new_b = _midpoints(P, T, hb)
     new_e = _midpoints(P, T, hi)
-    new_c = P[T[tri]].mean(axis=1)
+    new_c = np.concatenate([P[T[tri]].mean(axis=1), g_pts])
+    tri = np.concatenate([tri, g_host])
     edge_b = corner_edge[T[hb // 3, hb % 3]]
     k0, k1 = n + len(hb), n + len(hb) + len(hi)
     T, twin = topology.split_boundary_edges(T, twin, hb, n + np.arange(len(hb)))
@@ -115,6 +140,80 @@ def insert(P, T, twin, anisotropy, *, area_threshold, boundary_length, corner_ed
     T, twin = topology.split_triangles(T, twin, tri, k1 + np.arange(len(tri)))
     return Insertion(T, twin, np.concatenate([new_b, new_e, new_c]),
                      np.concatenate([edge_b, np.full(len(hi) + len(tri), -1)]))
+
+
+def metric_circumcentres(P, T, Hm):
+    """Centres of the metric circumcircles (ellipses (x − c)ᵀH(x − c) = r²) of triangles T."""
+    a = P[T[:, 0]]
+    e1, e2 = P[T[:, 1]] - a, P[T[:, 2]] - a
+    He1, He2 = np.einsum("mij,mj->mi", Hm, e1), np.einsum("mij,mj->mi", Hm, e2)
+    M = np.stack([He1, He2], axis=1)                   # 2 eᵀH u = eᵀH e for both edges from a
+    rhs = 0.5 * np.column_stack([np.einsum("mi,mi->m", e1, He1), np.einsum("mi,mi->m", e2, He2)])
+    det = M[:, 0, 0] * M[:, 1, 1] - M[:, 0, 1] * M[:, 1, 0]
+    det = np.where(det != 0, det, np.inf)
+    u = np.column_stack([M[:, 1, 1] * rhs[:, 0] - M[:, 0, 1] * rhs[:, 1],
+                         M[:, 0, 0] * rhs[:, 1] - M[:, 1, 0] * rhs[:, 0]]) / det[:, None]
+    return a + u
+
+
+def locate(P, T, twin, start, X, steps=LOCATE_STEPS):
+    """The triangle holding each point X[k], walking from triangle start[k] across the edge
+    facing it; -1 where the walk leaves the domain or takes more than `steps` triangles."""
+    t = np.asarray(start, np.int64).copy()
+    found = np.full(len(t), -1, np.int64)
+    live = np.arange(len(t))
+    for _ in range(steps):
+        if not len(live):
+            break
+        tt = t[live]
+        x = P[T[tt]]                                              # (k, 3, 2)
+        rel = x - X[live, None, :]
+        # twice the signed area of (X, corner c+1, corner c+2): X's weight for corner c
+        w = (rel[:, topology.NXT, 0] * rel[:, topology.PRV, 1]
+             - rel[:, topology.NXT, 1] * rel[:, topology.PRV, 0])
+        worst = np.argmin(w, axis=1)
+        inside = w[np.arange(len(tt)), worst] >= 0
+        found[live[inside]] = tt[inside]
+        nxt = twin[3 * tt + topology.NXT[worst]]                  # the edge opposite that corner
+        go = ~inside & (nxt >= 0)
+        t[live[go]] = nxt[go] // 3
+        live = live[go]
+    return found
+
+
+def _grading_points(P, T, twin, Hm, quality, grade, budget):
+    """Circumcentres of the `grade` triangles that lie in Ω, one per host triangle and none within
+    half a circumradius of a better one: (triangles, points, host triangles)."""
+    idx = np.flatnonzero(grade)
+    if budget <= 0 or not len(idx):
+        return idx[:0], np.empty((0, 2)), idx[:0]
+    idx = idx[np.argsort(quality[idx], kind="stable")]
+    Hs = Hm[idx] if Hm.strides[0] else np.broadcast_to(Hm[0], (len(idx), 2, 2))
+    C = metric_circumcentres(P, T[idx], Hs)
+    ok = np.all(np.isfinite(C), axis=1)
+    host = np.full(len(idx), -1, np.int64)
+    host[ok] = locate(P, T, twin, idx[ok], C[ok])
+    keep = host >= 0
+    # one per host, the worst triangle first
+    _, first = np.unique(host[keep], return_index=True)
+    sel = np.flatnonzero(keep)[np.sort(first)]
+    idx, C, host, Hs = idx[sel], C[sel], host[sel], Hs[sel]
+    # no two points closer than half the circumradius of the worse triangle's circle
+    D = P[T[idx, 0]] - C
+    r = np.sqrt(np.einsum("mi,mij,mj->m", D, Hs, D))
+    if len(idx) > 1:
+        lam = np.linalg.eigvalsh(Hs)[:, 0]                          # Euclidean radius bound
+        hits = cKDTree(C).query_ball_point(C, 0.5 * r / np.sqrt(lam))
+        count = np.fromiter((len(h) for h in hits), np.int64, len(hits))
+        i = np.repeat(np.arange(len(idx)), count)
+        j = np.fromiter((k for h in hits for k in h), np.int64, int(count.sum()))
+        i, j = i[j > i], j[j > i]                                   # i is the worse triangle
+        D = C[j] - C[i]
+        close = np.einsum("mi,mij,mj->m", D, Hs[i], D) < (0.5 * r[i]) ** 2
+        drop = np.zeros(len(idx), bool)
+        drop[j[close]] = True
+        idx, C, host = idx[~drop], C[~drop], host[~drop]
+    return idx[:budget], C[:budget], host[:budget]
 
 
 def _midpoints(P, T, h):

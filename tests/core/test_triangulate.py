@@ -6,6 +6,8 @@ FᵀF = H = ∇²s. The flip-based `restore` must reach the same triangulation f
 meshes the mesher produces must have q_ij ≥ 0 on every interior edge.
 """
 
+import re
+
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -143,7 +145,14 @@ def test_euclidean_delaunay_is_not_locally_regular_for_strong_anisotropy():
        vb=st.integers(8, 32), seed=st.integers(0, 1000))
 def test_mesher_output_has_nonnegative_q_ij(k1, ratio, angle, n, vb, seed):
     A = qmesh.Anisotropy.principal(k1, k1 * ratio, angle)
-    m = qmesh.mesh(qmesh.Disk(vb), A, target_vertices=n, seed=seed)
+    try:
+        m = qmesh.mesh(qmesh.Disk(vb), A, target_vertices=n, seed=seed)
+    except qmesh.QmeshError as e:
+        # a coarse polygon under strong anisotropy can need more boundary vertices than n to
+        # keep every boundary q_ij ≥ 0: refused only with that reason, and only when it is so
+        assert re.search(r"target_vertices = \d+ is too few", str(e)), e
+        assert ratio >= 10
+        return
     _, q, interior = edge_weights(m, A)
     assert interior.any()
     assert (q[interior] / np.abs(q).max()).min() >= -1e-9
