@@ -3,10 +3,18 @@
 State names are the model's names (`k1`, `k2`, `angle`, `q11`, `q12`, `q22`, `vb`,
 `target_vertices`, `alpha`, `seed`, `history_index`, …). Controllers only call
 `qmesh_view.controller.Controller` (the run and its history) and `qmesh_view.draw.ViewSet`
-(the scene functions on three plotters); the plotters render on the server (remote views).
+(the scene functions on three plotters).
+
+Views render on the server (`remote`, the default) or in the browser (`local`, vtk.js).
+`benchmarks/bench_view.py --browser` measured both from the input to the changed picture in
+Chromium (the slowest view, median of 5 Step clicks, load 2.5–4.6 on 2 cores): remote 0.14 s at
+N = 212, 0.18 s at N = 1,000, 0.20 s at N = 10,000; local (vtk.js) 0.17, 0.27 and 0.49 s, and
+vtk.js draws the translucent s(x) over the facets of s_h wrongly. Remote got there once
+trame-vtk's 0.5 s wait for a frame still being encoded was cut to 10 ms (`qmesh_view.delivery`).
 
 The mesher and the measurements run in one worker thread so the page never freezes (`busy`
 greys the buttons and shows a progress bar); VTK renders only on the event loop's thread.
+The controls always show the parameters of the run on screen: a rejected change is put back.
 """
 
 from __future__ import annotations
@@ -24,17 +32,20 @@ from trame.widgets import vuetify3 as v3
 
 from qmesh.errors import QmeshError
 
-from .controller import PARAMS, Controller, status_text
+from . import delivery, legend
+from .controller import DISK, PARAMS, S_PRESETS, Controller, domain_names, status_text
 from .draw import VIEWS, ViewSet
 
 TITLE = "qmesh-view — Q-adapted meshes (Algorithm 2.1)"
 VIEW_TITLES = {"lifted": "lifted: s(x) and the facets of s_h",
                "mesh": "mesh: seeds, inserted points, moves",
                "quality": "quality"}
+VIEW_MODES = ("remote", "local")
 CHART_SERIES = (("chart_energy", "energy E per iteration (log scale)", "#1f77b4"),
                 ("chart_kappa2", "κ2 per iteration", "#d62728"),
                 ("chart_n", "N per iteration", "#2ca02c"))
 RUN_PAUSE = 0.05     # seconds between animated stages, so every frame reaches the browser
+VIEW_HEIGHT = "calc(100vh - 300px)"   # the views fill the page below the status lines
 
 
 def convergence_chart(series: dict) -> dict:
@@ -51,29 +62,38 @@ def convergence_chart(series: dict) -> dict:
                              "chart_n": ends(series["n_vertices"], "d")}}
 
 
-def slider(name: str, label: str, lo, hi, step, **kwargs) -> None:
-    """A compact labelled VSlider bound to state `name`, in a <div id="slider-NAME"> for tests."""
+def slider(name: str, label: str, lo, hi, step, shown: str | None = None, **kwargs) -> None:
+    """A compact labelled VSlider bound to state `name`, its value always shown at the right,
+    in a <div id="slider-NAME"> (the value in <span class="slider-value">) for tests."""
     with html.Div(id=f"slider-{name}"):
-        v3.VSlider(v_model=(name,), label=label, min=lo, max=hi, step=step, thumb_label=True,
-                   hide_details=True, density="compact", **kwargs)
+        with v3.VSlider(v_model=(name,), label=label, min=lo, max=hi, step=step,
+                        hide_details=True, density="compact", **kwargs):
+            with v3.Template(v_slot_append=True):
+                html.Span(f"{{{{ {shown or f'+Number({name}).toPrecision(4)'} }}}}", classes="slider-value text-body-2",
+                          style="min-width: 3.2em; text-align: right; display: inline-block")
 
 
 class QmeshView(TrameApp):
     """The web GUI: parameter drawer, Step/Iterate/Run/Reset, history slider, three views."""
 
-    def __init__(self, server=None, **params):
+    def __init__(self, server=None, view_mode: str = "remote", **params):
         super().__init__(server, client_type="vue3")
+        if view_mode not in VIEW_MODES:
+            raise QmeshError(f"view_mode must be one of {VIEW_MODES}, got {view_mode!r}")
+        self.view_mode = view_mode
         self.controller = Controller(**params)
-        self.views = ViewSet()
+        self.views = ViewSet(scalar_bar=False)
         for name in ("mesh", "quality"):
             self.views.plotters[name].enable_2d_style()
         self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="qmesh-view")
         self._remesh_wanted = False
         self._remesh_task = None
+        self._options_changed = False
         self._init_state()
         self.views.draw(self.controller.current, self.controller.anisotropy,
                         **self._view_options())
         self._build_ui()
+        self.server.controller.on_server_ready.add(self._fast_image_delivery)
         self._link_cameras()
         self._show()
         with self.state:
@@ -82,18 +102,33 @@ class QmeshView(TrameApp):
 
     # ------------------------------------------------------------------ state
     def _init_state(self) -> None:
+        self._sync_params()
+        self.state.update(dict(history_index=0, history_length=1, busy=False, running=False,
+                               z_scale=1.0, colour_by="quality", q_sign_edges=False,
+                               edges="auto", maximised="",
+                               status_line="", error="", at_end=False,
+                               chart_energy=[], chart_kappa2=[], chart_n=[], chart_labels={}))
+        self.state.update(legend.state(self.views.legend))
+        self.state.domain_items = domain_names(self.controller.uploads)
+        self.state.domain_file = None
+        self.state.update(dict(s_input=self.controller.params.s_text, s_error="",
+                               s_presets=list(S_PRESETS), s_preset=None))
+
+    def _sync_params(self) -> None:
+        """Controls ← the parameters of the run on screen (after a change, accepted or not)."""
         p = self.controller.params
         for name in PARAMS:
             self.state[name] = getattr(p, name)
         self.state.update(self.controller.readout)
-        self.state.update(dict(history_index=0, history_length=1, busy=False, running=False,
-                               z_scale=1.0, colour_by="quality", q_sign_edges=False,
-                               status_line="", error="", at_end=False,
-                               chart_energy=[], chart_kappa2=[], chart_n=[], chart_labels={}))
+
+    def _params_shown_are_in_force(self) -> bool:
+        p = self.controller.params
+        return all(self.state[name] == getattr(p, name) for name in PARAMS)
 
     def _view_options(self) -> dict:
         return dict(z_scale=float(self.state.z_scale), colour_by=self.state.colour_by,
-                    q_sign_edges=bool(self.state.q_sign_edges), domain=self.controller.domain)
+                    q_sign_edges=bool(self.state.q_sign_edges), domain=self.controller.domain,
+                    edges=self.state.edges)
 
     def _chart(self) -> dict:
         """Worker thread: the convergence series as sparkline data (E on a log10 scale)."""
@@ -117,25 +152,49 @@ class QmeshView(TrameApp):
     def _redraw(self) -> None:
         c = self.controller
         self.views.draw(c.current, c.anisotropy, **self._view_options())
+        with self.state:
+            self.state.update(legend.state(self.views.legend))
+        self._push()
+
+    def _push(self) -> None:
         for view in self.html_views.values():
             view.update()
+
+    def _fast_image_delivery(self, **_) -> None:
+        """Remote views: frames re-pushed every 10 ms while being encoded (`delivery`)."""
+        self._image_link = delivery.fast_image_delivery(self.server)
+
+    async def _frames_sent(self, timeout: float = 1.0) -> None:
+        """Wait (≤ timeout) until the remote views' new frames are encoded and sent.
+
+        The measurements that follow (κ2, charts) hold the GIL for tens of milliseconds at
+        N = 1,000 and more; started at once they delayed the frames the user waits for.
+        """
+        link = getattr(self, "_image_link", None)
+        deadline = asyncio.get_running_loop().time() + timeout
+        while delivery.frames_pending(link) and asyncio.get_running_loop().time() < deadline:
+            await asyncio.sleep(delivery.STALE_RETRY / 2)
 
     # ------------------------------------------------------------------ off-loop work
     async def _work(self, fn):
         """Run `fn` in the one worker thread (the mesher and measurements never run on the loop)."""
         return await asyncio.get_running_loop().run_in_executor(self._worker, fn)
 
-    async def _move(self, move) -> None:
-        """Busy while: `move` the run (worker) → draw (loop) → measure and chart (worker)."""
+    async def _move(self, move) -> bool:
+        """Busy while: `move` the run (worker) → draw (loop) → measure and chart (worker).
+
+        False when `move` was refused (QmeshError): its message goes to the error line.
+        """
         c = self.controller
         with self.state:
             self.state.busy = True
             self.state.error = ""
         try:
-            before = len(c.history)
+            before = (len(c.history), c.history[0])
             await self._work(move)
             index = self._show()
-            grew = len(c.history) != before
+            await self._frames_sent()
+            grew = (len(c.history), c.history[0]) != before     # more stages, or a new run
             status, chart = await self._work(
                 lambda: (c.status(index), self._chart() if grew else None))
             with self.state:
@@ -143,12 +202,17 @@ class QmeshView(TrameApp):
                     self.state.status_line = status_text(status)
                 if chart is not None:
                     self.state.update(chart)
+            return True
         except QmeshError as e:
             with self.state:
                 self.state.error = str(e)
+            return False
         finally:
             with self.state:
                 self.state.busy = False
+            if self._options_changed:                # a view option changed while busy
+                self._options_changed = False
+                self._redraw()
 
     def _start(self, move) -> None:
         if self.state.busy or self.state.running:
@@ -188,13 +252,13 @@ class QmeshView(TrameApp):
     async def _run(self) -> None:
         try:
             while self.state.running and not self.controller.at_end:
-                await self._move(self.controller.step)
-                if self.state.error:
+                if not await self._move(self.controller.step):
                     break
                 await asyncio.sleep(RUN_PAUSE)
         finally:
             with self.state:
                 self.state.running = False
+                self._sync_params()
 
     # ------------------------------------------------------------------ reactions
     @change("history_index")
@@ -203,14 +267,79 @@ class QmeshView(TrameApp):
             return
         asynchronous.create_task(self._move(lambda: self.controller.scrub(history_index)))
 
-    @change("z_scale", "colour_by", "q_sign_edges")
+    @change("z_scale", "colour_by", "q_sign_edges", "edges")
     def on_view_option(self, **_):
-        if not self.state.busy:
+        """Redraw the stage shown with the new option, now or when the work in hand is done."""
+        if self.state.busy:
+            self._options_changed = True
+        else:
             self._redraw()
+
+    @change("maximised")
+    def on_maximised(self, maximised, **_):
+        """A view grew or shrank: let the remote views fetch frames at their new size, and fit
+        the shared top-down camera to the top views on show."""
+        top = tuple(n for n in ("mesh", "quality") if not maximised or n == maximised)
+        self.views.top_views = top or ("mesh", "quality")
+        for view in self.html_views.values():
+            view.resize()
+        asynchronous.create_task(self._after_resize())
+
+    async def _after_resize(self) -> None:
+        await asyncio.sleep(0.3)                     # the browser has laid the page out again
+        self.views.fit_top()
+        self.views.fit_lifted()
+        self.views.apply_edges()
+        self._push()
+
+    def on_s_enter(self) -> None:
+        """Enter in the s(x, y) field: mesh that s from the start (also when unchanged)."""
+        asynchronous.create_task(self._apply_s(str(self.state.s_input or "")))
+
+    @change("s_preset")
+    def on_s_preset(self, s_preset, **_):
+        if s_preset:
+            self.state.s_input = s_preset
+            self.state.s_preset = None
+            asynchronous.create_task(self._apply_s(s_preset))
+
+    async def _apply_s(self, text: str) -> None:
+        """Re-mesh with s(x, y) = text; a refused text keeps the last mesh, its error (red)
+        goes next to the field, and the text stays there to be corrected."""
+        self.state.running = False
+        await self._when_idle()
+        c = self.controller
+        ok = await self._move(lambda: c.set_params(q_mode="expression", s_text=text)
+                              or c.reset())
+        with self.state:
+            if ok:
+                self.state.s_error = ""
+            else:
+                self.state.s_error, self.state.error = self.state.error, ""
+            self._sync_params()
+
+    @change("domain_file")
+    def on_domain_file(self, domain_file, **_):
+        """A polygon file arrived from the browser: read it, offer it and mesh it."""
+        if not domain_file:
+            return
+        from trame.app.file_upload import ClientFile
+        upload = ClientFile(domain_file)
+        asynchronous.create_task(self._upload(upload.name, upload.content))
+
+    async def _upload(self, name: str, content) -> None:
+        self.state.running = False
+        await self._when_idle()
+        await self._move(lambda: self.controller.add_upload(name, content))
+        with self.state:
+            self.state.domain_items = domain_names(self.controller.uploads)
+            self._sync_params()
 
     @change(*PARAMS)
     def on_param(self, **_):
         """Any parameter change re-meshes from the start; the latest values win."""
+        if self._params_shown_are_in_force():
+            return                                   # our own sync, or nothing changed
         self._remesh_wanted = True
         if self._remesh_task is None or self._remesh_task.done():
             self._remesh_task = asynchronous.create_task(self._remesh())
@@ -220,19 +349,29 @@ class QmeshView(TrameApp):
             self._remesh_wanted = False
             self.state.running = False
             await self._when_idle()
-            changes = {name: self.state[name] for name in PARAMS}
+            changes = {name: self.state[name] for name in PARAMS
+                       if self.state[name] != getattr(self.controller.params, name)}
             await self._move(lambda: self.controller.set_params(**changes))
             with self.state:
-                self.state.update(self.controller.readout)
+                self._sync_params()                  # accepted, adjusted or put back
 
     # ------------------------------------------------------------------ cameras
     def _link_cameras(self) -> None:
-        """The mesh and quality views share one camera; after moving one, push the other too."""
-        pairs = (("mesh", "quality"), ("quality", "mesh"))
-        for source, other in pairs:
+        """After the user moves a camera: edges for the new zoom; mesh and quality share one
+        camera, so both are pushed."""
+        if self.view_mode == "local":
+            return
+        for source in VIEWS:
             iren = self.views.plotters[source].iren.interactor
-            view = self.html_views[other]
-            iren.AddObserver("EndInteractionEvent", lambda *_, v=view: v.update())
+            iren.AddObserver("EndInteractionEvent", lambda *_: self._after_camera())
+
+    def _after_camera(self) -> None:
+        looks_before = dict(self._edge_looks) if hasattr(self, "_edge_looks") else None
+        self._edge_looks = self.views.apply_edges()
+        for name in ("mesh", "quality"):
+            self.html_views[name].update()
+        if looks_before is not None and looks_before.get("lifted") != self._edge_looks["lifted"]:
+            self.html_views["lifted"].update()
 
     # ------------------------------------------------------------------ layout
     def _build_ui(self) -> None:
@@ -264,23 +403,57 @@ class QmeshView(TrameApp):
 
     def _parameters(self) -> None:
         with v3.VContainer(classes="pa-3", style="font-size: 0.85rem"):
-            html.Div("Conductivity Q (principal values, angle of k1)", classes="text-subtitle-2")
-            slider("k1", "k1", 0.05, 20, 0.05)
-            slider("k2", "k2", 0.05, 20, 0.05)
-            slider("angle", "angle", 0, 180, 5)
-            html.Div("Q11 = {{ q11.toPrecision(4) * 1 }} · Q12 = {{ q12.toPrecision(4) * 1 }}"
-                     " · Q22 = {{ q22.toPrecision(4) * 1 }}", classes="my-2", id="q-readout")
+            html.Div("Conductivity", classes="text-subtitle-2")
+            with html.Div(id="q-mode", classes="my-1"):
+                with v3.VBtnToggle(v_model=("q_mode",), mandatory=True, density="compact",
+                                   variant="outlined", divided=True):
+                    v3.VBtn("constant Q", value="constant", size="small")
+                    v3.VBtn("s(x, y)", value="expression", size="small")
+            with html.Div(v_show=("q_mode === 'constant'",)):
+                html.Div("principal values and the angle of k1",
+                         classes="text-caption text-medium-emphasis")
+                slider("k1", "k1", 0.05, 20, 0.05)
+                slider("k2", "k2", 0.05, 20, 0.05)
+                slider("angle", "angle", 0, 180, 5, shown="angle + '°'")
+                html.Div("Q11 = {{ q11.toPrecision(4) * 1 }} · Q12 = {{ q12.toPrecision(4) * 1 }}"
+                         " · Q22 = {{ q22.toPrecision(4) * 1 }}", classes="my-2", id="q-readout")
+            with html.Div(v_show=("q_mode === 'expression'",)):
+                with html.Div(id="field-s"):
+                    v3.VTextField(v_model=("s_input",), label="s(x, y)", density="compact",
+                                  error_messages=("s_error ? [s_error] : []",),
+                                  hint="Enter re-meshes; x, y, numbers, + − * / **, exp log "
+                                       "sqrt cosh …", persistent_hint=False,
+                                  __events=[("on_enter", "keydown.enter")],
+                                  on_enter=self.on_s_enter, classes="my-1",
+                                  spellcheck="false", autocomplete="off")
+                with html.Div(id="select-s-preset"):
+                    v3.VSelect(v_model=("s_preset", None), items=("s_presets",),
+                               label="presets", density="compact", hide_details=True,
+                               classes="my-1")
             v3.VDivider(classes="my-2")
             html.Div("Domain and mesher", classes="text-subtitle-2")
-            slider("vb", "VB", 8, 256, 1)
-            v3.VTextField(v_model_number=("target_vertices",), label="target vertices",
-                          type="number", density="compact", hide_details=True, classes="my-2")
+            with html.Div(id="select-domain"):
+                v3.VSelect(v_model=("domain",), label="domain", items=("domain_items",),
+                           density="compact", hide_details=True, classes="my-2")
+            with html.Div(id="upload-domain"):
+                v3.VFileInput(v_model=("domain_file", None), label="polygon file (CSV, GeoJSON)",
+                              accept=".csv,.txt,.geojson,.json", density="compact",
+                              hide_details=True, prepend_icon="", clearable=True,
+                              classes="my-1")
+            with html.Div(v_show=(f"domain === '{DISK}'",)):
+                slider("vb", "VB", 8, 512, 1)
+                html.Div("VB (seed points) stays below the target: moving one moves the other.",
+                         classes="text-caption text-medium-emphasis")
+            with html.Div(id="field-target"):
+                v3.VTextField(v_model_number=("target_vertices",), label="target vertices",
+                              type="number", density="compact", hide_details=True,
+                              classes="my-2")
             slider("alpha", "α", 0.05, 1, 0.05)
             v3.VTextField(v_model_number=("seed",), label="seed", type="number",
                           density="compact", hide_details=True, classes="my-2")
             v3.VDivider(classes="my-2")
             html.Div("Views", classes="text-subtitle-2")
-            slider("z_scale", "z-scale", 0.1, 3, 0.1)
+            slider("z_scale", "z-scale", 0.1, 3, 0.1, shown="Number(z_scale).toFixed(1)")
             with html.Div(id="select-colour-by"):
                 v3.VSelect(v_model=("colour_by",), label="colour by", density="compact",
                            items=("[{title: 'metric quality (2.94)', value: 'quality'},"
@@ -289,27 +462,62 @@ class QmeshView(TrameApp):
             with html.Div(id="switch-q-sign"):
                 v3.VSwitch(v_model=("q_sign_edges",), label="edges by sign of q_ij",
                            density="compact", hide_details=True, color="primary")
+            with html.Div(classes="d-flex align-center", id="edges-toggle"):
+                html.Span("edges", classes="mr-3")
+                with v3.VBtnToggle(v_model=("edges",), mandatory=True, density="compact",
+                                   variant="outlined", divided=True):
+                    for mode in ("auto", "on", "off"):
+                        v3.VBtn(mode, value=mode, size="small")
+            html.Div("auto: drawn while they can be told apart, lighter when crowded, "
+                     "hidden when denser still (zoom in to see them)",
+                     classes="text-caption text-medium-emphasis")
 
     def _main(self) -> None:
         with v3.VContainer(fluid=True, classes="pa-2"):
             html.Div("{{ status_line }}", id="status-line",
                      classes="text-body-2 font-weight-medium px-2")
             html.Div("{{ error }}", v_show=("error",), classes="text-error px-2", id="error")
-            slider("history_index", "history", 0, ("history_length - 1",), 1,
-                   disabled=("busy || running",), classes="px-2")
+            with html.Div(classes="d-flex align-center px-2 mt-1", id="history-row"):
+                html.Span("stage", classes="text-body-2 mr-3")
+                with html.Div(style="flex: 1 1 auto"):
+                    slider("history_index", None, 0, ("history_length - 1",), 1,
+                           shown="history_index + ' / ' + (history_length - 1)",
+                           disabled=("busy || running",))
             self.html_views = {}
-            with v3.VRow(classes="ma-0"):
+            with html.Div(id="views", classes="mt-1",
+                          style=("{display: 'grid', gap: '6px', resize: 'vertical',"
+                                 " overflow: 'hidden', minHeight: '320px',"
+                                 f" height: '{VIEW_HEIGHT}',"
+                                 " gridTemplateColumns: maximised ? '1fr' : 'repeat(3, 1fr)'}",)):
                 for name in VIEWS:
-                    with v3.VCol(cols=4, classes="pa-1"):
-                        html.Div(VIEW_TITLES[name], classes="text-caption text-center")
-                        with html.Div(style="position: relative; width: 100%; aspect-ratio: 1;"
-                                            " max-height: calc(100vh - 290px)",
-                                      id=f"view-{name}"):
-                            self.html_views[name] = vtk_widgets.VtkRemoteView(
-                                self.views.plotters[name].render_window,
-                                ref=f"view_{name}", interactive_ratio=1, still_quality=95,
-                                style="position: absolute; inset: 0")
+                    self._view_card(name)
             self._chart_row()
+
+    def _view_card(self, name: str) -> None:
+        """One view: title and maximise button, the picture filling the card, its legend below."""
+        with html.Div(v_show=(f"!maximised || maximised === '{name}'",), id=f"card-{name}",
+                      style="min-width: 0; min-height: 0"), \
+                v3.VCard(variant="outlined", classes="d-flex flex-column", height="100%"):
+            with html.Div(classes="d-flex align-center px-2"):
+                html.Span(VIEW_TITLES[name], classes="text-caption")
+                v3.VSpacer()
+                v3.VBtn(icon=(f"maximised === '{name}' ? 'mdi-arrow-collapse' :"
+                              " 'mdi-arrow-expand'",),
+                        size="x-small", variant="text", id=f"max-{name}",
+                        click=f"maximised = (maximised === '{name}' ? '' : '{name}')",
+                        title="maximise / restore this view")
+            with html.Div(style="position: relative; flex: 1 1 auto; min-height: 200px",
+                          id=f"view-{name}"):
+                if self.view_mode == "local":
+                    self.html_views[name] = vtk_widgets.VtkLocalView(
+                        self.views.plotters[name].render_window,
+                        ref=f"view_{name}", style="position: absolute; inset: 0")
+                else:
+                    self.html_views[name] = vtk_widgets.VtkRemoteView(
+                        self.views.plotters[name].render_window,
+                        ref=f"view_{name}", interactive_ratio=1, still_quality=90,
+                        style="position: absolute; inset: 0")
+            legend.html_legend(name)
 
     def _chart_row(self) -> None:
         """The convergence chart: E (log scale), κ2 and N at the end of every iteration."""

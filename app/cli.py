@@ -1,4 +1,4 @@
-"""`qmesh-view [--host 127.0.0.1] [--port 8080] [--server]`: start the web GUI.
+"""`qmesh-view [--host 127.0.0.1] [--port 8080] [--server] [--domain NAME] [--s TEXT]`: the web GUI.
 
 Binds 127.0.0.1 unless told otherwise and opens the system browser unless `--server`.
 Sets the off-screen rendering environment of HEADLESS.md before VTK is imported, so the
@@ -8,17 +8,11 @@ server-side views render without a display.
 from __future__ import annotations
 
 import argparse
-import os
 import sys
-import tempfile
 
+from qmesh.errors import QmeshError
 
-def headless_environment() -> None:
-    """Off-screen EGL rendering, and no attempt to download VTK's WebAssembly build."""
-    os.environ.setdefault("PYVISTA_OFF_SCREEN", "true")
-    os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
-    if "VTK_WASM_DIR_OVERRIDE" not in os.environ:
-        os.environ["VTK_WASM_DIR_OVERRIDE"] = tempfile.mkdtemp(prefix="qmesh-view-wasm-")
+from .system import headless_environment, require_rendering
 
 
 def parser() -> argparse.ArgumentParser:
@@ -28,15 +22,33 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--port", type=int, default=8080, help="port (default 8080; 0 = any free)")
     p.add_argument("--server", action="store_true",
                    help="do not open a browser, only serve")
+    p.add_argument("--views", choices=("remote", "local"), default="remote",
+                   help="remote (default): the server renders and sends images; local: the "
+                        "browser renders with vtk.js (measured slower: benchmarks/bench_view.py)")
+    p.add_argument("--vb", type=int, default=64, help="seed points on the disk (default 64)")
+    p.add_argument("--target-vertices", type=int, default=212,
+                   help="target vertex count N (default 212, the chapter's case)")
+    p.add_argument("--domain", default="disk",
+                   help="a named domain: disk (default, with --vb), L-shape, 'square with hole', "
+                        "annulus, 'plate with holes', 'notched square'")
+    p.add_argument("--s", dest="s_text", default=None, metavar="TEXT",
+                   help="start with s(x, y) given as text, e.g. 'exp(x) + y**2' "
+                        "(default: the constant Q = diag(0.1, 10))")
     return p
 
 
 def main(argv: list[str] | None = None) -> int:
     args = parser().parse_args(argv)
     headless_environment()
-    from .app import QmeshView          # after the environment: imports VTK
-
-    view = QmeshView()
+    try:
+        require_rendering()                 # one clear line, not a segfault inside VTK
+        from .app import QmeshView          # after the environment: imports VTK
+        extra = {} if args.s_text is None else {"q_mode": "expression", "s_text": args.s_text}
+        view = QmeshView(view_mode=args.views, vb=args.vb, target_vertices=args.target_vertices,
+                         domain=args.domain, **extra)
+    except QmeshError as e:
+        print(f"qmesh-view: error: {e}", file=sys.stderr)
+        return 2
     # trame re-reads sys.argv for its own options; give it only ours
     sys.argv = [sys.argv[0], "--host", args.host, "--port", str(args.port)] + (
         ["--server"] if args.server else [])

@@ -14,10 +14,15 @@ from dataclasses import dataclass
 import numpy as np
 
 import qmesh
-from qmesh import measure
+from qmesh import domains, measure, polygon_file
 from qmesh.errors import QmeshError
 
-PARAMS = ("k1", "k2", "angle", "vb", "target_vertices", "alpha", "seed")
+PARAMS = ("k1", "k2", "angle", "vb", "target_vertices", "alpha", "seed", "domain", "q_mode",
+          "s_text")
+Q_MODES = ("constant", "expression")
+"""How the conductivity is given: constant Q (k1, k2, angle) or s(x, y) as text."""
+S_PRESETS = ("exp(x) + y**2", "cosh(3*x) + 0.02*y**2", "x**4 + y**4 + x**2 + y**2",
+             "log(exp(2*x) + exp(-2*x) + exp(2*y))")
 Q_PARAMS = ("k1", "k2", "angle")
 
 
@@ -36,6 +41,9 @@ class Params:
     target_vertices: int = 212
     alpha: float = 0.5
     seed: int = 0
+    domain: str = "disk"
+    q_mode: str = "constant"
+    s_text: str = S_PRESETS[0]
 
 
 def q_matrix(k1: float, k2: float, angle: float) -> np.ndarray:
@@ -58,11 +66,53 @@ def _checked(p: Params) -> Params:
         raise QmeshError("vb, target_vertices and seed must be integers")
     if not (0.0 < alpha <= 1.0):
         raise QmeshError(f"alpha must be in (0, 1], got {alpha}")
-    if target <= vb:
+    if p.domain == "disk" and target <= vb:
         raise QmeshError(f"target_vertices ({target}) must exceed VB ({vb}), the seed points")
     qmesh.Anisotropy.principal(k1, k2, angle)   # raises QmeshError for k ≤ 0 or non-finite
     qmesh.Disk(vb)                              # raises QmeshError for VB < 3
-    return Params(k1, k2, angle, vb, target, alpha, seed)
+    if not isinstance(p.domain, str):
+        raise QmeshError(f"domain must be a name, got {type(p.domain).__name__}")
+    if p.q_mode not in Q_MODES:
+        raise QmeshError(f"q_mode must be one of {Q_MODES}, got {p.q_mode!r}")
+    if not isinstance(p.s_text, str):
+        raise QmeshError(f"s_text must be text, got {type(p.s_text).__name__}")
+    return Params(k1, k2, angle, vb, target, alpha, seed, p.domain, p.q_mode, p.s_text)
+
+
+DISK = "disk"
+FILE_PREFIX = "file: "
+"""Uploaded polygon files are domains named "file: <file name>"."""
+
+
+def domain_names(uploads=()) -> list[str]:
+    """The domains on offer: the named shapes of `qmesh.domains` (the disk first), then uploads."""
+    return list(domains.NAMED) + [FILE_PREFIX + name for name in uploads]
+
+
+def reconcile(params: Params, changes: dict) -> dict:
+    """`changes` with the dependent value adjusted so the seed count VB stays below the target N.
+
+    The value the user just moved wins and the other follows: VB moved to ≥ N raises N to VB + 1;
+    N moved to ≤ VB lowers VB to N − 1 (never below 3, the smallest polygon). Both given at once,
+    or values that are not integers, are left for `_checked` to accept or reject.
+    """
+    out = dict(changes)
+    if "vb" in changes and "target_vertices" in changes:
+        return out
+    if out.get("domain", params.domain) != DISK:
+        return out                                  # VB is the disk's; other seeds are fixed
+    try:
+        vb = int(out.get("vb", params.vb))
+        target = int(out.get("target_vertices", params.target_vertices))
+    except (TypeError, ValueError):
+        return out
+    if target > vb:
+        return out
+    if "target_vertices" in changes and target - 1 >= 3:
+        out["vb"] = target - 1
+    elif "vb" in changes:
+        out["target_vertices"] = vb + 1
+    return out
 
 
 class Controller:
@@ -76,6 +126,7 @@ class Controller:
 
     def __init__(self, **params):
         self.params = _checked(Params(**params))
+        self.uploads: dict[str, qmesh.Domain] = {}
         self._stop = threading.Event()
         self._cache: dict[int, dict] = {}
         self.reset()
@@ -86,7 +137,7 @@ class Controller:
         return self._anisotropy
 
     @property
-    def domain(self) -> qmesh.Polygon:
+    def domain(self) -> qmesh.Domain:
         return self._domain
 
     @property
@@ -101,11 +152,63 @@ class Controller:
         Q = self.q
         return {"q11": float(Q[0, 0]), "q12": float(Q[0, 1]), "q22": float(Q[1, 1])}
 
+    def make_domain(self, p: Params | None = None) -> qmesh.Domain:
+        """The domain named by the parameters: the VB-gon, a named shape or an uploaded file.
+
+        QmeshError when the name is unknown or the target does not exceed the domain's seeds.
+        """
+        p = self.params if p is None else p
+        if p.domain == DISK:
+            domain = qmesh.Disk(p.vb)
+        elif p.domain in domains.NAMED:
+            domain = domains.NAMED[p.domain]()
+        elif p.domain.startswith(FILE_PREFIX) and p.domain[len(FILE_PREFIX):] in self.uploads:
+            domain = self.uploads[p.domain[len(FILE_PREFIX):]]
+        else:
+            raise QmeshError(f"domain must be one of {domain_names(self.uploads)}, "
+                             f"got {p.domain!r}")
+        seeds = len(domain.seeds)
+        if p.target_vertices <= seeds:
+            raise QmeshError(f"target_vertices ({p.target_vertices}) must exceed the "
+                             f"{seeds} seed points of the domain {p.domain!r}")
+        return domain
+
+    def add_upload(self, name: str, content) -> str:
+        """Read an uploaded polygon file (CSV or GeoJSON, by its name's suffix) and mesh it.
+
+        Returns the new domain's name ("file: <name>"); a bad file raises QmeshError and
+        changes nothing.
+        """
+        domain = polygon_file.domain_from_text(content, name)
+        key = FILE_PREFIX + name
+        old = self.uploads.get(name)
+        self.uploads[name] = domain
+        try:
+            if key == self.params.domain:
+                self.reset()                       # the same name uploaded again: new rings
+            else:
+                self.set_params(domain=key)
+        except QmeshError:
+            if old is None:
+                del self.uploads[name]
+            else:
+                self.uploads[name] = old
+            raise
+        return key
+
+    def make_anisotropy(self, p: Params | None = None) -> qmesh.Anisotropy:
+        """Constant Q from k1, k2, angle; or s(x, y) from its text (parsed, never run: a bad
+        text raises QmeshError pointing at the offending part)."""
+        p = self.params if p is None else p
+        if p.q_mode == "expression":
+            return qmesh.Anisotropy.from_expression(p.s_text)
+        return qmesh.Anisotropy.constant(q_matrix(p.k1, p.k2, p.angle))
+
     def reset(self) -> None:
         """Start the run again from its initial triangulation with the current parameters."""
         p = self.params
-        self._anisotropy = qmesh.Anisotropy.constant(self.q)
-        self._domain = qmesh.Disk(p.vb)
+        self._anisotropy = self.make_anisotropy(p)
+        self._domain = self.make_domain(p)
         self._gen = qmesh.iterate(self._domain, self._anisotropy,
                                   target_vertices=p.target_vertices, alpha=p.alpha, seed=p.seed)
         self.history: list[qmesh.Step] = []
@@ -178,14 +281,18 @@ class Controller:
     def set_params(self, **changes) -> bool:
         """Change parameters; any change restarts the run. False (and no restart) if nothing changed.
 
+        VB and the target are adjusted together (`reconcile`): the one changed wins.
         Bad names or values raise QmeshError and leave the controller as it was.
         """
         unknown = set(changes) - set(PARAMS)
         if unknown:
             raise QmeshError(f"unknown parameter(s) {sorted(unknown)}; known: {PARAMS}")
+        changes = reconcile(self.params, changes)
         new = _checked(Params(**{**self.params.__dict__, **changes}))
         if new == self.params:
             return False
+        self.make_domain(new)                      # a bad domain or target: nothing changes
+        self.make_anisotropy(new)                  # a bad s(x, y): nothing changes
         old, self.params = self.params, new
         try:
             self.reset()
@@ -209,6 +316,9 @@ class Controller:
             row = _stats_row(step)
             if not quick:
                 try:
+                    if not self._anisotropy.is_constant:
+                        row["q_nonnegative_sh"] = sh_nonnegative_fraction(step.mesh,
+                                                                          self._anisotropy)
                     row["q_nonnegative"] = measure.q_nonnegative_fraction(step.mesh,
                                                                           self._anisotropy)
                     row["kappa2"] = measure.condition_number(step.mesh, self._anisotropy)
@@ -227,6 +337,41 @@ class Controller:
                 "n_vertices": [r["n_vertices"] for r in rows]}
 
 
+def sh_nonnegative_fraction(mesh, anisotropy, rtol: float = 1e-9) -> float:
+    """Share of interior edges with q_ij ≥ 0 for s_h, the piecewise-linear interpolant of s.
+
+    For Q_h = adj ∇²s_h the weight of edge ij is its length times the jump of ∂s_h/∂n across
+    it ((2.74)–(2.75)): q_ij ≥ 0 exactly where the lifted facets meet convexly, which the
+    Q-Delaunay connectivity (the lower convex hull) guarantees after a triangulate stage.
+    Jumps above −rtol·max|jump| count as ≥ 0. 1.0 when there is no interior edge.
+    """
+    P, T = mesh.points, mesh.triangles
+    if len(T) == 0:
+        return 1.0
+    z = np.asarray(anisotropy.s(P), dtype=float)
+    A = np.stack([P[T[:, 1]] - P[T[:, 0]], P[T[:, 2]] - P[T[:, 0]]], axis=1)      # (M, 2, 2)
+    dz = np.stack([z[T[:, 1]] - z[T[:, 0]], z[T[:, 2]] - z[T[:, 0]]], axis=1)
+    grad = np.linalg.solve(A, dz[:, :, None])[:, :, 0]                          # ∇s_h per T
+    he = T[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)                  # half-edges, 3 per triangle
+    tri = np.repeat(np.arange(len(T)), 3)
+    opposite = T[:, [2, 0, 1]].ravel()                            # the third vertex of each
+    key = np.sort(he, axis=1)
+    _, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    inverse = inverse.ravel()
+    interior = counts[inverse] == 2
+    order = np.argsort(inverse[interior], kind="stable")
+    h = np.flatnonzero(interior)[order].reshape(-1, 2)             # the two half-edges per edge
+    if len(h) == 0:
+        return 1.0
+    a, b = P[he[h[:, 0], 0]], P[he[h[:, 0], 1]]
+    n = np.column_stack([b[:, 1] - a[:, 1], a[:, 0] - b[:, 0]])   # normal to the edge
+    away = np.einsum("ij,ij->i", n, P[opposite[h[:, 0]]] - a) > 0
+    n[away] *= -1                                                  # from the first triangle out
+    jump = np.einsum("ij,ij->i", grad[tri[h[:, 1]]] - grad[tri[h[:, 0]]], n)
+    scale = np.abs(jump).max()
+    return float(np.mean(jump >= -rtol * (scale if scale > 0 else 1.0)))
+
+
 def _stats_row(step) -> dict:
     """The status numbers a Step carries itself (no stiffness matrix needed)."""
     st = step.stats
@@ -234,6 +379,7 @@ def _stats_row(step) -> dict:
             "n_vertices": st.n_vertices, "n_triangles": st.n_triangles,
             "energy": st.energy, "min_quality": st.min_quality,
             "mean_quality": st.mean_quality, "q_nonnegative": None, "kappa2": None,
+            "q_nonnegative_sh": None,
             "added": 0 if step.added is None else len(step.added),
             "converged": step.converged}
 
@@ -246,5 +392,7 @@ def status_text(s: dict) -> str:
             f"E = {num(s['energy'], '.4g')} · quality min {num(s['min_quality'], '.3f')} "
             f"mean {num(s['mean_quality'], '.3f')} · q_ij ≥ 0: "
             f"{num(None if s['q_nonnegative'] is None else 100 * s['q_nonnegative'], '.1f')}% · "
+            + ("" if s.get("q_nonnegative_sh") is None else
+               f"for s_h: {100 * s['q_nonnegative_sh']:.1f}% · ") +
             f"κ2 = {num(s['kappa2'], '.3g')}"
             + (" · converged" if s["converged"] else ""))

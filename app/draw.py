@@ -9,7 +9,9 @@ from __future__ import annotations
 import numpy as np
 import pyvista as pv
 
-from . import scene
+from qmesh.errors import QmeshError
+
+from . import scene, system
 
 BACKGROUND = "white"
 MESH_FACE = "#e9edf2"
@@ -25,16 +27,36 @@ Q_SIGN_LINES = (("q_boundary", 0, "#7f7f7f", 1), ("q_positive", 1, "#1a7f37", 1)
 QUALITY_CMAP = "viridis"
 SCALAR_TITLES = {"quality": "quality", "metric_area": "metric area"}
 VIEWS = ("lifted", "mesh", "quality")
+EDGE_MODES = ("auto", "on", "off")
+EDGE_FULL_PX = 6.0         # auto: edges drawn dark while a typical edge spans this many pixels,
+EDGE_THIN_PX = 3.0         # light down to this many, hidden below (they would only darken faces)
+EDGE_LIGHT = "#a0a0a0"
 WINDOW_SIZE = (520, 480)
 SPHERE_LIMIT = 2000        # above this many lifted vertices, flat points (spheres cost ~40% more)
 
 
 def _put(plotter: pv.Plotter, name: str, mesh: pv.PolyData | None, **kwargs) -> None:
-    """Add `mesh` under `name`, replacing the actor of that name; drop it when mesh is empty."""
+    """Show `mesh` under `name`; drop the actor of that name when mesh is empty.
+
+    An actor drawn last time with the same options only gets the new data (its mapper's input):
+    `add_mesh` builds a new actor, mapper and lookup table, ~5 ms each, eleven times per frame.
+    """
+    looks = plotter.__dict__.setdefault("_qmesh_looks", {})
     if mesh is None or mesh.n_points == 0:
         plotter.remove_actor(name, render=False)
+        looks.pop(name, None)
+        return
+    look = repr(sorted(kwargs.items()))
+    actor = plotter.actors.get(name)
+    scalars = kwargs.get("scalars")
+    if actor is not None and looks.get(name) == look and (
+            scalars is None or scalars in mesh.cell_data or scalars in mesh.point_data):
+        if scalars is not None:
+            mesh.set_active_scalars(scalars, preference=kwargs.get("preference", "cell"))
+        actor.mapper.SetInputData(mesh)
         return
     plotter.add_mesh(mesh, name=name, reset_camera=False, render=False, **kwargs)
+    looks[name] = look
 
 
 def draw_lifted(plotter: pv.Plotter, view: scene.LiftedScene) -> None:
@@ -59,18 +81,26 @@ def draw_projected(plotter: pv.Plotter, view: scene.ProjectedScene) -> None:
          render_points_as_spheres=True, show_scalar_bar=False)
 
 
-def draw_quality(plotter: pv.Plotter, view: scene.QualityScene) -> None:
-    """Triangles coloured by the chosen cell scalar with a scalar bar, optional q_ij-sign edges."""
+def draw_quality(plotter: pv.Plotter, view: scene.QualityScene,
+                 scalar_bar: bool = True) -> None:
+    """Triangles coloured by the chosen cell scalar, optional q_ij-sign edges.
+
+    `scalar_bar=False` leaves the legend to the page (the app and the widget draw it beside
+    the view, where it never covers the mesh); still images keep VTK's bar at the right edge.
+    """
     title = SCALAR_TITLES[view.scalars]
-    for other in set(plotter.scalar_bars.keys()) - {title}:
+    keep = {title} if scalar_bar and plotter.__dict__.get("_qmesh_clim") == view.clim else set()
+    for other in set(plotter.scalar_bars.keys()) - keep:     # a bar keeps its first range
         plotter.remove_scalar_bar(other, render=False)
+    plotter.__dict__["_qmesh_clim"] = view.clim
     _put(plotter, "triangles", view.triangles, scalars=view.scalars, preference="cell",
          cmap=QUALITY_CMAP, clim=view.clim, show_edges=view.edges is None, edge_color=EDGE,
-         lighting=False, scalar_bar_args={"title": title, "vertical": True,
-                                          "position_x": 0.86, "position_y": 0.2,
-                                          "width": 0.05, "height": 0.6, "color": "black",
-                                          "n_labels": 3, "fmt": "%.2g",
-                                          "title_font_size": 12, "label_font_size": 11})
+         lighting=False, show_scalar_bar=scalar_bar,
+         scalar_bar_args={"title": title, "vertical": True,
+                          "position_x": 0.86, "position_y": 0.2,
+                          "width": 0.05, "height": 0.6, "color": "black",
+                          "n_labels": 3, "fmt": "%.2g",
+                          "title_font_size": 12, "label_font_size": 11})
     edges = None
     if view.edges is not None:
         edges = view.edges.copy()
@@ -81,8 +111,52 @@ def draw_quality(plotter: pv.Plotter, view: scene.QualityScene) -> None:
         _put(plotter, name, part, color=colour, line_width=width, show_scalar_bar=False)
 
 
+def typical_edge(step) -> float:
+    """A short typical edge length of the mesh (the first quartile of all triangle sides).
+
+    The quartile, not the mean: with an anisotropic Q the short sides set how crowded edges look.
+    """
+    P, T = step.mesh.points, step.mesh.triangles
+    if len(T) == 0:
+        return 0.0
+    sides = np.linalg.norm(P[T] - P[np.roll(T, -1, axis=1)], axis=2)
+    return float(np.percentile(sides, 25))
+
+
+def pixels_per_unit(plotter: pv.Plotter) -> float:
+    """Screen pixels per world unit at the focal point of the plotter's camera."""
+    cam = plotter.renderer.GetActiveCamera()
+    height = plotter.render_window.GetSize()[1] or WINDOW_SIZE[1]
+    if cam.GetParallelProjection():
+        visible = 2.0 * cam.GetParallelScale()
+    else:
+        visible = 2.0 * cam.GetDistance() * np.tan(np.deg2rad(cam.GetViewAngle()) / 2)
+    return height / visible if visible > 0 else 0.0
+
+
+def edge_look(mode: str, edge_pixels: float) -> str | None:
+    """"dark", "light" or None (hidden) for edges spanning `edge_pixels` on screen in `mode`."""
+    if mode not in EDGE_MODES:
+        raise QmeshError(f"edges must be one of {EDGE_MODES}, got {mode!r}")
+    if mode == "on":
+        return "dark"
+    if mode == "off":
+        return None
+    if edge_pixels >= EDGE_FULL_PX:
+        return "dark"
+    return "light" if edge_pixels >= EDGE_THIN_PX else None
+
+
+def _narrow(plotter: pv.Plotter) -> float:
+    """Width / height when the view is taller than wide, else 1: VTK fits a scene to the
+    height, so a narrow view must zoom out by this much to show all of it."""
+    w, h = plotter.render_window.GetSize()
+    return min(1.0, w / h) if w > 0 and h > 0 else 1.0
+
+
 def new_plotter(window_size=WINDOW_SIZE) -> pv.Plotter:
     """An off-screen plotter without multisampling: MSAA costs ~4× per frame on llvmpipe."""
+    system.require_rendering()
     plotter = pv.Plotter(off_screen=True, window_size=list(window_size))
     plotter.render_window.SetMultiSamples(0)
     plotter.set_background(BACKGROUND)
@@ -97,42 +171,107 @@ class ViewSet:
     user's zoom survives stepping through the algorithm.
     """
 
-    def __init__(self, window_size=WINDOW_SIZE):
+    def __init__(self, window_size=WINDOW_SIZE, scalar_bar: bool = True):
         self.plotters = {name: new_plotter(window_size) for name in VIEWS}
         self.plotters["quality"].renderer.camera = self.plotters["mesh"].renderer.camera
+        for plotter in self.plotters.values():
+            plotter.renderer.camera_set = True    # else pyvista resets it on a first render
+        self.scalar_bar = scalar_bar
+        self.edges = "auto"
+        self.top_views = ("mesh", "quality")   # the shown views the shared camera is fitted to
+        self.edge_length = 0.0
+        self.legend: dict = {}
         self._drawn = False
         self._z_scale = None
+        self._domain_key = None
+        for name, plotter in self.plotters.items():
+            plotter.render_window.AddObserver("WindowResizeEvent",
+                                              lambda *_, n=name: self._resized(n))
+
+    def _resized(self, name: str) -> None:
+        """A view changed size (the browser laid it out): fit its picture to the new shape."""
+        if not self._drawn:
+            return
+        if name == "lifted":
+            self.fit_lifted()
+        else:
+            self.fit_top()
+        self.apply_edges()
 
     def draw(self, step, anisotropy, *, z_scale: float = 1.0, colour_by: str = "quality",
-             q_sign_edges: bool = False, domain=None, arrow_scale: float = 1.0) -> None:
+             q_sign_edges: bool = False, domain=None, arrow_scale: float = 1.0,
+             edges: str = "auto") -> None:
+        """Redraw the three views from `step`; `edges` is "auto" (by density), "on" or "off"."""
+        edge_look(edges, 0.0)                           # QmeshError for an unknown mode
         p = self.plotters
         draw_lifted(p["lifted"], scene.lifted(step, anisotropy, z_scale, domain=domain))
         draw_projected(p["mesh"], scene.projected(step, arrow_scale=arrow_scale))
-        draw_quality(p["quality"], scene.quality(step, anisotropy, colour_by, q_sign_edges))
-        if not self._drawn:
+        q = scene.quality(step, anisotropy, colour_by, q_sign_edges)
+        draw_quality(p["quality"], q, scalar_bar=self.scalar_bar)
+        self.legend = {"title": SCALAR_TITLES[q.scalars], "clim": tuple(map(float, q.clim)),
+                       "q_sign_edges": q.edges is not None, "n_negative": q.n_negative}
+        key = None if domain is None else tuple(np.asarray(r).tobytes() for r in domain.rings)
+        if not self._drawn or key != self._domain_key:      # first draw, or a new domain
             self.reset_cameras()
             self._drawn = True
+            self._domain_key = key
         elif z_scale != self._z_scale:
             self.fit_lifted()
         self._z_scale = z_scale
+        self.edges = edges
+        self.edge_length = typical_edge(step)
+        self.apply_edges()
+
+    def apply_edges(self) -> dict:
+        """Show, lighten or hide the edges of each view for its current zoom; returns the looks.
+
+        Called after every draw and after the user zooms (the app's camera observers).
+        """
+        looks = {}
+        targets = {"lifted": ("facets", "vertices"), "mesh": ("mesh",), "quality": ("triangles",)}
+        for name, actors in targets.items():
+            plotter = self.plotters[name]
+            look = edge_look(self.edges, self.edge_length * pixels_per_unit(plotter))
+            looks[name] = look
+            for actor_name in actors:
+                actor = plotter.actors.get(actor_name)
+                if actor is None:
+                    continue
+                if actor_name == "vertices":
+                    actor.SetVisibility(look == "dark")
+                    continue
+                if actor_name == "triangles" and self.legend.get("q_sign_edges"):
+                    continue                             # the q_ij-sign lines are the edges
+                prop = actor.GetProperty()
+                prop.SetEdgeVisibility(look is not None)
+                prop.SetEdgeColor(pv.Color(EDGE if look == "dark" else EDGE_LIGHT).float_rgb)
+        return looks
 
     def reset_cameras(self) -> None:
         """Lifted: seen from below, where the lower hull faces (s_h ≥ s lies behind the
         translucent s); mesh and quality: top-down with a parallel projection."""
         self.plotters["lifted"].view_vector((0.9, -1.7, -0.7), viewup=(0, 0, 1))
         self.fit_lifted()
-        top = self.plotters["mesh"]
-        top.enable_parallel_projection()
+        self.plotters["mesh"].enable_parallel_projection()
         self.plotters["quality"].enable_parallel_projection()
-        top.view_xy(render=False)
-        top.reset_camera(render=False)
-        top.camera.zoom(0.9)
+        self.plotters["mesh"].view_xy(render=False)
+        self.fit_top()
+
+    def fit_top(self) -> None:
+        """Fit the shared top-down camera of the mesh and quality views to the domain."""
+        top = self.plotters["mesh"]
+        top.reset_camera(render=False)                  # centred on the scene
+        x0, x1, y0, y1 = top.bounds[:4]
+        sizes = [self.plotters[n].render_window.GetSize() for n in self.top_views]
+        aspect = min((w / h if w > 0 and h > 0 else 1.0) for w, h in sizes)   # shared camera
+        margin = 1.45 if self.scalar_bar else 1.08       # VTK's bar sits at 0.86–0.91 of the width
+        top.camera.parallel_scale = margin * max((y1 - y0) / 2, (x1 - x0) / 2 / aspect)
 
     def fit_lifted(self) -> None:
         """Fit the lifted view to its scene, keeping its direction (after a z-scale change)."""
         lifted = self.plotters["lifted"]
         lifted.reset_camera(render=False)
-        lifted.camera.zoom(1.2)
+        lifted.camera.zoom(1.05 * _narrow(lifted))
 
     def render(self) -> None:
         """Render all three windows now.

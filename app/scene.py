@@ -4,7 +4,7 @@ Pure functions, no plotter, no server, no widgets, so they run off-screen in tes
 by the trame app and the Jupyter widget (ARCHITECTURE.md "qmesh_view.scene").
 
 - `lifted`: the chapter's picture of the Q-Delaunay connectivity (Section 2.3.1, (2.74)–(2.75)):
-  the smooth convex s(x) over the domain, the vertices lifted onto it, and the facets of the
+  the smooth convex s(x) over the domain Ω (holes left open), the vertices lifted onto it, and the facets of the
   piecewise-linear interpolant s_h (one facet per mesh triangle; after a triangulate stage they
   are the lower convex hull of the lifted vertices).
 - `projected`: the mesh in the plane, the fixed seed vertices, the points the last insert stage
@@ -18,11 +18,10 @@ Every array operation is vectorised over vertices, triangles or edges.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
 
 import numpy as np
 import pyvista as pv
-from scipy.spatial import ConvexHull, Delaunay
+from scipy.spatial import ConvexHull, Delaunay, cKDTree
 
 from qmesh import measure
 from qmesh.errors import QmeshError
@@ -98,48 +97,73 @@ def arrows_polydata(start: np.ndarray, vec: np.ndarray, head: float = 0.3,
     return poly
 
 
-def domain_outline(step, domain=None) -> np.ndarray:
-    """The boundary polygon (n, 2), counter-clockwise: the domain's corners, or the mesh's hull.
-
-    Every domain qmesh supports is convex, so the convex hull of the mesh's points is the domain.
-    """
+def domain_rings(step, domain=None) -> tuple[np.ndarray, ...]:
+    """The boundary rings of Ω, (k, 2) each: the domain's (outline counter-clockwise, holes
+    clockwise), or without a domain the convex hull of the mesh's points."""
     if domain is not None:
-        return np.asarray(domain.points, dtype=float)
+        return tuple(np.asarray(r, dtype=float) for r in domain.rings)
     P = step.mesh.points
-    return P[ConvexHull(P).vertices]
+    return (P[ConvexHull(P).vertices],)
 
 
-def sample_domain(outline: np.ndarray,
-                  resolution: int = SURFACE_RESOLUTION) -> tuple[np.ndarray, np.ndarray]:
-    """A triangulation (points, triangles) filling the convex polygon `outline`.
+def sample_domain(rings, resolution: int = SURFACE_RESOLUTION,
+                  contains=None) -> tuple[np.ndarray, np.ndarray]:
+    """A triangulation (points, triangles) filling the domain bounded by `rings`.
 
-    Boundary points on every edge plus the grid points strictly inside, Delaunay-triangulated:
-    the smooth surface is drawn on it. Cached: the domain stays the same for a whole run.
+    Points along every ring plus the grid points inside Ω (by `contains`, a point-in-domain
+    test) and clear of the boundary, Delaunay-triangulated; triangles whose centroid lies
+    outside Ω are dropped, so holes stay open and re-entrant corners are not bridged. The
+    smooth surface is drawn on it. Cached: the domain stays the same for a whole run.
     """
-    outline = np.ascontiguousarray(outline, dtype=float)
-    return _sample_domain(outline.tobytes(), len(outline), int(resolution))
+    rings = tuple(np.ascontiguousarray(r, dtype=float) for r in rings)
+    key = (b"".join(r.tobytes() for r in rings), tuple(len(r) for r in rings), int(resolution))
+    hit = _samples.get(key)
+    if hit is None:
+        hit = _sample_domain(rings, int(resolution), contains)
+        if len(_samples) >= 8:
+            _samples.pop(next(iter(_samples)))
+        _samples[key] = hit
+    return hit
 
 
-@lru_cache(maxsize=8)
-def _sample_domain(key: bytes, n: int, resolution: int) -> tuple[np.ndarray, np.ndarray]:
-    outline = np.frombuffer(key, dtype=float).reshape(n, 2)
-    lo, hi = outline.min(axis=0), outline.max(axis=0)
+_samples: dict = {}
+
+
+def _inside_rings(rings, P: np.ndarray) -> np.ndarray:
+    """Even-odd point-in-polygon test against all rings at once (vectorised over points)."""
+    inside = np.zeros(len(P), dtype=bool)
+    for ring in rings:
+        a, b = ring, np.roll(ring, -1, axis=0)
+        x, y = P[:, None, 0], P[:, None, 1]
+        crosses = (a[None, :, 1] > y) != (b[None, :, 1] > y)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = (y - a[None, :, 1]) / (b[None, :, 1] - a[None, :, 1])
+        xc = a[None, :, 0] + t * (b[None, :, 0] - a[None, :, 0])
+        inside ^= (np.sum(crosses & (x < xc), axis=1) % 2).astype(bool)
+    return inside
+
+
+def _sample_domain(rings, resolution: int, contains) -> tuple[np.ndarray, np.ndarray]:
+    contains = contains or (lambda P: _inside_rings(rings, P))
+    allp = np.concatenate(rings)
+    lo, hi = allp.min(axis=0), allp.max(axis=0)
     h = (hi - lo).max() / (resolution - 1)
-    nxt = np.roll(outline, -1, axis=0)
-    counts = np.maximum(1, np.ceil(np.hypot(*(nxt - outline).T) / h).astype(int))
-    seg = np.repeat(np.arange(len(outline)), counts)
-    starts = np.repeat(np.cumsum(counts) - counts, counts)
-    t = (np.arange(counts.sum()) - starts) / counts[seg]     # 0 ≤ t < 1 along each edge
-    boundary = outline[seg] + t[:, None] * (nxt - outline)[seg]
+    boundary = []
+    for ring in rings:
+        nxt = np.roll(ring, -1, axis=0)
+        counts = np.maximum(1, np.ceil(np.hypot(*(nxt - ring).T) / h).astype(int))
+        seg = np.repeat(np.arange(len(ring)), counts)
+        starts = np.repeat(np.cumsum(counts) - counts, counts)
+        t = (np.arange(counts.sum()) - starts) / counts[seg]     # 0 ≤ t < 1 along each edge
+        boundary.append(ring[seg] + t[:, None] * (nxt - ring)[seg])
+    boundary = np.concatenate(boundary)
     gx, gy = np.meshgrid(np.arange(lo[0] + h, hi[0], h), np.arange(lo[1] + h, hi[1], h))
     G = np.column_stack([gx.ravel(), gy.ravel()])
-    # keep grid points at least h/3 inside every edge (the outline is counter-clockwise)
-    tangent = (nxt - outline) / np.hypot(*(nxt - outline).T)[:, None]
-    inside = (tangent[None, :, 0] * (G[:, None, 1] - outline[None, :, 1])
-              - tangent[None, :, 1] * (G[:, None, 0] - outline[None, :, 0]))
-    G = G[np.all(inside > h / 3, axis=1)]
+    near, _ = cKDTree(boundary).query(G)          # boundary samples are ≤ h apart
+    G = G[(near > h / 2) & np.asarray(contains(G), dtype=bool)]
     P = np.concatenate([boundary, G])
     T = Delaunay(P).simplices
+    T = T[np.asarray(contains(P[T].mean(axis=1)), dtype=bool)]
     P.setflags(write=False)
     T.setflags(write=False)
     return P, T
@@ -177,13 +201,14 @@ def lifted(step, anisotropy, z_scale: float = 1.0, *, domain=None,
     if not np.isfinite(z_scale) or z_scale <= 0:
         raise QmeshError(f"z_scale must be finite and > 0, got {z_scale}")
     P, T = step.mesh.points, step.mesh.triangles
-    outline = domain_outline(step, domain)
-    SP, ST = sample_domain(outline, resolution)
+    rings = domain_rings(step, domain)
+    SP, ST = sample_domain(rings, resolution,
+                           None if domain is None else lambda X: domain.contains(X))
     s_surface = np.asarray(anisotropy.s(SP), dtype=float)
     s_vertex = np.asarray(anisotropy.s(P), dtype=float)
     s_min = min(s_surface.min(), s_vertex.min())
     s_max = max(s_surface.max(), s_vertex.max())
-    width = float(np.ptp(outline, axis=0).max())
+    width = float(np.ptp(np.concatenate(rings), axis=0).max())
     z_surface = height_map(s_surface, s_min, s_max, width, z_scale)
     z_vertex = height_map(s_vertex, s_min, s_max, width, z_scale)
     # faces oriented downwards: the lower hull is seen from below, through the translucent s

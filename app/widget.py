@@ -33,13 +33,15 @@ import os
 import sys
 import threading
 import types
+from html import escape as html_escape
 
 import ipywidgets as w
 import numpy as np
 
 from qmesh.errors import QmeshError
 
-from .controller import Controller, status_text
+from . import delivery, legend
+from .controller import DISK, S_PRESETS, Controller, domain_names, status_text
 from .draw import VIEWS, ViewSet
 
 BACKENDS = ("auto", "trame", "static")
@@ -136,13 +138,13 @@ class QmeshWidget(w.VBox):
         self.backend = choose_backend(backend)
         self.main = MainThread(loop)
         self.view_size = tuple(int(v) for v in view_size)
-        self.views = ViewSet(self.view_size)
+        self.views = ViewSet(self.view_size, scalar_bar=False)   # legends are HTML, beside
         self.running = False
         self._run_id = 0
         self._syncing = False
         self._build_controls()
         self.views.draw(self.controller.current, self.controller.anisotropy,
-                        domain=self.controller.domain)
+                        **self._view_options())
         self.view_widgets = (self._trame_views() if self.backend == "trame"
                              else self._static_views())
         self.children = self._layout()
@@ -160,7 +162,19 @@ class QmeshWidget(w.VBox):
             "vb": _slider(w.IntSlider, "VB", p.vb, min=3, max=256),
             "target_vertices": _slider(w.IntSlider, "target vertices", p.target_vertices,
                                        min=3, max=5000),
+            "domain": w.Dropdown(options=domain_names(), value=p.domain, description="domain",
+                                 style=SLIDER_STYLE),
+            "q_mode": w.ToggleButtons(options=[("constant Q", "constant"),
+                                               ("s(x, y)", "expression")],
+                                      value=p.q_mode, description="conductivity",
+                                      style={"button_width": "7em", **SLIDER_STYLE}),
         }
+        self.s_text = w.Combobox(value=p.s_text, options=list(S_PRESETS), description="s(x, y)",
+                                 ensure_option=False, continuous_update=False,
+                                 style=SLIDER_STYLE, layout=w.Layout(width="26em"))
+        self.s_error = w.HTML()
+        self.upload = w.FileUpload(accept=".csv,.txt,.geojson,.json", multiple=False,
+                                   description="polygon file")
         self.buttons = {name: w.Button(description=name.capitalize(),
                                        layout=w.Layout(width="6.5em"))
                         for name in ("step", "iterate", "run", "reset")}
@@ -169,6 +183,11 @@ class QmeshWidget(w.VBox):
         self.readout = w.HTML()
         self.status = w.HTML()
         self.error = w.HTML()
+        self.edges = w.ToggleButtons(options=["auto", "on", "off"], value="auto",
+                                     description="edges", style={"button_width": "4em"},
+                                     tooltips=["drawn while they can be told apart",
+                                               "always drawn", "never drawn"])
+        self.legends = {name: w.HTML() for name in VIEWS}
 
     def _static_views(self) -> dict:
         width, height = self.view_size
@@ -194,10 +213,14 @@ class QmeshWidget(w.VBox):
 
     def _layout(self) -> list:
         s, b = self.sliders, self.buttons
-        views = w.HBox([w.VBox([w.HTML(f"<b>{VIEW_TITLES[name]}</b>"), self.view_widgets[name]])
+        views = w.HBox([w.VBox([w.HTML(f"<b>{VIEW_TITLES[name]}</b>"), self.view_widgets[name],
+                                self.legends[name]])
                         for name in VIEWS])
-        return [w.HBox([w.VBox([s["k1"], s["k2"], s["angle"], self.readout]),
-                        w.VBox([s["vb"], s["target_vertices"]])]),
+        self._constant_box = w.VBox([s["k1"], s["k2"], s["angle"], self.readout])
+        self._s_box = w.VBox([self.s_text, self.s_error])
+        return [w.HBox([w.VBox([s["q_mode"], self._constant_box, self._s_box]),
+                        w.VBox([s["domain"], self.upload, s["vb"], s["target_vertices"],
+                                self.edges])]),
                 w.HBox([*b.values(), self.history]),
                 self.status, self.error, views]
 
@@ -206,6 +229,9 @@ class QmeshWidget(w.VBox):
         for name, slider in self.sliders.items():
             slider.observe(on(functools.partial(self._on_param, name)), names="value")
         self.history.observe(on(self._on_history), names="value")
+        self.edges.observe(on(lambda _change: self._show()), names="value")
+        self.upload.observe(on(self._on_upload), names="value")
+        self.s_text.observe(on(self._on_s_text), names="value")
         self.buttons["step"].on_click(on(lambda _: self._move(self.controller.step)))
         self.buttons["iterate"].on_click(on(lambda _: self._move(self.controller.iterate)))
         self.buttons["run"].on_click(on(self._on_run))
@@ -224,28 +250,50 @@ class QmeshWidget(w.VBox):
         self.error.value = f"<span style='color:#c62828'>{error}</span>"
 
     def _on_param(self, name: str, change) -> None:
-        """Any parameter change restarts the run; bad values leave the old run in place."""
+        """Any parameter change restarts the run; VB and the target move together
+        (`controller.reconcile`); a refused value is put back on its control."""
         if self._syncing:
             return
-        changes = {name: change["new"]}
-        if name == "vb" and self.controller.params.target_vertices <= change["new"]:
-            changes["target_vertices"] = change["new"] + 1   # the mesher needs N > VB
         before = self.controller.params
-        target = changes.get("target_vertices", before.target_vertices)
-        vb = changes.get("vb", before.vb)
-        if target <= vb:                                    # the mesher's rule, checked first
-            self._report(QmeshError(f"target vertices ({target}) must exceed VB ({vb})"))
-            return
         self._stop()
         try:
-            if self.controller.set_params(**changes):
+            if self.controller.set_params(**{name: change["new"]}):
                 self._show()
+            else:
+                self._sync()
         except QmeshError as e:
             if self.controller.params != before:           # the restart itself failed:
                 self.controller.params = before            # start the old parameters again
                 self.controller.reset()
                 self._show()
             self._report(e)
+
+    def _on_s_text(self, change) -> None:
+        """s(x, y) entered (Enter or a preset): mesh it from the start. A refused text keeps
+        the last mesh and stays in the field, its error in red beside it."""
+        if self._syncing:
+            return
+        self._stop()
+        c = self.controller
+        try:
+            if not c.set_params(q_mode="expression", s_text=change["new"]):
+                c.reset()
+        except QmeshError as e:
+            self.s_error.value = f"<span style='color:#c62828'>{html_escape(str(e))}</span>"
+            return
+        self.s_error.value = ""
+        self._show()
+
+    def _on_upload(self, change) -> None:
+        """A polygon file (CSV or GeoJSON) was uploaded: offer it as a domain and mesh it."""
+        files = change["new"]
+        if self._syncing or not files:
+            return
+        upload = files[0]
+        self._stop()
+        self._guarded(lambda: (self.controller.add_upload(upload["name"],
+                                                          bytes(upload["content"])),
+                               self._show()))
 
     def _on_history(self, change) -> None:
         if self._syncing or self.running or int(change["new"]) == self.controller.index:
@@ -304,18 +352,30 @@ class QmeshWidget(w.VBox):
     def _show(self, quick: bool = False) -> None:
         """Draw the shown stage, update the controls, and send the new pictures."""
         c = self.controller
-        self.views.draw(c.current, c.anisotropy, domain=c.domain)
+        self.views.draw(c.current, c.anisotropy, **self._view_options())
+        for name, html in self.legends.items():
+            html.value = legend.html(name, self.views.legend)
         self.error.value = ""
         self._sync(quick)
         self._push()
+
+    def _view_options(self) -> dict:
+        return dict(domain=self.controller.domain, edges=self.edges.value)
 
     def _sync(self, quick: bool = True) -> None:
         """Controls ← model, without their observers reacting."""
         c = self.controller
         self._syncing = True
         try:
+            self.sliders["domain"].options = domain_names(c.uploads)
             for name, slider in self.sliders.items():
                 slider.value = getattr(c.params, name)
+            self.sliders["vb"].disabled = c.params.domain != DISK
+            constant = c.params.q_mode == "constant"
+            self._constant_box.layout.display = None if constant else "none"
+            self._s_box.layout.display = "none" if constant else None
+            if not self.s_error.value:
+                self.s_text.value = c.params.s_text
             last = len(c.history) - 1
             if last >= self.history.max:
                 self.history.max = last
@@ -342,6 +402,7 @@ class QmeshWidget(w.VBox):
                 self.view_widgets[name].value = png(image)
         else:
             for view in self.view_widgets.values():
+                delivery.fast_image_delivery(view.viewer.server)   # once its server runs
                 view.viewer.update()
 
     # ------------------------------------------------------------------ life cycle
@@ -353,8 +414,10 @@ class QmeshWidget(w.VBox):
         """Stop a run, release the plotters and close the widget and its children."""
         self._stop()
         self.views.close()
-        for child in (*self.sliders.values(), *self.buttons.values(), self.history,
-                      self.readout, self.status, self.error, *self.view_widgets.values()):
+        for child in (*self.sliders.values(), *self.buttons.values(), self.history, self.upload,
+                      self.s_text, self.s_error, self._constant_box, self._s_box,
+                      self.readout, self.status, self.error, self.edges,
+                      *self.legends.values(), *self.view_widgets.values()):
             child.close()
         super().close()
 

@@ -1,13 +1,19 @@
-"""Timings of the viewer's two interactive paths (issue 4 targets), printed, never asserted.
+"""Timings of the viewer's interactive paths, printed, never asserted.
 
-1. One stage of Algorithm 2.1 plus the re-render of all three views at ~1e4 vertices (≤ 0.3 s).
-2. A Q slider change at VB = 64: the run restarted with the new Q and redrawn (≤ 1 s); also the
-   whole re-mesh to convergence with the new Q and its redraw.
+1. Server side: one stage of Algorithm 2.1 plus the re-render of all three views at ~1e4 vertices.
+2. Server side: a Q slider change at VB = 64, the run restarted with the new Q and redrawn; also
+   the whole re-mesh to convergence with the new Q and its redraw.
+3. In the browser (issue 12; targets 0.25 s at N ≤ 1,000, 0.6 s at N = 10,000): `qmesh-view
+   --server` driven by Debian's Chromium through Playwright; from the click on Step (or the key
+   press on the k1 slider) to the first changed picture of each view, for remote (server-rendered
+   images) and local (vtk.js in the browser) views. Measured in the page by
+   `tests/view/view_browser.LATENCY_PROBE`, without a screen recorder.
 
     python benchmarks/bench_view.py [--vertices 10000] [--window 520 480] [--repeat 6]
+    python benchmarks/bench_view.py --browser [--modes remote local] [--sizes 212 1000 10000]
 
-Off-screen rendering (Mesa llvmpipe here); the status line's κ2 is timed separately because the
-app computes it in its worker thread after the views are already updated.
+Off-screen rendering (Mesa llvmpipe here, SwiftShader WebGL in Chromium); the status line's κ2 is
+timed separately because the app computes it in its worker thread after the views are updated.
 """
 
 from __future__ import annotations
@@ -15,7 +21,9 @@ from __future__ import annotations
 import argparse
 import os
 import statistics
+import sys
 import time
+from pathlib import Path
 
 os.environ.setdefault("PYVISTA_OFF_SCREEN", "true")
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
@@ -89,15 +97,83 @@ def q_change(window, repeat: int) -> None:
           f"max {max(ts):.3f} s ({full[0][1]} stages, N = {full[0][2]})")
 
 
+VB_FOR = {212: 64, 1000: 128, 10_000: 512}
+
+
+def browser_latency(mode: str, n: int, repeat: int) -> list:
+    """Step clicks and k1 key presses in Chromium; rows (action, N shown, seconds per view)."""
+    tests = Path(__file__).resolve().parents[1] / "tests"
+    sys.path[:0] = [str(tests), str(tests / "view")]
+    import view_browser as b
+    vb = VB_FOR.get(n, max(8, min(512, n // 20)))
+    rows = []
+    with b.qmesh_view_server("--views", mode, "--vb", str(vb), "--target-vertices", str(n)) as url, \
+            b.chromium_page(url) as page:
+        b.wait_drawn(page, timeout=120)
+        b.wait_idle(page, timeout=120)
+        page.evaluate(b.LATENCY_PROBE)
+        page.wait_for_timeout(500)
+        step = page.get_by_role("button", name="Step", exact=True)
+        for _ in range(repeat):
+            if step.is_disabled():
+                break
+            lat = b.click_latency(page, step.click)
+            rows.append(("Step", b.status(page).split(" · ")[2], lat))
+            b.wait_idle(page, timeout=120)
+            page.wait_for_timeout(300)
+        thumb = page.locator("#slider-k1 .v-slider-thumb")
+        for _ in range(max(1, repeat // 2)):
+            thumb.focus()
+            lat = b.click_latency(page, lambda: page.keyboard.press("ArrowRight"))
+            rows.append(("k1 →", b.status(page).split(" · ")[2], lat))
+            b.wait_idle(page, timeout=120)
+            page.wait_for_timeout(300)
+    return rows
+
+
+def browser(modes, sizes, repeat: int) -> None:
+    print("3. in Chromium: from the input event to the first changed picture, seconds "
+          "(all: the slowest view that changed; n/c: the view's picture did not change)")
+    print(f"   {'views':<8}{'target':>7}  {'action':<7}{'N shown':>10}{'lifted':>8}{'mesh':>8}"
+          f"{'quality':>9}{'all':>7}")
+    for n in sizes:
+        for mode in modes:
+            worst = {}
+            for action, shown, lat in browser_latency(mode, n, repeat):
+                # a view whose picture is identical after the click (n/c: e.g. an insert stage
+                # that added nothing leaves the lifted view as it was) has nothing to wait for
+                vals = [v for v in lat.values() if v is not None]
+                slowest = max(vals) if vals else None
+                worst.setdefault(action, []).append(slowest)
+
+                def f(x):
+                    return "  n/c" if x is None else f"{x:.3f}"
+                print(f"   {mode:<8}{n:>7}  {action:<7}{shown:>10}{f(lat['lifted']):>8}"
+                      f"{f(lat['mesh']):>8}{f(lat['quality']):>9}{f(slowest):>7}", flush=True)
+            for action, xs in worst.items():
+                ok = [x for x in xs if x is not None]
+                med = f"{statistics.median(ok):.3f}" if ok else "-"
+                target = 0.25 if n <= 1000 else 0.6
+                print(f"   {mode:<8}{n:>7}  {action:<7} median of the slowest view {med} s, max "
+                      f"{max(ok) if ok else float('nan'):.3f} s over {len(ok)} clicks "
+                      f"(target {target} s; no view changed: {len(xs) - len(ok)})")
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--vertices", type=int, default=10_000)
     p.add_argument("--window", type=int, nargs=2, default=(520, 480))
     p.add_argument("--repeat", type=int, default=6)
+    p.add_argument("--browser", action="store_true", help="only the in-browser latencies (3.)")
+    p.add_argument("--modes", nargs="+", default=["remote", "local"], choices=["remote", "local"])
+    p.add_argument("--sizes", nargs="+", type=int, default=[212, 1000, 10_000])
     a = p.parse_args()
     print(f"load average before: {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
-    stage_at_size(a.vertices, tuple(a.window), a.repeat)
-    q_change(tuple(a.window), a.repeat)
+    if a.browser:
+        browser(a.modes, a.sizes, a.repeat)
+    else:
+        stage_at_size(a.vertices, tuple(a.window), a.repeat)
+        q_change(tuple(a.window), a.repeat)
     print(f"load average after: {os.getloadavg()[0]:.2f}")
 
 

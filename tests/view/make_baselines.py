@@ -1,7 +1,9 @@
 """Write the screenshot baselines into screenshots/ (and, with --app, the README's app.png).
 
     python tests/view/make_baselines.py          # the off-screen view baselines
-    python tests/view/make_baselines.py --app    # also a browser screenshot of the whole app
+    python tests/view/make_baselines.py --app    # also browser screenshots of the whole app:
+                                                 # app.png (the chapter's case) and
+                                                 # app_holes.png (a plate with three holes)
 
 Run it only when the drawing or the mesher changed on purpose, then LOOK at every image written.
 """
@@ -32,12 +34,18 @@ def write_views() -> None:
         print("wrote", path)
 
 
-def write_app(path: Path) -> None:
-    """The whole app in Chromium after Run has taken the chapter's case to convergence."""
+def write_app(path: Path, domain: str | None = None) -> None:
+    """The whole app in Chromium after Run has taken the chapter's case (or the chapter's Q on
+    the named `domain`) to convergence."""
     import view_browser as browser
     with browser.qmesh_view_server() as url, browser.chromium_page(url, (1600, 900)) as page:
         browser.wait_drawn(page)
         browser.wait_idle(page)
+        if domain is not None:
+            old = browser.status(page)
+            page.locator("#select-domain .v-field").click()
+            page.get_by_role("option", name=domain, exact=True).click()
+            browser.settled_status(page, old)
         page.get_by_role("button", name="Run", exact=True).click()
         browser.until(lambda: "converged" in browser.status(page) or None, 180,
                       "the run to converge")
@@ -54,6 +62,7 @@ def main() -> None:
     write_views()
     if args.app:
         write_app(cases.BASELINES / "app.png")
+        write_app(cases.BASELINES / "app_holes.png", "plate with holes")
 
 
 if __name__ == "__main__":

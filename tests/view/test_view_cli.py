@@ -31,3 +31,28 @@ def test_scene_draw_and_controller_do_not_import_trame():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          timeout=120)
     assert out.returncode == 0, out.stdout + out.stderr
+
+
+def test_views_default_to_remote_and_parameters_can_be_given():
+    args = parser().parse_args([])
+    assert (args.views, args.vb, args.target_vertices) == ("remote", 64, 212)
+    args = parser().parse_args(["--views", "local", "--vb", "128", "--target-vertices", "1000"])
+    assert (args.views, args.vb, args.target_vertices) == ("local", 128, 1000)
+
+
+def test_domain_and_s_options():
+    args = parser().parse_args(["--domain", "L-shape", "--s", "exp(x) + y**2"])
+    assert (args.domain, args.s_text) == ("L-shape", "exp(x) + y**2")
+    assert parser().parse_args([]).s_text is None
+
+
+def test_bad_parameters_give_one_error_line_and_exit_2():
+    exe = shutil.which("qmesh-view")
+    for bad, named in ((["--vb", "2"], "3"), (["--domain", "torus"], "torus"),
+                       (["--s", "__import__('os')"], "__import__")):
+        out = subprocess.run([exe, "--server", "--port", "0", *bad], capture_output=True,
+                             text=True, timeout=120)
+        assert out.returncode == 2, bad
+        lines = out.stderr.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith("qmesh-view: error: "), out.stderr
+        assert named in lines[0], lines[0]

@@ -154,3 +154,29 @@ def test_q_sign_edges_cover_every_edge_and_count_negative_weights(steps, chapter
 def test_quality_rejects_unknown_colouring(steps, chapter_run):
     with pytest.raises(QmeshError):
         scene.quality(steps["final"], chapter_run.anisotropy, colour_by="area")
+
+
+@pytest.mark.parametrize("name", ["L-shape", "square with hole", "annulus", "plate with holes"])
+def test_lifted_surface_covers_exactly_the_domain_holes_left_open(name):
+    from qmesh import domains
+    from qmesh_view.controller import Controller
+    c = Controller(domain=name)
+    view = scene.lifted(c.current, c.anisotropy, domain=c.domain)
+    P = view.surface.points[:, :2]
+    F = _faces(view.surface)
+    a, b, d = P[F[:, 0]], P[F[:, 1]], P[F[:, 2]]
+    areas = 0.5 * np.abs((b - a)[:, 0] * (d - a)[:, 1] - (b - a)[:, 1] * (d - a)[:, 0])
+    assert areas.sum() == pytest.approx(domains.NAMED[name]().area, rel=1e-9)
+    assert c.domain.contains((a + b + d) / 3).all()
+    # the facets of s_h sit over the mesh, which fills Ω too
+    assert view.facets.n_cells == c.current.mesh.n_triangles
+
+
+def test_sampling_without_a_domain_uses_the_hull_of_the_mesh(steps):
+    step = steps["final"]
+    rings = scene.domain_rings(step)
+    P, T = scene.sample_domain(rings)
+    hull = ConvexHull(step.mesh.points)
+    a, b, d = P[T[:, 0]], P[T[:, 1]], P[T[:, 2]]
+    area = 0.5 * np.abs((b - a)[:, 0] * (d - a)[:, 1] - (b - a)[:, 1] * (d - a)[:, 0]).sum()
+    assert area == pytest.approx(hull.volume, rel=1e-9)

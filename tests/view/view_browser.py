@@ -32,8 +32,8 @@ def _answers(url: str) -> bool:
 
 
 @contextlib.contextmanager
-def qmesh_view_server(start_timeout: float = 60.0):
-    """Run `qmesh-view --server --port <free>` on 127.0.0.1; yield its URL; always stop it."""
+def qmesh_view_server(*args: str, start_timeout: float = 60.0):
+    """Run `qmesh-view --server --port <free> *args` on 127.0.0.1; yield its URL; always stop it."""
     exe = shutil.which("qmesh-view")
     if exe is None:
         raise RuntimeError("the qmesh-view command is not installed (pip install -e '.[view]')")
@@ -42,7 +42,7 @@ def qmesh_view_server(start_timeout: float = 60.0):
     log = open(ARTIFACTS / f"qmesh-view-server-{port}.log", "wb")
     env = dict(os.environ, PYVISTA_OFF_SCREEN="true",
                VTK_DEFAULT_OPENGL_WINDOW="vtkEGLRenderWindow")
-    proc = subprocess.Popen([exe, "--server", "--port", str(port)], stdout=log,
+    proc = subprocess.Popen([exe, "--server", "--port", str(port), *args], stdout=log,
                             stderr=subprocess.STDOUT, env=env)
     url = f"http://127.0.0.1:{port}/"
     try:
@@ -131,3 +131,78 @@ def save(page, name: str) -> Path:
 
 def page_text(page, selector: str) -> str:
     return page.inner_text(selector).strip()
+
+
+# ----------------------------------------------------------------------------- latency probe
+LATENCY_PROBE = """
+(() => {
+  const now = () => performance.timeOrigin + performance.now();
+  const qv = window.__qv = {input: [], frames: {}};
+  const viewOf = el => { const v = el && el.closest && el.closest('[id^="view-"]');
+                         return v ? v.id.slice(5) : null; };
+  const mark = (name, tag) => {
+    if (!name) return;
+    const list = qv.frames[name] = qv.frames[name] || [];
+    const t = now();
+    if (!list.length || t - list[list.length - 1][0] > 2) list.push([t, tag]);
+  };
+  // local (vtk.js) views: the time WebGL is asked to draw into a view's canvas
+  for (const proto of [WebGLRenderingContext.prototype, WebGL2RenderingContext.prototype])
+    for (const fn of ['drawArrays', 'drawElements']) {
+      const orig = proto[fn];
+      proto[fn] = function (...a) { mark(viewOf(this.canvas), 'gl'); return orig.apply(this, a); };
+    }
+  // remote views: a new image decoded into the view's <img>, with a checksum of its pixels
+  const probe = document.createElement('canvas');
+  probe.width = probe.height = 64;
+  const ctx = probe.getContext('2d', {willReadFrequently: true});
+  document.addEventListener('load', e => {
+    if (e.target.tagName !== 'IMG') return;
+    ctx.drawImage(e.target, 0, 0, 64, 64);
+    const px = ctx.getImageData(0, 0, 64, 64).data;
+    let h = 0;
+    for (let i = 0; i < px.length; i += 1) h = (h * 31 + px[i]) >>> 0;
+    mark(viewOf(e.target), h);
+  }, true);
+  for (const type of ['click', 'keydown'])
+    document.addEventListener(type, e => qv.input.push(performance.timeOrigin + e.timeStamp), true);
+})();
+"""
+"""An init script (`page.add_init_script`) that timestamps, in the page, every input event and
+every new picture of a view: a WebGL draw into its canvas (local views) or a new image in its
+<img> with a pixel checksum (remote views). No screen recorder: it would cost the CPU it measures."""
+
+
+def probe_marks(page) -> dict:
+    """{"input": [epoch ms…], "frames": {view: [[epoch ms, "gl" | checksum], …]}} so far."""
+    return page.evaluate("() => window.__qv")
+
+
+def click_latency(page, action, names=VIEWS, timeout: float = 10.0) -> dict:
+    """Seconds from the input event of `action()` to the first changed picture in each view.
+
+    A remote view's picture counts as changed when its checksum differs from the one shown
+    before the input; a local view's on its first WebGL draw after it. Views that did not
+    change within `timeout` are None.
+    """
+    before = probe_marks(page)
+    last = {n: (before["frames"].get(n) or [[0, None]])[-1][1] for n in names}
+    n_input = len(before["input"])
+    action()
+    deadline = time.monotonic() + timeout
+    out: dict = {}
+    while time.monotonic() < deadline:
+        marks = probe_marks(page)
+        if len(marks["input"]) > n_input:
+            t_in = marks["input"][n_input]
+            for n in names:
+                if n in out:
+                    continue
+                for t, tag in marks["frames"].get(n, []):
+                    if t > t_in and (tag == "gl" or tag != last[n]):
+                        out[n] = (t - t_in) / 1000
+                        break
+            if len(out) == len(names):
+                break
+        page.wait_for_timeout(50)
+    return {n: out.get(n) for n in names}

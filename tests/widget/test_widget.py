@@ -1,6 +1,7 @@
 """qmesh_view.widget without a kernel: the static backend driven as a user would drive it."""
 
 import asyncio
+import datetime
 import io
 import threading
 import time
@@ -17,6 +18,7 @@ from qmesh_view.controller import q_matrix, status_text
 from qmesh_view.widget import MainThread, choose_backend, in_jupyter_server_kernel
 
 SIZE = (200, 180)
+NOW = datetime.datetime(2026, 1, 1, tzinfo=datetime.timezone.utc)   # an upload's time stamp
 
 
 @pytest.fixture
@@ -39,7 +41,8 @@ def changed(a: np.ndarray, b: np.ndarray) -> bool:
 def test_builds_a_box_with_controls_and_three_drawn_pictures(view):
     assert isinstance(view, ipywidgets.Box)
     assert view.backend == "static"
-    assert set(view.sliders) == {"k1", "k2", "angle", "vb", "target_vertices"}
+    assert set(view.sliders) == {"k1", "k2", "angle", "vb", "target_vertices", "domain",
+                                 "q_mode"}
     assert set(view.buttons) == {"step", "iterate", "run", "reset"}
     p = view.controller.params
     assert (view.sliders["k1"].value, view.sliders["k2"].value, view.sliders["vb"].value,
@@ -122,7 +125,7 @@ def test_a_bad_value_shows_an_error_and_keeps_the_run(view):
     c = view.controller
     view.buttons["step"].click()
     history = list(c.history)
-    view.sliders["target_vertices"].value = 10               # below VB = 64
+    view.sliders["target_vertices"].value = 3                # VB would have to go below 3
     assert "target" in view.error.value
     assert c.params.target_vertices == 212 == view.sliders["target_vertices"].value
     assert c.history == history and c.index == 1
@@ -130,14 +133,14 @@ def test_a_bad_value_shows_an_error_and_keeps_the_run(view):
     assert c.index == 2 and view.error.value == ""
 
 
-def test_a_target_the_mesher_rejects_leaves_the_old_run(view):
+def test_a_target_at_or_below_vb_lowers_vb(view):
     c = view.controller
     view.buttons["iterate"].click()
-    history, index = list(c.history), c.index
-    view.sliders["target_vertices"].value = 64               # = VB: the mesher needs more
-    assert "exceed" in view.error.value
-    assert c.params.target_vertices == 212 == view.sliders["target_vertices"].value
-    assert c.history == history and c.index == index
+    view.sliders["target_vertices"].value = 64               # = VB: VB follows down to 63
+    assert view.error.value == ""
+    assert (c.params.vb, c.params.target_vertices) == (63, 64)
+    assert (view.sliders["vb"].value, view.sliders["target_vertices"].value) == (63, 64)
+    assert c.current.mesh.fixed.sum() == 63 and c.index == 0
 
 
 def test_a_restart_that_fails_starts_the_old_parameters_again(view, monkeypatch):
@@ -264,3 +267,72 @@ def test_run_is_animated_on_the_loop_and_stop_halts_it(loop):
         loop.run_until_complete(asyncio.wait_for(scenario(), 60))
     finally:
         view.close()
+
+
+def test_legends_beside_the_views_and_the_edges_toggle(view):
+    assert "seed points (fixed)" in view.legends["mesh"].value
+    assert "quality: 0" in view.legends["quality"].value
+    assert not view.views.plotters["quality"].scalar_bars       # no bar over the mesh
+    before = pictures(view)
+    view.edges.value = "off"
+    actor = view.views.plotters["mesh"].actors["mesh"]
+    assert not actor.GetProperty().GetEdgeVisibility()
+    assert changed(pictures(view)["mesh"], before["mesh"])
+    view.edges.value = "on"
+    assert actor.GetProperty().GetEdgeVisibility()
+
+
+def test_choosing_a_domain_remeshes_it_from_the_start(view):
+    c = view.controller
+    view.buttons["iterate"].click()
+    before = pictures(view)
+    assert view.sliders["domain"].options[:4] == ("disk", "L-shape", "square with hole",
+                                                  "annulus")
+    view.sliders["domain"].value = "square with hole"
+    assert c.params.domain == "square with hole" and len(c.history) == 1
+    assert c.current.mesh.fixed.sum() == len(c.domain.seeds) == 36
+    assert view.sliders["vb"].disabled and view.error.value == ""
+    after = pictures(view)
+    assert all(changed(after[name], before[name]) for name in after)
+    # the mesh has a hole: no vertex inside the hole's circle of radius 0.4
+    assert np.hypot(*c.current.mesh.points.T).min() > 0.39
+
+
+def test_an_uploaded_polygon_file_becomes_the_domain_and_a_bad_one_is_refused(view):
+    c = view.controller
+    csv = b"0,0\n2,0\n2,1\n0,1\n\n0.6,0.3\n0.9,0.3\n0.9,0.7\n0.6,0.7\n"
+    view.upload.value = ({"name": "plate.csv", "type": "text/csv", "size": len(csv),
+                          "content": memoryview(csv), "last_modified": NOW},)
+    assert c.params.domain == "file: plate.csv" == view.sliders["domain"].value
+    assert "file: plate.csv" in view.sliders["domain"].options
+    assert len(c.domain.rings) == 2 and c.domain.area == pytest.approx(2.0 - 0.12)
+    shown = pictures(view)
+    view.upload.value = ({"name": "bad.csv", "type": "text/csv", "size": 4,
+                          "content": memoryview(b"1,2\n"), "last_modified": NOW},)
+    assert "bad.csv" in view.error.value
+    assert c.params.domain == "file: plate.csv" == view.sliders["domain"].value
+    assert not changed(pictures(view)["mesh"], shown["mesh"])
+
+
+def test_s_as_text_remeshes_and_a_hostile_text_shows_its_error_and_keeps_the_mesh(view):
+    c = view.controller
+    before = pictures(view)
+    view.sliders["q_mode"].value = "expression"               # the default text, exp(x) + y**2
+    assert c.params.q_mode == "expression" and not c.anisotropy.is_constant
+    assert view._constant_box.layout.display == "none" and view._s_box.layout.display is None
+    assert all(changed(a, before[n]) for n, a in pictures(view).items())
+    view.s_text.value = "cosh(3*x) + 0.02*y**2"
+    assert c.anisotropy.expression == "cosh(3*x) + 0.02*y**2" and len(c.history) == 1
+    view.buttons["run"].click()
+    assert c.at_end and "for s_h: 100.0%" in view.status.value
+    shown, history = pictures(view), list(c.history)
+    for hostile in ("__import__('os')", "().__class__", "x**2 - y**2"):
+        view.s_text.value = hostile
+        assert "color:#c62828" in view.s_error.value and len(view.s_error.value) > 40
+        assert view.s_text.value == hostile                       # left to be corrected
+        assert c.params.s_text == "cosh(3*x) + 0.02*y**2" and c.history == history
+        assert not any(changed(a, shown[n]) for n, a in pictures(view).items())
+    view.s_text.value = "x**4 + y**4 + x**2 + y**2"
+    assert view.s_error.value == "" and c.params.s_text == "x**4 + y**4 + x**2 + y**2"
+    view.sliders["q_mode"].value = "constant"
+    assert c.anisotropy.is_constant and view._s_box.layout.display == "none"

@@ -48,6 +48,7 @@ def test_the_notebook_runs_headless_and_its_widget_answers(tmp_path):
     assert "converged: True" in text
     assert "vertices read back" in text
     assert "widget ok" in text
+    assert "X server" not in text and "vtkXOpenGLRenderWindow" not in text   # EGL chosen first
     images = [o for c in code for o in c.outputs if "image/png" in o.get("data", {})]
     assert images, "the convergence plot is missing"
     widget_views = [o for o in code[-2].outputs

@@ -1,0 +1,46 @@
+"""Faster frames for server-rendered (remote) views: trame-vtk's image delivery, retuned.
+
+trame-vtk answers a push with the previous frame while the new one is still being JPEG-encoded
+in a thread, then waits `delta_stale_time_before_render` (0.5 s) before pushing again: that wait
+was most of the 0.6 s a click took to reach the screen (issue 12, `benchmarks/bench_view.py
+--browser`). Its own retry also drops the frame when a short wait is not enough twice in a row.
+`fast_image_delivery` sets the wait to `STALE_RETRY` and replaces the retry with a plain one:
+push again every `STALE_RETRY` seconds until the frame is encoded (at most `RETRY_FOR`).
+Used by the trame app and by the widget's live (trame) views.
+"""
+
+from __future__ import annotations
+
+STALE_RETRY = 0.01   # seconds between re-pushes of a frame still being encoded
+RETRY_FOR = 2.0      # seconds after which a frame that never got encoded is given up
+
+
+def _stale_retry(link):
+    """A `render_stale_image` for trame-vtk's image delivery `link` that never drops a frame."""
+    limit = int(RETRY_FOR / STALE_RETRY)
+
+    def retry(view_id, stale_count=0):
+        counts = link.stale_handler_count
+        counts[view_id] = max(0, counts.get(view_id, 1) - 1)
+        if stale_count < limit:
+            link.push_render(view_id, False, stale_count + 1)
+    return retry
+
+
+def fast_image_delivery(server):
+    """Retune the image delivery of a running trame `server`; its link protocol, or None when
+    the server has no protocol yet (call again once it runs). Calling it twice is harmless."""
+    protocol = getattr(server, "protocol", None)
+    for link in protocol.getLinkProtocols() if protocol is not None else ():
+        if hasattr(link, "render_stale_image") and hasattr(link, "push_render"):
+            if not getattr(link, "_qmesh_fast", False):
+                link.delta_stale_time_before_render = STALE_RETRY
+                link.render_stale_image = _stale_retry(link)
+                link._qmesh_fast = True
+            return link
+    return None
+
+
+def frames_pending(link) -> bool:
+    """True while some view of `link` still has a frame being encoded or waiting to be sent."""
+    return link is not None and any(link.stale_handler_count.values())

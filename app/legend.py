@@ -1,0 +1,79 @@
+"""The legends of the three views as small HTML strings, drawn beside the views, never over them.
+
+One source for the trame app (bound with `v-html`) and the Jupyter widget (`ipywidgets.HTML`):
+the colours are `qmesh_view.draw`'s, the quality colour bar is matplotlib's viridis as a CSS
+gradient, with the limits the view was coloured with.
+"""
+
+from __future__ import annotations
+
+from html import escape
+
+from . import draw
+
+VIRIDIS = ("#440154", "#482878", "#3e4989", "#31688e", "#26828e", "#1f9e89", "#35b779",
+           "#6ece58", "#b5de2b", "#fde725")
+"""matplotlib's viridis at ten even stops (draw.QUALITY_CMAP), for the CSS colour bar."""
+
+_ROW = "display:flex;flex-wrap:wrap;align-items:center;gap:4px 12px;font-size:12px;padding:2px 6px"
+
+
+def _dot(colour: str) -> str:
+    return (f"<span style='display:inline-block;width:9px;height:9px;border-radius:50%;"
+            f"background:{colour};margin-right:4px'></span>")
+
+
+def _swatch(colour: str, opacity: float = 1.0) -> str:
+    return (f"<span style='display:inline-block;width:14px;height:10px;background:{colour};"
+            f"opacity:{opacity};border:1px solid #888;margin-right:4px'></span>")
+
+
+def _line(colour: str, width: int = 2) -> str:
+    return (f"<span style='display:inline-block;width:16px;height:0;border-top:{width}px solid "
+            f"{colour};margin-right:4px;vertical-align:middle'></span>")
+
+
+def _item(mark: str, text: str) -> str:
+    return f"<span>{mark}{escape(text)}</span>"
+
+
+def _number(x: float) -> str:
+    return format(x, ".3g")
+
+
+def html(name: str, info: dict) -> str:
+    """The legend of view `name` ("lifted", "mesh", "quality"); `info` is `ViewSet.legend`."""
+    if name == "lifted":
+        items = [_item(_swatch(draw.SURFACE, 0.5), "s(x), translucent"),
+                 _item(_swatch(draw.FACET), "facets of s_h"),
+                 _item(_dot(draw.EDGE), "vertices (x, s(x))")]
+    elif name == "mesh":
+        items = [_item(_dot(draw.FIXED), "seed points (fixed)"),
+                 _item(_dot(draw.ADDED), "inserted by the last insert"),
+                 _item(_line(draw.ARROW), "moves of the last adjust")]
+    elif name == "quality":
+        lo, hi = info.get("clim", (0.0, 1.0))
+        bar = ("<span style='display:inline-block;width:140px;height:10px;border:1px solid #888;"
+               f"background:linear-gradient(to right,{','.join(VIRIDIS)})'></span>")
+        items = [f"<span class='legend-colour-bar'>{escape(info.get('title', 'quality'))}: "
+                 f"{_number(lo)} {bar} {_number(hi)}</span>"]
+        if info.get("q_sign_edges"):
+            look = {value: (colour, width) for _, value, colour, width in draw.Q_SIGN_LINES}
+            items += [_item(_line(*look[1]), "q_ij ≥ 0"),
+                      _item(_line(*look[-1]), f"q_ij < 0 ({info.get('n_negative', 0)})"),
+                      _item(_line(*look[0]), "boundary edge")]
+    else:
+        raise ValueError(f"no legend for view {name!r}")
+    return f"<div class='legend' style='{_ROW}'>{''.join(items)}</div>"
+
+
+def state(info: dict) -> dict:
+    """{"legend_lifted": …, "legend_mesh": …, "legend_quality": …} for the trame state."""
+    return {f"legend_{name}": html(name, info) for name in draw.VIEWS}
+
+
+def html_legend(name: str) -> None:
+    """The trame element showing view `name`'s legend from the state (id legend-NAME)."""
+    from trame.widgets import html as h
+    h.Div(v_html=(f"legend_{name}",), id=f"legend-{name}",
+          style="min-height: 44px")        # two lines: the views keep one height, one scale

@@ -1,0 +1,81 @@
+"""qmesh_view.draw and legend: redrawing reuses actors without changing a pixel, edges follow
+their on-screen density, every colouring has a legend."""
+
+import numpy as np
+import pytest
+
+from qmesh.errors import QmeshError
+from qmesh_view import draw, legend
+
+SIZE = (240, 240)
+
+
+def test_a_reused_viewset_draws_exactly_what_a_fresh_one_draws(chapter_run):
+    c = chapter_run
+    views = draw.ViewSet(SIZE)
+    try:
+        for options in ({}, {"colour_by": "metric_area", "q_sign_edges": True}, {"edges": "off"}):
+            for i in (0, 5, len(c.history) - 1):
+                views.draw(c.history[i], c.anisotropy, domain=c.domain, **options)
+                reused = views.images()
+                fresh = draw.render_views(c.history[i], c.anisotropy, window_size=SIZE,
+                                          domain=c.domain, **options)
+                for name in draw.VIEWS:
+                    assert np.array_equal(reused[name], fresh[name]), (i, options, name)
+    finally:
+        views.close()
+
+
+def test_edge_look_by_pixels_and_mode():
+    assert draw.edge_look("auto", 10.0) == "dark"
+    assert draw.edge_look("auto", 4.0) == "light"
+    assert draw.edge_look("auto", 1.0) is None
+    assert draw.edge_look("on", 0.1) == "dark" and draw.edge_look("off", 100.0) is None
+    with pytest.raises(QmeshError, match="edges"):
+        draw.edge_look("some", 1.0)
+
+
+def test_auto_edges_hide_when_crowded_and_come_back_when_zoomed(chapter_run):
+    c = chapter_run
+    step = c.history[-1]
+    views = draw.ViewSet((60, 60))                 # a tiny window: every edge is a pixel or less
+    try:
+        views.draw(step, c.anisotropy, domain=c.domain)
+        looks = views.apply_edges()
+        assert looks["mesh"] is None and looks["quality"] is None
+        assert not views.plotters["mesh"].actors["mesh"].GetProperty().GetEdgeVisibility()
+        views.plotters["mesh"].camera.zoom(12.0)    # shared by the mesh and quality views
+        looks = views.apply_edges()
+        assert looks["mesh"] == looks["quality"] == "dark"
+        assert views.plotters["mesh"].actors["mesh"].GetProperty().GetEdgeVisibility()
+        views.draw(step, c.anisotropy, domain=c.domain, edges="off")
+        assert not views.plotters["mesh"].actors["mesh"].GetProperty().GetEdgeVisibility()
+    finally:
+        views.close()
+
+
+def test_typical_edge_is_a_short_side(chapter_run):
+    step = chapter_run.history[-1]
+    P, T = step.mesh.points, step.mesh.triangles
+    sides = np.concatenate([np.linalg.norm(P[T[:, k]] - P[T[:, (k + 1) % 3]], axis=1)
+                            for k in range(3)])
+    h = draw.typical_edge(step)
+    assert sides.min() <= h <= np.median(sides)
+    assert np.mean(sides <= h) == pytest.approx(0.25, abs=0.01)
+
+
+def test_every_colouring_has_a_legend():
+    q = legend.html("quality", {"title": "quality", "clim": (0.0, 1.0)})
+    assert "quality: 0" in q and "linear-gradient" in q and " 1</span>" in q
+    assert all(c in q for c in legend.VIRIDIS)
+    area = legend.html("quality", {"title": "metric area", "clim": (0.00047, 0.025),
+                                   "q_sign_edges": True, "n_negative": 3})
+    assert "metric area: 0.00047" in area and "0.025" in area
+    assert "q_ij ≥ 0" in area and "q_ij &lt; 0 (3)" in area and "boundary edge" in area
+    for colour in ("#1a7f37", "#e31a1c", "#7f7f7f"):
+        assert colour in area
+    assert "q_ij" not in q
+    assert draw.FIXED in legend.html("mesh", {}) and draw.ADDED in legend.html("mesh", {})
+    assert draw.FACET in legend.html("lifted", {})
+    with pytest.raises(ValueError):
+        legend.html("other", {})
