@@ -44,7 +44,8 @@ KINDS = {
 def parse_args(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--cases", type=int, default=2000, help="random cases to mesh (default 2000)")
-    p.add_argument("--seed", type=int, default=1, help="hypothesis seed (default 1)")
+    p.add_argument("--seed", type=int, default=1,
+                   help="hypothesis seed (default 1); the cases drawn may still differ between runs")
     p.add_argument("--kinds", default="regular,convex,thin" + (",holed,named" if strategies.HAS_DOMAIN else ""),
                    help="domain kinds, comma-separated: " + ", ".join(KINDS))
     p.add_argument("--conductivity", default="any", choices=["constant", "varying", "any"])
