@@ -43,12 +43,6 @@ MOVE_TOL = 0.02        # converged when the rms metric move is below this fracti
 SHAPE_RINGS = 2         # interior vertices this many edges from the boundary take the shape step
 
 
-def _check_options(target_vertices, size, alpha, quality_threshold, min_area, max_iterations,
-                   seed, boundary_refinement=True):
-    check_options(target_vertices, size, alpha, quality_threshold, min_area, max_iterations,
-                  seed, boundary_refinement)
-
-
 class _State:
     """The mutable arrays of one run (normalised coordinates); Steps get read-only snapshots."""
 
@@ -84,7 +78,7 @@ class _State:
         """The current mesh in the user's coordinates, with its tagged boundary edges; arrays
         that did not change since the last snapshot are shared with it."""
         if self.P is not self._seen_P:
-            self._user_P, self._seen_P = self.norm.to_user(self.P), self.P
+            self._user_P, self._seen_P = frozen(self.norm.to_user(self.P), np.float64), self.P
         if self.T is not self._seen_T:
             hb = np.flatnonzero(self.twin < 0)
             t, e = np.divmod(hb, 3)
@@ -103,7 +97,7 @@ class _State:
 def iterate(domain, anisotropy, *, target_vertices: int | None = None, size: float | None = None,
             alpha: float = 0.5, quality_threshold: float = 0.5, min_area: float | None = None,
             max_iterations: int = 40, seed: int | None = 0,
-            boundary_refinement: bool = True) -> Iterator[Step]:
+            boundary_refinement: bool = True, **unknown) -> Iterator[Step]:
     """Run Algorithm 2.1, yielding a `Step` after every stage; the arguments are checked now.
 
     domain            a `Domain` (outline and holes), `Polygon` or `Disk`; its points are fixed;
@@ -120,8 +114,9 @@ def iterate(domain, anisotropy, *, target_vertices: int | None = None, size: flo
     boundary_refinement  allow vertices on the boundary between the input points (without
                       it, only the splits that keep q_ij ≥ 0 on boundary edges are made).
     """
-    _check_options(target_vertices, size, alpha, quality_threshold, min_area, max_iterations, seed,
-                   boundary_refinement)
+    check_keywords(unknown, iterate, "iterate")
+    check_options(target_vertices, size, alpha, quality_threshold, min_area, max_iterations, seed,
+                  boundary_refinement)
     domain = as_domain(domain)
     if not isinstance(anisotropy, Anisotropy):
         raise QmeshError(f"anisotropy must be a qmesh.Anisotropy, got {type(anisotropy).__name__}")
@@ -187,7 +182,7 @@ def _run(norm, h, area_m, lengths, target_vertices, alpha, quality_threshold, mi
     t0 = time.perf_counter()
     expected = target_vertices or sizing.vertices_for_size(area_m, lengths, h, bfac)
     cap = int(min(sizing.MAX_VERTICES, 4 * expected + 4 * len(seeds) + 100))
-    built = conform.conforming_delaunay(domain, P, edge_id, anisotropy, cap,
+    built = conform.conforming_delaunay(domain, P, edge_id, anisotropy, h, cap,
                                         target=target_vertices, rng=rng)
     st = _State(norm, built)
     yield Step("triangulate", 0, st.mesh, st.stats(seconds=time.perf_counter() - t0))

@@ -67,9 +67,20 @@ def lower_hull(P: np.ndarray, anisotropy) -> np.ndarray:
         X = np.column_stack([(P - P.mean(axis=0)) / scale, z / zs])
         try:
             hull = ConvexHull(X, qhull_options="Qt")
-        except QhullError as err:
-            raise QmeshError(f"Qhull could not triangulate the points: {err}") from None
-        T = hull.simplices[hull.equations[:, 2] < -VERTICAL]   # vertical ones: hull boundary
+        except QhullError:
+            # every lifted point on one (tilted) plane: points on one ellipse of the metric, so
+            # a few input points and nothing else; a constant Q takes the metric Delaunay
+            # triangulation (Qhull's 2-D handles co-circular points), a varying s a joggle
+            if anisotropy.is_constant:
+                hull = None
+                T = _delaunay(P @ np.linalg.cholesky(anisotropy.H))
+            else:
+                try:
+                    hull = ConvexHull(X, qhull_options="Qt QJ")
+                except QhullError as err:
+                    raise QmeshError(f"Qhull could not triangulate the points: {err}") from None
+        if hull is not None:
+            T = hull.simplices[hull.equations[:, 2] < -VERTICAL]   # vertical: hull boundary
     T = orient_ccw(P, T)
     T = T[signed_areas(P, T) > 0]
     used = np.zeros(len(P), bool)

@@ -32,7 +32,7 @@ def test_far_from_the_origin_round_off_is_allowed():
 
 
 @pytest.mark.parametrize("change, expected", [
-    (lambda P, T, F: (np.where(np.arange(5)[:, None] == 4, np.nan, P), T, F), {"finite"}),
+    # (a NaN vertex cannot be built any more: qmesh.Mesh refuses it, see test_measure_args.py)
     (lambda P, T, F: (P, T[:, [0, 2, 1]], F), {"orientation", "area"}),
     (lambda P, T, F: (P, T[:3], F), {"area", "boundary"}),          # still a disk: Euler holds
     (lambda P, T, F: (P + [[0, 0], [0, 0], [0, 0], [0, 0], [0.7, 0]], T, F), {"orientation", "inside"}),
