@@ -12,6 +12,7 @@ from typing import Callable
 
 import numpy as np
 
+from . import checks
 from .errors import QmeshError
 
 Field = Callable[[np.ndarray], np.ndarray]
@@ -27,18 +28,38 @@ def adj2(M: np.ndarray) -> np.ndarray:
     return out
 
 
-def _check_spd(Q: np.ndarray, what: str) -> np.ndarray:
-    Q = np.asarray(Q, dtype=float)
-    if Q.shape != (2, 2):
-        raise QmeshError(f"{what} must be a 2x2 matrix, got shape {Q.shape}")
-    if not np.all(np.isfinite(Q)):
-        raise QmeshError(f"{what} has non-finite entries: {Q.tolist()}")
-    if not np.isclose(Q[0, 1], Q[1, 0], rtol=1e-12, atol=1e-14 * np.abs(Q).max()):
-        raise QmeshError(f"{what} must be symmetric, got {Q.tolist()}")
-    Q = 0.5 * (Q + Q.T)
-    if Q[0, 0] <= 0 or np.linalg.det(Q) <= 0:
-        raise QmeshError(f"{what} must be symmetric positive definite, got {Q.tolist()}")
-    return Q
+class _UserField:
+    """A user's s, ∇s or ∇²s as the mesher calls it: NumPy warnings raised inside it stay quiet,
+    an exception inside it becomes a QmeshError naming it, and its result is checked for shape."""
+
+    def __init__(self, f: Field, name: str, tail: tuple):
+        self.f, self.name, self.tail = f, name, tail
+        self.__doc__ = getattr(f, "__doc__", None)
+
+    def __call__(self, P) -> np.ndarray:
+        P = np.asarray(P, dtype=float)
+        want = (len(P),) + self.tail
+        try:
+            with np.errstate(all="ignore"):
+                raw = self.f(P)
+                out = np.asarray(raw)
+        except QmeshError:
+            raise
+        except Exception as e:
+            raise QmeshError(f"{self.name} raised {type(e).__name__} at {len(P)} points "
+                             f"(the first {P[0].tolist() if len(P) else []}): {e}") from e
+        if out.dtype.kind not in "biuf":
+            raise QmeshError(f"{self.name} must return an array of real numbers, "
+                             f"got {checks.describe(raw)}")
+        out = out.astype(float, copy=False)
+        if out.shape != want:
+            try:   # a constant (2, 2) Hessian or (2,) gradient stands for every point
+                out = np.broadcast_to(out, want)
+            except ValueError:
+                shape = "(n" + "".join(f", {t}" for t in self.tail) + ")"
+                raise QmeshError(f"{self.name} must return shape {shape}, got {out.shape} "
+                                 f"for n = {len(P)} points") from None
+        return out
 
 
 @dataclass(frozen=True)
@@ -68,7 +89,7 @@ class Anisotropy:
     @classmethod
     def constant(cls, Q) -> "Anisotropy":
         """A constant SPD conductivity Q; s(x) = ½ xᵀ adj(Q) x, so ∇²s = adj Q and adj ∇²s = Q."""
-        Q = _check_spd(Q, "Q")
+        Q = checks.spd_matrix(Q, "Q")
         H = adj2(Q)
         H.setflags(write=False)
 
@@ -88,11 +109,12 @@ class Anisotropy:
     @classmethod
     def principal(cls, k1: float, k2: float, angle_deg: float = 0.0) -> "Anisotropy":
         """Principal conductivities k1, k2 > 0, with k1's axis at angle_deg from the x axis."""
-        vals = np.array([k1, k2, angle_deg], dtype=float)
-        if not np.all(np.isfinite(vals)):
-            raise QmeshError(f"principal conductivities and angle must be finite, got {vals.tolist()}")
-        if k1 <= 0 or k2 <= 0:
-            raise QmeshError(f"principal conductivities must be > 0, got k1={k1}, k2={k2}")
+        k1 = checks.real(k1, "k1", low=0.0, low_open=True)
+        k2 = checks.real(k2, "k2", low=0.0, low_open=True)
+        angle_deg = checks.real(angle_deg, "angle_deg")
+        if min(k1, k2) <= 4 * np.finfo(float).eps * max(k1, k2):
+            raise QmeshError(f"k1 = {k1:g} and k2 = {k2:g} are too far apart: the smaller is "
+                             f"round-off next to the larger, so Q would be singular")
         t = np.deg2rad(angle_deg)
         R = np.array([[np.cos(t), -np.sin(t)], [np.sin(t), np.cos(t)]])
         return cls.constant(R @ np.diag([k1, k2]) @ R.T)
@@ -105,8 +127,10 @@ class Anisotropy:
         domain is not known yet.
         """
         for f, name in ((s, "s"), (grad, "grad"), (hessian, "hessian")):
-            if not callable(f):
-                raise QmeshError(f"{name} must be callable")
+            checks.function(f, name)
+        checks.text(label, "label")
+        s, grad, hessian = (_UserField(s, "s", ()), _UserField(grad, "grad", (2,)),
+                            _UserField(hessian, "hessian", (2, 2)))
         return cls(s, grad, hessian, None, label)
 
     @classmethod
@@ -123,12 +147,34 @@ class Anisotropy:
         return cls(e.s, e.grad, e.hessian, e.H, label=text, expression=text)
 
     def check_convex(self, P: np.ndarray) -> None:
-        """Raise QmeshError unless ∇²s is finite and SPD at every point of P."""
-        Hs = np.asarray(self.hessian(P), dtype=float)
+        """Raise QmeshError unless ∇²s is finite, symmetric and positive definite at every point of P.
+
+        The message names the first point where it fails and how. The SPD test is made on each
+        Hessian divided by its largest |entry|, so it does not depend on the Hessian's size.
+        """
+        P = checks.real_array(P, "points", (None, 2))
+        try:
+            with np.errstate(all="ignore"):
+                Hs = np.asarray(self.hessian(P), dtype=float)
+        except QmeshError:
+            raise
+        except Exception as e:
+            raise QmeshError(f"hessian raised {type(e).__name__}: {e}") from e
         if Hs.shape != (len(P), 2, 2):
-            raise QmeshError(f"hessian must return shape (n, 2, 2), got {Hs.shape}")
-        if not np.all(np.isfinite(Hs)):
-            raise QmeshError("the Hessian of s is not finite on the domain")
-        det = Hs[:, 0, 0] * Hs[:, 1, 1] - Hs[:, 0, 1] * Hs[:, 1, 0]
-        if np.any(Hs[:, 0, 0] <= 0) or np.any(det <= 0):
-            raise QmeshError("s must be strictly convex on the domain (its Hessian is not SPD somewhere)")
+            raise QmeshError(f"hessian must return shape (n, 2, 2), got {Hs.shape} for n = {len(P)}")
+        bad = ~np.isfinite(Hs).all(axis=(1, 2))
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise QmeshError(f"the Hessian of s is not finite at {bad.sum()} of {len(P)} points; "
+                             f"the first: {P[i].tolist()} where it is {Hs[i].tolist()}")
+        m = np.abs(Hs).max(axis=(1, 2))
+        Hn = Hs / np.where(m > 0, m, 1.0)[:, None, None]
+        asym = np.abs(Hn[:, 0, 1] - Hn[:, 1, 0]) > 1e-8
+        a, b, c = Hn[:, 0, 0], 0.5 * (Hn[:, 0, 1] + Hn[:, 1, 0]), Hn[:, 1, 1]
+        not_spd = (m == 0) | (a <= 0) | (a * c - b * b <= 0)
+        for mask, what in ((asym, "not symmetric"),
+                           (not_spd, "not SPD (s must be strictly convex on the domain)")):
+            if mask.any():
+                i = int(np.flatnonzero(mask)[0])
+                raise QmeshError(f"the Hessian of s is {what} at {mask.sum()} of {len(P)} points; "
+                                 f"the first: {P[i].tolist()} where it is {Hs[i].tolist()}")

@@ -96,6 +96,7 @@ def cmd_mesh(args) -> int:
         "mean_quality": float(q.mean()),
         "q_nonnegative_fraction": (measure.q_nonnegative_fraction(mesh, anisotropy)
                                    if has_matrix else None),
+        "q_nonnegative_fraction_boundary": measure.q_nonnegative_fraction_boundary(mesh, anisotropy),
         "seconds": seconds,
     }
     if args.json:
@@ -103,16 +104,18 @@ def cmd_mesh(args) -> int:
     else:
         print(f"{out}: N={summary['n_vertices']} triangles={summary['n_triangles']} "
               f"iterations={summary['iterations']} quality min={summary['min_quality']:.3f} "
-              f"mean={summary['mean_quality']:.3f} q_ij>=0: {_percent(summary['q_nonnegative_fraction'])} "
-              f"time={seconds:.2f}s")
+              f"mean={summary['mean_quality']:.3f} "
+              f"q_ij>=0: interior {_percent(summary['q_nonnegative_fraction'])} "
+              f"boundary {_percent(summary['q_nonnegative_fraction_boundary'])} time={seconds:.2f}s")
     warning = None if args.quiet else thin_domain(mesh, anisotropy)
     if warning is not None:
         print(f"qmesh: warning: {warning}", file=sys.stderr)
     return 0
 
 
-def _percent(fraction) -> str:
-    return "n/a" if fraction is None else f"{100 * fraction:.1f}%"
+def _percent(share: float | None) -> str:
+    """A share as a percentage, "n/a" when there is nothing to count."""
+    return "n/a" if share is None else f"{100 * share:.1f}%"
 
 
 def conductivity_for_report(args) -> tuple[Anisotropy, str]:

@@ -35,6 +35,7 @@ from .triangulate import lower_hull, restore
 
 ENCROACH_TOL = 1e-9     # relative depth below the plane that counts as encroaching
 MAX_ROUNDS = 200        # split rounds before giving up (never reached on valid input)
+LONG = 2.0              # encroached subsegments longer than this many h are split, not cleared
 SHORTEST = 1e-9         # subsegments shorter than this (metric, normalised units) are not split
 PUSH = 1.02             # an encroaching interior vertex goes this far out (× the ellipse radius)
 PUSH_ROUNDS = 20        # rounds that may push vertices before only splits are made
@@ -178,7 +179,7 @@ def _too_many(n: int, limit: int):
         "requested element size; ask for more vertices (a smaller size), or simplify the domain")
 
 
-def _encroaching_free(domain, P, edge_id, anisotropy) -> np.ndarray:
+def _encroaching_free(domain, P, edge_id, anisotropy, h) -> np.ndarray:
     """Mask of the points to keep: interior points inside the diametral ellipse of a subsegment
     are dropped before the first Qhull run (constant Q: discs in metric coordinates, found with
     a k-d tree), so that run is usually the only one."""
@@ -198,6 +199,7 @@ def _encroaching_free(domain, P, edge_id, anisotropy) -> np.ndarray:
     X = P @ L
     M = 0.5 * (X[a] + X[b])
     r = 0.5 * np.hypot(*(X[b] - X[a]).T)
+    M, r = M[r <= 0.5 * LONG * h], r[r <= 0.5 * LONG * h]     # long ones are split instead
     hits = cKDTree(X[free]).query_ball_point(M, r * (1 + 1e-9))
     inside = np.unique(np.fromiter((i for h in hits for i in h), np.int64))
     keep = np.ones(len(P), bool)
@@ -205,31 +207,32 @@ def _encroaching_free(domain, P, edge_id, anisotropy) -> np.ndarray:
     return keep
 
 
-def conforming_delaunay(domain, P: np.ndarray, edge_id: np.ndarray, anisotropy,
+def conforming_delaunay(domain, P: np.ndarray, edge_id: np.ndarray, anisotropy, h: float,
                         max_points: int | None = None, pinned: np.ndarray | None = None,
                         target: int | None = None, rng=None) -> Conforming:
     """The conforming Q-Delaunay triangulation of Ω from scratch (Qhull), restricted to Ω.
 
     P holds the seeds first (as `domain.seeds`), then points on segments (`edge_id` ≥ 0), then
-    interior points. Free interior points that encroach a subsegment are dropped (the mesher's
-    insertion stage puts points back where they are missing); subsegments that are not edges or
-    are encroached by a boundary point are split; Qhull runs again until neither happens.
+    interior points. Free interior points that encroach a subsegment of metric length at most
+    LONG·h (h the target metric edge length) are dropped (the mesher's insertion stage puts points back where they are missing);
+    subsegments that are not edges, are longer, or are encroached by a boundary point are
+    split; Qhull runs again until neither happens.
     More than `max_points` points raises TooManySplits (a QmeshError). With a `target` vertex
     count, the splits take the place of as many interior points (drawn with `rng`), and the
     triangulation is built once more without them.
     """
-    built = _conforming(domain, P, edge_id, anisotropy, max_points, pinned)
+    built = _conforming(domain, P, edge_id, anisotropy, h, max_points, pinned)
     excess = len(built.P) - target if target is not None else 0
     free = np.flatnonzero((np.arange(len(built.P)) >= len(domain.seeds)) & (built.edge_id < 0))
     if excess <= 0 or not len(free):
         return built
     keep = np.ones(len(built.P), bool)
     keep[rng.choice(free, size=min(excess, len(free)), replace=False)] = False
-    return _conforming(domain, built.P[keep], built.edge_id[keep], anisotropy, max_points,
+    return _conforming(domain, built.P[keep], built.edge_id[keep], anisotropy, h, max_points,
                        built.pinned[keep])
 
 
-def _conforming(domain, P, edge_id, anisotropy, max_points, pinned) -> Conforming:
+def _conforming(domain, P, edge_id, anisotropy, size, max_points, pinned) -> Conforming:
     """One conforming build (see conforming_delaunay)."""
     n_seeds = len(domain.seeds)
     A, Bend = domain.segment_ends
@@ -237,7 +240,7 @@ def _conforming(domain, P, edge_id, anisotropy, max_points, pinned) -> Conformin
     is_seed_pt = lambda i: i < n_seeds                                     # noqa: E731
     pinned = np.zeros(len(P), bool) if pinned is None else pinned
     if anisotropy.is_constant:
-        keep = _encroaching_free(domain, P, edge_id, anisotropy)
+        keep = _encroaching_free(domain, P, edge_id, anisotropy, size)
         P, edge_id, pinned = P[keep], edge_id[keep], pinned[keep]
     for _ in range(MAX_ROUNDS):
         n = len(P)
@@ -251,10 +254,13 @@ def _conforming(domain, P, edge_id, anisotropy, max_points, pinned) -> Conformin
         missing = h < 0
         apex = np.where(missing, 0, T.ravel()[np.where(missing, 0, (h - h % 3) + topology.PRV[h % 3])])
         enc = ~missing & encroached(P[a], P[b], P[apex], anisotropy)
-        free = (apex >= n_seeds) & (edge_id[apex] < 0)
+        L2 = metric_lengths2(P[a], P[b], anisotropy)
+        # an interior apex of a short subsegment is dropped; a long one (its ellipse would hold
+        # many interior points) is split, as is one encroached by a boundary point
+        free = (apex >= n_seeds) & (edge_id[apex] < 0) & (L2 <= (LONG * size) ** 2)
         drop = np.unique(apex[enc & free])
         split = missing | (enc & ~free)
-        split &= metric_lengths2(P[a], P[b], anisotropy) > SHORTEST ** 2
+        split &= L2 > SHORTEST ** 2
         if not len(drop) and not split.any():
             twin = topology.twins(T)
             keep = inside_triangles(T, twin, h)

@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import rings as _rings
+from . import checks
 from .errors import QmeshError
 
 MAX_POINTS = 10_000_000
@@ -325,10 +326,7 @@ def Disk(vb: int, radius: float = 1.0, center=(0.0, 0.0)) -> Polygon:
         raise QmeshError(f"VB must be at least 3, got {vb}")
     if vb > MAX_POINTS:
         raise QmeshError(f"VB = {vb} is too large (the limit is {MAX_POINTS:.0e})")
-    if isinstance(radius, bool) or not isinstance(radius, (int, float, np.integer, np.floating)):
-        raise QmeshError(f"radius must be a number, got {radius!r}")
-    if not (np.isfinite(radius) and radius > 0):
-        raise QmeshError(f"radius must be finite and > 0, got {radius}")
+    radius = checks.real(radius, "radius", low=0, low_open=True)
     try:
         c = np.asarray(center, dtype=float)
     except (TypeError, ValueError):

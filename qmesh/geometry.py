@@ -92,11 +92,16 @@ def metric_edge_lengths2(P: np.ndarray, T: np.ndarray, H: np.ndarray) -> np.ndar
 
 
 def metric_areas(P: np.ndarray, T: np.ndarray, H: np.ndarray) -> np.ndarray:
-    """Area in metric space: √det H · |T|."""
+    """Area in metric space: √det H · |T|; NaN where H is not positive definite.
+
+    That happens only at tentative positions outside Ω, where a user's s need not be convex
+    (boundary.py tries moves before accepting them): NaN says so without a NumPy warning.
+    """
     if H.strides[0] == 0:
         H = H[:1]
     det = H[:, 0, 0] * H[:, 1, 1] - H[:, 0, 1] * H[:, 1, 0]
-    return np.sqrt(det) * signed_areas(P, T)
+    with np.errstate(invalid="ignore"):
+        return np.sqrt(det) * signed_areas(P, T)
 
 
 def metric_quality(P: np.ndarray, T: np.ndarray, H: np.ndarray) -> np.ndarray:

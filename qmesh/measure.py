@@ -17,7 +17,7 @@ import scipy.linalg
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from . import quadrature
+from . import checks, quadrature
 from .errors import QmeshError
 from .geometry import Frame, corners, metric_hessians, metric_quality, signed_areas
 from .mesh import Mesh
@@ -42,8 +42,11 @@ def triangle_energy(P: np.ndarray, T: np.ndarray, anisotropy) -> np.ndarray:
     ∫_T (s_h − s) = |T|/24 · Σ_edges eᵀHe (from s_h − s = ½ Σ_{i<j} λ_iλ_j e_ijᵀHe_ij and
     ∫_T λ_iλ_j = |T|/12); varying s: the degree-4 rule of `qmesh.quadrature`.
     """
+    checks.anisotropy(anisotropy)
     P = np.asarray(P, dtype=float)
     T = np.asarray(T)
+    if P.ndim != 2 or P.shape[1:] != (2,) or T.ndim != 2 or T.shape[1:] != (3,):
+        raise QmeshError(f"P and T must have shapes (N, 2) and (M, 3), got {P.shape} and {T.shape}")
     x, y = corners(P, T)
     x0, x1, x2 = x.T
     y0, y1, y2 = y.T
@@ -60,6 +63,7 @@ def triangle_energy(P: np.ndarray, T: np.ndarray, anisotropy) -> np.ndarray:
 
 def energy(mesh: Mesh, anisotropy) -> float:
     """E = ∫_Ω (s_h − s) = ‖s_h − s‖_L1 (2.77) (MATH.md "Vertex adjustment")."""
+    checks.mesh(mesh)
     return float(triangle_energy(mesh.points, mesh.triangles, anisotropy).sum())
 
 
@@ -67,6 +71,8 @@ def energy(mesh: Mesh, anisotropy) -> float:
 
 def quality(mesh: Mesh, anisotropy) -> np.ndarray:
     """Metric quality (2.94) of every triangle: 1 = equilateral in metric space, ≤ 0 = degenerate/inverted."""
+    checks.mesh(mesh)
+    checks.anisotropy(anisotropy)
     P, T = mesh.points, mesh.triangles
     return metric_quality(P, T, metric_hessians(anisotropy, P, T))   # (2.94)
 
@@ -118,12 +124,15 @@ def _assemble(mesh: Mesh, anisotropy, index: np.ndarray, n: int) -> sp.csr_matri
 
 def stiffness(mesh: Mesh, anisotropy) -> sp.csr_matrix:
     """The N×N P1 stiffness matrix for Q (Neumann: all vertices), Q at each triangle's centroid."""
+    checks.mesh(mesh)
+    checks.anisotropy_or_none(anisotropy)
     n = mesh.n_vertices
     return _assemble(mesh, anisotropy, np.arange(n), n)
 
 
 def free_vertices(mesh: Mesh) -> np.ndarray:
     """Indices of the Dirichlet unknowns: vertices of some triangle that are not on the boundary."""
+    checks.mesh(mesh)
     used = np.zeros(mesh.n_vertices, bool)
     used[mesh.triangles.ravel()] = True
     return np.flatnonzero(used & ~mesh.boundary)
@@ -131,6 +140,7 @@ def free_vertices(mesh: Mesh) -> np.ndarray:
 
 def stiffness_interior(mesh: Mesh, anisotropy) -> sp.csr_matrix:
     """The stiffness matrix restricted to `free_vertices(mesh)`, in that order (homogeneous Dirichlet)."""
+    checks.anisotropy_or_none(anisotropy)
     idx = free_vertices(mesh)
     index = np.full(mesh.n_vertices, -1, dtype=np.int64)
     index[idx] = np.arange(len(idx))
@@ -141,8 +151,11 @@ def edge_weights(mesh: Mesh, anisotropy) -> tuple[np.ndarray, np.ndarray, np.nda
     """Every edge (k, 2) (i < j), its weight q_ij = −K_ij (k,), and whether it is interior (k,).
 
     For constant Q, q_ij = (√det Q / 2)(cot θ'_k + cot θ'_l) (MATH.md, Glickenstein 2007).
-    Summed per edge from the element matrices, so no sparse look-up is needed.
+    Summed per edge from the element matrices, so no sparse look-up is needed; on a boundary
+    edge (one triangle) q_ij is the off-diagonal entry of that triangle's element matrix.
     """
+    checks.mesh(mesh)
+    checks.anisotropy_or_none(anisotropy)
     T = mesh.triangles
     Ke = _element_matrices(mesh.points, T, anisotropy)
     pairs = np.concatenate([T[:, [a, b]] for a, b in _EDGE_CORNERS])
@@ -156,20 +169,35 @@ def edge_weights(mesh: Mesh, anisotropy) -> tuple[np.ndarray, np.ndarray, np.nda
     return edges, q, count == 2
 
 
-def _relative_interior_q(mesh: Mesh, anisotropy) -> np.ndarray:
-    """Interior q_ij divided by max |q| over all edges."""
+def _relative_q(mesh: Mesh, anisotropy) -> tuple[np.ndarray, np.ndarray]:
+    """Interior and boundary q_ij, each divided by max |q| over all edges."""
     _, q, interior = edge_weights(mesh, anisotropy)
     scale = np.abs(q).max() if len(q) else 1.0
-    return q[interior] / (scale if scale > 0 else 1.0)
+    r = q / (scale if scale > 0 else 1.0)
+    return r[interior], r[~interior]
 
 
-def q_nonnegative_fraction(mesh: Mesh, anisotropy, rtol: float = 1e-9) -> float:
-    """Fraction of interior edges with q_ij ≥ −rtol·max|q| (1.0 when there is no interior edge)."""
-    return _fraction_nonnegative(_relative_interior_q(mesh, anisotropy), rtol)
+def q_nonnegative_fraction(mesh: Mesh, anisotropy, rtol: float = 1e-9) -> float | None:
+    """Fraction of interior edges with q_ij ≥ −rtol·max|q| (None when there is no interior edge).
+
+    ≥ 0 on every interior edge makes the Dirichlet stiffness matrix an M-matrix.
+    """
+    rtol = checks.real(rtol, "rtol", low=0.0, high=1.0)
+    return _fraction_nonnegative(_relative_q(mesh, anisotropy)[0], rtol)
 
 
-def _fraction_nonnegative(r: np.ndarray, rtol: float) -> float:
-    return float(np.mean(r >= -rtol)) if len(r) else 1.0
+def q_nonnegative_fraction_boundary(mesh: Mesh, anisotropy, rtol: float = 1e-9) -> float | None:
+    """Fraction of boundary edges with q_ij ≥ −rtol·max|q| (None when there is no boundary edge).
+
+    A boundary edge's q_ij is the off-diagonal of its one triangle's element matrix; ≥ 0 there
+    as well as inside makes the Neumann stiffness matrix an M-matrix too (issue 9).
+    """
+    rtol = checks.real(rtol, "rtol", low=0.0, high=1.0)
+    return _fraction_nonnegative(_relative_q(mesh, anisotropy)[1], rtol)
+
+
+def _fraction_nonnegative(r: np.ndarray, rtol: float) -> float | None:
+    return float(np.mean(r >= -rtol)) if len(r) else None
 
 
 # --------------------------------------------------------------------------- conditioning
@@ -182,12 +210,14 @@ def condition_number(mesh: Mesh, anisotropy=None, *, method: str = "auto",
     (eigsh for λ_max; λ_min as 1 / the largest eigenvalue of K⁻¹ applied by a sparse LU),
     or "auto" (dense up to DENSE_LIMIT unknowns). `tol` is eigsh's relative tolerance.
     """
+    checks.mesh(mesh)
+    checks.anisotropy_or_none(anisotropy)
+    checks.choice(method, "method", ("auto", "dense", "sparse"))
+    tol = checks.real(tol, "tol", low=0.0, high=1.0, high_open=True)
     K = stiffness_interior(mesh, anisotropy)
     n = K.shape[0]
     if n == 0:
         raise QmeshError("the mesh has no interior vertex; κ2 of the Dirichlet matrix is undefined")
-    if method not in ("auto", "dense", "sparse"):
-        raise QmeshError(f"method must be 'auto', 'dense' or 'sparse', got {method!r}")
     if method == "dense" or n < 3 or (method == "auto" and n <= DENSE_LIMIT):
         w = scipy.linalg.eigvalsh(K.toarray())
         return float(w[-1] / w[0])
@@ -221,6 +251,8 @@ def interpolation_errors(mesh: Mesh, anisotropy) -> tuple[float, float]:
     Both integrands are integrated with the degree-4 Dunavant rule: (s_h − s)² has degree 4 and
     |∇s_h − ∇s|² degree 2 when s is quadratic.
     """
+    checks.mesh(mesh)
+    checks.anisotropy(anisotropy)
     P, T = mesh.points, mesh.triangles
     F = Frame(P, T)
     x, y, gx, gy, area = F.x, F.y, F.gx, F.gy, F.A
@@ -243,8 +275,12 @@ def report(mesh: Mesh, anisotropy) -> dict:
     """All measurements of one mesh as plain Python numbers (JSON-serialisable).
 
     Entries that need a stiffness matrix or ∇s_h are None when the mesh has a zero-area
-    triangle; κ2 and the share of q_ij ≥ 0 are None when there is no interior vertex.
+    triangle; κ2 is None when there is no interior vertex; a share of q_ij ≥ 0 is None when
+    there is no edge of its kind (interior, boundary), and the interior share also when there
+    is no interior vertex (no Dirichlet matrix whose signs would matter).
     """
+    checks.mesh(mesh)
+    checks.anisotropy(anisotropy)
     P, T = mesh.points, mesh.triangles
     area = signed_areas(P, T)
     qual = quality(mesh, anisotropy)
@@ -258,15 +294,18 @@ def report(mesh: Mesh, anisotropy) -> dict:
         "min_quality": float(qual.min()) if len(qual) else None,
         "mean_quality": float(qual.mean()) if len(qual) else None,
         "l2_error": None, "h1_error": None, "kappa2": None, "kappa2_laplacian": None,
-        "q_nonnegative_fraction": None, "min_q_ij_relative": None,
+        "q_nonnegative_fraction": None, "q_nonnegative_fraction_boundary": None,
+        "min_q_ij_relative": None, "min_q_ij_relative_boundary": None,
     }
     if len(T) == 0 or np.any(area == 0.0):
         return out
     out["l2_error"], out["h1_error"] = interpolation_errors(mesh, anisotropy)
-    r = _relative_interior_q(mesh, anisotropy)
+    r_in, r_b = _relative_q(mesh, anisotropy)
     # no interior vertex: no Dirichlet matrix whose signs would matter (CLI: "n/a")
-    out["q_nonnegative_fraction"] = _fraction_nonnegative(r, 1e-9) if out["n_interior"] else None
-    out["min_q_ij_relative"] = float(r.min()) if len(r) else None
+    out["q_nonnegative_fraction"] = _fraction_nonnegative(r_in, 1e-9) if out["n_interior"] else None
+    out["q_nonnegative_fraction_boundary"] = _fraction_nonnegative(r_b, 1e-9)
+    out["min_q_ij_relative"] = float(r_in.min()) if len(r_in) else None
+    out["min_q_ij_relative_boundary"] = float(r_b.min()) if len(r_b) else None
     if out["n_interior"] > 0:
         out["kappa2"] = condition_number(mesh, anisotropy)
         out["kappa2_laplacian"] = condition_number(mesh, None)

@@ -12,6 +12,7 @@ from functools import cached_property
 
 import numpy as np
 
+from .checks import real_array
 from .errors import QmeshError
 
 
@@ -40,23 +41,25 @@ class Mesh:
     tag_names: dict = field(default=None, repr=False)
 
     def __post_init__(self):
-        P = frozen(self.points, np.float64)
-        T = frozen(self.triangles, np.int64)
+        P = self.points if _is_float_array(self.points) else real_array(self.points, "points",
+                                                                           (None, 2))
+        P = frozen(P, np.float64)
         if P.ndim != 2 or P.shape[1] != 2:
             raise QmeshError(f"points must have shape (N, 2), got {P.shape}")
-        if T.ndim != 2 or T.shape[1] != 3:
-            raise QmeshError(f"triangles must have shape (M, 3), got {T.shape}")
+        T = frozen(_indices(self.triangles, "triangles", 3), np.int64)
         if T.size and (T.min() < 0 or T.max() >= len(P)):
             raise QmeshError("triangles refer to points that do not exist")
         F = np.zeros(len(P), bool) if self.fixed is None else self.fixed
         F = frozen(F, bool)
         if F.shape != (len(P),):
             raise QmeshError(f"fixed must have shape ({len(P)},), got {F.shape}")
-        E = _boundary_of(T, len(P)) if self.boundary_edges is None else self.boundary_edges
-        E = frozen(np.asarray(E, dtype=np.int64).reshape(-1, 2), np.int64)
+        E = (_boundary_of(T, len(P)) if self.boundary_edges is None
+             else _indices(np.reshape(self.boundary_edges, (-1, 2)), "boundary_edges", 2))
+        E = frozen(E, np.int64)
         if E.size and (E.min() < 0 or E.max() >= len(P)):
             raise QmeshError("boundary_edges refer to points that do not exist")
-        tags = np.ones(len(E), np.int64) if self.boundary_tags is None else self.boundary_tags
+        tags = (np.ones(len(E), np.int64) if self.boundary_tags is None
+                else _indices(self.boundary_tags, "boundary_tags", None))
         tags = frozen(tags, np.int64)
         if tags.shape != (len(E),):
             raise QmeshError(f"boundary_tags must have shape ({len(E)},), got {tags.shape}")
@@ -82,6 +85,34 @@ class Mesh:
         m = np.zeros(self.n_vertices, bool)
         m[self.boundary_edges.ravel()] = True
         return m
+
+
+def _is_float_array(a) -> bool:
+    """A finite, read-only float64 array (the mesher's own, shared between Steps: not copied)."""
+    return (isinstance(a, np.ndarray) and a.dtype == np.float64 and not a.flags.writeable
+            and bool(np.isfinite(a).all()))
+
+
+def _indices(value, name: str, width: int | None) -> np.ndarray:
+    """An integer array of shape (k, width) (or (k,)), or QmeshError naming the argument."""
+    if isinstance(value, np.ndarray) and value.dtype.kind in "iu":
+        a = value
+    else:
+        try:
+            a = np.asarray(value)
+        except (TypeError, ValueError) as e:
+            raise QmeshError(f"{name} must be an array of integers: {e}") from None
+        if a.dtype.kind == "f" and a.size and np.all(np.isfinite(a)) and np.all(a == np.round(a)):
+            a = a.astype(np.int64)
+        if a.dtype.kind not in "iu" and not (a.size == 0 and a.dtype.kind == "f"):
+            raise QmeshError(f"{name} must be an array of integers (indices), got dtype {a.dtype}")
+    want = (None, width) if width else (None,)
+    if a.size == 0:
+        a = a.reshape((0, width) if width else (0,))
+    if a.ndim != len(want) or (width and a.shape[1] != width):
+        shape = f"(k, {width})" if width else "(k,)"
+        raise QmeshError(f"{name} must have shape {shape}, got {a.shape}")
+    return a.astype(np.int64, copy=False)
 
 
 def _boundary_of(T: np.ndarray, n: int) -> np.ndarray:

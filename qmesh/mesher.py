@@ -34,34 +34,13 @@ from .geometry import quadratic_form
 from .insert import insert, relocate_degree3, target_area
 from .mesh import Mesh, Stats, Step, frozen
 from .normalise import Normalisation
+from .options import check_keywords, check_options
 from .triangulate import restore
 
 BOUNDARY_FACTOR = 1.0   # split boundary edges longer than this many target metric lengths
 LATTICE_FILL = 0.97     # the initial lattice holds this share of the expected interior vertices
 MOVE_TOL = 0.02        # converged when the rms metric move is below this fraction of h
 SHAPE_RINGS = 2         # interior vertices this many edges from the boundary take the shape step
-
-
-def _check_options(target_vertices, size, alpha, quality_threshold, min_area, max_iterations,
-                   seed):
-    if target_vertices is not None and size is not None:
-        raise QmeshError("give either target_vertices or size, not both")
-    if target_vertices is not None:
-        if isinstance(target_vertices, bool) or int(target_vertices) != target_vertices:
-            raise QmeshError(f"target_vertices must be an integer, got {target_vertices!r}")
-        sizing.check_vertex_count(target_vertices, f"target_vertices = {target_vertices}")
-    if size is not None and not (np.isfinite(size) and size > 0):
-        raise QmeshError(f"size must be a finite number > 0, got {size!r}")
-    if not (np.isfinite(alpha) and 0 < alpha <= 1):
-        raise QmeshError(f"alpha must be in (0, 1], got {alpha!r}")
-    if not (0 <= quality_threshold < 1):
-        raise QmeshError(f"quality_threshold must be in [0, 1), got {quality_threshold!r}")
-    if min_area is not None and not (np.isfinite(min_area) and min_area >= 0):
-        raise QmeshError(f"min_area must be a finite number >= 0, got {min_area!r}")
-    if seed is not None and (isinstance(seed, bool) or int(seed) != seed or seed < 0):
-        raise QmeshError(f"seed must be a non-negative integer or None, got {seed!r}")
-    if int(max_iterations) != max_iterations or max_iterations < 0:
-        raise QmeshError(f"max_iterations must be a non-negative integer, got {max_iterations!r}")
 
 
 class _State:
@@ -99,7 +78,7 @@ class _State:
         """The current mesh in the user's coordinates, with its tagged boundary edges; arrays
         that did not change since the last snapshot are shared with it."""
         if self.P is not self._seen_P:
-            self._user_P, self._seen_P = self.norm.to_user(self.P), self.P
+            self._user_P, self._seen_P = frozen(self.norm.to_user(self.P), np.float64), self.P
         if self.T is not self._seen_T:
             hb = np.flatnonzero(self.twin < 0)
             t, e = np.divmod(hb, 3)
@@ -118,7 +97,7 @@ class _State:
 def iterate(domain, anisotropy, *, target_vertices: int | None = None, size: float | None = None,
             alpha: float = 0.5, quality_threshold: float = 0.5, min_area: float | None = None,
             max_iterations: int = 40, seed: int | None = 0,
-            boundary_refinement: bool = True) -> Iterator[Step]:
+            boundary_refinement: bool = True, **unknown) -> Iterator[Step]:
     """Run Algorithm 2.1, yielding a `Step` after every stage; the arguments are checked now.
 
     domain            a `Domain` (outline and holes), `Polygon` or `Disk`; its points are fixed;
@@ -135,7 +114,9 @@ def iterate(domain, anisotropy, *, target_vertices: int | None = None, size: flo
     boundary_refinement  allow vertices on the boundary between the input points (without
                       it, only the splits that keep q_ij ≥ 0 on boundary edges are made).
     """
-    _check_options(target_vertices, size, alpha, quality_threshold, min_area, max_iterations, seed)
+    check_keywords(unknown, iterate, "iterate")
+    check_options(target_vertices, size, alpha, quality_threshold, min_area, max_iterations, seed,
+                  boundary_refinement)
     domain = as_domain(domain)
     if not isinstance(anisotropy, Anisotropy):
         raise QmeshError(f"anisotropy must be a qmesh.Anisotropy, got {type(anisotropy).__name__}")
@@ -201,7 +182,7 @@ def _run(norm, h, area_m, lengths, target_vertices, alpha, quality_threshold, mi
     t0 = time.perf_counter()
     expected = target_vertices or sizing.vertices_for_size(area_m, lengths, h, bfac)
     cap = int(min(sizing.MAX_VERTICES, 4 * expected + 4 * len(seeds) + 100))
-    built = conform.conforming_delaunay(domain, P, edge_id, anisotropy, cap,
+    built = conform.conforming_delaunay(domain, P, edge_id, anisotropy, h, cap,
                                         target=target_vertices, rng=rng)
     st = _State(norm, built)
     yield Step("triangulate", 0, st.mesh, st.stats(seconds=time.perf_counter() - t0))
@@ -320,7 +301,8 @@ def _onto_edges(domain, P, edge_id):
 
 def mesh(domain, anisotropy, *, target_vertices: int | None = None, size: float | None = None,
          alpha: float = 0.5, quality_threshold: float = 0.5, min_area: float | None = None,
-         max_iterations: int = 40, seed: int | None = 0, boundary_refinement: bool = True) -> Mesh:
+         max_iterations: int = 40, seed: int | None = 0, boundary_refinement: bool = True,
+         **unknown) -> Mesh:
     """Run Algorithm 2.1 to convergence (or `max_iterations`) and return the final mesh.
 
     The options are `iterate`'s (see there). With `target_vertices`, the boundary splits that
@@ -330,6 +312,7 @@ def mesh(domain, anisotropy, *, target_vertices: int | None = None, size: float 
     cannot carry that many). Warns `QmeshWarning` when the domain is thinner than about two
     elements in the metric, saying what N would be needed.
     """
+    check_keywords(unknown, iterate, "mesh")
     options = dict(target_vertices=target_vertices, size=size, alpha=alpha,
                    quality_threshold=quality_threshold, min_area=min_area,
                    max_iterations=max_iterations, seed=seed, boundary_refinement=boundary_refinement)

@@ -53,6 +53,8 @@ def _conflicts(X: np.ndarray, H: np.ndarray, r: float, Lbar: np.ndarray):
     the smaller of the two). Points are binned by reach (factors of 2); a pair is searched among
     the points up to its higher bin with that bin's reach: one KD-tree query per bin.
     """
+    if len(X) < 2:
+        return np.empty(0, np.int64), np.empty(0, np.int64)
     Y = X @ Lbar
     Linv = np.linalg.inv(Lbar)
     G = np.einsum("ji,njk,kl->nil", Linv, H, Linv)

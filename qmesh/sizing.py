@@ -48,7 +48,7 @@ def domain_triangulation(domain) -> tuple[np.ndarray, np.ndarray]:
         from .conform import conforming_delaunay
         seeds = np.asarray(domain.seeds)
         c = conforming_delaunay(domain, seeds, np.full(len(seeds), -1, np.int64),
-                                Anisotropy.constant(np.eye(2)))
+                                Anisotropy.constant(np.eye(2)), h=np.inf)
         cached = (c.P, c.T)
         domain.__dict__["_triangulation"] = cached
     return cached

@@ -50,8 +50,11 @@ def lower_hull(P: np.ndarray, anisotropy) -> np.ndarray:
     """The Q-Delaunay triangulation of P from scratch (Qhull), counter-clockwise.
 
     Every input point stays a vertex: Qhull would drop a point only if it were not on the lower
-    hull, which a strictly convex s rules out; a dropped point therefore means round-off or a
-    duplicate, and is reported as an error.
+    hull, which a strictly convex s rules out. Where the lifted points are (nearly) on one
+    plane — points on one ellipse of the metric and nothing else, so every triangulation of
+    them is regular — Qhull may fail or drop points; then a constant Q takes the metric
+    Delaunay triangulation (Qhull's 2-D handles co-circular points) and a varying s a joggled
+    hull. A point still dropped means a duplicate or an s that is not convex, and is reported.
     """
     P = np.asarray(P, dtype=float)
     if len(P) == 3:                                     # one triangle: Qhull needs four points
@@ -59,25 +62,39 @@ def lower_hull(P: np.ndarray, anisotropy) -> np.ndarray:
     scale = np.ptp(P, axis=0).max()
     z = lifted_heights(P, anisotropy)
     zs = np.ptp(z)
-    if not zs > 1e-12 * (np.abs(z).max() + scale * scale):
-        # every lifted point on one plane (say the input points of a disk under a radial s, and
-        # no others): every triangulation of their convex position is regular; take Delaunay's
-        T = _delaunay(P)
-    else:
+    T = None
+    if zs > 1e-12 * (np.abs(z).max() + scale * scale):
         X = np.column_stack([(P - P.mean(axis=0)) / scale, z / zs])
-        try:
-            hull = ConvexHull(X, qhull_options="Qt")
-        except QhullError as err:
-            raise QmeshError(f"Qhull could not triangulate the points: {err}") from None
-        T = hull.simplices[hull.equations[:, 2] < -VERTICAL]   # vertical ones: hull boundary
+        T = _valid(P, _lower_facets(X, "Qt"))
+        if T is None and not anisotropy.is_constant:
+            T = _valid(P, _lower_facets(X, "Qt QJ"))
+    if T is None:
+        L = np.linalg.cholesky(anisotropy.H) if anisotropy.is_constant else np.eye(2)
+        T = _valid(P, _delaunay(P @ L))
+    if T is None:
+        raise QmeshError("some points are not vertices of the lower hull (duplicate points, or "
+                         "s is not strictly convex there)")
+    return T
+
+
+def _lower_facets(X: np.ndarray, options: str) -> np.ndarray | None:
+    """The downward facets of the 3-D hull of X (vertical ones lie along the hull's boundary)."""
+    try:
+        hull = ConvexHull(X, qhull_options=options)
+    except QhullError:
+        return None
+    return hull.simplices[hull.equations[:, 2] < -VERTICAL]
+
+
+def _valid(P: np.ndarray, T: np.ndarray | None) -> np.ndarray | None:
+    """T counter-clockwise without flat triangles, if it still uses every point; else None."""
+    if T is None:
+        return None
     T = orient_ccw(P, T)
     T = T[signed_areas(P, T) > 0]
     used = np.zeros(len(P), bool)
     used[T.ravel()] = True
-    if not used.all():
-        raise QmeshError(f"{int((~used).sum())} points are not vertices of the lower hull "
-                         "(duplicate points, or s is not strictly convex there)")
-    return T
+    return T if used.all() else None
 
 
 def _delaunay(X: np.ndarray) -> np.ndarray:

@@ -18,7 +18,9 @@ def test_mesh_signature_mirrors_iterate():
     """help(qmesh.mesh) shows every option with its default, the same as iterate's."""
     mesh_params = inspect.signature(qmesh.mesh).parameters
     iterate_params = inspect.signature(qmesh.iterate).parameters
-    assert not any(p.kind is p.VAR_KEYWORD for p in mesh_params.values())
+    options = [p for p in mesh_params.values() if p.kind is p.KEYWORD_ONLY]
+    assert {"target_vertices", "size", "alpha", "seed"} <= {p.name for p in options}
+    assert all(p.default is not p.empty for p in options)
     assert [(p.name, p.kind, p.default) for p in mesh_params.values()] == \
         [(p.name, p.kind, p.default) for p in iterate_params.values()]
 

@@ -22,9 +22,9 @@ CLOCKWISE = "0,0\n0,1\n1,1\n1,0\n"
     (["--Q", "-1", "0", "1"], "positive definite"),
     (["--Q", "nan", "0", "1"], "non-finite"),
     (["--Q", "1", "inf", "1"], "non-finite"),
-    (["--principal", "0", "1", "0"], "must be > 0"),
-    (["--principal", "1", "-2", "30"], "must be > 0"),
-    (["--principal", "1", "1", "nan"], "must be finite"),
+    (["--principal", "0", "1", "0"], "k1 must be a finite number > 0, got 0.0"),
+    (["--principal", "1", "-2", "30"], "k2 must be a finite number > 0, got -2.0"),
+    (["--principal", "1", "1", "nan"], "angle_deg must be a finite number, got nan"),
     (["--disk", "2"], "VB must be at least 3"),
     (["--polygon", "{pentagram}"], "the outline intersects itself: segment 0 .* meets segment 2"),
     (["--polygon", "{three_columns}"], "two columns"),
@@ -98,9 +98,9 @@ def test_argument_errors_exit_2(capsys):
     (lambda: qmesh.Anisotropy.constant([[1, 2], [2, 1]]), "positive definite"),
     (lambda: qmesh.Anisotropy.constant([[1, 0.5], [0, 1]]), "symmetric"),
     (lambda: qmesh.Anisotropy.constant([[np.nan, 0], [0, 1]]), "non-finite"),
-    (lambda: qmesh.Anisotropy.constant([1, 2, 3]), "2x2"),
-    (lambda: qmesh.Anisotropy.principal(-1, 1, 0), "> 0"),
-    (lambda: qmesh.Anisotropy.principal(1, 1, np.inf), "finite"),
+    (lambda: qmesh.Anisotropy.constant([1, 2, 3]), r"Q must have shape \(2, 2\)"),
+    (lambda: qmesh.Anisotropy.principal(-1, 1, 0), "k1 must be a finite number > 0"),
+    (lambda: qmesh.Anisotropy.principal(1, 1, np.inf), "angle_deg must be a finite number"),
     (lambda: qmesh.Disk(2), "at least 3"),
     (lambda: qmesh.Disk(3.5), "integer"),
     (lambda: qmesh.Disk(8, radius=0), "radius"),
@@ -119,6 +119,99 @@ def test_square_csv_is_accepted():
     """The CSV fixtures above are rejected for their defect, not for their form: a square passes."""
     P = np.loadtxt(SQUARE.splitlines(), delimiter=",")
     assert qmesh.Polygon(P).area == pytest.approx(1.0)
+
+
+# ----------------------------------------------------------------------------- every option of mesh()
+
+BAD = {"nan": float("nan"), "inf": float("inf"), "-inf": float("-inf"), "string": "10", "list": [10],
+       "complex": 1 + 1j, "bool": True}
+OPTIONS = ["target_vertices", "size", "alpha", "quality_threshold", "min_area", "max_iterations", "seed"]
+
+
+@pytest.mark.parametrize("option", OPTIONS)
+@pytest.mark.parametrize("kind", BAD)
+def test_mesh_refuses_bad_option_values(option, kind):
+    """Each bad value is a QmeshError naming the option and showing the value, before any work."""
+    with pytest.raises(QmeshError, match=rf"^{option} must be .*, got ") as info:
+        qmesh.mesh(qmesh.Disk(8), qmesh.Anisotropy.constant(np.eye(2)), **{option: BAD[kind]})
+    assert isinstance(info.value, TypeError) and isinstance(info.value, ValueError)
+
+
+@pytest.mark.parametrize("option, value, message", [
+    ("target_vertices", 10**30, r"target_vertices = 1e\+30 asks for about 1e\+30 vertices"),
+    ("target_vertices", 10**400, r"target_vertices = 1e\+300 asks for about 1e\+300 vertices"),
+    ("target_vertices", 100.0, "target_vertices must be an integer >= 1, got 100.0"),
+    ("target_vertices", 0, "target_vertices must be an integer >= 1, got 0"),
+    ("max_iterations", 10**30, r"max_iterations must be an integer >= 0 and <= 1e\+06, got about 1e\+30"),
+    ("max_iterations", 40.0, "max_iterations must be an integer"),
+    ("max_iterations", None, r"max_iterations must be an integer >= 0 and <= 1e\+06, got None"),
+    ("seed", -1, "seed must be an integer >= 0, got -1"),
+    ("seed", 1.0, "seed must be an integer >= 0, got 1.0"),
+    ("alpha", None, r"alpha must be in \(0, 1\], got None"),
+    ("alpha", 0, r"alpha must be in \(0, 1\], got 0"),
+    ("quality_threshold", 1, r"quality_threshold must be in \[0, 1\), got 1"),
+    ("quality_threshold", None, r"quality_threshold must be in \[0, 1\), got None"),
+    ("min_area", -1e-3, "min_area must be a finite number >= 0, got -0.001"),
+    ("size", -1, "size must be a finite number > 0, got -1"),
+    ("boundary_refinement", None, "boundary_refinement must be True or False, got None"),
+    ("boundary_refinement", 1, "boundary_refinement must be True or False, got 1"),
+    ("boundary_refinement", "no", "boundary_refinement must be True or False, got 'no'"),
+])
+def test_mesh_option_messages(option, value, message):
+    with pytest.raises(QmeshError, match=message):
+        qmesh.mesh(qmesh.Disk(8), qmesh.Anisotropy.constant(np.eye(2)), **{option: value})
+
+
+def test_mesh_names_unknown_keywords():
+    with pytest.raises(QmeshError, match=r"mesh\(\) got unknown options 'target', 'vb'; its options "
+                                         r"are target_vertices, size, alpha") as info:
+        qmesh.mesh(qmesh.Disk(8), qmesh.Anisotropy.constant(np.eye(2)), target=30, vb=8)
+    assert isinstance(info.value, TypeError)
+
+
+def test_target_and_size_together():
+    with pytest.raises(QmeshError, match="give either target_vertices or size, not both"):
+        qmesh.mesh(qmesh.Disk(8), qmesh.Anisotropy.constant(np.eye(2)), target_vertices=30, size=0.1)
+
+
+def test_numpy_integers_and_bools_are_valid_options():
+    A = qmesh.Anisotropy.constant(np.eye(2))
+    m = qmesh.mesh(qmesh.Disk(8), A, target_vertices=np.int64(30), seed=np.uint8(3),
+                   max_iterations=np.int32(5), boundary_refinement=np.bool_(True))
+    assert abs(m.n_vertices - 30) <= 3
+
+
+# ----------------------------------------------------------------------------- Anisotropy constructors
+
+@pytest.mark.parametrize("build, message", [
+    (lambda: qmesh.Anisotropy.constant("diag(1, 2)"), "Q must be an array of real numbers"),
+    (lambda: qmesh.Anisotropy.constant(None), "Q must be an array of real numbers"),
+    (lambda: qmesh.Anisotropy.constant([["1", "0"], ["0", "1"]]), "Q must be an array of real numbers"),
+    (lambda: qmesh.Anisotropy.constant([[1, 0], [0, np.inf]]), "Q has non-finite entries"),
+    (lambda: qmesh.Anisotropy.constant(np.eye(3)), r"Q must have shape \(2, 2\), got shape \(3, 3\)"),
+    (lambda: qmesh.Anisotropy.principal("1", 2), "k1 must be a finite number > 0, got '1' \\(str\\)"),
+    (lambda: qmesh.Anisotropy.principal(1, None), "k2 must be a finite number > 0, got None"),
+    (lambda: qmesh.Anisotropy.principal(1, True), "k2 must be a finite number > 0, got True"),
+    (lambda: qmesh.Anisotropy.principal(1, 2, "30"), "angle_deg must be a finite number, got '30'"),
+    (lambda: qmesh.Anisotropy.principal(10**400, 2), "k1 must be a finite number > 0, got .*too large"),
+    (lambda: qmesh.Anisotropy.principal(1e300, 1e-300), "k1 = 1e.300 and k2 = 1e-300 are too far apart"),
+    (lambda: qmesh.Anisotropy.principal(1, 1e-16, 30), "k1 = 1 and k2 = 1e-16 are too far apart"),
+    (lambda: qmesh.Anisotropy.from_s(None, np.sin, np.sin), "s must be a callable, got None"),
+    (lambda: qmesh.Anisotropy.from_s(np.sin, "P", np.sin), "grad must be a callable, got 'P'"),
+    (lambda: qmesh.Anisotropy.from_s(np.sin, np.sin, np.eye(2)), "hessian must be a callable"),
+    (lambda: qmesh.Anisotropy.from_s(np.sin, np.sin, np.sin, label=None), "label must be a string"),
+])
+def test_anisotropy_refuses(build, message):
+    with pytest.raises(QmeshError, match=message) as info:
+        build()
+    assert isinstance(info.value, TypeError) and isinstance(info.value, ValueError)
+
+
+@pytest.mark.parametrize("c", [1e-200, 1e-30, 1.0, 1e30, 1e200])
+def test_the_size_of_q_does_not_decide_whether_it_is_spd(c):
+    A = qmesh.Anisotropy.constant(c * np.array([[2.0, 0.5], [0.5, 1.0]]))
+    assert np.allclose(A.Q(np.zeros((1, 2)))[0] / c, [[2.0, 0.5], [0.5, 1.0]], rtol=1e-12)
+    assert qmesh.Anisotropy.principal(c, 3 * c, 30).is_constant
 
 
 @pytest.mark.parametrize("text, area", [(NON_CONVEX, 3.0), (CLOCKWISE, 1.0)])

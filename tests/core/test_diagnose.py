@@ -97,7 +97,7 @@ def test_cli_prints_one_warning_line_and_na(tmp_path, capsys):
     code = main(["mesh", "--principal", "1", "10000", "20", "-o", str(tmp_path / "x.vtu")])
     out, err = capsys.readouterr()
     assert code == 0
-    assert "q_ij>=0: n/a" in out
+    assert "q_ij>=0: interior n/a" in out
     line, = err.splitlines()
     assert line.startswith("qmesh: warning: the domain is") and "vertices" in line
     code = main(["mesh", "--principal", "1", "10000", "20", "--json", "-o", str(tmp_path / "x.vtu")])

@@ -387,6 +387,7 @@ def test_quality_below_one_otherwise_and_scale_invariant():
 
 REPORT_KEYS = {"n_vertices", "n_triangles", "n_boundary", "n_interior", "l2_error", "h1_error",
                "kappa2", "kappa2_laplacian", "q_nonnegative_fraction", "min_q_ij_relative",
+               "q_nonnegative_fraction_boundary", "min_q_ij_relative_boundary",
                "min_quality", "mean_quality", "energy", "inverted_triangles"}
 
 
