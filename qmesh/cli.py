@@ -19,14 +19,16 @@ import inspect
 import json
 import sys
 import time
+import warnings
 
 from . import CHAPTER_Q, __version__, io, measure
 from .anisotropy import Anisotropy
 from .diagnose import thin_domain
 from .domain import Disk
-from .errors import QmeshError
+from .errors import QmeshError, QmeshWarning
 from .file_conductivity import PREFIX as RECORD_PREFIX, record_of
 from .mesher import iterate
+from .mesher import mesh as run_mesher
 from .polygon_file import read_domain
 
 _MESHER_DEFAULTS = {k: v.default for k, v in inspect.signature(iterate).parameters.items()}
@@ -72,16 +74,22 @@ def cmd_mesh(args) -> int:
     show = not args.quiet and (args.progress or sys.stderr.isatty())
 
     start = time.perf_counter()
-    last = None
-    # iterate() validates its options (absurd sizes included) before any work.
-    for last in iterate(domain, anisotropy, target_vertices=args.target_vertices, size=args.size,
-                        alpha=args.alpha, max_iterations=args.max_iterations, seed=args.seed):
+    steps = []
+
+    def on_step(step):
+        steps[:] = [step]
         if show:
-            _progress(last, sys.stderr)
+            _progress(step, sys.stderr)
+
+    # the API's mesh(): the same checks of the options and of the vertex count it lands on;
+    # its thin-domain warning is printed below as one line instead
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", QmeshWarning)
+        mesh = run_mesher(domain, anisotropy, target_vertices=args.target_vertices, size=args.size,
+                          alpha=args.alpha, max_iterations=args.max_iterations, seed=args.seed,
+                          progress=on_step)
     seconds = time.perf_counter() - start
-    if last is None:
-        raise QmeshError("the mesher produced no mesh")
-    mesh = last.mesh
+    last = steps[-1]
     io.write(out, mesh, anisotropy=anisotropy)
 
     q = measure.quality(mesh, anisotropy)

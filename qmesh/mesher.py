@@ -302,10 +302,11 @@ def _onto_edges(domain, P, edge_id):
 def mesh(domain, anisotropy, *, target_vertices: int | None = None, size: float | None = None,
          alpha: float = 0.5, quality_threshold: float = 0.5, min_area: float | None = None,
          max_iterations: int = 40, seed: int | None = 0, boundary_refinement: bool = True,
-         **unknown) -> Mesh:
+         progress=None, **unknown) -> Mesh:
     """Run Algorithm 2.1 to convergence (or `max_iterations`) and return the final mesh.
 
-    The options are `iterate`'s (see there). With `target_vertices`, the boundary splits that
+    The options are `iterate`'s (see there); `progress`, when given, is called with every
+    `Step` as it comes (the command line prints them). With `target_vertices`, the boundary splits that
     keep q_ij ≥ 0 can carry N past the target; when they carry it more than 10% past, the run is
     repeated once with the interior budget reduced by the excess. A mesh still more than 10% off
     raises QmeshError saying why (the boundary alone needs more vertices to keep q_ij ≥ 0, or
@@ -316,12 +317,15 @@ def mesh(domain, anisotropy, *, target_vertices: int | None = None, size: float 
     options = dict(target_vertices=target_vertices, size=size, alpha=alpha,
                    quality_threshold=quality_threshold, min_area=min_area,
                    max_iterations=max_iterations, seed=seed, boundary_refinement=boundary_refinement)
-    m = _final(iterate(domain, anisotropy, **options))
+    if progress is not None and not callable(progress):
+        raise QmeshError(f"progress must be a function of one Step, got {type(progress).__name__}")
+    m = _final(iterate(domain, anisotropy, **options), progress)
     target = target_vertices
     if target is not None and m.n_vertices > 1.1 * target:
         fewer = target - (m.n_vertices - target)
         if fewer > len(as_domain(domain).seeds):
-            again = _final(iterate(domain, anisotropy, **{**options, "target_vertices": fewer}))
+            again = _final(iterate(domain, anisotropy, **{**options, "target_vertices": fewer}),
+                           progress)
             if abs(again.n_vertices - target) < abs(m.n_vertices - target):
                 m = again
     _check_count(m, target, boundary_refinement)
@@ -330,10 +334,11 @@ def mesh(domain, anisotropy, *, target_vertices: int | None = None, size: float 
     return m
 
 
-def _final(steps) -> Mesh:
+def _final(steps, progress=None) -> Mesh:
     last = None
     for last in steps:
-        pass
+        if progress is not None:
+            progress(last)
     return last.mesh
 
 

@@ -131,3 +131,14 @@ def test_every_package_folder_is_installed():
     found = {root_name + "".join("." + p for p in init.parent.relative_to(folder).parts)
              for root_name, folder in roots.items() for init in folder.rglob("__init__.py")}
     assert found <= listed, f"add to [tool.setuptools] packages: {sorted(found - listed)}"
+
+
+def test_cli_meshes_through_the_api_and_refuses_a_target_it_cannot_meet(tmp_path, capsys):
+    """The CLI runs qmesh.mesh (progress through its callback): a target that keeping q_ij ≥ 0
+    would overshoot by more than 10% is refused as in the API, with no file."""
+    out = tmp_path / "m.vtu"
+    assert main(["mesh", "--disk", "8", "--principal", "1", "5", "0", "--target-vertices", "9",
+                 "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "target_vertices = 9" in err and err.count("\n") == 1
+    assert not out.exists()
