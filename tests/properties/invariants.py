@@ -201,7 +201,12 @@ def defects(mesh, rings, *, Q=None, target=None, n_holes=None) -> list[str]:
         # edge (c+1, c+2) of each triangle is opposite corner c: order of _edges' pairs
         opposite = np.concatenate([cot[:, 2], cot[:, 0], cot[:, 1]])
         w = np.bincount(inverse, weights=opposite, minlength=len(count))
-        neg = w < -REL * np.abs(w).max()
+        # the output coordinates are rounded to eps·|x|: an angle of a triangle of edge h moves
+        # by up to ~eps·|x|/h, which is the weight's own round-off far from the origin
+        E = L[T[:, [1, 2, 0]]] - L[T]
+        h_min = float(np.hypot(E[..., 0], E[..., 1]).min())
+        rounding = 64 * EPS * float(np.abs(P).max()) / max(h_min, 1e-300)
+        neg = w < -(REL + rounding) * np.abs(w).max()
         for name, mask in (("interior", count == 2), ("boundary", count == 1)):
             if (neg & mask).any():
                 out.append(f"q_ij-{name}: {int((neg & mask).sum())} of {int(mask.sum())} {name} edges have "
