@@ -165,6 +165,7 @@ def _run(norm, h, area_m, lengths, target_vertices, alpha, quality_threshold, mi
     #    metric lattices for a varying s (seeding.py, seeding_varying.py)
     bpts, bseg = seeding.boundary_points(domain, anisotropy, h, bfac)
     n_b = len(seeds) + len(bpts)
+    expected = target_vertices or sizing.vertices_for_size(area_m, lengths, h, bfac)
     if anisotropy.is_constant:
         if target_vertices is None:
             inner = seeding.metric_lattice(domain, anisotropy.H, h, rng)
@@ -172,7 +173,6 @@ def _run(norm, h, area_m, lengths, target_vertices, alpha, quality_threshold, mi
             inner = seeding.lattice_for_count(domain, anisotropy.H,
                                               LATTICE_FILL * (target_vertices - n_b), rng)
     else:
-        expected = target_vertices or sizing.vertices_for_size(area_m, lengths, h, bfac)
         inner = seeding_varying.initial_points(domain, anisotropy,
                                                int(LATTICE_FILL * (expected - n_b)), rng)
     P = np.concatenate([seeds, bpts, inner])
@@ -180,7 +180,6 @@ def _run(norm, h, area_m, lengths, target_vertices, alpha, quality_threshold, mi
 
     # 2. construct the conforming Q-Delaunay triangulation of Ω from scratch (Qhull)
     t0 = time.perf_counter()
-    expected = target_vertices or sizing.vertices_for_size(area_m, lengths, h, bfac)
     cap = int(min(sizing.MAX_VERTICES, 4 * expected + 4 * len(seeds) + 100))
     built = conform.conforming_delaunay(domain, P, edge_id, anisotropy, h, cap,
                                         target=target_vertices, rng=rng)
@@ -188,30 +187,10 @@ def _run(norm, h, area_m, lengths, target_vertices, alpha, quality_threshold, mi
     yield Step("triangulate", 0, st.mesh, st.stats(seconds=time.perf_counter() - t0))
 
     for it in range(1, max_iterations + 1):
-        # 3. adjust vertices (2.91)–(2.93); those sent out of Ω go onto the boundary; the layer
-        #    next to a refined boundary is shaped instead (adjust.shape_step; held off long
-        #    unsplit boundary edges, the step made κ2 worse: 15.8 against 9.05 on Disk(32))
+        # 3. adjust vertices (2.91)–(2.93); those sent out of Ω go onto the boundary
         t0 = time.perf_counter()
-        P0, T0 = st.P, st.T
-        d = newton_step(P0, T0, anisotropy, fixed=st.fixed | st.pinned, tangent=st.tangents(),
-                        alpha=alpha)
-        if boundary_refinement:
-            layer = boundary_layer(T0, st.on_boundary(), SHAPE_RINGS)
-            d[layer] = alpha * shape_step(P0, T0, anisotropy, layer, st.on_boundary())[layer]
-        keep = None
-        if boundary_refinement:
-            snap = snap_to_boundary(P0, T0, st.twin, d, st.on_boundary(), st.corner_edge(),
-                                    anisotropy)
-            if len(snap.vertices):
-                st.T, st.twin = snap.T, snap.twin
-                d[snap.vertices] = snap.positions - P0[snap.vertices]
-                st.edge_id = st.edge_id.copy()
-                st.edge_id[snap.vertices] = snap.edge_id
-                keep = np.zeros(len(P0), bool)
-                keep[snap.vertices] = True
-        else:
-            d = hold_off_boundary(P0, T0, st.twin, d, st.on_boundary(), anisotropy)
-        d = hold_out_of_ellipses(P0, st.T, st.twin, d, st.on_boundary(), anisotropy)
+        P0 = st.P
+        d, keep = _displacements(st, alpha, boundary_refinement)
         Pn, d = limit_moves(P0, st.T, d, keep)
         Pn = _onto_edges(domain, Pn, st.edge_id)
         Hv = anisotropy.H if anisotropy.is_constant else _hessian_at_vertices(norm, P0)
@@ -272,6 +251,37 @@ def _run(norm, h, area_m, lengths, target_vertices, alpha, quality_threshold, mi
                    moved=pushed, added=c.added, converged=converged)
         if converged:
             return
+
+
+def _displacements(st: _State, alpha: float, boundary_refinement: bool):
+    """The adjust stage's moves before the star cap, and the vertices that move exactly so.
+
+    The vertex step (2.91)–(2.93) for every vertex; the two rings next to a refined boundary take
+    the shape step instead (adjust.shape_step; held off long unsplit boundary edges it made κ2
+    worse: 15.8 against 9.05 on Disk(32)). With boundary refinement, vertices sent out of Ω join
+    the boundary where they cross it (their triangle removed from `st`); without it, moves that
+    would flatten a boundary triangle are undone. No move may carry a vertex into the diametral
+    ellipse of the boundary edge it faces.
+    """
+    P0, T0, anisotropy, on_boundary = st.P, st.T, st.anisotropy, st.on_boundary()
+    d = newton_step(P0, T0, anisotropy, fixed=st.fixed | st.pinned, tangent=st.tangents(),
+                    alpha=alpha)
+    keep = None
+    if boundary_refinement:
+        layer = boundary_layer(T0, on_boundary, SHAPE_RINGS)
+        d[layer] = alpha * shape_step(P0, T0, anisotropy, layer, on_boundary)[layer]
+        snap = snap_to_boundary(P0, T0, st.twin, d, on_boundary, st.corner_edge(), anisotropy)
+        if len(snap.vertices):
+            st.T, st.twin = snap.T, snap.twin
+            d[snap.vertices] = snap.positions - P0[snap.vertices]
+            st.edge_id = st.edge_id.copy()
+            st.edge_id[snap.vertices] = snap.edge_id
+            keep = np.zeros(len(P0), bool)
+            keep[snap.vertices] = True
+    else:
+        d = hold_off_boundary(P0, T0, st.twin, d, on_boundary, anisotropy)
+    d = hold_out_of_ellipses(P0, st.T, st.twin, d, st.on_boundary(), anisotropy)
+    return d, keep
 
 
 def _hessian_at_vertices(norm, P) -> np.ndarray:
