@@ -1,4 +1,5 @@
-"""Say when a finished mesh cannot serve its request well: a domain thinner than two elements.
+"""Say when a finished mesh cannot serve its request well: a domain thinner than two elements,
+or a target that the boundary's points use up.
 
 The mesher always returns a valid mesh, but when the domain, measured in the metric ∇²s, is
 thinner than about two elements of the requested size, that mesh has no interior vertex (the
@@ -83,6 +84,15 @@ def thin_domain(mesh, anisotropy) -> str | None:
     thin = width < ROWS * ROW_HEIGHT * h
     if not (n_interior == 0 or (thin and min_q < SLIVER)):
         return None
+    if not thin:
+        # wide enough, yet every vertex is on the boundary: the input points (and the boundary's
+        # splits) took the whole target; the N whose interior matches the boundary's spacing
+        n_b = int(mesh.boundary.sum())
+        need = max(vertices_for(area_m, perimeter, perimeter / max(n_b, 1)), mesh.n_vertices + 1)
+        return (f"every one of the N = {mesh.n_vertices} vertices lies on the boundary (no interior "
+                f"vertex), although the domain is {width / (ROW_HEIGHT * h):.2g} elements wide in "
+                f"the metric: the boundary's points take the whole target; about {need} vertices "
+                f"(target_vertices / --target-vertices) would fill the interior at the boundary's spacing")
     symptom = ("no interior vertex" if n_interior == 0
                else f"{n_interior} interior vertices, minimum metric quality {min_q:.3f}")
     h_need = width / (ROWS * ROW_HEIGHT)

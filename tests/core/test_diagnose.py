@@ -7,6 +7,7 @@ import warnings
 import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
+from scipy.spatial import Delaunay
 
 import qmesh
 from qmesh import diagnose
@@ -59,6 +60,21 @@ def test_two_triangles_on_the_strip_give_a_large_n():
     message = diagnose.thin_domain(m, CHAPTER)
     assert "no interior vertex" in message
     assert 1000 < suggested_n(message) < 20000
+
+
+def test_a_wide_domain_with_only_boundary_vertices_names_the_target():
+    """Disk(64) triangulated from its seeds alone (Q = I): about 7 elements wide, so the advice
+    is the N whose interior matches the boundary's spacing (≈ 410), not a thinner-domain one."""
+    identity = qmesh.Anisotropy.constant(np.eye(2))
+    seeds = qmesh.Disk(64).seeds
+    m = qmesh.Mesh(seeds, Delaunay(seeds).simplices)
+    message = diagnose.thin_domain(m, identity)
+    assert "lies on the boundary" in message and "take the whole target" in message
+    n = suggested_n(message)
+    assert 300 < n < 550
+    better = qmesh.mesh(qmesh.Disk(64), identity, target_vertices=n)
+    assert diagnose.thin_domain(better, identity) is None
+    assert qmesh.measure.quality(better, identity).min() > 0.5
 
 
 def test_the_chapters_case_does_not_warn():
