@@ -39,6 +39,20 @@ def _bounds_text(low, high, low_open: bool, high_open: bool) -> str:
     return "a finite number"
 
 
+def _scalar(value, name: str, wanted: str, kinds, none: bool):
+    """`value` unwrapped from a 0-d array; None passes when `none`; a bool or anything not of
+    `kinds` is refused."""
+    if value is None:
+        if none:
+            return None
+        raise QmeshError(f"{name} must be {wanted}, got None")
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        value = value[()]
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, kinds):
+        raise QmeshError(f"{name} must be {wanted}, got {describe(value)}")
+    return value
+
+
 def real(value, name: str, *, low: float | None = None, high: float | None = None,
          low_open: bool = False, high_open: bool = False, none: bool = False) -> float | None:
     """`value` as a finite float within the bounds (open or closed); None passes when `none`.
@@ -47,14 +61,9 @@ def real(value, name: str, *, low: float | None = None, high: float | None = Non
     too large for a float, and values outside the bounds.
     """
     wanted = _bounds_text(low, high, low_open, high_open)
+    value = _scalar(value, name, wanted, numbers.Real, none)
     if value is None:
-        if none:
-            return None
-        raise QmeshError(f"{name} must be {wanted}, got None")
-    if isinstance(value, np.ndarray) and value.ndim == 0:
-        value = value[()]
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
-        raise QmeshError(f"{name} must be {wanted}, got {describe(value)}")
+        return None
     try:
         x = float(value)
     except (OverflowError, ValueError, TypeError):
@@ -77,14 +86,9 @@ def integer(value, name: str, *, low: int | None = None, high: int | None = None
     """
     wanted = ("an integer" + (f" >= {low}" if low is not None else "")
               + (f" and <= {high:g}" if high is not None else ""))
+    value = _scalar(value, name, wanted, (int, np.integer), none)
     if value is None:
-        if none:
-            return None
-        raise QmeshError(f"{name} must be {wanted}, got None")
-    if isinstance(value, np.ndarray) and value.ndim == 0:
-        value = value[()]
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
-        raise QmeshError(f"{name} must be {wanted}, got {describe(value)}")
+        return None
     n = int(value)
     if (low is not None and n < low) or (high is not None and n > high):
         shown = repr(n) if abs(n) < 10**15 else f"about {float(min(abs(n), 10**300)):.3g}"
