@@ -14,13 +14,9 @@ import qmesh
 from qmesh import io
 from qmesh.cli import main
 
+from cli_run import run
+
 ROOT = Path(__file__).resolve().parents[2]
-
-
-def run(capsys, *argv):
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def test_mesh_writes_a_readable_file_and_a_summary(tmp_path, capsys):

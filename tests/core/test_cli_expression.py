@@ -7,13 +7,8 @@ import pytest
 
 import qmesh
 from qmesh import io
-from qmesh.cli import main
 
-
-def run(capsys, *argv):
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return code, out, err
+from cli_run import run
 
 
 def test_mesh_and_report_with_s_as_text(tmp_path, capsys):

@@ -8,13 +8,8 @@ import pytest
 
 import qmesh
 from qmesh import file_conductivity, io
-from qmesh.cli import main
 
-
-def run(capsys, *argv):
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return code, out, err
+from cli_run import run
 
 
 @pytest.fixture

@@ -8,7 +8,6 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import qmesh
-from qmesh import expression
 
 from cases import exp_plus_y2
 
