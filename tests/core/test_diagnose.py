@@ -142,3 +142,16 @@ def test_thin_ring_warns_and_the_suggested_n_works():
         better = qmesh.mesh(ring, identity, target_vertices=n)
     assert (~better.boundary).sum() > 0
     assert qmesh.measure.quality(better, identity).min() > 0.3
+
+
+@settings(max_examples=30, deadline=None, derandomize=True)
+@given(n=st.integers(3, 200), k1=st.floats(-2, 2), ratio=st.floats(0, 3), angle=st.floats(0, 180))
+def test_a_mesh_without_interior_vertex_is_always_reported_with_a_larger_n(n, k1, ratio, angle):
+    """Any seeds-only mesh of a regular polygon, any SPD Q: the message never stays silent and
+    always asks for more vertices than the mesh has (thin or wide in the metric)."""
+    A = qmesh.Anisotropy.principal(10 ** k1, 10 ** (k1 + ratio), angle)
+    seeds = qmesh.Disk(n).seeds
+    m = qmesh.Mesh(seeds, Delaunay(seeds).simplices)
+    message = diagnose.thin_domain(m, A)
+    assert message is not None and "no interior vertex" in message
+    assert suggested_n(message) > n
