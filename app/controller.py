@@ -14,7 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 
 import qmesh
-from qmesh import domains, measure, polygon_file
+from qmesh import domains, measure
+from qmesh.domain import polygon_file
 from qmesh.errors import QmeshError
 
 PARAMS = ("k1", "k2", "angle", "vb", "target_vertices", "alpha", "seed", "domain", "q_mode",

@@ -25,7 +25,7 @@ from scipy.spatial import ConvexHull, Delaunay, cKDTree
 
 from qmesh import measure
 from qmesh.errors import QmeshError
-from qmesh.geometry import metric_areas, metric_hessians, metric_quality
+from qmesh.geometry.triangles import metric_areas, metric_hessians, metric_quality
 
 COLOUR_BY = ("quality", "metric_area")
 """What the quality view can colour triangles by."""

@@ -20,7 +20,10 @@ import time
 import numpy as np
 
 import qmesh
-from qmesh import measure, mesher, seeding, seeding_varying
+from qmesh import measure
+from qmesh.mesher import loop as mesher
+from qmesh.mesher import seeding
+from qmesh.mesher import seeding_varying
 
 EXPRESSIONS = ("exp(x) + y**2", "cosh(3*x) + 0.02*y**2",
                "log(exp(2*x) + exp(-2*x) + exp(2*y))", "x**4 + y**4 + x**2 + y**2")

@@ -26,7 +26,6 @@ from skfem import BilinearForm, ElementTriP1, Functional, LinearForm
 from skfem.io.meshio import from_meshio
 
 import qmesh
-import qmesh.domains
 import qmesh.io
 
 Q = np.array(qmesh.Anisotropy.principal(1, 100, 30).Q(np.zeros((1, 2)))[0])   # rotated, anisotropy 100

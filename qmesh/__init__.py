@@ -8,15 +8,18 @@ point insertion of the thesis chapter "Q-adapted meshes" (Section 2.3, Algorithm
     ...                target_vertices=212, seed=0)
 """
 
-from .anisotropy import Anisotropy
-from .domain import Disk, Domain, Polygon
-from .errors import QmeshError, QmeshWarning
-from .mesh import Mesh, Stats, Step
-from .mesher import iterate, mesh
-from . import domains, io, measure   # io imports meshio only when a file is read or written
+from qmesh.conductivity.anisotropy import Anisotropy
+from qmesh.domain.domain import Disk, Domain, Polygon
+from qmesh.errors import QmeshError, QmeshWarning
+from qmesh.mesh import Mesh
+from qmesh.mesher import iterate, mesh
+from qmesh.mesher.step import Stats, Step
+from qmesh import io, measure  # io imports meshio only when a file is read or written
+from qmesh.domain import named as domains
+from qmesh.mesher import diagnose
 
 __all__ = ["Anisotropy", "Disk", "Domain", "Polygon", "domains", "Mesh", "Step", "Stats", "QmeshError",
-           "QmeshWarning", "iterate", "mesh", "io", "measure"]
+           "QmeshWarning", "iterate", "mesh", "io", "measure", "diagnose"]
 __version__ = "0.1.0"
 
 CHAPTER_Q = ((0.1, 0.0), (0.0, 10.0))

@@ -12,7 +12,7 @@ import numbers
 
 import numpy as np
 
-from .errors import QmeshError
+from qmesh.errors import QmeshError
 
 _EPS = np.finfo(float).eps
 
@@ -174,7 +174,7 @@ def spd_matrix(value, name: str) -> np.ndarray:
 
 def anisotropy(value, name: str = "anisotropy"):
     """`value` when it is a qmesh.Anisotropy (an array or a list is not: it says how to make one)."""
-    from .anisotropy import Anisotropy
+    from qmesh.conductivity.anisotropy import Anisotropy
     if isinstance(value, Anisotropy):
         return value
     hint = (" (for a constant matrix Q use qmesh.Anisotropy.constant(Q))"
@@ -189,7 +189,7 @@ def anisotropy_or_none(value, name: str = "anisotropy"):
 
 def mesh(value, name: str = "mesh"):
     """`value` when it is a qmesh.Mesh (whose constructor refused non-finite coordinates)."""
-    from .mesh import Mesh
+    from qmesh.mesh import Mesh
     if not isinstance(value, Mesh):
         raise QmeshError(f"{name} must be a qmesh.Mesh, got {describe(value)}")
     return value

@@ -21,15 +21,15 @@ import sys
 import time
 import warnings
 
-from . import CHAPTER_Q, __version__, io, measure
-from .anisotropy import Anisotropy
-from .diagnose import thin_domain
-from .domain import Disk
-from .errors import QmeshError, QmeshWarning
-from .file_conductivity import PREFIX as RECORD_PREFIX, record_of
-from .mesher import iterate
-from .mesher import mesh as run_mesher
-from .polygon_file import read_domain
+from qmesh import CHAPTER_Q, __version__, io, measure
+from qmesh.conductivity.anisotropy import Anisotropy
+from qmesh.mesher.diagnose import thin_domain
+from qmesh.domain.domain import Disk
+from qmesh.errors import QmeshError, QmeshWarning
+from qmesh.io.conductivity import PREFIX as RECORD_PREFIX, record_of
+from qmesh.mesher.loop import iterate
+from qmesh.mesher.loop import mesh as run_mesher
+from qmesh.domain.polygon_file import read_domain
 
 _MESHER_DEFAULTS = {k: v.default for k, v in inspect.signature(iterate).parameters.items()}
 
@@ -166,7 +166,7 @@ def cmd_report(args) -> int:
 
 
 def cmd_setup(args) -> int:
-    from .system_packages import setup
+    from qmesh.setup import setup
     return setup(check_only=args.check, everything=args.all)
 
 

@@ -17,10 +17,11 @@ import scipy.linalg
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from . import checks, quadrature
-from .errors import QmeshError
-from .geometry import Frame, corners, metric_hessians, metric_quality, signed_areas
-from .mesh import Mesh
+from qmesh import checks
+from qmesh.geometry import quadrature
+from qmesh.errors import QmeshError
+from qmesh.geometry.triangles import Frame, corners, metric_hessians, metric_quality, signed_areas
+from qmesh.mesh import Mesh
 
 DENSE_LIMIT = 300
 """Up to this many unknowns condition_number uses a dense eigvalsh; above it, sparse eigsh.

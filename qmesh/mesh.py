@@ -1,8 +1,7 @@
-"""Immutable values the mesher produces: a `Mesh`, and a `Step` snapshot per stage of Algorithm 2.1.
+"""The value the mesher produces and every reader, writer and measure takes: a `Mesh`.
 
-Arrays are read-only so consecutive Steps can share them: an `adjust` stage shares the triangles
-of the step before it, a `triangulate` stage shares its points. Holding the whole history of a
-run therefore costs little more than the final mesh per stage (the GUI scrubs through it).
+Its arrays are read-only so that consecutive `Step`s of a run (`qmesh.mesher.step`) can share
+them.
 """
 
 from __future__ import annotations
@@ -12,8 +11,8 @@ from functools import cached_property
 
 import numpy as np
 
-from .checks import real_array
-from .errors import QmeshError
+from qmesh.checks import real_array
+from qmesh.errors import QmeshError
 
 
 def frozen(a: np.ndarray, dtype) -> np.ndarray:
@@ -122,84 +121,3 @@ def _boundary_of(T: np.ndarray, n: int) -> np.ndarray:
     _, inverse, count = np.unique(key, return_inverse=True, return_counts=True)
     one = count[inverse] == 1
     return np.column_stack([a[one], b[one]])
-
-
-class Stats:
-    """What one stage of Algorithm 2.1 did and where it left the mesh.
-
-    The energy and the quality figures cost a pass over the triangles, and `qmesh.mesh` never
-    reads them: given a `source` (mesh, anisotropy) instead of values, they are computed on
-    first access and kept.
-    """
-
-    __slots__ = ("n_vertices", "n_triangles", "max_move", "rms_move", "flips", "added",
-                 "seconds", "_energy", "_min_quality", "_mean_quality", "_source")
-
-    def __init__(self, n_vertices: int, n_triangles: int, energy: float | None = None,
-                 min_quality: float | None = None, mean_quality: float | None = None, *,
-                 max_move: float = 0.0, rms_move: float = 0.0, flips: int = 0, added: int = 0,
-                 seconds: float = 0.0, source=None):
-        self.n_vertices, self.n_triangles = int(n_vertices), int(n_triangles)
-        self.max_move = max_move    # largest metric displacement / h in this stage (adjust)
-        self.rms_move = rms_move    # root-mean-square metric displacement / h (adjust)
-        self.flips = flips          # edges flipped to restore the Q-Delaunay property
-        self.added = added          # points inserted (insert)
-        self.seconds = seconds      # wall time of the stage (without these statistics)
-        self._energy, self._min_quality, self._mean_quality = energy, min_quality, mean_quality
-        self._source = source
-
-    def _fill(self):
-        from .geometry import metric_hessians, metric_quality
-        from .measure import triangle_energy
-        mesh, anisotropy = self._source
-        P, T = mesh.points, mesh.triangles
-        q = metric_quality(P, T, metric_hessians(anisotropy, P, T))
-        self._energy = float(triangle_energy(P, T, anisotropy).sum())
-        self._min_quality, self._mean_quality = float(q.min()), float(q.mean())
-
-    @property
-    def energy(self) -> float:
-        """E = ‖s_h − s‖_L1 (MATH.md "Vertex adjustment")."""
-        if self._energy is None:
-            self._fill()
-        return self._energy
-
-    @property
-    def min_quality(self) -> float:
-        """Smallest metric quality (2.94); 1 = equilateral in metric space."""
-        if self._min_quality is None:
-            self._fill()
-        return self._min_quality
-
-    @property
-    def mean_quality(self) -> float:
-        if self._mean_quality is None:
-            self._fill()
-        return self._mean_quality
-
-    def __repr__(self):
-        return (f"Stats(N={self.n_vertices}, triangles={self.n_triangles}, E={self.energy:.4g}, "
-                f"min_q={self.min_quality:.3f}, added={self.added}, flips={self.flips})")
-
-
-@dataclass(frozen=True, eq=False)
-class Step:
-    """A snapshot after one stage of Algorithm 2.1.
-
-    `stage` is "triangulate", "adjust" or "insert"; `iteration` counts the repeat loop
-    (0 = the initial triangulation). `moved` holds per-vertex displacements after an adjust
-    stage; `added` the indices of vertices inserted by an insert stage.
-    """
-
-    stage: str
-    iteration: int
-    mesh: Mesh
-    stats: Stats
-    moved: np.ndarray | None = field(default=None, repr=False)
-    added: np.ndarray | None = field(default=None, repr=False)
-    converged: bool = False
-
-    def __repr__(self):
-        s = self.stats
-        return (f"Step({self.stage!r}, iteration={self.iteration}, N={s.n_vertices}, "
-                f"E={s.energy:.4g}, min_q={s.min_quality:.3f})")

@@ -12,7 +12,7 @@ import types
 import pytest
 
 import qmesh
-from qmesh import system_packages as sp
+from qmesh import setup as sp
 from qmesh.cli import main
 
 ALL = [p for g in sp.GROUPS for p in g.packages]

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import importlib
 
-from ..errors import QmeshError
+from qmesh.errors import QmeshError
 
 EXTRAS = {"triangle": "compare", "matplotlib": "compare", "gmsh": "peers", "mmgpy": "peers"}
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import QmeshError
+from qmesh.errors import QmeshError
 
 VB = (32, 45, 64, 90, 128, 180, 256, 360, 512)
 

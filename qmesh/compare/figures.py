@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import chapter, require
+from qmesh.compare import chapter, require
 
 FIGURES = {
     "fig2_15_l2.png": ("n_vertices", "l2_error", "N (vertices)", "‖s_h − s‖_L2",

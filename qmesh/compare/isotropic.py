@@ -12,9 +12,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..domain import Disk, Polygon
-from ..mesh import Mesh
-from . import chapter, require
+from qmesh.domain.domain import Disk, Polygon
+from qmesh.mesh import Mesh
+from qmesh.compare import chapter, require
 
 
 def switches(area: float) -> str:

@@ -20,12 +20,13 @@ import time
 
 import numpy as np
 
-from .. import measure, sizing
-from ..errors import QmeshError
-from ..geometry import Frame
-from ..mesh import Mesh
-from . import require
-from .peers import PeerMesh, _with_fixed, calibrate, mmg_remesh
+from qmesh import measure
+from qmesh.mesher import sizing
+from qmesh.errors import QmeshError
+from qmesh.geometry.triangles import Frame
+from qmesh.mesh import Mesh
+from qmesh.compare import require
+from qmesh.compare.peers import PeerMesh, _with_fixed, calibrate, mmg_remesh
 
 
 def _equilateral_h(metric_area: float, n: int) -> float:

@@ -22,10 +22,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..errors import QmeshError
-from ..geometry import signed_areas
-from ..mesh import Mesh
-from . import require
+from qmesh.errors import QmeshError
+from qmesh.geometry.triangles import signed_areas
+from qmesh.mesh import Mesh
+from qmesh.compare import require
 
 PEERS = ("bamg", "mmg2d")
 _MODULE = {"bamg": "gmsh", "mmg2d": "mmgpy"}

@@ -28,10 +28,11 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from .. import measure, quadrature
-from ..errors import QmeshError
-from ..geometry import signed_areas
-from ..mesh import Mesh
+from qmesh import measure
+from qmesh.geometry import quadrature
+from qmesh.errors import QmeshError
+from qmesh.geometry.triangles import signed_areas
+from qmesh.mesh import Mesh
 
 RTOL = 1e-8
 """CG stops when ‖b − Ax‖ ≤ RTOL ‖b‖."""

@@ -16,14 +16,14 @@ from typing import Callable
 
 import numpy as np
 
-from .. import CHAPTER_Q, measure
-from ..anisotropy import Anisotropy
-from ..domain import Disk
-from ..errors import QmeshError
-from ..mesher import mesh as adapted_mesh
-from . import chapter, figures, isotropic
-from . import peers as peer_meshers
-from . import solve as solver
+from qmesh import CHAPTER_Q, measure
+from qmesh.conductivity.anisotropy import Anisotropy
+from qmesh.domain.domain import Disk
+from qmesh.errors import QmeshError
+from qmesh.mesher.loop import mesh as adapted_mesh
+from qmesh.compare import chapter, figures, isotropic
+from qmesh.compare import peers as peer_meshers
+from qmesh.compare import solve as solver
 
 MEASURED = ("n_vertices", "n_boundary", "l2_error", "h1_error", "kappa2",
             "q_nonnegative_fraction", "min_quality", "mean_quality")

@@ -11,7 +11,7 @@ import pytest
 import qmesh
 from qmesh import measure
 from qmesh.compare import chapter, isotropic, require
-from qmesh.geometry import signed_areas
+from qmesh.geometry.triangles import signed_areas
 
 
 @pytest.mark.parametrize("vb", [32, 45, 64, 90, 128])

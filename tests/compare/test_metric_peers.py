@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 import qmesh
 from qmesh import measure
 from qmesh.compare import metric_peers, peers
-from qmesh.geometry import signed_areas
+from qmesh.geometry.triangles import signed_areas
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "core"))
 from cases import locally_regular  # noqa: E402  (the lifted in-circle test, written independently)
@@ -106,7 +106,7 @@ def test_qmesh_mesh_is_convex_for_sh_and_a_flip_breaks_it():
     m = qmesh.mesh(qmesh.Disk(16), A, target_vertices=80, seed=0)
     assert metric_peers.sh_convex_fraction(m, A) == 1.0
     # flip one interior edge: it becomes the only edge across which s_h is concave
-    from qmesh import topology
+    from qmesh.geometry import topology
     twin = topology.twins(m.triangles)
     h = int(np.flatnonzero(twin >= 0)[0])
     T, _ = topology.flip(m.triangles.copy(), twin.copy(), np.array([h]))

@@ -3,7 +3,7 @@
 import numpy as np
 
 import qmesh
-from qmesh import topology
+from qmesh.geometry import topology
 
 
 def exp_plus_y2() -> qmesh.Anisotropy:

@@ -12,10 +12,10 @@ from hypothesis import strategies as st
 
 import qmesh
 from cases import exp_plus_y2
-from qmesh import adjust
-from qmesh.geometry import signed_areas
+from qmesh.mesher import adjust
+from qmesh.geometry.triangles import signed_areas
 from qmesh.measure import energy, triangle_energy
-from qmesh.triangulate import lower_hull
+from qmesh.mesher.triangulate import lower_hull
 
 RING = np.column_stack([np.cos(np.pi / 3 * np.arange(6)), np.sin(np.pi / 3 * np.arange(6))])
 STAR = np.array([[0, 1 + k, 1 + (k + 1) % 6] for k in range(6)])      # centre 0, CCW

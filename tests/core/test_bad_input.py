@@ -223,5 +223,5 @@ def test_non_convex_and_clockwise_polygons_mesh(tmp_path, capsys, text, area):
                  "-o", str(out), "--quiet"]) == 0
     assert out.exists()
     m = qmesh.io.read(out)
-    from qmesh.geometry import signed_areas
+    from qmesh.geometry.triangles import signed_areas
     assert signed_areas(m.points, m.triangles).sum() == pytest.approx(area, rel=1e-12)

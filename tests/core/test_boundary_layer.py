@@ -10,8 +10,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import qmesh
-from qmesh import adjust, insert, measure, topology
-from qmesh.geometry import metric_hessians, metric_quality, signed_areas
+from qmesh import measure
+from qmesh.mesher import adjust
+from qmesh.mesher import insert
+from qmesh.geometry import topology
+from qmesh.geometry.triangles import metric_hessians, metric_quality, signed_areas
 
 RING = np.column_stack([np.cos(np.pi / 3 * np.arange(6)), np.sin(np.pi / 3 * np.arange(6))])
 STAR = np.array([[0, 1 + k, 1 + (k + 1) % 6] for k in range(6)])      # centre 0, CCW

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 import qmesh
-from qmesh import file_conductivity, io
+from qmesh import io
+from qmesh.io import conductivity as file_conductivity
 
 from cli_run import run
 

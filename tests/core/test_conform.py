@@ -11,8 +11,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import qmesh
-from qmesh import conform, domains, measure
-from qmesh.geometry import signed_areas
+from qmesh import domains, measure
+from qmesh.mesher import conform
+from qmesh.geometry.triangles import signed_areas
 
 from cases import exp_plus_y2
 

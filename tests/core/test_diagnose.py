@@ -10,7 +10,7 @@ from hypothesis import given, settings, strategies as st
 from scipy.spatial import Delaunay
 
 import qmesh
-from qmesh import diagnose
+from qmesh.mesher import diagnose
 from qmesh.cli import main
 
 CHAPTER = qmesh.Anisotropy.constant(qmesh.CHAPTER_Q)

@@ -6,7 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import qmesh
-import qmesh.rings
+import qmesh.geometry.rings
 from qmesh import QmeshError, domains
 
 SQUARE = np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])
@@ -16,7 +16,7 @@ HOLE = 0.3 * SQUARE
 def test_rings_are_oriented_and_seeds_keep_every_input_point():
     D = qmesh.Domain(SQUARE[::-1], [HOLE])                       # outline clockwise, hole CCW
     outer, hole = D.rings
-    assert qmesh.rings.signed_area(outer) > 0 > qmesh.rings.signed_area(hole)
+    assert qmesh.geometry.rings.signed_area(outer) > 0 > qmesh.geometry.rings.signed_area(hole)
     assert sorted(map(tuple, D.seeds.tolist())) == sorted(map(tuple, np.vstack([SQUARE, HOLE]).tolist()))
     assert D.area == pytest.approx(4.0 - 0.36)
     # Ω is on the left of every segment: the left side of each midpoint is inside

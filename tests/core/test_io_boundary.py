@@ -1,4 +1,4 @@
-"""Boundary edges, tags and tag names go into mesh files and come back (qmesh.io, qmesh.file_boundary)."""
+"""Boundary edges, tags and tag names go into mesh files and come back (qmesh.io, qmesh.io.boundary)."""
 
 import meshio
 import numpy as np

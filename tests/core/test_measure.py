@@ -11,8 +11,9 @@ from scipy.integrate import dblquad
 from scipy.spatial import Delaunay
 
 import qmesh
-from qmesh import measure, quadrature
-from qmesh.anisotropy import adj2
+from qmesh import measure
+from qmesh.geometry import quadrature
+from qmesh.conductivity.anisotropy import adj2
 
 CHAPTER = qmesh.Anisotropy.constant([[0.1, 0.0], [0.0, 10.0]])   # s = 5x² + 0.05y²
 

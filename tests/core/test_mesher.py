@@ -13,8 +13,9 @@ import pytest
 
 import qmesh
 from cases import exp_plus_y2, locally_regular
-from qmesh import QmeshError, measure, topology
-from qmesh.geometry import signed_areas
+from qmesh import QmeshError, measure
+from qmesh.geometry import topology
+from qmesh.geometry.triangles import signed_areas
 from qmesh.measure import edge_weights, interpolation_errors
 
 

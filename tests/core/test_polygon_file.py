@@ -1,4 +1,4 @@
-"""Domain files (qmesh.polygon_file): CSV and GeoJSON rings read back exactly; every bad file is one clear error."""
+"""Domain files (qmesh.domain.polygon_file): CSV and GeoJSON rings read back exactly; every bad file is one clear error."""
 
 import json
 
@@ -11,7 +11,7 @@ import qmesh
 from qmesh import io
 from qmesh.cli import main
 from qmesh.errors import QmeshError
-from qmesh.polygon_file import domain_from_text, read_domain, read_rings
+from qmesh.domain.polygon_file import domain_from_text, read_domain, read_rings
 
 coordinate = st.floats(allow_nan=False, allow_infinity=False, min_value=-1e12, max_value=1e12)
 ring = st.lists(st.tuples(coordinate, coordinate), min_size=3, max_size=12, unique=True)

@@ -7,7 +7,7 @@ from hypothesis import strategies as st
 from scipy.spatial import cKDTree
 
 import qmesh
-from qmesh import seeding_varying
+from qmesh.mesher import seeding_varying
 
 SQUARE = qmesh.Polygon([[-1, -1], [1, -1], [1, 1], [-1, 1]])
 EXPRESSIONS = ["exp(x) + y**2", "cosh(3*x) + 0.02*y**2", "log(exp(2*x) + exp(-2*x) + exp(2*y))"]

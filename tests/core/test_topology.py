@@ -10,9 +10,9 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from scipy.spatial import Delaunay
 
-from qmesh import topology
-from qmesh.geometry import signed_areas
-from qmesh.triangulate import orient_ccw
+from qmesh.geometry import topology
+from qmesh.geometry.triangles import signed_areas
+from qmesh.mesher.triangulate import orient_ccw
 
 SETTINGS = settings(max_examples=40, deadline=None)
 

@@ -16,10 +16,10 @@ from scipy.spatial import Delaunay
 
 import qmesh
 from cases import exp_plus_y2, locally_regular
-from qmesh import topology
-from qmesh.geometry import signed_areas
+from qmesh.geometry import topology
+from qmesh.geometry.triangles import signed_areas
 from qmesh.measure import edge_weights, q_nonnegative_fraction
-from qmesh.triangulate import lower_hull, orient_ccw, restore
+from qmesh.mesher.triangulate import lower_hull, orient_ccw, restore
 
 # strategies: the smaller principal conductivity, the anisotropy ratio, the angle, a point-set seed
 k1s = st.floats(min_value=-2.0, max_value=2.0).map(lambda e: 10.0 ** e)

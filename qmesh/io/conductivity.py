@@ -29,8 +29,8 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from .anisotropy import Anisotropy, adj2
-from .errors import QmeshError
+from qmesh.conductivity.anisotropy import Anisotropy, adj2
+from qmesh.errors import QmeshError
 
 PREFIX = "qmesh conductivity: "
 ATTRIBUTE = "qmesh_conductivity"

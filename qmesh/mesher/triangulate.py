@@ -19,9 +19,9 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import ConvexHull, Delaunay, QhullError
 
-from . import topology
-from .errors import QmeshError
-from .geometry import signed_areas
+from qmesh.geometry import topology
+from qmesh.errors import QmeshError
+from qmesh.geometry.triangles import signed_areas
 
 FLIP_TOL = 1e-10   # relative violation below which an edge counts as regular (ties stay put)
 VERTICAL = 1e-6   # |n_z| of a lifted facet below this: vertical (collinear points on the hull), not lower

@@ -19,8 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .topology import NXT, PRV
-from .geometry import (Frame, area_gradients, metric_hessians, quadratic_form,
+from qmesh.geometry.topology import NXT, PRV
+from qmesh.geometry.triangles import (Frame, area_gradients, metric_hessians, quadratic_form,
                        quadratic_form_xy, signed_areas)
 
 STAR_SHRINK = 0.5      # largest fraction of a triangle's area one vertex's move may remove

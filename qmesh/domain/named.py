@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .domain import Disk, Domain
+from qmesh.domain.domain import Disk, Domain
 
 
 def _circle(n: int, radius: float, center=(0.0, 0.0)) -> np.ndarray:

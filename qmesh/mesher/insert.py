@@ -28,8 +28,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from . import topology
-from .geometry import (metric_areas, metric_edge_lengths2, metric_hessians, metric_quality,
+from qmesh.geometry import topology
+from qmesh.geometry.triangles import (metric_areas, metric_edge_lengths2, metric_hessians, metric_quality,
                        rounded)
 
 GROSS = 4.0             # above this multiple of the threshold, neighbours may be refined together

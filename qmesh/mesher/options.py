@@ -9,8 +9,9 @@ from __future__ import annotations
 
 import inspect
 
-from . import checks, sizing
-from .errors import QmeshError
+from qmesh import checks
+from qmesh.mesher import sizing
+from qmesh.errors import QmeshError
 
 MAX_ITERATIONS = 1_000_000
 """Cap on max_iterations: the loop converges in tens of iterations; more is a mistake."""

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .errors import QmeshError
+from qmesh.errors import QmeshError
 
 # Gauss–Legendre points on [0, 1] for the metric length of each boundary edge
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(8)
@@ -44,8 +44,8 @@ def domain_triangulation(domain) -> tuple[np.ndarray, np.ndarray]:
     kept on the domain: sizing and random seeding integrate and sample over it."""
     cached = domain.__dict__.get("_triangulation")
     if cached is None:
-        from .anisotropy import Anisotropy
-        from .conform import conforming_delaunay
+        from qmesh.conductivity.anisotropy import Anisotropy
+        from qmesh.mesher.conform import conforming_delaunay
         seeds = np.asarray(domain.seeds)
         c = conforming_delaunay(domain, seeds, np.full(len(seeds), -1, np.int64),
                                 Anisotropy.constant(np.eye(2)), h=np.inf)

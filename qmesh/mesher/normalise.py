@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .anisotropy import Anisotropy
-from .errors import QmeshError
+from qmesh.conductivity.anisotropy import Anisotropy
+from qmesh.errors import QmeshError
 
 
 def _hessian_scale(anisotropy, X: np.ndarray) -> float:

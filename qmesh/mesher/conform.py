@@ -28,10 +28,10 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
-from . import topology
-from .errors import QmeshError
-from .geometry import signed_areas
-from .triangulate import lower_hull, restore
+from qmesh.geometry import topology
+from qmesh.errors import QmeshError
+from qmesh.geometry.triangles import signed_areas
+from qmesh.mesher.triangulate import lower_hull, restore
 
 ENCROACH_TOL = 1e-9     # relative depth below the plane that counts as encroaching
 MAX_ROUNDS = 200        # split rounds before giving up (never reached on valid input)

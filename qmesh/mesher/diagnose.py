@@ -15,8 +15,8 @@ import warnings
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
-from .errors import QmeshWarning
-from .geometry import metric_areas, metric_hessians, metric_quality
+from qmesh.errors import QmeshWarning
+from qmesh.geometry.triangles import metric_areas, metric_hessians, metric_quality
 
 ROWS = 2.0               # elements across the domain that a usable mesh needs
 ROW_HEIGHT = np.sqrt(3.0) / 2.0   # height of an equilateral triangle of metric edge length 1

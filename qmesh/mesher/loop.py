@@ -24,18 +24,23 @@ from typing import Iterator
 
 import numpy as np
 
-from . import conform, seeding, seeding_varying, sizing, topology
-from .adjust import boundary_layer, limit_moves, newton_step, shape_step
-from .anisotropy import Anisotropy
-from .boundary import hold_off_boundary, hold_out_of_ellipses, snap_to_boundary
-from .domain import as_domain
-from .errors import QmeshError
-from .geometry import quadratic_form
-from .insert import insert, relocate_degree3, target_area
-from .mesh import Mesh, Stats, Step, frozen
-from .normalise import Normalisation
-from .options import check_keywords, check_options
-from .triangulate import restore
+from qmesh.mesher import conform
+from qmesh.mesher import seeding
+from qmesh.mesher import seeding_varying
+from qmesh.mesher import sizing
+from qmesh.geometry import topology
+from qmesh.mesher.adjust import boundary_layer, limit_moves, newton_step, shape_step
+from qmesh.conductivity.anisotropy import Anisotropy
+from qmesh.mesher.boundary import hold_off_boundary, hold_out_of_ellipses, snap_to_boundary
+from qmesh.domain.domain import as_domain
+from qmesh.errors import QmeshError
+from qmesh.geometry.triangles import quadratic_form
+from qmesh.mesher.insert import insert, relocate_degree3, target_area
+from qmesh.mesh import Mesh, frozen
+from qmesh.mesher.step import Stats, Step
+from qmesh.mesher.normalise import Normalisation
+from qmesh.mesher.options import check_keywords, check_options
+from qmesh.mesher.triangulate import restore
 
 BOUNDARY_FACTOR = 1.0   # split boundary edges longer than this many target metric lengths
 LATTICE_FILL = 0.97     # the initial lattice holds this share of the expected interior vertices
@@ -339,7 +344,7 @@ def mesh(domain, anisotropy, *, target_vertices: int | None = None, size: float 
             if abs(again.n_vertices - target) < abs(m.n_vertices - target):
                 m = again
     _check_count(m, target, boundary_refinement)
-    from .diagnose import warn_if_thin   # a domain thinner than two elements: say so
+    from qmesh.mesher.diagnose import warn_if_thin   # a domain thinner than two elements: say so
     warn_if_thin(m, anisotropy)
     return m
 

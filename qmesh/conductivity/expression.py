@@ -19,7 +19,7 @@ from typing import Callable
 
 import numpy as np
 
-from .errors import QmeshError
+from qmesh.errors import QmeshError
 
 MAX_LENGTH = 500    # characters
 MAX_DEPTH = 12      # nesting of operations and calls

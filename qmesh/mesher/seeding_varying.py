@@ -23,7 +23,9 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from . import rings, seeding, sizing
+from qmesh.geometry import rings
+from qmesh.mesher import seeding
+from qmesh.mesher import sizing
 
 PATCH = 6.0           # lattice patches span this many lattice spacings (in the mean metric)
 OVERLAP = 0.75        # each patch's lattice reaches this share of a patch size from its centre

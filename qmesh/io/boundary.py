@@ -6,7 +6,7 @@ Neumann on a hole…): `Mesh.boundary_edges` (k, 2) and `Mesh.boundary_tags` (k,
 
 - `.msh` (gmsh 4.1): one line block per tag, each its own curve entity whose physical tag is
   the boundary tag; named tags in $PhysicalNames (dimension 1); the triangles are physical
-  surface 1 (named by the conductivity record, `qmesh.file_conductivity`). gmsh lists the
+  surface 1 (named by the conductivity record, `qmesh.io.conductivity`). gmsh lists the
   nodes entity by entity, and meshio reads points in that order but node data in node-tag
   order; so the nodes are written sorted by entity (tags 1…N in that order, every reader
   agrees) with node data "qmesh:vertex", each node's index in the Mesh, which `read` uses
@@ -25,8 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
-from . import file_conductivity
-from .errors import QmeshError
+from qmesh.io import conductivity as file_conductivity
+from qmesh.errors import QmeshError
 
 TAG_DATA = "boundary_tag"
 VERTEX_DATA = "qmesh:vertex"

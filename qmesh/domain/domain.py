@@ -12,9 +12,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import rings as _rings
-from . import checks
-from .errors import QmeshError
+from qmesh.geometry import rings as _rings
+from qmesh import checks
+from qmesh.errors import QmeshError
 
 MAX_POINTS = 10_000_000
 TOUCH = 1e-9    # a point this close (× the domain's size) to a segment not its own touches it

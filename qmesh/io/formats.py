@@ -6,9 +6,9 @@ The format follows the file's extension (`FORMATS`). What travels with the mesh:
   "medit:ref", the only per-vertex value that format holds);
 - the metric quality (2.94) as cell data "quality", when `write` is given the anisotropy;
 - the conductivity itself (a constant Q, or the text of s), when `write` is given the
-  anisotropy, in every format (`qmesh.file_conductivity` says where); `read_anisotropy`
+  anisotropy, in every format (`qmesh.io.conductivity` says where); `read_anisotropy`
   gives it back;
-- the boundary edges with their tags and tag names, as line cells (`qmesh.file_boundary`
+- the boundary edges with their tags and tag names, as line cells (`qmesh.io.boundary`
   says how); `read` gives them back in `Mesh.boundary_edges`, `boundary_tags`, `tag_names`;
 - any extra `point_data` / `cell_data` the caller passes.
 
@@ -27,12 +27,13 @@ from pathlib import Path
 
 import numpy as np
 
-from . import file_boundary, file_conductivity
-from .anisotropy import Anisotropy
-from .errors import QmeshError
-from .geometry import signed_areas
-from .measure import quality
-from .mesh import Mesh
+from qmesh.io import boundary as file_boundary
+from qmesh.io import conductivity as file_conductivity
+from qmesh.conductivity.anisotropy import Anisotropy
+from qmesh.errors import QmeshError
+from qmesh.geometry.triangles import signed_areas
+from qmesh.measure import quality
+from qmesh.mesh import Mesh
 
 FORMATS = {  # each name is a meshio submodule with read() and write()
     ".vtu": "vtu",
@@ -53,7 +54,7 @@ KEEPS_TAGS = file_boundary.KEEPS_TAGS
 KEEPS_TAG_NAMES = file_boundary.KEEPS_NAMES
 """Extensions whose files also keep the tags' names."""
 KEEPS_CONDUCTIVITY = set(FORMATS)
-"""Extensions whose files keep the conductivity (all: see `qmesh.file_conductivity`)."""
+"""Extensions whose files keep the conductivity (all: see `qmesh.io.conductivity`)."""
 
 _WRITE_OPTIONS = {
     # meshio's ASCII gmsh writer prints data as numpy reprs ("np.int32(1)") under NumPy 2.
@@ -136,7 +137,7 @@ def write(path, mesh: Mesh, *, anisotropy=None, point_data=None, cell_data=None)
     """Write `mesh` to `path` in the format of its extension.
 
     The fixed flag is written as point data "fixed" (int); the boundary edges with their tags
-    (and tag names) as line cells (`qmesh.file_boundary` says how per format). When
+    (and tag names) as line cells (`qmesh.io.boundary` says how per format). When
     `anisotropy` is given, the file keeps it (`read_anisotropy` gives it back; a varying s
     given only as callables has no text and is not kept) and the metric quality (2.94) is
     written as cell data "quality": quality is measured in the metric of a particular Q, and

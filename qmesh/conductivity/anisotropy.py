@@ -12,8 +12,8 @@ from typing import Callable
 
 import numpy as np
 
-from . import checks
-from .errors import QmeshError
+from qmesh import checks
+from qmesh.errors import QmeshError
 
 Field = Callable[[np.ndarray], np.ndarray]
 
@@ -141,7 +141,7 @@ class Anisotropy:
         A Hessian that is constant and not SPD is refused here; one that varies is checked on
         the domain by `check_convex`. A constant Hessian makes this a constant-Q anisotropy.
         """
-        from .expression import parse_s
+        from qmesh.conductivity.expression import parse_s
 
         e = parse_s(text)
         return cls(e.s, e.grad, e.hessian, e.H, label=text, expression=text)

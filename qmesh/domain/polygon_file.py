@@ -23,8 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .domain import Domain
-from .errors import QmeshError
+from qmesh.domain.domain import Domain
+from qmesh.errors import QmeshError
 
 GEOJSON_SUFFIXES = {".geojson", ".json"}
 
