@@ -29,7 +29,9 @@ class Mesh:
     """A triangle mesh: `points (N,2)`, counter-clockwise `triangles (M,3)`, `fixed (N,)` seed mask,
     and its boundary: `boundary_edges (k,2)` with Ω on the left of each, their integer
     `boundary_tags (k,)` (inherited from the domain's segments; 1 when not known) and
-    `tag_names` (tag → name). Edges not given are found from the triangles.
+    `tag_names` (tag → name). Edges not given are found from the triangles. `region_tags (M,)`
+    gives each triangle's region (0, the rest of Ω, when the domain has no regions) and
+    `region_names` names them.
     """
 
     points: np.ndarray = field(repr=False)
@@ -38,6 +40,8 @@ class Mesh:
     boundary_edges: np.ndarray = field(default=None, repr=False)
     boundary_tags: np.ndarray = field(default=None, repr=False)
     tag_names: dict = field(default=None, repr=False)
+    region_tags: np.ndarray = field(default=None, repr=False)
+    region_names: dict = field(default=None, repr=False)
 
     def __post_init__(self):
         P = self.points if _is_float_array(self.points) else real_array(self.points, "points",
@@ -63,8 +67,16 @@ class Mesh:
         if tags.shape != (len(E),):
             raise QmeshError(f"boundary_tags must have shape ({len(E)},), got {tags.shape}")
         names = {} if self.tag_names is None else {int(k): str(v) for k, v in dict(self.tag_names).items()}
+        regions = (np.zeros(len(T), np.int64) if self.region_tags is None
+                   else _indices(self.region_tags, "region_tags", None))
+        regions = frozen(regions, np.int64)
+        if regions.shape != (len(T),):
+            raise QmeshError(f"region_tags must have shape ({len(T)},), got {regions.shape}")
+        region_names = ({} if self.region_names is None
+                        else {int(k): str(v) for k, v in dict(self.region_names).items()})
         for name, value in (("points", P), ("triangles", T), ("fixed", F), ("boundary_edges", E),
-                            ("boundary_tags", tags), ("tag_names", names)):
+                            ("boundary_tags", tags), ("tag_names", names), ("region_tags", regions),
+                            ("region_names", region_names)):
             object.__setattr__(self, name, value)
 
     def __repr__(self):
