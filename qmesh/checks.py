@@ -172,10 +172,15 @@ def spd_matrix(value, name: str) -> np.ndarray:
     return 0.5 * Q + 0.5 * Q.T
 
 
+def _is(value, qualified: str) -> bool:
+    """`value` is an instance of the class named `qualified` (module.Class), found by name so
+    that checks imports none of the types it checks (they import checks)."""
+    return any(f"{c.__module__}.{c.__qualname__}" == qualified for c in type(value).__mro__)
+
+
 def anisotropy(value, name: str = "anisotropy"):
     """`value` when it is a qmesh.Anisotropy (an array or a list is not: it says how to make one)."""
-    from qmesh.conductivity.anisotropy import Anisotropy
-    if isinstance(value, Anisotropy):
+    if _is(value, "qmesh.conductivity.anisotropy.Anisotropy"):
         return value
     hint = (" (for a constant matrix Q use qmesh.Anisotropy.constant(Q))"
             if isinstance(value, (np.ndarray, list, tuple)) else "")
@@ -189,7 +194,6 @@ def anisotropy_or_none(value, name: str = "anisotropy"):
 
 def mesh(value, name: str = "mesh"):
     """`value` when it is a qmesh.Mesh (whose constructor refused non-finite coordinates)."""
-    from qmesh.mesh import Mesh
-    if not isinstance(value, Mesh):
+    if not _is(value, "qmesh.mesh.Mesh"):
         raise QmeshError(f"{name} must be a qmesh.Mesh, got {describe(value)}")
     return value

@@ -1,6 +1,6 @@
-"""The options of `qmesh.mesh` and `qmesh.iterate`, checked before any work is done.
+"""The options of `qmesh.mesh` and `qmesh.iterate`: one frozen record, checked before any work.
 
-`check_options` refuses a wrong type, None where a value is needed, a bool given for a number,
+`Options.checked` refuses a wrong type, None where a value is needed, a bool given for a number,
 NaN, ±inf and absurdly large values, each with a QmeshError naming the option and the value
 received. `check_keywords` names any keyword the mesher does not know.
 """
@@ -8,6 +8,7 @@ received. `check_keywords` names any keyword the mesher does not know.
 from __future__ import annotations
 
 import inspect
+from dataclasses import asdict, dataclass
 
 from qmesh import checks
 from qmesh.mesher import sizing
@@ -17,9 +18,30 @@ MAX_ITERATIONS = 1_000_000
 """Cap on max_iterations: the loop converges in tens of iterations; more is a mistake."""
 
 
-def check_options(target_vertices, size, alpha, quality_threshold, min_area, max_iterations,
-                  seed, boundary_refinement=True) -> None:
-    """Raise QmeshError unless every option of `iterate` has a usable type and value."""
+@dataclass(frozen=True)
+class Options:
+    """The options of one run, as `iterate` documents them (its defaults are these)."""
+
+    target_vertices: int | None = None
+    size: float | None = None
+    alpha: float = 0.5
+    quality_threshold: float = 0.5
+    min_area: float | None = None
+    max_iterations: int = 40
+    seed: int | None = 0
+    boundary_refinement: bool = True
+
+    @classmethod
+    def checked(cls, **values) -> "Options":
+        """The record of `values`, or QmeshError naming the first option that is unusable."""
+        options = cls(**values)
+        _check(**asdict(options))
+        return options
+
+
+def _check(target_vertices, size, alpha, quality_threshold, min_area, max_iterations,
+           seed, boundary_refinement) -> None:
+    """Raise QmeshError unless every option has a usable type and value."""
     checks.integer(target_vertices, "target_vertices", low=1, none=True)
     checks.real(size, "size", low=0.0, low_open=True, none=True)
     if target_vertices is not None and size is not None:

@@ -66,6 +66,16 @@ def metric_edge_lengths(domain, anisotropy) -> np.ndarray:
     return dens @ _GL_W
 
 
+def equilateral_area(h: float) -> float:
+    """Metric area of an equilateral triangle of metric edge h: (√3/4)·h²."""
+    return np.sqrt(3.0) / 4.0 * h * h
+
+
+def size_of_area(area: float) -> float:
+    """The edge of the equilateral triangle of this metric area (the inverse of the above)."""
+    return np.sqrt(area / equilateral_area(1.0))
+
+
 def boundary_vertices(edge_lengths: np.ndarray, h: float, boundary_factor: float | None) -> int:
     """Boundary vertex count when every edge longer than boundary_factor·h is split evenly."""
     if boundary_factor is None:
@@ -77,7 +87,7 @@ def vertices_for_size(area_m: float, edge_lengths: np.ndarray, h: float,
                       boundary_factor: float | None) -> float:
     """Expected N for metric edge length h: M·(√3/4)h² = area, M = 2N − N_b − 2."""
     nb = boundary_vertices(edge_lengths, h, boundary_factor)
-    m = area_m / (np.sqrt(3.0) / 4.0 * h * h)
+    m = area_m / equilateral_area(h)
     return 0.5 * (m + nb + 2)
 
 

@@ -12,7 +12,7 @@ import pytest
 
 import qmesh_view
 from qmesh.errors import QmeshError
-from qmesh_view import draw, scene, system
+from qmesh_view import draw, system
 
 
 @pytest.fixture
@@ -30,7 +30,7 @@ def test_this_machine_has_what_rendering_needs():
 def test_missing_egl_names_its_package_before_vtk_renders(no_egl, chapter_run):
     assert system.missing_packages() == ["libegl1"]
     for make in (lambda: draw.ViewSet(), draw.new_plotter,
-                 lambda: scene.render_views(chapter_run.current, chapter_run.anisotropy)):
+                 lambda: draw.render_views(chapter_run.current, chapter_run.anisotropy)):
         with pytest.raises(system.MissingSystemLibrary, match=r"apt-get install libegl1`"):
             make()
     assert issubclass(system.MissingSystemLibrary, QmeshError)
