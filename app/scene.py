@@ -299,15 +299,3 @@ def quality(step, anisotropy, colour_by: str = "quality",
         edges.cell_data["q_sign"] = sign
         n_negative = int(np.sum(sign < 0))
     return QualityScene(tri, colour_by, clim, edges, n_negative)
-
-
-# --------------------------------------------------------------------------- images
-
-def render_views(step, anisotropy, **options) -> dict:
-    """The three views drawn off-screen: {"lifted", "mesh", "quality"} → RGB arrays (h, w, 3).
-
-    Options as `qmesh_view.draw.render_views` (window_size, z_scale, colour_by, q_sign_edges,
-    domain); imported here so callers need only this module.
-    """
-    from .draw import render_views as _render
-    return _render(step, anisotropy, **options)

@@ -16,10 +16,12 @@ import os
 import tempfile
 
 from qmesh.errors import QmeshError
+from qmesh.setup import GROUPS
 
-# (library name for ctypes.util.find_library, Debian package that provides it)
-LIBRARIES = (("EGL", "libegl1"), ("GL", "libgl1"))
-DRI_PACKAGE = "libgl1-mesa-dri"
+_RENDERING = next(g for g in GROUPS if g.name == "rendering")   # what `qmesh setup` installs
+# (library name for ctypes.util.find_library, Debian package that provides it): EGL, GL
+LIBRARIES = tuple(zip(_RENDERING.libraries, _RENDERING.packages))
+DRI_PACKAGE = _RENDERING.packages[len(_RENDERING.libraries)]     # Mesa's DRI drivers
 DRI_GLOBS = ("/usr/lib/*/dri/swrast_dri.so", "/usr/lib/dri/swrast_dri.so",
              "/usr/lib64/dri/swrast_dri.so", "/usr/lib/*/dri/libdril_dri.so")
 

@@ -13,6 +13,7 @@ import numpy as np
 
 from qmesh.checks import real_array
 from qmesh.errors import QmeshError
+from qmesh.geometry.topology import edge_keys
 
 
 def frozen(a: np.ndarray, dtype) -> np.ndarray:
@@ -129,7 +130,7 @@ def _indices(value, name: str, width: int | None) -> np.ndarray:
 def _boundary_of(T: np.ndarray, n: int) -> np.ndarray:
     """Half-edges a→b (in triangle order, so Ω is on their left) whose edge has one triangle."""
     a, b = T.ravel(), T[:, [1, 2, 0]].ravel()
-    key = np.minimum(a, b) * np.int64(max(n, 1)) + np.maximum(a, b)
+    key = edge_keys(a, b, n)
     _, inverse, count = np.unique(key, return_inverse=True, return_counts=True)
     one = count[inverse] == 1
     return np.column_stack([a[one], b[one]])

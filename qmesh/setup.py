@@ -22,6 +22,8 @@ import sys
 from dataclasses import dataclass
 from typing import Callable, Sequence
 
+from qmesh.errors import QmeshError
+
 
 @dataclass(frozen=True)
 class Group:
@@ -155,7 +157,6 @@ def require(name: str, run: Callable = subprocess.run) -> None:
     """Raise QmeshError naming the missing Debian packages of group `name` (e.g. "rendering"),
     before code that would crash without them (VTK segfaults without EGL). Silent where dpkg
     cannot tell (not Debian) or all are there; one dpkg-query call."""
-    from qmesh.errors import QmeshError
     group = {g.name: g for g in GROUPS}.get(name)
     if group is None:
         raise QmeshError(f"name must be one of {sorted(g.name for g in GROUPS)}, got {name!r}")

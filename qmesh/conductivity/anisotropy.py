@@ -13,6 +13,7 @@ from typing import Callable
 import numpy as np
 
 from qmesh import checks
+from qmesh.conductivity.expression import parse_s
 from qmesh.errors import QmeshError
 
 Field = Callable[[np.ndarray], np.ndarray]
@@ -141,7 +142,6 @@ class Anisotropy:
         A Hessian that is constant and not SPD is refused here; one that varies is checked on
         the domain by `check_convex`. A constant Hessian makes this a constant-Q anisotropy.
         """
-        from qmesh.conductivity.expression import parse_s
 
         e = parse_s(text)
         return cls(e.s, e.grad, e.hessian, e.H, label=text, expression=text)

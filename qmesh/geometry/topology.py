@@ -16,6 +16,12 @@ NXT = np.array([1, 2, 0])
 PRV = np.array([2, 0, 1])
 
 
+def edge_keys(a: np.ndarray, b: np.ndarray, n: int) -> np.ndarray:
+    """One int64 key per undirected edge a–b of a mesh of n vertices: min·n + max."""
+    a, b = np.asarray(a, np.int64), np.asarray(b, np.int64)
+    return np.minimum(a, b) * np.int64(max(n, 1)) + np.maximum(a, b)
+
+
 def twins(T: np.ndarray) -> np.ndarray:
     """Twin half-edge of every half-edge (-1 on the boundary); one sort, used once per mesh.
 
@@ -26,7 +32,7 @@ def twins(T: np.ndarray) -> np.ndarray:
     a = T.ravel()
     b = T[:, NXT].ravel()
     n = int(T.max()) + 1 if M else 0
-    key = np.minimum(a, b).astype(np.int64) * n + np.maximum(a, b)
+    key = edge_keys(a, b, n)
     order = np.argsort(key, kind="stable")
     k = key[order]
     same = k[1:] == k[:-1]

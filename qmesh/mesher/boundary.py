@@ -20,6 +20,7 @@ import numpy as np
 from qmesh.geometry import topology
 from qmesh.mesher.adjust import MIN_AREA_KEPT
 from qmesh.geometry.triangles import metric_hessians, metric_quality, signed_areas
+from qmesh.mesher.conform import encroached
 
 END_MARGIN = 0.02   # the projection must not fall on an end of the boundary edge
 SLIVER = 0.2        # a boundary triangle below this metric quality hands its apex to the boundary
@@ -73,7 +74,6 @@ def hold_out_of_ellipses(P, T, twin, d, on_boundary, anisotropy) -> np.ndarray:
     The triangulate stage would push such a vertex back out (conform.py) and the next vertex
     step pull it in again, for ever; holding it keeps the boundary q_ij ≥ 0 without that cycle.
     """
-    from qmesh.mesher.conform import encroached
     _, a, b, v = _boundary_triangles(T, twin)
     inner = ~on_boundary[v]
     a, b, v = a[inner], b[inner], v[inner]

@@ -17,6 +17,7 @@ from scipy.spatial import ConvexHull, QhullError
 
 from qmesh.errors import QmeshWarning
 from qmesh.geometry.triangles import metric_areas, metric_hessians, metric_quality
+from qmesh.mesher.sizing import equilateral_area, vertices_from_counts
 
 ROWS = 2.0               # elements across the domain that a usable mesh needs
 ROW_HEIGHT = np.sqrt(3.0) / 2.0   # height of an equilateral triangle of metric edge length 1
@@ -25,7 +26,7 @@ SLIVER = 0.1             # metric quality (2.94) below which a triangle is a sli
 
 def element_size(metric_area: float, n_triangles: int) -> float:
     """Metric edge length h of the equilateral triangle of the mean metric area: M·(√3/4)h² = area."""
-    return float(np.sqrt(metric_area / (np.sqrt(3.0) / 4.0 * max(n_triangles, 1))))
+    return float(np.sqrt(metric_area / (equilateral_area(1.0) * max(n_triangles, 1))))
 
 
 def metric_width(points: np.ndarray, H: np.ndarray, metric_area: float,
@@ -54,8 +55,7 @@ def metric_width(points: np.ndarray, H: np.ndarray, metric_area: float,
 
 def vertices_for(metric_area: float, metric_perimeter: float, h: float) -> int:
     """Vertex count of a mesh of metric size h: M = 2N − N_b − 2 with N_b ≈ perimeter / h."""
-    triangles = metric_area / (np.sqrt(3.0) / 4.0 * h * h)
-    return int(np.ceil(0.5 * (triangles + metric_perimeter / h + 2)))
+    return int(np.ceil(vertices_from_counts(metric_area, h, metric_perimeter / h)))
 
 
 def thin_domain(mesh, anisotropy) -> str | None:

@@ -48,11 +48,6 @@ class Insertion:
     edge_id: np.ndarray     # (k,) polygon edge of new boundary points, -1 for interior ones
 
 
-def target_area(h: float) -> float:
-    """Metric area of an equilateral triangle of edge h."""
-    return np.sqrt(3.0) / 4.0 * h * h
-
-
 def insert(P, T, twin, anisotropy, *, area_threshold, boundary_length, corner_edge,
            quality_threshold, min_area, budget, refine_boundary=True) -> Insertion:
     """Choose where to add points and split the triangles there.

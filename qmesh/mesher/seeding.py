@@ -19,7 +19,7 @@ import numpy as np
 
 from qmesh.geometry import rings
 from qmesh.geometry.triangles import rounded
-from qmesh.mesher.sizing import domain_triangulation
+from qmesh.mesher.sizing import domain_triangulation, metric_edge_lengths
 
 MARGIN = 0.3        # lattice points keep this many metric edge lengths from the boundary
 JITTER = 1e-3       # random perturbation of lattice points, in metric edge lengths
@@ -29,7 +29,6 @@ ELONGATED = 4.0     # rows follow Ω's long axis only when its inertia is this m
 def boundary_points(domain, anisotropy, h: float, factor: float | None):
     """Points splitting every segment into pieces of metric length at most factor·h (none when
     factor is None): arrays (points (k, 2), segment of each (k,))."""
-    from qmesh.mesher.sizing import metric_edge_lengths
     if factor is None:
         return np.empty((0, 2)), np.empty(0, np.int64)
     pieces = np.maximum(1, np.ceil(metric_edge_lengths(domain, anisotropy) / (factor * h))).astype(np.int64)

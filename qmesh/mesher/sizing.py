@@ -9,7 +9,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from qmesh.conductivity.anisotropy import Anisotropy
 from qmesh.errors import QmeshError
+from qmesh.mesher.conform import conforming_delaunay
 
 # Gauss–Legendre points on [0, 1] for the metric length of each boundary edge
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(8)
@@ -44,8 +46,6 @@ def domain_triangulation(domain) -> tuple[np.ndarray, np.ndarray]:
     kept on the domain: sizing and random seeding integrate and sample over it."""
     cached = domain.__dict__.get("_triangulation")
     if cached is None:
-        from qmesh.conductivity.anisotropy import Anisotropy
-        from qmesh.mesher.conform import conforming_delaunay
         seeds = np.asarray(domain.seeds)
         c = conforming_delaunay(domain, seeds, np.full(len(seeds), -1, np.int64),
                                 Anisotropy.constant(np.eye(2)), h=np.inf)
@@ -86,9 +86,13 @@ def boundary_vertices(edge_lengths: np.ndarray, h: float, boundary_factor: float
 def vertices_for_size(area_m: float, edge_lengths: np.ndarray, h: float,
                       boundary_factor: float | None) -> float:
     """Expected N for metric edge length h: M·(√3/4)h² = area, M = 2N − N_b − 2."""
-    nb = boundary_vertices(edge_lengths, h, boundary_factor)
-    m = area_m / equilateral_area(h)
-    return 0.5 * (m + nb + 2)
+    return vertices_from_counts(area_m, h, boundary_vertices(edge_lengths, h, boundary_factor))
+
+
+def vertices_from_counts(area_m: float, h: float, n_boundary: float) -> float:
+    """Euler's relation for a triangulation of N vertices, N_b on the boundary: M = 2N − N_b − 2
+    triangles of metric area (√3/4)h² fill the metric area, so N = (M + N_b + 2)/2."""
+    return 0.5 * (area_m / equilateral_area(h) + n_boundary + 2)
 
 
 def size_for_vertices(area_m: float, edge_lengths: np.ndarray, n: int,
