@@ -22,6 +22,7 @@ boundary conforming, so that every q_ij ≥ 0 on interior and boundary edges (co
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Iterator
 
 import numpy as np
@@ -49,10 +50,9 @@ def _algorithm_2_1(plan: Plan, rng) -> Iterator[Step]:
         inserted = add_new_points(plan, st, it)          # (2.94)
         yield inserted
         step = retriangulate(plan, st, it)               # (2.74)–(2.75)
-        done = converged(adjusted, inserted, step)
-        step = Step(step.stage, it, step.mesh, step.stats, step.moved, step.added, converged=done)
+        step = replace(step, converged=converged(adjusted, inserted, step))
         yield step
-        if done:
+        if step.converged:                               # until converged
             break
     return step
 

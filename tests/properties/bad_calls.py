@@ -121,11 +121,13 @@ def _calls() -> list[BadCall]:
     add("Mesh", "fixed", ["abc", [True, False], [[True, False, True]]],
         lambda v: qmesh.Mesh(np.eye(3)[:, :2], [[0, 1, 2]], fixed=v), ["fixed"])
 
-    for fn in (measure.energy, measure.quality, measure.stiffness, measure.edge_weights,
-               measure.q_nonnegative_fraction, measure.condition_number,
+    for fn in (measure.energy, measure.quality, measure.stiffness, measure.stiffness_interior,
+               measure.edge_weights, measure.q_nonnegative_fraction,
+               measure.q_nonnegative_fraction_boundary, measure.condition_number,
                measure.interpolation_errors, measure.report):
         add(f"measure.{fn.__name__}", "mesh", MESHES, lambda v, fn=fn: fn(v, A()))
-        allowed_none = fn in (measure.stiffness, measure.edge_weights, measure.q_nonnegative_fraction,
+        allowed_none = fn in (measure.stiffness, measure.stiffness_interior, measure.edge_weights,
+                              measure.q_nonnegative_fraction, measure.q_nonnegative_fraction_boundary,
                               measure.condition_number)
         add(f"measure.{fn.__name__}", "anisotropy", ANISOTROPIES_OR_NONE if allowed_none else ANISOTROPIES,
             lambda v, fn=fn: fn(_mesh(), v))

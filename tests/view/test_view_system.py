@@ -23,10 +23,6 @@ def no_egl(monkeypatch):
     monkeypatch.setattr(system, "_ready", False)
 
 
-def test_this_machine_has_what_rendering_needs():
-    assert system.missing_packages() == []
-
-
 def test_missing_egl_names_its_package_before_vtk_renders(no_egl, chapter_run):
     assert system.missing_packages() == ["libegl1"]
     for make in (lambda: draw.ViewSet(), draw.new_plotter,

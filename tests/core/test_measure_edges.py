@@ -1,7 +1,7 @@
-"""qmesh.measure: its arguments are checked (issue 10 item 4), and the share of q_ij ≥ 0 is given
-for interior and for boundary edges separately, None when there is no edge of that kind (issue 9
-item 4). Expected weights come from the cotangent formula q_ij = ½(cot θ_k + cot θ_l) for Q = I,
-computed here by hand, not by the code under test."""
+"""qmesh.measure: the share of q_ij ≥ 0 is given for interior and for boundary edges separately,
+None when there is no edge of that kind (issue 9 item 4); its argument checks are in
+tests/properties/bad_calls.py. Expected weights come from the cotangent formula
+q_ij = ½(cot θ_k + cot θ_l) for Q = I, computed here by hand, not by the code under test."""
 
 import json
 
@@ -99,18 +99,6 @@ def test_mesh_command_prints_both_shares(tmp_path, capsys):
     assert summary["q_nonnegative_fraction_boundary"] == measure.q_nonnegative_fraction_boundary(m, A)
 
 
-MESH_FUNCTIONS = [measure.energy, measure.quality, measure.stiffness, measure.stiffness_interior,
-                  measure.edge_weights, measure.q_nonnegative_fraction,
-                  measure.q_nonnegative_fraction_boundary, measure.condition_number,
-                  measure.interpolation_errors, measure.report]
-
-
-@pytest.mark.parametrize("f", MESH_FUNCTIONS, ids=lambda f: f.__name__)
-@pytest.mark.parametrize("bad", [None, "mesh.vtu", np.zeros((3, 2)), (np.zeros((3, 2)), [[0, 1, 2]])],
-                         ids=["None", "str", "ndarray", "tuple"])
-def test_measure_refuses_what_is_not_a_mesh(f, bad):
-    with pytest.raises(QmeshError, match=r"^mesh must be a qmesh.Mesh, got "):
-        f(bad, A)
 
 
 def test_a_mesh_with_nan_coordinates_cannot_be_made():
@@ -119,43 +107,3 @@ def test_a_mesh_with_nan_coordinates_cannot_be_made():
         qmesh.Mesh([[0.0, 0.0], [1.0, np.nan], [0.0, 1.0]], [[0, 1, 2]])
 
 
-@pytest.mark.parametrize("f", MESH_FUNCTIONS, ids=lambda f: f.__name__)
-@pytest.mark.parametrize("bad", [np.eye(2), [[1, 0], [0, 1]], "Q", 1.0], ids=["ndarray", "list", "str", "float"])
-def test_measure_refuses_what_is_not_an_anisotropy(f, bad):
-    with pytest.raises(QmeshError, match=r"^anisotropy must be a qmesh.Anisotropy, got ") as info:
-        f(SQUARE, bad)
-    if not isinstance(bad, (str, float)):
-        assert "Anisotropy.constant(Q)" in str(info.value)
-
-
-@pytest.mark.parametrize("f", [measure.energy, measure.quality, measure.interpolation_errors, measure.report],
-                         ids=lambda f: f.__name__)
-def test_functions_that_need_s_refuse_none(f):
-    with pytest.raises(QmeshError, match="anisotropy must be a qmesh.Anisotropy, got None"):
-        f(SQUARE, None)
-
-
-@pytest.mark.parametrize("kwargs, message", [
-    ({"method": "eig"}, "method must be one of 'auto', 'dense', 'sparse', got 'eig'"),
-    ({"method": None}, "method must be one of"),
-    ({"tol": float("nan")}, r"tol must be in \[0, 1\), got nan"),
-    ({"tol": "1e-8"}, r"tol must be in \[0, 1\), got '1e-8'"),
-    ({"tol": 2}, r"tol must be in \[0, 1\), got 2"),
-])
-def test_condition_number_options(kwargs, message):
-    with pytest.raises(QmeshError, match=message):
-        measure.condition_number(SQUARE, A, **kwargs)
-
-
-@pytest.mark.parametrize("rtol", [-1e-9, float("inf"), "0", None, True, 2.0])
-def test_rtol_is_checked(rtol):
-    for f in (measure.q_nonnegative_fraction, measure.q_nonnegative_fraction_boundary):
-        with pytest.raises(QmeshError, match=r"^rtol must be in \[0, 1\], got "):
-            f(SQUARE, A, rtol=rtol)
-
-
-def test_triangle_energy_checks_its_arguments():
-    with pytest.raises(QmeshError, match="anisotropy must be a qmesh.Anisotropy"):
-        measure.triangle_energy(SQUARE.points, SQUARE.triangles, np.eye(2))
-    with pytest.raises(QmeshError, match=r"P and T must have shapes \(N, 2\) and \(M, 3\)"):
-        measure.triangle_energy(SQUARE.points, SQUARE.triangles[:, :2], A)
