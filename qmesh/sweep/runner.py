@@ -67,7 +67,8 @@ def run_sweep(jobs: list[Job], output, *, scheduler: str | None = None, workers:
                 _collect(client, todo, bar, new, save)
     finally:
         bar.close()
-        save()
+        if new:         # also when interrupted; nothing ran (a scheduler not reached): no file
+            save()
     failed = sum(r["error"] is not None for r in new)
     return Summary(len(jobs), len(jobs) - len(todo), len(new), failed, time.perf_counter() - start)
 
