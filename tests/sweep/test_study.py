@@ -6,6 +6,7 @@ import json
 from pathlib import Path
 
 import pytest
+from hypothesis import given, settings, strategies as st
 
 from qmesh import QmeshError
 from qmesh.cli import main
@@ -50,6 +51,23 @@ def test_jobs_are_the_product_in_order(shapes):
     assert len({j.mesh for j in jobs}) == len(jobs)
     assert {Path(j.mesh).parent for j in jobs} == {(shapes / "meshes").resolve()}
     assert {Path(j.mesh).suffix for j in jobs} == {".vtu"}
+
+
+@settings(max_examples=15, deadline=None, derandomize=True)
+@given(domains=st.lists(st.sampled_from(["disk", "L-shape", "annulus", "notched square"]), min_size=1, unique=True),
+       ks=st.lists(st.tuples(st.integers(1, 9), st.integers(1, 9), st.integers(0, 179)), min_size=1, max_size=3,
+                   unique=True),
+       targets=st.lists(st.integers(1, 10**6), min_size=1, max_size=4, unique=True),
+       seeds=st.lists(st.integers(0, 2**32), min_size=1, max_size=3, unique=True))
+def test_every_combination_is_one_job_with_its_own_mesh_file(tmp_path_factory, domains, ks, targets, seeds):
+    folder = tmp_path_factory.mktemp("study")
+    data = {"domains": domains, "conductivities": [{"principal": list(k)} for k in ks],
+            "target_vertices": targets, "seeds": seeds}
+    jobs = study_jobs(write(folder, "s.json", json.dumps(data)), folder)
+    keys = [j.key for j in jobs]
+    assert keys == [(d, f"principal={json.dumps(list(k))}", n, s)
+                    for d in domains for k in ks for n in targets for s in seeds]
+    assert len({j.mesh for j in jobs}) == len(jobs)
 
 
 def test_json_study_gives_the_same_jobs(shapes):
