@@ -5,7 +5,7 @@ unless a scheduler address is given. Jobs go out with `Client.submit` and come b
 order they finish (`as_completed`); the table is rewritten as rows arrive (at most once a
 second, and at the end, also when interrupted), so a re-run finds every finished job and skips
 it: a job is finished when its row has no error and its mesh file exists. Rows of earlier jobs
-that are not in this study are kept; a failed job's old row is replaced by its new run.
+that are not in this study are kept; a failed job's old row stays until its new run replaces it.
 """
 
 from __future__ import annotations
@@ -55,17 +55,21 @@ def run_sweep(jobs: list[Job], output, *, scheduler: str | None = None, workers:
     todo = [j for j in jobs if j.key not in finished]
     wanted = {j.key for j in jobs}
     kept = [r for r in earlier if results.row_key(r) in finished or results.row_key(r) not in wanted]
+    # a failed row stays in the table until its job's new row replaces it (an interrupted re-run)
+    retried = [r for r in earlier if results.row_key(r) in wanted and results.row_key(r) not in finished]
     bar = Progress(len(todo), progress or sys.stderr, skipped=len(jobs) - len(todo), enabled=not quiet)
     new: list[dict] = []
 
     def save() -> None:
-        results.write_rows(output, _ordered(jobs, kept + new))
+        done = {results.row_key(r) for r in new}
+        results.write_rows(output, _ordered(jobs, kept + new + [r for r in retried
+                                                                 if results.row_key(r) not in done]))
 
     try:
         if todo:
-            for folder in {Path(j.mesh).parent for j in todo}:
-                folder.mkdir(parents=True, exist_ok=True)
             with _client(scheduler, workers or min(len(todo), os.cpu_count() or 1)) as client:
+                for folder in {Path(j.mesh).parent for j in todo}:
+                    folder.mkdir(parents=True, exist_ok=True)
                 _collect(client, todo, bar, new, save)
     finally:
         bar.close()

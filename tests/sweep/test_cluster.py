@@ -108,3 +108,4 @@ def test_an_unreachable_scheduler_is_one_error_line(tmp_path, capsys, monkeypatc
     err = capsys.readouterr().err
     assert code == 2 and err.startswith("qmesh: error: cannot reach the Dask scheduler at 'tcp://127.0.0.1:9'")
     assert err.count("\n") == 1 and not (tmp_path / "r.csv").exists()
+    assert not (tmp_path / "r-meshes").exists()

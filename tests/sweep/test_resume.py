@@ -53,3 +53,41 @@ def test_rerun_skips_finished_jobs_and_retries_the_rest(tmp_path, capsys):
     again = read_rows(table)
     assert [r for r in again if r["target_vertices"] == 200] == [rows[2], rows[3], rows[4]]
     assert sorted(map(str, again)) == sorted(map(str, rows))           # the failed rows stay too
+
+
+def test_an_interrupted_sweep_keeps_its_rows_and_the_old_failures(tmp_path, monkeypatch):
+    """Ctrl-C after one new row: the table holds it, the finished rows, and the failed rows whose
+    jobs had not run again yet (the cluster is replaced by an in-process stand-in)."""
+    from contextlib import contextmanager
+
+    from qmesh.sweep import run_sweep, runner
+
+    study = tmp_path / "study.toml"
+    study.write_text(STUDY)
+    table, meshes = tmp_path / "r.csv", tmp_path / "meshes"
+    meshes.mkdir()
+    jobs = study_jobs(study, meshes)
+    by_key = {j.key[2:]: j for j in jobs}
+    old = [run_job(by_key[200, 0]), run_job(by_key[10, 0]), run_job(by_key[10, 1])]   # one done, two failed
+    write_rows(table, old)
+
+    def one_then_interrupt(client, todo, bar, rows, save):
+        rows.append(run_job(todo[-1]))              # (200, 1) finishes, then the user presses Ctrl-C
+        raise KeyboardInterrupt
+
+    @contextmanager
+    def no_cluster(scheduler, workers):
+        yield None
+
+    monkeypatch.setattr(runner, "_client", no_cluster)
+    monkeypatch.setattr(runner, "_collect", one_then_interrupt)
+    try:
+        run_sweep(jobs, table, quiet=True)
+    except KeyboardInterrupt:
+        pass
+    else:
+        raise AssertionError("the interrupt was swallowed")
+    rows = read_rows(table)
+    assert [(r["target_vertices"], r["seed"], r["error"] is None) for r in rows] == [
+        (10, 0, False), (10, 1, False), (200, 0, True), (200, 1, True)]
+    assert rows[0] == old[1] and rows[2] == old[0]
