@@ -6,6 +6,7 @@
                  (default Q: the one stored in the file)
     qmesh table  [--vb VB ...] [--out DIR] [--peers] [--solve]
     qmesh setup  [--check] [--all]
+    qmesh sweep  STUDY -o RESULTS [--scheduler ADDRESS | --workers N]   (qmesh.sweep.cli)
 
 Defaults are the chapter's case: Q = diag(0.1, 10) (2.95) on the regular 64-gon. Bad input
 (any QmeshError, or an OSError on a file) ends with one line `qmesh: error: ...` on stderr,
@@ -30,6 +31,7 @@ from qmesh.io.conductivity import PREFIX as RECORD_PREFIX, record_of
 from qmesh.mesher.loop import iterate
 from qmesh.mesher.loop import mesh as run_mesher
 from qmesh.domain.polygon_file import read_domain
+from qmesh.sweep.cli import add_parser as add_sweep_parser
 
 _MESHER_DEFAULTS = {k: v.default for k, v in inspect.signature(iterate).parameters.items()}
 
@@ -251,6 +253,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--check", action="store_true", help="only check; install nothing")
     p.add_argument("--all", action="store_true", help="every group, whether or not its extra is installed")
     p.set_defaults(handler=cmd_setup)
+
+    add_sweep_parser(sub)
     return parser
 
 

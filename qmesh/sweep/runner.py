@@ -1,0 +1,136 @@
+"""Run a study's jobs on Dask distributed and keep the results table up to date.
+
+A `LocalCluster` (one single-threaded worker process per job slot, on 127.0.0.1, no dashboard)
+unless a scheduler address is given. Jobs go out with `Client.submit` and come back in the
+order they finish (`as_completed`); the table is rewritten as rows arrive (at most once a
+second, and at the end, also when interrupted), so a re-run finds every finished job and skips
+it: a job is finished when its row has no error and its mesh file exists. Rows of earlier jobs
+that are not in this study are kept; a failed job's old row stays until its new run replaces it.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import signal
+import sys
+import threading
+import time
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+
+from qmesh.errors import QmeshError
+from qmesh.sweep import results
+from qmesh.sweep.job import Job, failed_row, run_job
+from qmesh.sweep.progress import Progress
+
+CONNECT_TIMEOUT = "10s"
+WRITE_EVERY = 1.0   # seconds between rewrites of the table while jobs come in
+
+
+@dataclass
+class Summary:
+    """What a sweep did: jobs in the study, skipped as finished before, run now, failed now."""
+    jobs: int
+    skipped: int
+    ran: int
+    failed: int
+    seconds: float
+
+
+def run_sweep(jobs: list[Job], output, *, scheduler: str | None = None, workers: int | None = None,
+              progress=None, quiet: bool = False) -> Summary:
+    """Run the jobs the table at `output` does not hold yet; write every row to it.
+
+    `scheduler`: the address of a running Dask scheduler (its workers must import qmesh and
+    reach the mesh files' folder); otherwise a LocalCluster of `workers` processes (default:
+    one per CPU, at most one per job). `progress`: a stream for the bar (default stderr).
+    """
+    start = time.perf_counter()
+    output = results.check_path(output)
+    earlier = results.read_rows(output) if output.exists() else []
+    finished = {results.row_key(r) for r in earlier
+                if r["error"] is None and r["mesh"] and Path(r["mesh"]).is_file()}
+    todo = [j for j in jobs if j.key not in finished]
+    wanted = {j.key for j in jobs}
+    kept = [r for r in earlier if results.row_key(r) in finished or results.row_key(r) not in wanted]
+    # a failed row stays in the table until its job's new row replaces it (an interrupted re-run)
+    retried = [r for r in earlier if results.row_key(r) in wanted and results.row_key(r) not in finished]
+    bar = Progress(len(todo), progress or sys.stderr, skipped=len(jobs) - len(todo), enabled=not quiet)
+    new: list[dict] = []
+
+    def save() -> None:
+        done = {results.row_key(r) for r in new}
+        results.write_rows(output, _ordered(jobs, kept + new + [r for r in retried
+                                                                 if results.row_key(r) not in done]))
+
+    try:
+        if todo:
+            with _client(scheduler, workers or min(len(todo), os.cpu_count() or 1)) as client:
+                for folder in {Path(j.mesh).parent for j in todo}:
+                    folder.mkdir(parents=True, exist_ok=True)
+                _collect(client, todo, bar, new, save)
+    finally:
+        bar.close()
+        if new:         # also when interrupted; nothing ran (a scheduler not reached): no file
+            save()
+    failed = sum(r["error"] is not None for r in new)
+    return Summary(len(jobs), len(jobs) - len(todo), len(new), failed, time.perf_counter() - start)
+
+
+def _collect(client, todo: list[Job], bar: Progress, rows: list[dict], save) -> None:
+    """Submit every job and append its row to `rows` as it finishes; `save()` at most every
+    WRITE_EVERY seconds."""
+    from dask.distributed import as_completed
+    futures = {client.submit(run_job, job, pure=False): job for job in todo}
+    last = time.perf_counter()
+    for future in as_completed(futures):
+        try:
+            row = future.result()
+        except Exception as e:  # noqa: BLE001 — a lost worker, say: this job's row, not the sweep's end
+            row = failed_row(futures[future], e)
+        rows.append(row)
+        bar.update(row)
+        if time.perf_counter() - last >= WRITE_EVERY:
+            save()
+            last = time.perf_counter()
+
+
+def _ordered(jobs: list[Job], rows: list[dict]) -> list[dict]:
+    """The study's rows in its order, then rows of earlier studies as they were."""
+    place = {j.key: i for i, j in enumerate(jobs)}
+    return sorted(rows, key=lambda r: place.get(results.row_key(r), len(place)))
+
+
+@contextmanager
+def _client(scheduler: str | None, workers: int):
+    """A dask.distributed Client: to the scheduler at `scheduler`, or to a new LocalCluster."""
+    try:
+        from dask.distributed import Client, LocalCluster
+    except ImportError as e:
+        raise QmeshError(f"qmesh sweep needs Dask (pip install 'qmesh[sweep]'): {e}") from e
+    if scheduler:
+        try:
+            client = Client(scheduler, timeout=CONNECT_TIMEOUT)
+        except (OSError, TimeoutError, ValueError) as e:
+            raise QmeshError(f"cannot reach the Dask scheduler at {scheduler!r}: {e}") from e
+        with client:
+            yield client
+        return
+    # The worker processes start with SIGINT ignored (inherited; Python then installs no
+    # KeyboardInterrupt handler): Ctrl-C reaches only this process, which closes the cluster
+    # and keeps the rows so far, instead of every worker printing its traceback.
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if _main_thread() else None
+    try:
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
+                               dashboard_address=None, silence_logs=logging.CRITICAL)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGINT, previous)
+    with cluster, Client(cluster) as client:
+        yield client
+
+
+def _main_thread() -> bool:
+    return threading.current_thread() is threading.main_thread()
