@@ -212,7 +212,7 @@ def build_parser() -> argparse.ArgumentParser:
                    "rings: the outline first, then holes) or GeoJSON (.geojson/.json: a Polygon, or a Feature "
                    "holding one)")
     g = p.add_mutually_exclusive_group()
-    g.add_argument("--target-vertices", type=int, metavar="N", help="aim for N vertices: the mesh ends on N, or above it where keeping q_ij >= 0 "
+    g.add_argument("--target-vertices", type=int, metavar="N", help="aim for N vertices: the mesh ends on N, or near it where keeping q_ij >= 0 "
                    "on the boundary needs more vertices (a few percent; more for small N)")
     g.add_argument("--size", type=float, metavar="H", help="target edge length in the metric ∇²s "
                    "(default: the mean metric length of the domain's edges)")

@@ -199,7 +199,7 @@ def test_mesh_help_says_what_the_readme_says():
     done = subprocess.run([sys.executable, "-m", "qmesh", "mesh", "--help"], capture_output=True,
                           text=True, env=environment(COLUMNS="200"))
     text = " ".join(done.stdout.split())
-    said = "the mesh ends on N, or above it where keeping q_ij >= 0 on the boundary needs more vertices"
+    said = "the mesh ends on N, or near it where keeping q_ij >= 0 on the boundary needs more vertices"
     assert f"--target-vertices N aim for N vertices: {said}" in text
     assert said.replace("q_ij >= 0", "`q_ij ≥ 0`") in " ".join(README.split())
 

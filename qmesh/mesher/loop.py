@@ -75,7 +75,7 @@ def iterate(domain, anisotropy, *, target_vertices: int | None = None, size: flo
 
     domain            a `Domain` (outline and holes), `Polygon` or `Disk`; its points are fixed;
     anisotropy        an `Anisotropy` (constant Q, principal, from_s, from_expression);
-    target_vertices   final vertex count N (lands within a few percent), or
+    target_vertices   final vertex count N (lands on it or within a few percent), or
     size              target metric edge length h in the metric ∇²s (default: the mean metric
                       length of the domain's segments, so the input points set the size);
     alpha             relaxation of the vertex step (2.92); ½ as in the chapter;
