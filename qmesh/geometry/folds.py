@@ -1,0 +1,51 @@
+"""Triangles that fold or overlap: what a mesh file can hide and `qmesh report` must show.
+
+In a valid triangulation every triangle turns the same way (counter-clockwise, area > 0) and
+every interior edge is used once in each direction by its two triangles. A triangle is
+counted as folded or overlapping when
+
+- it is degenerate or turns the other way than the mesh as a whole (a fold);
+- it repeats another triangle's three vertices (a duplicate, in either orientation);
+- it uses an edge in the same direction as another triangle, or an edge that three or more
+  triangles use (two triangles on the same side of an edge overlap there).
+
+These are local tests: two layers that share no edge are not seen.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def folded_mask(points, triangles) -> np.ndarray:
+    """(M,) bool: the triangles that fold or overlap (see the module's docstring)."""
+    P = np.asarray(points, dtype=float)
+    T = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    m = len(T)
+    if m == 0:
+        return np.zeros(0, bool)
+    a, b, c = P[T[:, 0]], P[T[:, 1]], P[T[:, 2]]
+    area = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+    sign = 1.0 if area.sum() >= 0 else -1.0
+    bad = sign * area <= 0
+
+    n = np.int64(max(len(P), 1))
+    s = np.sort(T, axis=1)
+    key = (s[:, 0] * n + s[:, 1]) * n + s[:, 2]
+    _, inverse, count = np.unique(key, return_inverse=True, return_counts=True)
+    bad |= count[inverse] > 1
+
+    u, v = T.ravel(), T[:, [1, 2, 0]].ravel()
+    owner = np.repeat(np.arange(m), 3)
+    directed = u * n + v
+    _, inv, cnt = np.unique(directed, return_inverse=True, return_counts=True)
+    undirected = np.minimum(u, v) * n + np.maximum(u, v)
+    _, inv2, cnt2 = np.unique(undirected, return_inverse=True, return_counts=True)
+    overlap = (cnt[inv] > 1) | (cnt2[inv2] > 2)
+    bad[owner[overlap]] = True
+    return bad
+
+
+def folded_triangles(mesh) -> int:
+    """How many triangles of `mesh` fold or overlap (0 for a valid triangulation)."""
+    return int(folded_mask(mesh.points, mesh.triangles).sum())
