@@ -60,8 +60,8 @@ def vtk_family(fmt: str):
 
 def _add_field_data(path: Path, groups: dict) -> None:
     """A VTK `<FieldData>` block {name: [tag, dim]} as the UnstructuredGrid's first child."""
-    arrays = "".join(f'<DataArray type="Int32" Name={quoteattr(name)} NumberOfTuples="1" '
-                     f'NumberOfComponents="2" format="ascii">{v[0]} {v[1]}</DataArray>'
+    arrays = "".join(f'<DataArray type="Int32" Name={quoteattr(name)} NumberOfTuples="2" '
+                     f'format="ascii">{v[0]} {v[1]}</DataArray>'
                      for name, v in groups.items())
     data = path.read_bytes()
     start = data.index(b"<UnstructuredGrid")
