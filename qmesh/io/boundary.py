@@ -94,7 +94,7 @@ def region_offset(tags: np.ndarray, regions: np.ndarray) -> int:
     used = np.unique(regions)
     if len(used) and used.min() >= 1 and not np.isin(used, tags).any():
         return 0
-    return int(tags.max(initial=0)) + 1 - int(used.min(initial=0))
+    return int(tags.max(initial=0)) + 1 - (int(used.min()) if len(used) else 0)
 
 
 def identifier(name: str, fallback: str) -> str:

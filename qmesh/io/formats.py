@@ -198,7 +198,8 @@ def _mesh_of(m, fmt: Format, doc: dict | None, path: Path) -> Mesh:
     offset = metadata.offset(doc)
     own_regions = "region" in m.cell_data
     region_data = _cell_values(m, "region" if own_regions else fmt.region_key, triangle_blocks, len(T), source)
-    regions = np.zeros(len(T), np.int64) if region_data is None else region_data - (0 if own_regions else offset)
+    shift = offset if not own_regions and fmt.region_key_shifted else 0
+    regions = np.zeros(len(T), np.int64) if region_data is None else region_data - shift
     if regions.min(initial=0) < 0:
         regions = np.where(regions < 0, 0, regions)  # gmsh's "no physical group"
 

@@ -24,7 +24,8 @@ class Format:
     keeps_tags: bool = True       # boundary edges with their tags
     keeps_regions: bool = True
     tag_key: str | None = None    # the line cells' tag in files from other programs
-    region_key: str | None = None  # the triangles' tag in files from other programs (gmsh numbering)
+    region_key: str | None = None  # the triangles' tag in files from other programs
+    region_key_shifted: bool = True  # qmesh writes region_key in gmsh numbering (region + offset)
     reader: Callable | None = None          # own reader, when `own_layout(path)` says the file is ours
     own_layout: Callable | None = None
     notes: str = ""
@@ -57,7 +58,7 @@ register(Format(".msh", "gmsh", {"2.2": gmsh22.write, "4.1": meshio_writers.gmsh
 register(Format(".xdmf", "xdmf", {"": xdmf.write}, "information", reader=xdmf.read,
                 own_layout=xdmf.is_qmesh_layout, notes="DOLFINx layout, uncompressed HDF5 beside it"))
 register(Format(".mesh", "medit", {"": meshio_writers.medit}, "comment", keeps_data=False,
-                tag_key="medit:ref", region_key="medit:ref", notes="medit: references only"))
+                tag_key="medit:ref", region_key="medit:ref", region_key_shifted=False, notes="medit: references only"))
 register(Format(".obj", "obj", {"": meshio_writers.obj}, "comment", keeps_fixed=False, keeps_data=False,
                 keeps_tags=False, keeps_regions=False, notes="triangles only"))
 
