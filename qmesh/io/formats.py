@@ -16,6 +16,8 @@ when a file is used.
 
 from __future__ import annotations
 
+import contextlib
+import io as _io
 import os
 import uuid
 from pathlib import Path
@@ -23,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from qmesh.errors import QmeshError
+from qmesh.geometry.folds import turns_clockwise
 from qmesh.io import boundary, conductivity, metadata
 from qmesh.io.meshio_writers import _meshio, restore_order
 from qmesh.io.payload import payload
@@ -122,7 +125,8 @@ def _load(path: Path, fmt: Format):
     try:
         if fmt.reader is not None and fmt.own_layout(path):
             return fmt.reader(path)
-        m = getattr(_meshio(), fmt.meshio_name).read(path)  # meshio.read() calls sys.exit on a bad file
+        with contextlib.redirect_stderr(_io.StringIO()):  # meshio prints its own warnings there
+            m = getattr(_meshio(), fmt.meshio_name).read(path)  # meshio.read() calls sys.exit on a bad file
         restore_order(m)
         return m
     except QmeshError:
@@ -223,8 +227,7 @@ def _mesh_of(m, fmt: Format, doc: dict | None, path: Path) -> Mesh:
             keep = used[E].all(axis=1)
             E, tags = renumber[E[keep]], tags[keep]
 
-    area = _signed_areas(P, T)
-    if area.sum() < 0:  # a file that turns clockwise as a whole: its convention, not a fold
+    if turns_clockwise(P, T):  # a file that turns clockwise as a whole: its convention, not a fold
         T = T[:, [0, 2, 1]]
     mesh = Mesh(P, T, fixed, region_tags=regions, region_names=region_names)
     if E is None:
@@ -232,11 +235,6 @@ def _mesh_of(m, fmt: Format, doc: dict | None, path: Path) -> Mesh:
     edges, on = boundary.tags_on(mesh, E, tags)
     return Mesh(P, T, fixed, boundary_edges=edges, boundary_tags=on, tag_names=tag_names,
                 region_tags=regions, region_names=region_names)
-
-
-def _signed_areas(P, T):
-    a, b, c = P[T[:, 0]], P[T[:, 1]], P[T[:, 2]]
-    return 0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
 
 
 def _cell_values(m, key, blocks, n, source) -> np.ndarray | None:
