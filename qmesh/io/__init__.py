@@ -4,10 +4,10 @@ are records in `registry` (one per extension). `to_skfem`, `to_dolfinx`, `to_ngs
 Mesh to a FEM code without a file (`adapters`). meshio is imported only when a file is used."""
 
 from qmesh.io.adapters import to_dolfinx, to_ngsolve, to_skfem
-from qmesh.io.formats import check_writable, read, read_anisotropy, write
+from qmesh.io.formats import check_writable, read, read_anisotropy, read_names, write
 from qmesh.io.registry import (FORMATS, KEEPS_CONDUCTIVITY, KEEPS_DATA, KEEPS_FIXED, KEEPS_REGIONS,
                                KEEPS_TAG_NAMES, KEEPS_TAGS, REGISTRY)
 
 __all__ = ["FORMATS", "KEEPS_CONDUCTIVITY", "KEEPS_DATA", "KEEPS_FIXED", "KEEPS_REGIONS", "KEEPS_TAG_NAMES",
-           "KEEPS_TAGS", "REGISTRY", "check_writable", "read", "read_anisotropy", "to_dolfinx", "to_ngsolve",
+           "KEEPS_TAGS", "REGISTRY", "check_writable", "read", "read_anisotropy", "read_names", "to_dolfinx", "to_ngsolve",
            "to_skfem", "write"]

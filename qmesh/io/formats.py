@@ -149,6 +149,17 @@ def read_anisotropy(path):
     return conductivity.from_json(doc["conductivity"], repr(str(path)))
 
 
+def read_names(path) -> tuple[dict[int, str], dict[int, str]]:
+    """(boundary tag names, region names) of a mesh file: from qmesh's metadata alone when the
+    file has it (no mesh reader, no h5py: for a DOLFINx script), else as `read` finds them."""
+    path, fmt = _existing(path)
+    doc = _metadata(path, fmt)
+    if doc is None:
+        mesh = read(path)
+        return mesh.tag_names, mesh.region_names
+    return _names(None, doc, 0, repr(str(path)))
+
+
 def read(path) -> Mesh:
     """Read the triangles of a mesh file (written by qmesh or by any other program).
 
