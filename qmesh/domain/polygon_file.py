@@ -105,7 +105,7 @@ def _csv_rings(text: str, where: str) -> list[np.ndarray]:
             continue  # only the first line with content may be a header, and only a line of names
         if len(fields) != 2:
             raise QmeshError(f"{where}, line {number}: expected two columns x,y, got {len(fields)}: {line[:80]!r}")
-        ring.append(tuple(_coordinate(f, f"{where}, line {number}") for f in fields))
+        ring.append(tuple(_coordinate(f, where, number, line) for f in fields))
     if ring:
         rings.append(np.array(ring))
     if not rings:
@@ -126,14 +126,16 @@ def _is_number(text: str) -> bool:
     return True
 
 
-def _coordinate(text: str, where: str) -> float:
-    """A finite coordinate within ±MAX_COORDINATE, or QmeshError quoting it."""
+def _coordinate(text: str, where: str, number: int, line: str) -> float:
+    """A finite coordinate within ±MAX_COORDINATE, or QmeshError naming the line and quoting it."""
     try:
         value = float(text)
     except ValueError:
-        raise QmeshError(f"{where}: {text[:40]!r} is not a number") from None
+        raise QmeshError(f"{where} is not a CSV of x,y numbers: line {number} reads {line[:80]!r} "
+                         f"({text[:40]!r} is not a number)") from None
     if not math.isfinite(value) or abs(value) > MAX_COORDINATE:
-        raise QmeshError(f"{where}: coordinates must be finite numbers within ±{MAX_COORDINATE:g}, got {text[:40]!r}")
+        raise QmeshError(f"{where}, line {number}: coordinates must be finite numbers within "
+                         f"±{MAX_COORDINATE:g}, got {text[:40]!r}")
     return value
 
 

@@ -84,7 +84,7 @@ def write(tmp: Path, final: Path, p) -> list[tuple[Path, Path]]:
             item(att, f"/MeshTags/{name}/Values", values.astype(np.int32), "Int")
         ET.SubElement(domain, "Information", Name=metadata.ATTRIBUTE, Value=p.meta)
     ET.indent(root)
-    text = ET.tostring(root, encoding="unicode").replace(f'xmlns:ns0="{XINCLUDE}"', "").replace("ns0:", "xi:")
+    text = ET.tostring(root, encoding="unicode").replace(f' xmlns:ns0="{XINCLUDE}"', "").replace("ns0:", "xi:")
     Path(tmp).write_text('<?xml version="1.0"?>\n' + text + "\n", encoding="ascii")
     return [(h5_path, h5_name(final)), (tmp, final)]
 

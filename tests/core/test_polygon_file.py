@@ -75,10 +75,10 @@ GEO_SQUARE = {"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 1], [0, 1]
     ("bin.csv", b"\xff\xfe\x00\x81", r"cannot read polygon file '.*bin.csv'"),
     ("empty.csv", "# only a comment\n\n", r"polygon file '.*empty.csv' has no points"),
     ("three.csv", "0,0\n1,0\n1,1,1\n", r"'.*three.csv', line 3: expected two columns x,y, got 3"),
-    ("words.csv", "x,y\n0,0\n1,zero\n", r"'.*words.csv', line 3: 'zero' is not a number"),
-    ("late_header.csv", "0,0\n1,0\nx,y\n", r"line 3: 'x' is not a number"),
+    ("words.csv", "x,y\n0,0\n1,zero\n", r"'.*words.csv' is not a CSV of x,y numbers: line 3 reads '1,zero'"),
+    ("late_header.csv", "0,0\n1,0\nx,y\n", r"not a CSV of x,y numbers: line 3 reads 'x,y'"),
     # a typo in the first row is an error, not a header (it used to be dropped silently)
-    ("typo.csv", "1O,0\n1,0\n1,1\n0,1\n", r"typo.csv', line 1: '1O' is not a number"),
+    ("typo.csv", "1O,0\n1,0\n1,1\n0,1\n", r"typo.csv' is not a CSV of x,y numbers: line 1 reads '1O,0' \('1O' is not a number\)"),
     ("huge.csv", "0,0\n1e300,0\n0,1\n", r"line 2: coordinates must be finite numbers within ±1e\+100"),
     ("nan.csv", "0,0\nnan,0\n0,1\n", r"line 2: coordinates must be finite"),
     ("digits.csv", "0,0\n" + "9" * 5000 + ",0\n0,1\n", r"line 2: coordinates must be finite"),
