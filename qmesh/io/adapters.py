@@ -13,6 +13,7 @@ import numpy as np
 
 from qmesh.errors import QmeshError
 from qmesh.io import boundary
+from qmesh.mesh import Mesh
 
 
 def _import(module: str, extra: str):
@@ -23,7 +24,6 @@ def _import(module: str, extra: str):
 
 
 def _check(mesh):
-    from qmesh.mesh import Mesh
     if not isinstance(mesh, Mesh):
         raise QmeshError(f"mesh must be a qmesh.Mesh, got {type(mesh).__name__}")
 

@@ -44,8 +44,10 @@ def boundary_of(mesh) -> tuple[np.ndarray, np.ndarray, dict[int, str]]:
 
 def _oriented(T: np.ndarray, E: np.ndarray, n: int) -> np.ndarray:
     """Edges turned so each runs as in its (counter-clockwise) triangle: Ω on the left."""
-    half = T.ravel() * np.int64(n) + T[:, [1, 2, 0]].ravel()
-    backwards = ~np.isin(E[:, 0] * np.int64(n) + E[:, 1], half)
+    half = np.sort(T.ravel() * np.int64(n) + T[:, [1, 2, 0]].ravel())
+    key = E[:, 0] * np.int64(n) + E[:, 1]
+    at = np.minimum(np.searchsorted(half, key), max(len(half) - 1, 0))
+    backwards = ~(half[at] == key) if len(half) else np.ones(len(E), bool)
     E = E.copy()
     E[backwards] = E[backwards][:, ::-1]
     return E

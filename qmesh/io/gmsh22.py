@@ -42,17 +42,16 @@ def write(path, final, p) -> list:
         f.write("$EndPhysicalNames\n")
 
         f.write(f"$Nodes\n{n}\n")
-        nodes = np.column_stack([np.arange(1, n + 1), p.points, np.zeros(n)])
-        np.savetxt(f, nodes, fmt=["%d", "%.17g", "%.17g", "%d"])
+        _rows(f, np.column_stack([np.arange(1, n + 1), p.points]), "%d %.17g %.17g 0\n")
         f.write("$EndNodes\n")
 
         f.write(f"$Elements\n{k + m}\n")
         lines = np.column_stack([np.arange(1, k + 1), np.ones(k, int), np.full(k, 2), p.tags, p.tags, p.edges + 1])
-        np.savetxt(f, lines.astype(np.int64), fmt="%d")
+        _rows(f, lines.astype(np.int64), "%d %d %d %d %d %d %d\n")
         cells = p.cell_tags
         tris = np.column_stack([np.arange(k + 1, k + m + 1), np.full(m, 2), np.full(m, 2), cells, cells,
                                 p.triangles + 1])
-        np.savetxt(f, tris.astype(np.int64), fmt="%d")
+        _rows(f, tris.astype(np.int64), "%d %d %d %d %d %d %d %d\n")
         f.write("$EndElements\n")
 
         for name, a in {"fixed": p.fixed, **p.point_data}.items():
@@ -65,6 +64,13 @@ def _data(f, section: str, name: str, ids: np.ndarray, a: np.ndarray) -> None:
     a = a.reshape(len(a), -1)
     f.write(f'${section}\n1\n"{name}"\n1\n0.0\n3\n0\n{a.shape[1]}\n{len(a)}\n')
     integer = a.dtype.kind in "iub"
-    np.savetxt(f, np.column_stack([ids, a]) if integer else np.column_stack([ids.astype(float), a]),
-               fmt=["%d"] + (["%d"] if integer else ["%.17g"]) * a.shape[1])
+    row = "%d" + (" %d" if integer else " %.17g") * a.shape[1] + "\n"
+    _rows(f, np.column_stack([ids, a]) if integer else np.column_stack([ids.astype(float), a]), row)
     f.write(f"$End{section}\n")
+
+
+def _rows(f, a: np.ndarray, row: str, chunk: int = 65536) -> None:
+    """Write the rows of `a` with the printf format `row`, a chunk of rows per formatting call."""
+    for start in range(0, len(a), chunk):
+        block = a[start:start + chunk]
+        f.write((row * len(block)) % tuple(block.ravel().tolist()))

@@ -24,6 +24,7 @@ import numpy as np
 
 from qmesh.errors import QmeshError
 from qmesh.io import metadata
+from qmesh.io.meshio_writers import _meshio
 
 XINCLUDE = "http://www.w3.org/2001/XInclude"
 
@@ -101,8 +102,7 @@ def is_qmesh_layout(path: Path) -> bool:
 
 def read(path: Path):
     """A meshio.Mesh of the triangles, the tagged lines and the data of a qmesh-layout file."""
-    import meshio
-
+    meshio = _meshio()
     source = repr(str(path))
     root = ET.parse(path).getroot()
     domain = root.find("Domain")
