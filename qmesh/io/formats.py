@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from qmesh.errors import QmeshError
+from qmesh.domain.polygon_file import MAX_COORDINATE
 from qmesh.geometry.folds import turns_clockwise
 from qmesh.io import boundary, conductivity, metadata
 from qmesh.io.meshio_writers import _meshio, restore_order
@@ -188,6 +189,9 @@ def _mesh_of(m, fmt: Format, doc: dict | None, path: Path) -> Mesh:
     P = np.asarray(m.points, dtype=float)
     if P.ndim != 2 or P.shape[1] not in (2, 3) or not np.all(np.isfinite(P)):
         raise QmeshError(f"{source}: points must be finite with 2 or 3 coordinates, got shape {P.shape}")
+    if np.abs(P).max(initial=0.0) > MAX_COORDINATE:  # areas and metric lengths would overflow
+        raise QmeshError(f"{source}: coordinates must lie within ±{MAX_COORDINATE:g}, "
+                         f"got {np.abs(P).max():.3g}")
     triangle_blocks = [i for i, c in enumerate(m.cells) if c.type == "triangle"]
     if not triangle_blocks:
         found = sorted({c.type for c in m.cells}) or ["no cells"]

@@ -10,6 +10,7 @@ import meshio
 import numpy as np
 import pytest
 
+import qmesh
 from qmesh import io
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "core"))
@@ -58,6 +59,22 @@ def test_truncated_mesh_file_is_one_error_line(tmp_path, capsys, plate):
     (tmp_path / "cut.msh").write_text(text[: len(text) // 2])
     code, out, err = run(capsys, "report", tmp_path / "cut.msh")
     assert code == 2 and out == "" and err.startswith("qmesh: error: ") and err.count("\n") == 1
+
+
+@pytest.mark.parametrize("old, new", [
+    ("\n1 ", "\n1 1e300 "),                  # a node beyond any sane coordinate
+    ("\n1 ", "\n1 nan "),                    # NaN
+    ("\n1 ", "\n1 " + "9" * 5000 + " "),     # a 5000-digit number
+    ("$EndNodes", "$EndNodes\n$Elements\n1\n1 99 2 1 1 1 2\n$EndElements"),  # an element type meshio has not
+    ('{"qmesh": 1', "[" * 100000),            # qmesh's metadata deeply nested
+])
+def test_hostile_mesh_file_is_one_error_line(tmp_path, capsys, plate, old, new):
+    io.write(tmp_path / "plate.msh", plate, anisotropy=qmesh.Anisotropy.principal(1, 50, 30))
+    text = (tmp_path / "plate.msh").read_text()
+    assert old in text
+    (tmp_path / "bad.msh").write_text(text.replace(old, new, 1))
+    code, out, err = run(capsys, "report", tmp_path / "bad.msh")
+    assert code == 2 and out == "" and err.startswith("qmesh: error: ") and err.count("\n") == 1, err
 
 
 def test_closed_stdout_ends_quietly(tmp_path, plate):
