@@ -73,16 +73,16 @@ def to_dolfinx(mesh, comm) -> DolfinxMesh:
     ufl = _import("ufl", "fem-dolfinx")
     E, tags, names, regions, region_names = _groups(mesh)
     root = comm.rank == 0
-    T = mesh.triangles if root else np.empty((0, 3), np.int64)
-    x = mesh.points if root else np.empty((0, 2))
+    T = np.ascontiguousarray(mesh.triangles if root else np.empty((0, 3)), dtype=np.int64)
+    x = np.ascontiguousarray(mesh.points if root else np.empty((0, 2)), dtype=np.float64)
     element = ufl.Mesh(basix_ufl.element("Lagrange", "triangle", 1, shape=(2,)))
-    msh = dmesh.create_mesh(comm, cells=T, x=x, e=element)
+    msh = dmesh.create_mesh(comm, cells=T, x=x, e=element)  # keywords: 0.9 and 0.10 order them differently
     tagged = []
     for dim, cells, values in ((1, E, tags), (2, mesh.triangles, regions)):
         cells = cells if root else np.empty((0, dim + 1), np.int64)
         values = (values if root else np.empty(0)).astype(np.int32)
         local, local_values = dio.distribute_entity_data(msh, dim, cells.astype(np.int64), values)
-        msh.topology.create_connectivity(dim, 2)
+        msh.topology.create_connectivity(dim, 0)
         tagged.append(dmesh.meshtags_from_entities(msh, dim, graph.adjacencylist(local),
                                                    local_values.astype(np.int32)))
     return DolfinxMesh(msh, tagged[0], tagged[1], {"facets": names, "cells": region_names})
