@@ -140,6 +140,9 @@ def test_dolfinx_reads_the_xdmf_and_solves_as_skfem(tmp_path, reference):
     result = json.loads(out.read_text())
     assert result["gdim"] == 2 and result["facet_tags"] == [1, 2]
     assert result["names"] == {"1": "wall", "2": "hole"}
+    assert result["adapter"]["cells"] == result["expected"]["cells"]            # qmesh.io.to_dolfinx
+    assert result["adapter"]["facet_tags"] == result["expected"]["facet_tags"]
+    assert result["adapter"]["names"] == {"1": "wall", "2": "hole"}
     mesh = io.read(tmp_path / "plate.xdmf")                     # the mesh DOLFINx solved on
     expected = fem_problem.reference(mesh)
     _, at = cKDTree(mesh.points).query(np.array(result["points"]))
