@@ -44,12 +44,10 @@ def to_skfem(mesh):
     skfem = _import("skfem", "fem")
     E, tags, names, regions, region_names = _groups(mesh)
     plain = skfem.MeshTri(np.ascontiguousarray(mesh.points.T), np.ascontiguousarray(mesh.triangles.T))
-    n = np.int64(max(mesh.n_vertices, 1))
-    facets = np.sort(plain.facets, axis=0)
-    key = facets[0].astype(np.int64) * n + facets[1]
+    n = max(mesh.n_vertices, 1)
+    key = boundary.edge_keys(plain.facets.T, n)
     order = np.argsort(key)
-    Es = np.sort(E, axis=1)
-    found = order[np.searchsorted(key[order], Es[:, 0] * n + Es[:, 1])]
+    found = order[np.searchsorted(key[order], boundary.edge_keys(E, n))]
     boundaries = {names[t]: np.sort(found[tags == t]) for t in names}
     subdomains = {region_names[r]: np.flatnonzero(regions == r) for r in region_names} or None
     return skfem.MeshTri(plain.p, plain.t, _boundaries=boundaries, _subdomains=subdomains)

@@ -66,8 +66,7 @@ def tags_on(mesh, E: np.ndarray, tags: np.ndarray) -> tuple[np.ndarray, np.ndarr
     """
     n = np.int64(max(mesh.n_vertices, 1))
     B = np.asarray(mesh.boundary_edges)  # from the triangles, Ω on the left
-    kb = np.minimum(B[:, 0], B[:, 1]) * n + np.maximum(B[:, 0], B[:, 1])
-    kf = np.minimum(E[:, 0], E[:, 1]) * n + np.maximum(E[:, 0], E[:, 1])
+    kb, kf = edge_keys(B, n), edge_keys(E, n)
     order = np.argsort(kf, kind="stable")
     pos = np.minimum(np.searchsorted(kf[order], kb), max(len(kf) - 1, 0))
     hit = (kf[order][pos] == kb) if len(kf) else np.zeros(len(kb), bool)
@@ -77,6 +76,12 @@ def tags_on(mesh, E: np.ndarray, tags: np.ndarray) -> tuple[np.ndarray, np.ndarr
     return B, out
 
 
+
+
+def edge_keys(E: np.ndarray, n) -> np.ndarray:
+    """One int64 per undirected edge (k, 2) of a mesh of n vertices: min·n + max."""
+    E = np.asarray(E, dtype=np.int64).reshape(-1, 2)
+    return E.min(axis=1) * np.int64(n) + E.max(axis=1)
 
 
 def regions_of(mesh) -> tuple[np.ndarray, dict[int, str]]:
