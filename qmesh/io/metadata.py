@@ -64,70 +64,93 @@ def offset(doc: dict | None) -> int:
     return value if isinstance(value, int) and not isinstance(value, bool) and abs(value) < 2**31 else 0
 
 
-# --------------------------------------------------------------------------- writing
+# --------------------------------------------------------------------------- places
 
 def section(text: str) -> str:
     return f"${SECTION}\n{text}\n$End{SECTION}\n"
 
 
+# Each place: how to put the line into the bytes a writer made, and how to find it in a file.
+
+def _add_section(data: bytes, text: str) -> bytes:
+    return data + section(text).encode("ascii")
+
+
+def _add_root(data: bytes, text: str) -> bytes:
+    start = data.index(b"<VTKFile")
+    end = data.index(b">", start)
+    return data[:end] + f" {ATTRIBUTE}={quoteattr(text)}".encode("ascii") + data[end:]
+
+
+def _add_title(data: bytes, text: str) -> bytes:
+    """Line 1 is "# vtk DataFile Version 5.1", line 2 the title."""
+    if len(text) > VTK_TITLE_LIMIT:
+        raise QmeshError(f".vtk keeps qmesh's metadata in its title line, at most {VTK_TITLE_LIMIT} "
+                         f"characters; this one has {len(text)}: write .vtu instead")
+    first = data.index(b"\n")
+    second = data.index(b"\n", first + 1)
+    return data[:first + 1] + text.encode("ascii") + data[second:]
+
+
+def _add_comment(data: bytes, text: str) -> bytes:
+    return _COMMENT + text.encode("ascii") + b"\n" + data
+
+
+def _read_section(path: Path, source: str) -> str | None:
+    with open(path, "rb") as f:
+        f.seek(0, 2)
+        f.seek(max(0, f.tell() - _MAX_BYTES))
+        tail = f.read()
+    start = tail.rfind(f"${SECTION}\n".encode())
+    if start < 0:
+        return None
+    body = tail[start + len(SECTION) + 2:]
+    end = body.find(f"\n$End{SECTION}".encode())
+    return (body if end < 0 else body[:end]).decode("ascii", "replace")
+
+
+def _read_xml(path: Path, source: str, root: bool) -> str | None:
+    try:
+        for _, elem in ET.iterparse(path, events=("start",)):
+            if root:
+                return elem.attrib.get(ATTRIBUTE)
+            if elem.tag == "Information" and elem.attrib.get("Name") == ATTRIBUTE:
+                return elem.attrib.get("Value")
+    except (ET.ParseError, RecursionError) as e:
+        raise QmeshError(f"cannot read {source}: {e}") from None
+    return None
+
+
+def _read_title(path: Path, source: str) -> str | None:
+    with open(path, "rb") as f:
+        f.readline()
+        line = f.readline(VTK_TITLE_LIMIT + 2).strip()
+    return line.decode("ascii", "replace") if line.startswith(b"{") else None
+
+
+def _read_comment(path: Path, source: str) -> str | None:
+    with open(path, "rb") as f:
+        line = f.readline(_MAX_BYTES)
+    return line[len(_COMMENT):].decode("ascii", "replace") if line.startswith(_COMMENT) else None
+
+
+PLACES = {  # place → (add to a written file's bytes, or None: the writer puts it in itself; read)
+    "section": (_add_section, _read_section),
+    "root": (_add_root, lambda path, source: _read_xml(path, source, root=True)),
+    "information": (None, lambda path, source: _read_xml(path, source, root=False)),
+    "title": (_add_title, _read_title),
+    "comment": (_add_comment, _read_comment),
+}
+
+
 def add(path: Path, place: str, text: str) -> None:
     """Put the metadata line into a file a meshio writer has just written."""
-    data = path.read_bytes()
-    if place == "section":
-        data += section(text).encode("ascii")
-    elif place == "root":
-        start = data.index(b"<VTKFile")
-        end = data.index(b">", start)
-        data = data[:end] + f" {ATTRIBUTE}={quoteattr(text)}".encode("ascii") + data[end:]
-    elif place == "title":  # line 1 "# vtk DataFile Version 5.1", line 2 the title
-        if len(text) > VTK_TITLE_LIMIT:
-            raise QmeshError(f".vtk keeps qmesh's metadata in its title line, at most {VTK_TITLE_LIMIT} "
-                             f"characters; this one has {len(text)}: write .vtu instead")
-        first = data.index(b"\n")
-        second = data.index(b"\n", first + 1)
-        data = data[:first + 1] + text.encode("ascii") + data[second:]
-    elif place == "comment":
-        data = _COMMENT + text.encode("ascii") + b"\n" + data
-    else:  # "information": the xdmf writer puts it in itself
-        return
-    path.write_bytes(data)
+    put = PLACES[place][0]
+    if put is not None:
+        path.write_bytes(put(path.read_bytes(), text))
 
-
-# --------------------------------------------------------------------------- reading
 
 def read(path: Path, place: str, source: str) -> dict | None:
     """The metadata object of the file at `path`, or None when the file has none."""
-    text = _text(path, place, source)
+    text = PLACES[place][1](path, source)
     return None if text is None else loads(text, source)
-
-
-def _text(path: Path, place: str, source: str) -> str | None:
-    if place == "section":
-        with open(path, "rb") as f:
-            f.seek(0, 2)
-            size = f.tell()
-            f.seek(max(0, size - _MAX_BYTES))
-            tail = f.read()
-        start = tail.rfind(f"${SECTION}\n".encode())
-        if start < 0:
-            return None
-        body = tail[start + len(SECTION) + 2:]
-        end = body.find(f"\n$End{SECTION}".encode())
-        return (body if end < 0 else body[:end]).decode("ascii", "replace")
-    if place in ("root", "information"):
-        try:
-            for event, elem in ET.iterparse(path, events=("start",)):
-                if place == "root":
-                    return elem.attrib.get(ATTRIBUTE)
-                if elem.tag == "Information" and elem.attrib.get("Name") == ATTRIBUTE:
-                    return elem.attrib.get("Value")
-        except (ET.ParseError, RecursionError) as e:
-            raise QmeshError(f"cannot read {source}: {e}") from None
-        return None
-    with open(path, "rb") as f:
-        if place == "title":
-            f.readline()
-            line = f.readline(VTK_TITLE_LIMIT + 2).strip()
-            return line.decode("ascii", "replace") if line.startswith(b"{") else None
-        line = f.readline(_MAX_BYTES)
-        return line[len(_COMMENT):].decode("ascii", "replace") if line.startswith(_COMMENT) else None
