@@ -1,9 +1,12 @@
 """Solve −div(Q∇u) = f with scikit-fem on a qmesh mesh of a square with a hole.
 
 Dirichlet u = g on the outline (boundary tag 1, "outline"), Neumann Q∇u·n = h on the hole
-(tag 2, "hole"). The mesh goes through a gmsh file: `qmesh.io.write` puts the tags there as
-named physical curves, and scikit-fem's meshio reader turns them into
-`mesh.boundaries["outline"]` and `["hole"]`. f, g and h come from a manufactured solution u, so the error is known.
+(tag 2, "hole"). The mesh goes through a .vtu file, read as written by `skfem.MeshTri.load`:
+`qmesh.io.write` names the tags there (a FieldData block meshio reads), and scikit-fem turns
+them into `mesh.boundaries["outline"]` and `["hole"]` (a .msh works the same way;
+`qmesh.io.to_skfem(mesh)` skips the file). f, g and h come from a manufactured solution u, so
+the error is known. The M-matrix check counts the stiffness matrix's positive off-diagonal
+entries between free vertices: the Q-adapted mesh is built to have none.
 
 The same problem is then solved on an isotropic mesh (qmesh with Q = I, the same target N),
 and the unpreconditioned CG iteration counts are printed side by side: the stiffness matrix of
@@ -18,17 +21,18 @@ import sys
 import tempfile
 from pathlib import Path
 
-import meshio
 import numpy as np
 import scipy.sparse.linalg as spla
 import skfem
 from skfem import BilinearForm, ElementTriP1, Functional, LinearForm
-from skfem.io.meshio import from_meshio
 
 import qmesh
 import qmesh.io
 
-Q = np.array(qmesh.Anisotropy.principal(1, 100, 30).Q(np.zeros((1, 2)))[0])   # rotated, anisotropy 100
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from fem_problem import positive_off_diagonals  # noqa: E402
+
+Q = qmesh.Anisotropy.principal(1, 100, 30).matrix   # rotated, anisotropy 100
 CG_RTOL = 1e-10
 
 
@@ -80,12 +84,11 @@ def squared_exact(w):
 
 
 def solve(mesh: qmesh.Mesh) -> dict:
-    """Assemble and solve on `mesh` through a gmsh file; CG iterations, relative L2 error, residual."""
+    """Assemble and solve on `mesh` through a .vtu file; CG iterations, relative L2 error, residual."""
     with tempfile.TemporaryDirectory() as folder:
-        path = Path(folder) / "mesh.msh"
+        path = Path(folder) / "mesh.vtu"
         qmesh.io.write(path, mesh)
-        # meshio.read would first try .msh as ANSYS (and print why not): name the format
-        fem_mesh = from_meshio(meshio.gmsh.read(path))
+        fem_mesh = skfem.MeshTri.load(path)
     basis = skfem.Basis(fem_mesh, ElementTriP1())
     hole = skfem.FacetBasis(fem_mesh, ElementTriP1(), facets=fem_mesh.boundaries["hole"])
     A = stiffness.assemble(basis)
@@ -102,6 +105,7 @@ def solve(mesh: qmesh.Mesh) -> dict:
             "n_hole_facets": len(fem_mesh.boundaries["hole"]), "n_hole_edges": int(np.sum(mesh.boundary_tags == 2)),
             "n_outline_vertices": len(np.unique(mesh.boundary_edges[mesh.boundary_tags == 1])),
             "cg_iterations": len(iterations), "cg_converged": info == 0,
+            "positive_off_diagonals": positive_off_diagonals(A, interior),
             "relative_residual": float(np.linalg.norm(rhs - K @ u_interior) / np.linalg.norm(rhs)),
             "relative_l2_error": float(error)}
 
@@ -114,9 +118,10 @@ def main(target_vertices: int = 1000) -> dict:
     results = {"Q-adapted": solve(adapted), "isotropic (Q = I)": solve(isotropic)}
     print(f"-div(Q grad u) = f on a square with a hole, Q = [[{Q[0, 0]:.4g}, {Q[0, 1]:.4g}], "
           f"[{Q[1, 0]:.4g}, {Q[1, 1]:.4g}]]; Dirichlet on 'outline', Neumann on 'hole'")
-    print(f"{'mesh':<18} {'N':>6} {'CG iterations':>14} {'rel. L2 error':>14}")
+    print(f"{'mesh':<18} {'N':>6} {'CG iterations':>14} {'rel. L2 error':>14} {'q_ij < 0':>9}")
     for name, r in results.items():
-        print(f"{name:<18} {r['n_vertices']:>6} {r['cg_iterations']:>14} {r['relative_l2_error']:>14.2e}")
+        print(f"{name:<18} {r['n_vertices']:>6} {r['cg_iterations']:>14} {r['relative_l2_error']:>14.2e} "
+              f"{r['positive_off_diagonals']:>9}")
     for r in results.values():  # a sane solution on both meshes
         assert r["cg_converged"] and r["relative_residual"] < 1e-8, r
         assert r["relative_l2_error"] < 0.05, r

@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import inspect
 import json
+import os
 import sys
 import time
 import warnings
@@ -27,6 +28,7 @@ from qmesh.conductivity.anisotropy import Anisotropy
 from qmesh.mesher.diagnose import thin_domain
 from qmesh.domain.domain import Disk
 from qmesh.errors import QmeshError, QmeshWarning
+from qmesh.geometry.folds import folded_triangles
 from qmesh.io.conductivity import PREFIX as RECORD_PREFIX, record_of
 from qmesh.mesher.loop import iterate
 from qmesh.mesher.loop import mesh as run_mesher
@@ -138,6 +140,9 @@ def conductivity_for_report(args) -> tuple[Anisotropy, str]:
     if given:
         return anisotropy_from(args), "command line"
     stored = io.read_anisotropy(args.meshfile)
+    if isinstance(stored, dict):
+        raise QmeshError(f"{args.meshfile} stores a conductivity per region; qmesh report measures with one "
+                         "Q: give it with --Q, --principal or --s")
     if stored is not None:
         return stored, "file"
     return Anisotropy.constant(CHAPTER_Q), "default"
@@ -155,6 +160,7 @@ def cmd_report(args) -> int:
     where = {"file": "stored in the file", "command line": "from the command line",
              "default": "the chapter's default: the file stores none"}[source]
     rep = measure.report(mesh, anisotropy)
+    rep["folded_triangles"] = folded_triangles(mesh)  # a file's folds and overlaps, not re-oriented away
     if args.json:
         print(json.dumps({"file": str(args.meshfile), "conductivity": conductivity,
                           "conductivity_source": source, **rep}, indent=2))
@@ -266,9 +272,18 @@ def main(argv=None) -> int:
     except SystemExit as e:  # argparse already printed usage and its error
         return e.code if isinstance(e.code, int) else 0
     try:
-        return args.handler(args)
+        code = args.handler(args)
+        sys.stdout.flush()  # a closed stdout shows here, not at exit
+        return code
+    except BrokenPipeError:  # `qmesh report x | head -2`: the reader has gone; end quietly
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
     except (QmeshError, OSError) as e:
         print(f"qmesh: error: {e}", file=sys.stderr)
+        return 2
+    except (OverflowError, RecursionError, MemoryError) as e:  # a hostile input's last resort
+        print(f"qmesh: error: the input is too large or too deeply nested: {type(e).__name__}: "
+              f"{str(e)[:200]}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("qmesh: interrupted", file=sys.stderr)

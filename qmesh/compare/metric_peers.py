@@ -106,6 +106,12 @@ def mmg2d(domain, anisotropy, target_vertices: int, *, rtol: float = 0.03, max_r
 
 # --------------------------------------------------------------------------- stretched Triangle
 
+def area_switch(area: float) -> str:
+    """Triangle's maximum-area switch, the area in plain decimals: Triangle reads `a6.3e-05` as
+    a6.3 followed by the switches e, -, 0, 5 (as `compare.isotropic.switches` does)."""
+    return "a" + np.format_float_positional(float(area), trim="-")
+
+
 def stretched_triangle(domain, anisotropy, target_vertices: int, *, rtol: float = 0.03,
                        max_runs: int = 40, switches: str = "pq30D") -> PeerMesh:
     """Triangle's conforming Delaunay mesh in metric coordinates y = Lᵀx (LLᵀ = ∇²s), mapped back.
@@ -123,7 +129,7 @@ def stretched_triangle(domain, anisotropy, target_vertices: int, *, rtol: float 
     lo, hi, best = None, None, None
     for run in range(1, max_runs + 1):
         t0 = time.perf_counter()
-        t = tr.triangulate(pslg, f"{switches}a{area:.12g}")
+        t = tr.triangulate(pslg, switches + area_switch(area))
         seconds = time.perf_counter() - t0
         P = np.linalg.solve(L.T, np.asarray(t["vertices"], dtype=float).T).T
         n = len(P)

@@ -87,6 +87,15 @@ class Anisotropy:
     def is_constant(self) -> bool:
         return self.H is not None
 
+    @property
+    def matrix(self) -> np.ndarray:
+        """The constant conductivity Q as a plain 2×2 float array (for a FEM code's assembly);
+        QmeshError for a varying Q, which has no single matrix (use `Q(P)`)."""
+        if self.H is None:
+            raise QmeshError(f"Anisotropy.matrix: {self.label or 'this'} Q varies over the domain and has "
+                             "no single matrix; evaluate it at points with Q(P)")
+        return adj2(np.asarray(self.H, dtype=float))
+
     @classmethod
     def constant(cls, Q) -> "Anisotropy":
         """A constant SPD conductivity Q; s(x) = ½ xᵀ adj(Q) x, so ∇²s = adj Q and adj ∇²s = Q."""

@@ -1,13 +1,19 @@
 """Domain files: a polygon outline with holes, from CSV or GeoJSON, for `qmesh mesh --polygon`.
 
 - CSV (any extension but .geojson/.json): one `x,y` row per point; an optional header line
-  first; `#` starts a comment line; a blank line ends a ring. The first ring is the outline,
-  the others are holes.
+  first, recognised by its content (names such as `x,y`, not numbers); `#` starts a comment
+  line; a blank line ends a ring. The first ring is the outline, the others are holes. Any
+  other row that is not two numbers is an error naming its line.
 - GeoJSON (`.geojson`, `.json`, RFC 7946): a Polygon (its first ring the outline, the others
   holes), a Feature whose geometry is one, or a FeatureCollection holding exactly one such
   Feature. Refused, each with its reason: MultiPolygon and other geometry types, several or
   no features, a Feature without geometry, positions that are not 2 or 3 finite numbers (a
-  third coordinate, the altitude, is dropped).
+  third coordinate, the altitude, is dropped), nesting too deep for a parser, integers of
+  more digits than Python converts.
+
+Coordinates must lie within ±1e100 (`MAX_COORDINATE`): beyond, areas and metric lengths
+overflow. `rings_from_polygon` and `ring_from_positions` read a GeoJSON Polygon's rings, for any
+caller that finds Polygons elsewhere (a region property, a FeatureCollection of regions).
 
 `read_domain(path)` reads a file; `domain_from_text(content, name)` takes its content (an
 upload in the viewer). In both formats, a ring's last point is dropped when it repeats the
@@ -19,6 +25,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -27,6 +34,8 @@ from qmesh.domain.domain import Domain
 from qmesh.errors import QmeshError
 
 GEOJSON_SUFFIXES = {".geojson", ".json"}
+MAX_COORDINATE = 1e100
+_HEADER_FIELD = re.compile(r"[A-Za-z_][\w .()\[\]/-]*")
 
 
 def read_domain(path) -> Domain:
@@ -91,18 +100,12 @@ def _csv_rings(text: str, where: str) -> list[np.ndarray]:
                 ring = []
             continue
         fields = [f.strip() for f in line.split(",")]
-        if not seen_data and not _numeric(fields):
-            seen_data = True  # a header: only the first line with content may be one
-            continue
-        seen_data = True
+        first, seen_data = not seen_data, True
+        if first and _is_header(fields):
+            continue  # only the first line with content may be a header, and only a line of names
         if len(fields) != 2:
-            raise QmeshError(f"{where}, line {number}: expected two columns x,y, got {len(fields)}: {raw.strip()!r}")
-        if not _numeric(fields):
-            raise QmeshError(f"{where} is not a CSV of x,y numbers: line {number} reads {raw.strip()!r}")
-        x, y = (float(f) for f in fields)
-        if not (math.isfinite(x) and math.isfinite(y)):
-            raise QmeshError(f"{where}, line {number}: coordinates must be finite, got {raw.strip()!r}")
-        ring.append((x, y))
+            raise QmeshError(f"{where}, line {number}: expected two columns x,y, got {len(fields)}: {line[:80]!r}")
+        ring.append(tuple(_coordinate(f, where, number, line) for f in fields))
     if ring:
         rings.append(np.array(ring))
     if not rings:
@@ -110,12 +113,30 @@ def _csv_rings(text: str, where: str) -> list[np.ndarray]:
     return rings
 
 
-def _numeric(fields: list[str]) -> bool:
+def _is_header(fields: list[str]) -> bool:
+    """A header names its columns: every field a word that is not a number ("x", "y [m]")."""
+    return all(_HEADER_FIELD.fullmatch(f) and not _is_number(f) for f in fields)
+
+
+def _is_number(text: str) -> bool:
     try:
-        [float(f) for f in fields]
+        float(text)
     except ValueError:
         return False
     return True
+
+
+def _coordinate(text: str, where: str, number: int, line: str) -> float:
+    """A finite coordinate within ±MAX_COORDINATE, or QmeshError naming the line and quoting it."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise QmeshError(f"{where} is not a CSV of x,y numbers: line {number} reads {line[:80]!r} "
+                         f"({text[:40]!r} is not a number)") from None
+    if not math.isfinite(value) or abs(value) > MAX_COORDINATE:
+        raise QmeshError(f"{where}, line {number}: coordinates must be finite numbers within "
+                         f"±{MAX_COORDINATE:g}, got {text[:40]!r}")
+    return value
 
 
 # --------------------------------------------------------------------------- GeoJSON
@@ -125,11 +146,19 @@ def _geojson_rings(text: str, where: str) -> list[np.ndarray]:
         doc = json.loads(text)
     except json.JSONDecodeError as e:
         raise QmeshError(f"{where}, line {e.lineno} column {e.colno}: not valid JSON: {e.msg}") from e
-    geometry = _polygon_geometry(doc, where)
+    except ValueError as e:  # an integer of more digits than Python converts
+        raise QmeshError(f"{where}: not valid JSON: {str(e)[:120]}") from None
+    except RecursionError:
+        raise QmeshError(f"{where}: not valid GeoJSON: nested too deeply") from None
+    return rings_from_polygon(_polygon_geometry(doc, where), where)
+
+
+def rings_from_polygon(geometry: dict, where: str) -> list[np.ndarray]:
+    """The rings of a GeoJSON Polygon object, (k, 2) arrays, outline first (closing points kept)."""
     coords = geometry.get("coordinates")
     if not isinstance(coords, list) or not coords:
         raise QmeshError(f"{where}: a Polygon needs 'coordinates', a non-empty list of rings")
-    return [_geojson_ring(ring, i, where) for i, ring in enumerate(coords)]
+    return [ring_from_positions(ring, i, where) for i, ring in enumerate(coords)]
 
 
 def _polygon_geometry(doc, where: str) -> dict:
@@ -159,20 +188,30 @@ def _polygon_geometry(doc, where: str) -> dict:
     return doc
 
 
-def _geojson_ring(ring, index: int, where: str) -> np.ndarray:
+def ring_from_positions(ring, index: int, where: str) -> np.ndarray:
+    """One GeoJSON ring (a list of [x, y] or [x, y, z] positions) as a (k, 2) array; `index`
+    names it in errors (0 the outline, k hole k)."""
     name = _ring_name(index)
     if not isinstance(ring, list):
         raise QmeshError(f"{where}: {name} must be a list of positions, got {type(ring).__name__}")
     out = np.empty((len(ring), 2))
     for k, position in enumerate(ring):
         ok = (isinstance(position, list) and len(position) in (2, 3)
-              and all(isinstance(c, (int, float)) and not isinstance(c, bool) and math.isfinite(c)
-                      for c in position))
+              and all(isinstance(c, (int, float)) and not isinstance(c, bool)
+                      and abs(c) <= MAX_COORDINATE for c in position))  # False for NaN, ±inf; exact for big ints
         if not ok:
-            raise QmeshError(f"{where}: {name}, point {k + 1}: a position must be 2 or 3 finite numbers, "
-                             f"got {json.dumps(position)[:60]}")
+            raise QmeshError(f"{where}: {name}, point {k + 1}: a position must be 2 or 3 finite numbers "
+                             f"within ±{MAX_COORDINATE:g}, got {_short(position)}")
         out[k] = position[:2]
     return out
+
+
+def _short(value) -> str:
+    """A JSON value quoted in an error: at most 60 characters, whatever its size or depth."""
+    try:
+        return json.dumps(value)[:60]
+    except (ValueError, RecursionError):
+        return f"a {type(value).__name__}"
 
 
 # --------------------------------------------------------------------------- rings

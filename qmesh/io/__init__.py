@@ -1,9 +1,13 @@
-"""Mesh files: `write` a qmesh `Mesh` with its tags and conductivity, `read` any triangle mesh
-back as one, `read_anisotropy` the conductivity a file remembers (`formats`; tags in `boundary`,
-the conductivity record in `conductivity`). meshio is imported only when a file is used."""
+"""Mesh files: `write` a qmesh `Mesh` with its tags, regions and conductivity, `read` any
+triangle mesh back as one, `read_anisotropy` the conductivity a file remembers; the formats
+are records in `registry` (one per extension). `to_skfem`, `to_dolfinx`, `to_ngsolve` hand a
+Mesh to a FEM code without a file (`adapters`). meshio is imported only when a file is used."""
 
-from qmesh.io.formats import (FORMATS, KEEPS_CONDUCTIVITY, KEEPS_DATA, KEEPS_FIXED, KEEPS_TAG_NAMES,
-                              KEEPS_TAGS, check_writable, read, read_anisotropy, write)
+from qmesh.io.adapters import to_dolfinx, to_ngsolve, to_skfem
+from qmesh.io.formats import check_writable, read, read_anisotropy, read_names, write
+from qmesh.io.registry import (FORMATS, KEEPS_CONDUCTIVITY, KEEPS_DATA, KEEPS_FIXED, KEEPS_REGIONS,
+                               KEEPS_TAG_NAMES, KEEPS_TAGS, REGISTRY)
 
-__all__ = ["FORMATS", "KEEPS_CONDUCTIVITY", "KEEPS_DATA", "KEEPS_FIXED", "KEEPS_TAG_NAMES",
-           "KEEPS_TAGS", "check_writable", "read", "read_anisotropy", "write"]
+__all__ = ["FORMATS", "KEEPS_CONDUCTIVITY", "KEEPS_DATA", "KEEPS_FIXED", "KEEPS_REGIONS", "KEEPS_TAG_NAMES",
+           "KEEPS_TAGS", "REGISTRY", "check_writable", "read", "read_anisotropy", "read_names", "to_dolfinx", "to_ngsolve",
+           "to_skfem", "write"]

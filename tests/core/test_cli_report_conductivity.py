@@ -61,7 +61,8 @@ def test_report_says_when_it_falls_back_to_the_chapter_q(tmp_path, capsys, delau
 def test_report_of_a_file_with_a_broken_record_is_one_error_line(tmp_path, capsys, delaunay_mesh):
     path = tmp_path / "m.obj"
     io.write(path, delaunay_mesh)
-    path.write_text("# qmesh conductivity: Q = [[1.0, 2.0], [2.0, 1.0]]\n" + path.read_text())
+    body = path.read_text().split("\n", 1)[1]
+    path.write_text('# qmesh {"qmesh": 1, "conductivity": {"Q": [[1.0, 2.0], [2.0, 1.0]]}}\n' + body)
     code, out, err = run(capsys, "report", path)
     assert code == 2 and out == ""
     assert err.startswith("qmesh: error: ") and "stored conductivity is not valid" in err and err.count("\n") == 1

@@ -36,4 +36,5 @@ def test_solves_with_the_tags_and_the_adapted_mesh_needs_fewer_cg_iterations(exa
         assert r["n_dirichlet"] == r["n_outline_vertices"] > 0     # tag 1 as the "outline"
     assert abs(isotropic["n_vertices"] - adapted["n_vertices"]) <= 0.1 * adapted["n_vertices"]
     assert adapted["cg_iterations"] < isotropic["cg_iterations"] / 2
+    assert adapted["positive_off_diagonals"] < isotropic["positive_off_diagonals"]  # the M-matrix check
     assert f"{adapted['cg_iterations']:>14}" in out and "isotropic (Q = I)" in out

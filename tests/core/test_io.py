@@ -7,6 +7,14 @@ import pytest
 import qmesh
 from qmesh import io
 from qmesh.errors import QmeshError
+from qmesh.geometry.folds import folded_triangles
+from qmesh.io.formats import _load
+from qmesh.io.registry import REGISTRY
+
+
+def file_view(path):
+    """The meshio mesh of a file as qmesh reads it (meshio cannot read the DOLFINx .xdmf layout)."""
+    return _load(path, REGISTRY[path.suffix])
 
 
 @pytest.mark.parametrize("ext", sorted(io.FORMATS))
@@ -18,7 +26,8 @@ def test_round_trip(tmp_path, delaunay_mesh, ext):
     np.testing.assert_array_equal(back.triangles, delaunay_mesh.triangles)
     expected_fixed = delaunay_mesh.fixed if ext in io.KEEPS_FIXED else np.zeros(delaunay_mesh.n_vertices, bool)
     np.testing.assert_array_equal(back.fixed, expected_fixed)
-    assert [p.name for p in tmp_path.iterdir()] == [path.name]  # no temporary file left behind
+    expected = {path.name, "m.h5"} if ext == ".xdmf" else {path.name}  # xdmf: its HDF5 beside it
+    assert {p.name for p in tmp_path.iterdir()} == expected  # no temporary file left behind
 
 
 @pytest.mark.parametrize("ext", sorted(io.KEEPS_DATA))
@@ -28,7 +37,7 @@ def test_quality_and_extra_data_are_written(tmp_path, delaunay_mesh, chapter_ani
     label = np.arange(delaunay_mesh.n_triangles) % 3
     io.write(path, delaunay_mesh, anisotropy=chapter_anisotropy,
              point_data={"height": height}, cell_data={"label": label})
-    m = meshio.read(path)
+    m = file_view(path)
     np.testing.assert_allclose(m.cell_data["quality"][0], qmesh.measure.quality(delaunay_mesh, chapter_anisotropy),
                                rtol=1e-12)
     np.testing.assert_allclose(np.ravel(m.point_data["height"]), height, rtol=1e-12)
@@ -41,17 +50,26 @@ def test_no_quality_without_anisotropy(tmp_path, delaunay_mesh):
 
 
 def test_read_orients_drops_z_and_unused_points_and_other_cells(tmp_path):
-    # A file as another program writes it: 3-D points, a clockwise triangle, line cells,
+    # A file as another program writes it: 3-D points, clockwise triangles, line cells,
     # and a point that no triangle uses.
     P = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [5, 5, 0]], float)
-    cells = [("line", np.array([[0, 1], [1, 2]])), ("triangle", np.array([[0, 1, 2], [0, 2, 3][::-1]]))]
+    cells = [("line", np.array([[0, 1], [1, 2]])), ("triangle", np.array([[0, 1, 2][::-1], [0, 2, 3][::-1]]))]
     meshio.write(tmp_path / "other.vtu", meshio.Mesh(P, cells))
     m = io.read(tmp_path / "other.vtu")
     assert m.points.shape == (4, 2)
     np.testing.assert_array_equal(m.points, P[:4, :2])
-    assert np.all(qmesh.geometry.triangles.signed_areas(m.points, m.triangles) > 0)
+    assert np.all(qmesh.geometry.triangles.signed_areas(m.points, m.triangles) > 0)  # clockwise as a whole
     assert {frozenset(t) for t in m.triangles.tolist()} == {frozenset({0, 1, 2}), frozenset({0, 2, 3})}
-    assert not m.fixed.any()
+    assert not m.fixed.any() and folded_triangles(m) == 0
+
+
+def test_read_keeps_a_fold_for_report_to_see(tmp_path):
+    """One triangle turning the other way than the rest is a fold: kept, not re-oriented."""
+    P = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
+    meshio.write(tmp_path / "fold.vtu", meshio.Mesh(P, [("triangle", np.array([[0, 1, 2], [0, 3, 2], [0, 1, 2]]))]))
+    m = io.read(tmp_path / "fold.vtu")
+    assert (qmesh.geometry.triangles.signed_areas(m.points, m.triangles) < 0).sum() == 1
+    assert folded_triangles(m) >= 2  # the clockwise one and the duplicate
 
 
 GMSH22_FROM_ANOTHER_PROGRAM = """$MeshFormat
@@ -84,7 +102,8 @@ def test_read_hand_written_gmsh22(tmp_path):
     path.write_text(GMSH22_FROM_ANOTHER_PROGRAM)
     m = io.read(path)
     assert m.n_vertices == 5 and m.n_triangles == 4
-    assert np.all(qmesh.geometry.triangles.signed_areas(m.points, m.triangles) > 0)  # element 6 was clockwise
+    assert np.all(qmesh.geometry.triangles.signed_areas(m.points, m.triangles) > 0)
+    assert folded_triangles(m) == 0
     assert m.boundary.sum() == 4 and not m.boundary[4]
 
 
@@ -124,7 +143,8 @@ def test_write_errors_leave_no_file(tmp_path, delaunay_mesh):
         (tmp_path / "m.vtu", {"point_data": {"h": np.zeros(3)}}, "must have 56 rows"),
         (tmp_path / "m.vtu", {"cell_data": {"quality": np.zeros(delaunay_mesh.n_triangles)}}, "reserved"),
         # meshio itself refuses (gmsh allows 1, 3 or 9 components): the error surfaces, no file stays
-        (tmp_path / "m.msh", {"point_data": {"v": np.zeros((delaunay_mesh.n_vertices, 2))}}, "cannot write"),
+        (tmp_path / "m.msh", {"point_data": {"v": np.zeros((delaunay_mesh.n_vertices, 2))}}, "1, 3 or 9 components"),
+        (tmp_path / "m.msh", {"cell_data": {"c": np.zeros(delaunay_mesh.n_triangles)}}, "version='4.1'"),
     ]
     for path, kwargs, message in cases:
         with pytest.raises(QmeshError, match=message):
@@ -139,7 +159,10 @@ def test_write_errors_leave_no_file(tmp_path, delaunay_mesh):
 from hypothesis import given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
+import json  # noqa: E402
+
 from qmesh.io import conductivity as file_conductivity  # noqa: E402
+from qmesh.io import metadata  # noqa: E402
 
 ROTATED = qmesh.Anisotropy.principal(1, 100, 30)
 
@@ -184,7 +207,7 @@ def test_file_from_another_program_has_no_conductivity(tmp_path, delaunay_mesh, 
 @given(k1=st.floats(1e-6, 1e6), k2=st.floats(1e-6, 1e6), angle=st.floats(-360, 360))
 def test_any_spd_q_record_round_trips_exactly(k1, k2, angle):
     a = qmesh.Anisotropy.principal(k1, k2, angle)
-    back = file_conductivity.anisotropy_of(file_conductivity.record_of(a), "test")
+    back = file_conductivity.from_json(json.loads(json.dumps(file_conductivity.to_json(a))), "test")
     np.testing.assert_array_equal(back.H, a.H)
 
 
@@ -195,9 +218,7 @@ EXPRESSION = "x**2 + 0.5*y**4 + exp(-x) * (x < y) & 1 + π"  # <, &, non-ASCII: 
 def test_expression_is_stored_as_text(tmp_path, delaunay_mesh, ext, monkeypatch):
     path = tmp_path / f"m{ext}"
     io.write(path, delaunay_mesh, anisotropy=_with_expression(EXPRESSION))
-    fmt = io.FORMATS[ext]
-    field_data = meshio.read(path).field_data if fmt == "gmsh" else None
-    assert file_conductivity.read_from_file(path, fmt, field_data) == f"qmesh conductivity: s(x, y) = {EXPRESSION}"
+    assert metadata.read(path, REGISTRY[ext].metadata, "test")["conductivity"] == {"s": EXPRESSION}
     seen = []
     monkeypatch.setattr(qmesh.Anisotropy, "from_expression",
                         classmethod(lambda cls, text: seen.append(text) or ROTATED), raising=False)
@@ -212,12 +233,6 @@ def test_expression_needs_from_expression_to_be_read(tmp_path, delaunay_mesh, mo
         io.read_anisotropy(path)
 
 
-def test_gmsh_conductivity_survives_a_meshio_read_write(tmp_path, delaunay_mesh):
-    io.write(tmp_path / "a.msh", delaunay_mesh, anisotropy=ROTATED)
-    meshio.gmsh.write(tmp_path / "b.msh", meshio.read(tmp_path / "a.msh"), binary=True)
-    np.testing.assert_array_equal(io.read_anisotropy(tmp_path / "b.msh").H, ROTATED.H)
-
-
 def test_callable_s_is_not_stored(tmp_path, delaunay_mesh):
     s = qmesh.Anisotropy.from_s(lambda P: (P ** 4).sum(1), lambda P: 4 * P ** 3,
                                 lambda P: np.einsum("ni,ij->nij", 12 * P ** 2 + 1, np.eye(2)))
@@ -226,21 +241,25 @@ def test_callable_s_is_not_stored(tmp_path, delaunay_mesh):
 
 
 def test_records_a_format_cannot_hold_are_refused(tmp_path, delaunay_mesh):
-    with pytest.raises(QmeshError, match="anisotropy: .vtk keeps a conductivity of at most 256"):
+    with pytest.raises(QmeshError, match=".vtk keeps qmesh's metadata in its title line, at most 256"):
         io.write(tmp_path / "m.vtk", delaunay_mesh, anisotropy=_with_expression("x**2 + " * 50 + "y**2"))
-    with pytest.raises(QmeshError, match="anisotropy: a gmsh physical name cannot hold quotes"):
-        io.write(tmp_path / "m.msh", delaunay_mesh, anisotropy=_with_expression("x**2 + y**2 # 'a'"))
     assert list(tmp_path.iterdir()) == []
+    io.write(tmp_path / "m.msh", delaunay_mesh, anisotropy=_with_expression("x**2 + y**2 # 'a\"'"))  # JSON escapes
+    assert metadata.read(tmp_path / "m.msh", "section", "t")["conductivity"] == {"s": "x**2 + y**2 # 'a\"'"}
 
 
 def test_bad_stored_record_is_a_clear_error(tmp_path, delaunay_mesh):
     path = tmp_path / "m.obj"
     io.write(path, delaunay_mesh)
-    path.write_text("# qmesh conductivity: Q = [[1.0, 0.0], [0.0, -1.0]]\n" + path.read_text())
+    body = path.read_text().split("\n", 1)[1]
+    path.write_text('# qmesh {"qmesh": 1, "conductivity": {"Q": [[1.0, 0.0], [0.0, -1.0]]}}\n' + body)
     with pytest.raises(QmeshError, match="m.obj.*stored conductivity is not valid"):
         io.read_anisotropy(path)
-    path.write_text("# qmesh conductivity: Q is the identity\n" + path.read_text())
-    with pytest.raises(QmeshError, match="unreadable conductivity record"):
+    path.write_text('# qmesh {"qmesh": 1, "conductivity": {"Q": "the identity"}}\n' + body)
+    with pytest.raises(QmeshError, match="stored conductivity Q must be 2×2 finite numbers"):
+        io.read_anisotropy(path)
+    path.write_text('# qmesh {"qmesh": 1, "conductivity": ' + "[" * 100000 + "\n" + body)
+    with pytest.raises(QmeshError, match="unreadable qmesh metadata"):
         io.read_anisotropy(path)
 
 
@@ -249,6 +268,8 @@ def test_bad_stored_record_is_a_clear_error(tmp_path, delaunay_mesh):
     (lambda p, m: io.write(None, m), "path must be a file name"),
     (lambda p, m: io.write(p / "m.vtu", m.points), "mesh must be a qmesh.Mesh"),
     (lambda p, m: io.write(p / "m.vtu", m, anisotropy=np.eye(2)), "anisotropy must be a qmesh.Anisotropy"),
+    (lambda p, m: io.write(p / "m.vtu", m, anisotropy={1: ROTATED}), "no conductivity for region tags \\[0\\]"),
+    (lambda p, m: io.write(p / "m.msh", m, version="3"), "version must be one of"),
     (lambda p, m: io.write(p / "m.vtu", m, point_data=[1, 2]), "point data must be a dict"),
     (lambda p, m: io.write(p / "m.vtu", m, point_data={1: np.zeros(m.n_vertices)}), "names must be non-empty strings"),
     (lambda p, m: io.write(p / "m.vtu", m, point_data={"s": ["a"] * m.n_vertices}), "point data\\['s'\\] must hold real numbers"),

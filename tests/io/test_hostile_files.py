@@ -1,0 +1,93 @@
+"""Malformed and hostile files (truncated, deeply nested, huge numbers, huge digit strings, NaN,
+wrong cells) give a valid result or one QmeshError: nothing else, for the polygon and mesh readers."""
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import qmesh
+from qmesh import io
+from qmesh.domain.polygon_file import domain_from_text
+from qmesh.errors import QmeshError
+
+TOKENS = ["[" * 3000, "{" * 3000, "9" * 5000, "9" * 400, "1e309", "-1e400", "NaN", "Infinity", "nan", ",", "\n",
+          '"', "]", "}", "\x00", "1O", "é", "-", "0", " ", "$EndNodes\n", "<", ">", "</Piece>", "triangle", "line",
+          "Triangles\n", "2 2 0 1 1 2 3\n", "$Elements\n", "99999999999"]
+
+CSV = "x,y\n0,0\n1,0\n1,1\n0,1\n\n0.2,0.2\n0.4,0.2\n0.3,0.4\n"
+GEOJSON = ('{"type": "Feature", "properties": {}, "geometry": {"type": "Polygon", "coordinates": '
+           '[[[0, 0], [1, 0], [1, 1], [0, 1], [0, 0]], [[0.2, 0.2], [0.4, 0.2], [0.3, 0.4], [0.2, 0.2]]]}}')
+
+
+@st.composite
+def mutated(draw, text):
+    """`text` truncated, or with hostile tokens inserted or written over a span, a few times."""
+    for _ in range(draw(st.integers(1, 3))):
+        i = draw(st.integers(0, len(text)))
+        op = draw(st.sampled_from(["truncate", "insert", "replace"]))
+        if op == "truncate":
+            text = text[:i]
+        else:
+            token = draw(st.sampled_from(TOKENS))
+            j = i + draw(st.integers(0, 8)) if op == "replace" else i
+            text = text[:i] + token + text[j:]
+    return text
+
+
+@settings(max_examples=150, deadline=None, derandomize=True)
+@given(data=st.data())
+def test_polygon_reader_gives_a_domain_or_one_clean_error(data):
+    name, base = data.draw(st.sampled_from([("p.csv", CSV), ("p.geojson", GEOJSON)]))
+    text = data.draw(mutated(base))
+    try:
+        domain = domain_from_text(text, name)
+    except QmeshError as e:
+        assert str(e) and "\n" not in str(e)[:500]
+        return
+    assert isinstance(domain, qmesh.Domain) and np.all(np.isfinite(domain.seeds))
+
+
+FORMATS = [".msh", ".vtu", ".vtk", ".mesh", ".obj", ".xdmf"]
+
+
+@pytest.fixture(scope="module")
+def originals(tmp_path_factory):
+    """Each format's bytes for a small tagged mesh with a stored conductivity."""
+    folder = tmp_path_factory.mktemp("originals")
+    P = np.array([[0, 0], [1, 0], [1, 1], [0, 1], [0.5, 0.5]])
+    mesh = qmesh.Mesh(P, [[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]], tag_names={1: "wall"})
+    out = {}
+    for ext in FORMATS:
+        io.write(folder / f"m{ext}", mesh, anisotropy=qmesh.Anisotropy.principal(1, 5, 10))
+        out[ext] = (folder / f"m{ext}").read_bytes()
+    out["h5"] = (folder / "m.h5").read_bytes()
+    return out
+
+
+@settings(max_examples=150, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@given(data=st.data())
+def test_mesh_reader_gives_a_mesh_or_one_clean_error(tmp_path_factory, originals, data):
+    ext = data.draw(st.sampled_from(FORMATS))
+    base = originals[ext].decode("latin-1")
+    folder = tmp_path_factory.mktemp("mutated")
+    path = folder / f"m{ext}"
+    path.write_bytes(data.draw(mutated(base)).encode("latin-1", "replace"))
+    (folder / "m.h5").write_bytes(originals["h5"])
+    for call in (io.read, io.read_anisotropy):
+        try:
+            result = call(path)
+        except QmeshError as e:
+            assert str(e)
+            continue
+        if call is io.read:
+            assert isinstance(result, qmesh.Mesh) and np.all(np.isfinite(result.points))
+
+
+def test_deeply_nested_metadata_is_one_error(tmp_path, originals):
+    path = tmp_path / "m.vtu"
+    path.write_bytes(originals[".vtu"].replace(b"qmesh='{", b"qmesh='" + b"[" * 100000 + b"{", 1))
+    assert path.read_bytes() != originals[".vtu"]
+    with pytest.raises(QmeshError, match="unreadable qmesh metadata"):
+        io.read(path)
