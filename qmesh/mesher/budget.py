@@ -16,9 +16,10 @@ import os
 
 from qmesh.errors import QmeshError
 
-BYTES_PER_VERTEX = {False: 1300, True: 7000}
+BYTES_PER_VERTEX = {False: 1300, True: 6600}
 """Peak bytes per vertex of `qmesh.mesh` (constant s: False, varying s: True), rounded up from
-the largest figure of `benchmarks/bench_memory.py` (see its docstring for the run)."""
+the largest figure of `python benchmarks/bench_memory.py` (Disk(256), 2026-11-23): constant Q
+(2.95) 1135 / 1228 / 1258 B at N = 1e4 / 1e5 / 4e5; s = exp(x) + y² 6562 / 6513 / 5962 B."""
 FIXED_BYTES = 64 * 2**20
 """Working memory of any run, whatever N (the first triangulation, caches, Qhull's buffers)."""
 DEFAULT_FRACTION = 0.5
