@@ -22,8 +22,10 @@ ARROW = "#1f5fbf"          # displacements of the last adjust stage
 SURFACE = "#9ecae1"        # the smooth s(x)
 FACET = "#fdae6b"          # the facets of s_h
 # edges by the sign of q_ij: (actor name, q_sign value, colour, line width); negatives stand out
-Q_SIGN_LINES = (("q_boundary", 0, "#7f7f7f", 1), ("q_positive", 1, "#1a7f37", 1),
+# (black and red stay visible on every colour of viridis, green vanished on its greens)
+Q_SIGN_LINES = (("q_boundary", 0, "#7f7f7f", 1), ("q_positive", 1, "#111111", 1),
                 ("q_negative", -1, "#e31a1c", 4))
+SIZE_CMAP = "Blues_r"      # mesh view when edges are too dense: triangles by area (log)
 QUALITY_CMAP = "viridis"
 SCALAR_TITLES = {"quality": "quality", "metric_area": "metric area"}
 VIEWS = ("lifted", "mesh", "quality")
@@ -72,8 +74,14 @@ def draw_lifted(plotter: pv.Plotter, view: scene.LiftedScene) -> None:
 
 def draw_projected(plotter: pv.Plotter, view: scene.ProjectedScene) -> None:
     """The plane mesh with edges, seeds, inserted points and displacement arrows."""
-    _put(plotter, "mesh", view.mesh, color=MESH_FACE, show_edges=True, edge_color=EDGE,
-         line_width=1, lighting=False, show_scalar_bar=False)
+    _put(plotter, "mesh", view.mesh, scalars="log_area", preference="cell", cmap=SIZE_CMAP,
+         show_edges=True, edge_color=EDGE, line_width=1, lighting=False, show_scalar_bar=False)
+    actor = plotter.actors.get("mesh")
+    if actor is not None and "log_area" in view.mesh.cell_data:
+        a = view.mesh.cell_data["log_area"]
+        lo, hi = float(a.min()), float(a.max())
+        actor.mapper.SetScalarRange(lo - 0.25, hi + 0.25 if hi > lo else lo + 1.0)
+    _put(plotter, "sample", view.sample, color=EDGE, line_width=1, show_scalar_bar=False)
     _put(plotter, "arrows", view.arrows, color=ARROW, line_width=2, show_scalar_bar=False)
     _put(plotter, "added", view.added, color=ADDED, point_size=9,
          render_points_as_spheres=True, show_scalar_bar=False)
@@ -240,11 +248,18 @@ class ViewSet:
                 if actor_name == "vertices":
                     actor.SetVisibility(look == "dark")
                     continue
+                if actor_name == "mesh":          # crowded: sizes and a sample of outlines
+                    actor.mapper.SetScalarVisibility(look != "dark")
+                    sample = plotter.actors.get("sample")
+                    if sample is not None:
+                        sample.SetVisibility(look != "dark")
+                    actor.GetProperty().SetColor(pv.Color(MESH_FACE).float_rgb)
                 if actor_name == "triangles" and self.legend.get("q_sign_edges"):
                     continue                             # the q_ij-sign lines are the edges
                 prop = actor.GetProperty()
                 prop.SetEdgeVisibility(look is not None)
                 prop.SetEdgeColor(pv.Color(EDGE if look == "dark" else EDGE_LIGHT).float_rgb)
+        self.legend["crowded"] = looks["mesh"] != "dark"
         return looks
 
     def reset_cameras(self) -> None:
@@ -268,10 +283,29 @@ class ViewSet:
         top.camera.parallel_scale = margin * max((y1 - y0) / 2, (x1 - x0) / 2 / aspect)
 
     def fit_lifted(self) -> None:
-        """Fit the lifted view to its scene, keeping its direction (after a z-scale change)."""
+        """Fit the lifted view to its scene, keeping its direction: the bounding box's corners,
+        projected to the screen, span 92% of the card's width or height (reset_camera alone
+        fits a bounding sphere, which left the surface a third of its card)."""
         lifted = self.plotters["lifted"]
         lifted.reset_camera(render=False)
-        lifted.camera.zoom(1.05 * _narrow(lifted))
+        w, h = lifted.render_window.GetSize()
+        if w <= 0 or h <= 0 or lifted.bounds[0] > lifted.bounds[1]:
+            lifted.camera.zoom(1.05 * _narrow(lifted))
+            return
+        ren = lifted.renderer
+        b = lifted.bounds
+        corners = [(x, y, z) for x in b[0:2] for y in b[2:4] for z in b[4:6]]
+        for _ in range(3):                           # perspective: converge in a few passes
+            pts = []
+            for c in corners:
+                ren.SetWorldPoint(*c, 1.0)
+                ren.WorldToDisplay()
+                pts.append(ren.GetDisplayPoint()[:2])
+            d = np.abs(np.asarray(pts) - (w / 2, h / 2)).max(axis=0)
+            factor = 0.92 * min(w / 2 / max(d[0], 1e-9), h / 2 / max(d[1], 1e-9))
+            if abs(factor - 1) < 0.01:
+                break
+            lifted.camera.zoom(factor)
 
     def render(self) -> None:
         """Render all three windows now.

@@ -51,6 +51,11 @@ def html(name: str, info: dict) -> str:
         items = [_item(_dot(draw.FIXED), "seed points (fixed)"),
                  _item(_dot(draw.ADDED), "inserted by the last insert"),
                  _item(_line(draw.ARROW), "moves of the last adjust")]
+        if info.get("crowded"):
+            bar = ("<span style='display:inline-block;width:70px;height:10px;border:1px solid "
+                   "#888;background:linear-gradient(to right,#08306b,#4292c6,#deebf7)'></span>")
+            items.append(f"<span class='legend-size'>edges too dense: a sample of "
+                         f"triangles outlined; area small {bar} large</span>")
     elif name == "quality":
         lo, hi = info.get("clim", (0.0, 1.0))
         bar = ("<span style='display:inline-block;width:140px;height:10px;border:1px solid #888;"
