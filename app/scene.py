@@ -253,7 +253,8 @@ def projected(step, *, arrow_scale: float = 1.0, min_move: float = 0.0) -> Proje
         arrows, n_moved = pv.PolyData(), 0
     tri = triangles_polydata(P, m.triangles)
     T = m.triangles
-    area = 0.5 * np.abs(np.cross(P[T[:, 1]] - P[T[:, 0]], P[T[:, 2]] - P[T[:, 0]]))
+    u, v = P[T[:, 1]] - P[T[:, 0]], P[T[:, 2]] - P[T[:, 0]]
+    area = 0.5 * np.abs(u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0])
     tri.cell_data["log_area"] = np.log10(np.maximum(area, 1e-300))   # colour when crowded
     return ProjectedScene(tri, points_polydata(P[m.fixed]),
                           points_polydata(P[added]), arrows, len(added), n_moved,
@@ -278,7 +279,8 @@ def sample_outlines(P: np.ndarray, T: np.ndarray, cells: int = SAMPLE_CELLS) -> 
     order = np.lexsort((off, key))                       # per cell, the most central first
     first = order[np.r_[True, key[order][1:] != key[order][:-1]]]
     E = T[first][:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
-    return pv.PolyData(_xyz(P, 0.0), lines=_lines(E))
+    lift = 1e-3 * max(float(np.ptp(P, axis=0).max()), 1e-300)     # just above the triangles
+    return pv.PolyData(_xyz(P, lift), lines=_lines(E))
 
 
 # --------------------------------------------------------------------------- quality view
