@@ -205,6 +205,15 @@ def test_choosing_l_shape_and_uploading_a_polygon_file(tmp_path):
         assert page.locator("#upload-domain input[type=file]").input_value() == ""   # cleared
         b.save(page, "browser-domain-upload")
 
+        # a bad file: refused on the page, the field cleared, the plate still on screen
+        bad = tmp_path / "bad.csv"
+        bad.write_text("1,2\n")
+        page.locator("#upload-domain input[type=file]").set_input_files(str(bad))
+        b.until(lambda: "bad.csv" in b.page_text(page, "#messages") or None, 20, "the refusal")
+        assert b.status(page) == s2 and "file: plate.csv" in b.page_text(page, "#select-domain")
+        b.until(lambda: page.locator("#upload-domain").inner_text().find("bad.csv") < 0 or None,
+                20, "the file field to forget the refused file")
+
 
 def test_s_typed_as_text_remeshes_and_a_hostile_text_shows_an_error():
     with b.qmesh_view_server() as url, b.chromium_page(url) as page:

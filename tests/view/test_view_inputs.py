@@ -88,6 +88,14 @@ def test_typed_target_fast_slider_keys_and_a_refused_huge_target():
             assert line.startswith("iteration 0 · triangulate")
         b.save(page, "browser-inputs-angle-45")
 
+        # a forged state value (not a number) is refused on the page and the slider put back
+        before = b.status(page)
+        page.evaluate("() => window.trame.state.set('k1', 'abc')")
+        b.until(lambda: "k1 must be a number" in b.page_text(page, "#messages") or None, 20,
+                "the refusal of a forged value")
+        b.until(lambda: _slider_value(page, "k1") == "0.1" or None, 20, "k1 put back")
+        assert b.status(page) == before
+
         # a 2e7 target: refused with the estimate on the page; the server stays small; Step works
         before = b.status(page)
         field.click()
