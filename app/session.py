@@ -124,7 +124,7 @@ class Session:
                         thin = None
                 if thin:
                     notes.append(f"warning: {thin}")
-            if row.get("kappa2") is None and step.stage == "triangulate":
+            if step.stage == "triangulate" and not (~step.mesh.boundary).any():
                 notes.append("κ2 is undefined: the mesh has no interior vertex to solve for")
             if self._run.done and i == len(self._run.history) - 1 or step.converged:
                 target, n = self.params.target_vertices, step.mesh.n_vertices
