@@ -41,15 +41,13 @@ from trame.widgets import vuetify3 as v3
 from qmesh.errors import QmeshError
 
 from . import delivery, legend
+from .legend import VIEW_TITLES
 from .controller import PARAMS, status_text
 from .draw import VIEWS, ViewSet
 from .problem import DISK, S_PRESETS
 from .session import RUN_PAUSE, Session
 
 TITLE = "qmesh-view — Q-adapted meshes (Algorithm 2.1)"
-VIEW_TITLES = {"lifted": "lifted: s(x) and the facets of s_h",
-               "mesh": "mesh: seeds, inserted points, moves",
-               "quality": "quality"}
 VIEW_MODES = ("remote", "local")
 CHART_SERIES = (("chart_energy", "energy E per iteration (log scale)", "#1f77b4"),
                 ("chart_kappa2", "κ2 per iteration", "#d62728"),

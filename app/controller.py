@@ -19,8 +19,7 @@ import qmesh
 from qmesh import measure
 from qmesh.errors import QmeshError
 
-from .problem import (DISK, FILE_PREFIX, Q_MODES, S_PRESETS, domain_names, make_anisotropy,  # noqa: F401
-                      make_domain, q_matrix)
+from .problem import DISK, Q_MODES, S_PRESETS, make_anisotropy, make_domain, q_matrix
 
 PARAMS = ("k1", "k2", "angle", "vb", "target_vertices", "alpha", "seed", "domain", "q_mode",
           "s_text")

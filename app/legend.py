@@ -15,6 +15,11 @@ VIRIDIS = ("#440154", "#482878", "#3e4989", "#31688e", "#26828e", "#1f9e89", "#3
            "#6ece58", "#b5de2b", "#fde725")
 """matplotlib's viridis at ten even stops (draw.QUALITY_CMAP), for the CSS colour bar."""
 
+VIEW_TITLES = {"lifted": "lifted: s(x) and the facets of s_h",
+               "mesh": "mesh: seeds, inserted points, moves",
+               "quality": "quality (2.94)"}
+"""The views' titles, one wording for the trame app and the widget."""
+
 _ROW = "display:flex;flex-wrap:wrap;align-items:center;gap:4px 12px;font-size:12px;padding:2px 6px"
 
 

@@ -29,7 +29,7 @@ from dataclasses import asdict, dataclass
 from qmesh.errors import QmeshError, QmeshWarning
 from qmesh.mesher import budget, diagnose
 
-from .controller import PARAMS, Controller, Params, _checked, reconcile, status_text  # noqa: F401
+from .controller import PARAMS, Controller, Params, _checked, reconcile
 from .problem import FILE_PREFIX, domain_names, read_upload, varying
 
 RUN_PAUSE = 0.05     # seconds between animated stages, so every frame reaches the screen

@@ -43,6 +43,7 @@ import numpy as np
 from qmesh.errors import QmeshError
 
 from . import delivery, legend
+from .legend import VIEW_TITLES
 from .controller import status_text
 from .draw import VIEWS, ViewSet
 from .problem import DISK, S_PRESETS, domain_names
@@ -50,9 +51,6 @@ from .session import RUN_PAUSE, Session
 
 BACKENDS = ("auto", "trame", "static")
 VIEW_SIZE = (340, 320)
-VIEW_TITLES = {"lifted": "lifted: s(x) and the facets of s_h",
-               "mesh": "mesh: seeds, inserted points, moves",
-               "quality": "quality (2.94)"}
 SLIDER_STYLE = {"description_width": "8.5em"}
 
 
