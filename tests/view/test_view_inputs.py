@@ -5,6 +5,7 @@ import os
 import re
 
 import numpy as np
+import pytest
 
 import view_browser as b
 
@@ -87,6 +88,22 @@ def test_typed_target_fast_slider_keys_and_a_refused_huge_target():
             assert readout == "Q11 = 5.05 · Q12 = -4.95 · Q22 = 5.05", attempt
             assert line.startswith("iteration 0 · triangulate")
         b.save(page, "browser-inputs-angle-45")
+
+        # dragging the angle with the mouse to the middle of its track: wherever it stops, the
+        # slider, the readout and the mesh's Q agree once the page settles
+        track = page.locator("#slider-angle .v-slider-track").bounding_box()
+        thumb_box = thumb.bounding_box()
+        y = thumb_box["y"] + thumb_box["height"] / 2
+        page.mouse.move(thumb_box["x"] + thumb_box["width"] / 2, y)
+        page.mouse.down()
+        page.mouse.move(track["x"] + 0.5 * track["width"], y, steps=12)
+        page.mouse.up()
+        line, readout = _wait_settled(page)
+        angle = float(_slider_value(page, "angle").rstrip("°"))
+        assert 60 <= angle <= 120, angle
+        t = np.deg2rad(angle)
+        q12 = float(readout.split("Q12 = ")[1].split(" ")[0])
+        assert q12 == pytest.approx((0.1 - 10.0) * np.sin(t) * np.cos(t), abs=0.01), (angle, q12)
 
         # a forged state value (not a number) is refused on the page and the slider put back
         before = b.status(page)
