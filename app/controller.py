@@ -10,7 +10,6 @@ app and the Jupyter widget drive the session.
 from __future__ import annotations
 
 import math
-import threading
 from dataclasses import dataclass, fields
 
 import numpy as np
@@ -128,7 +127,7 @@ class Controller:
     """One run: its parameters (fixed), the Steps computed so far and which one is shown.
 
     `step()` shows the next stage, `iterate()` the end of the next iteration, `scrub(i)` shows
-    stage i, `reset()` starts again. `Controller(**params)` checks the parameters and builds the
+    stage i, `finish()` steps to the end, `reset()` starts again. `Controller(**params)` checks the parameters and builds the
     first triangulation; `uploads` (name → Domain) are the polygon files offered as domains.
     Not thread-safe: the session calls one method at a time.
     """
@@ -137,7 +136,6 @@ class Controller:
         self.params = _checked(Params(**params))
         self.uploads: dict[str, qmesh.Domain] = {} if uploads is None else uploads
         self._cache: dict[int, dict] = {}
-        self._stop = threading.Event()
         self.reset()
 
     # ------------------------------------------------------------------ the run
@@ -215,17 +213,13 @@ class Controller:
                 break
         return moved
 
-    def run(self, max_stages: int | None = None) -> int:
-        """Step until the end, `stop()` or `max_stages` (scripts; the front ends use the
-        session's animated run); returns the stages shown."""
-        self._stop.clear()
+    def finish(self) -> int:
+        """Step to the end at once (scripts and tests; the front ends animate the session's
+        `run`); returns the stages added."""
         n = 0
-        while not self._stop.is_set() and (max_stages is None or n < max_stages) and self.step():
+        while self.step():
             n += 1
         return n
-
-    def stop(self) -> None:
-        self._stop.set()
 
     def scrub(self, index: int) -> qmesh.Step:
         """Show stage `index` of the history (clamped to the stages computed so far)."""

@@ -87,7 +87,7 @@ def q_change(window, repeat: int) -> None:
         k2 = 9.0 + 0.25 * i                      # a slider move: a new Q each time
         t_restart, _ = timed(lambda: (c.change("k2", k2), redraw(views, c)))
         restart.append(t_restart)
-        t_full, _ = timed(lambda: (c.change("k2", k2 + 0.1), c.controller.run(),
+        t_full, _ = timed(lambda: (c.change("k2", k2 + 0.1), c.controller.finish(),
                                    redraw(views, c)))
         full.append((t_full, len(c.history), c.current.mesh.n_vertices))
     views.close()

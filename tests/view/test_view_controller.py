@@ -128,7 +128,7 @@ def test_sh_share_counts_the_edges_where_the_lifted_facets_meet_convexly():
     assert sh_nonnegative_fraction(delaunay, A) == 1.0
     # a constant Q: the share for s_h is the share of q_ij ≥ 0 (the same cotangent formula)
     c = Controller()
-    c.run()
+    c.finish()
     frac = sh_nonnegative_fraction(c.current.mesh, c.anisotropy)
     assert frac == measure.q_nonnegative_fraction(c.current.mesh, c.anisotropy) == 1.0
 
