@@ -45,7 +45,7 @@ from .legend import VIEW_TITLES
 from .controller import PARAMS, status_text
 from .draw import VIEWS, ViewSet
 from .problem import DISK, S_PRESETS
-from .session import RUN_PAUSE, Session
+from .session import RUN_PAUSE, Outcome, Session, describe
 
 TITLE = "qmesh-view — Q-adapted meshes (Algorithm 2.1)"
 VIEW_MODES = ("remote", "local")
@@ -230,6 +230,11 @@ class QmeshView(TrameApp):
             else:
                 self._messages()
             return outcome
+        except Exception as e:                        # noqa: BLE001  drawing or measuring
+            outcome = Outcome("refused", describe(e))
+            self.session.action_messages = [outcome.message]
+            self._messages()
+            return outcome
         finally:
             with self.state:
                 self.state.busy = False
@@ -294,6 +299,9 @@ class QmeshView(TrameApp):
             outcome = await self.session.run(self._after_stage, work=self._work, pause=RUN_PAUSE)
             if not outcome.ok:
                 self._messages()
+        except Exception as e:                        # noqa: BLE001  drawing or measuring
+            self.session.action_messages = [describe(e)]
+            self._messages()
         finally:
             with self.state:
                 self.state.running = False

@@ -48,7 +48,7 @@ class Outcome:
         return self.kind != "refused"
 
 
-def _describe(error: BaseException) -> str:
+def describe(error: BaseException) -> str:
     """An exception as one line for the page: QmeshError's own message, others with their type."""
     if isinstance(error, QmeshError):
         return str(error)
@@ -145,7 +145,7 @@ class Session:
             try:
                 outcome = action()
             except Exception as e:                     # noqa: BLE001  (MemoryError included)
-                outcome = Outcome("refused", _describe(e))
+                outcome = Outcome("refused", describe(e))
         said = [f"warning: {w.message}" for w in caught if issubclass(w.category, QmeshWarning)]
         self.action_messages = ([outcome.message] if outcome.message else []) + said
         return outcome
