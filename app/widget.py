@@ -47,7 +47,7 @@ from .legend import VIEW_TITLES
 from .controller import status_text
 from .draw import VIEWS, ViewSet
 from .problem import DISK, S_PRESETS, domain_names
-from .session import RUN_PAUSE, Session
+from .session import RUN_PAUSE, Session, describe
 
 BACKENDS = ("auto", "trame", "static")
 VIEW_SIZE = (340, 320)
@@ -250,7 +250,11 @@ class QmeshWidget(w.VBox):
         """After an action: the new stage on screen when something changed, else the controls
         put back; the outcome's message and the warnings on the message line."""
         if outcome.ok and outcome.kind != "unchanged":
-            self._show()
+            try:
+                self._show()
+            except Exception as e:                      # noqa: BLE001  drawing or measuring
+                self.session.action_messages = [describe(e)]
+                self._report()
         else:
             self._sync()
             self._report()

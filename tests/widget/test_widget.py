@@ -293,3 +293,14 @@ def test_s_as_text_remeshes_and_a_hostile_text_shows_its_error_and_keeps_the_mes
     assert view.s_error.value == "" and c.params.s_text == "x**4 + y**4 + x**2 + y**2"
     view.sliders["q_mode"].value = "constant"
     assert c.anisotropy.is_constant and view._s_box.layout.display == "none"
+
+
+def test_a_failure_while_drawing_is_shown_not_raised(view, monkeypatch):
+    def broken(*args, **kwargs):
+        raise RuntimeError("the GL context went away")
+    monkeypatch.setattr(view.views, "draw", broken)
+    view.buttons["step"].click()                             # no exception reaches ipywidgets
+    assert "RuntimeError: the GL context went away" in view.error.value
+    monkeypatch.undo()
+    view.buttons["step"].click()
+    assert view.controller.index == 2 and "RuntimeError" not in view.error.value
