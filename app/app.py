@@ -12,14 +12,22 @@ N = 212, 0.18 s at N = 1,000, 0.20 s at N = 10,000; local (vtk.js) 0.17, 0.27 an
 vtk.js draws the translucent s(x) over the facets of s_h wrongly. Remote got there once
 trame-vtk's 0.5 s wait for a frame still being encoded was cut to 10 ms (`qmesh_view.delivery`).
 
+Every control is bound to one `qmesh_view.session.Session` (the parameters in force, the run,
+the outcome of every change); this module only binds controls and draws. Slider moves are
+submitted to the session and applied by one drain task, so a burst while a re-mesh runs
+collapses into its last value; text fields send their value on Enter or blur only. The server
+writes a control only when the value in force differs from what that control sent (adjusted or
+refused), never echoing a change back. Refusals and warnings go to `messages`, a fixed-height
+line beside the status line, so the views never move.
+
 The mesher and the measurements run in one worker thread so the page never freezes (`busy`
 greys the buttons and shows a progress bar); VTK renders only on the event loop's thread.
-The controls always show the parameters of the run on screen: a rejected change is put back.
 """
 
 from __future__ import annotations
 
 import asyncio
+import functools
 import math
 from concurrent.futures import ThreadPoolExecutor
 
@@ -33,19 +41,20 @@ from trame.widgets import vuetify3 as v3
 from qmesh.errors import QmeshError
 
 from . import delivery, legend
-from .controller import DISK, PARAMS, S_PRESETS, Controller, domain_names, status_text
+from .legend import VIEW_TITLES
+from .controller import PARAMS, status_text
 from .draw import VIEWS, ViewSet
+from .problem import DISK, S_PRESETS
+from .session import RUN_PAUSE, Outcome, Session, describe
 
 TITLE = "qmesh-view — Q-adapted meshes (Algorithm 2.1)"
-VIEW_TITLES = {"lifted": "lifted: s(x) and the facets of s_h",
-               "mesh": "mesh: seeds, inserted points, moves",
-               "quality": "quality"}
 VIEW_MODES = ("remote", "local")
 CHART_SERIES = (("chart_energy", "energy E per iteration (log scale)", "#1f77b4"),
                 ("chart_kappa2", "κ2 per iteration", "#d62728"),
                 ("chart_n", "N per iteration", "#2ca02c"))
-RUN_PAUSE = 0.05     # seconds between animated stages, so every frame reaches the browser
-VIEW_HEIGHT = "calc(100vh - 300px)"   # the views fill the page below the status lines
+VIEW_HEIGHT = "calc(100vh - 330px)"   # the views fill the page below the status lines
+TEXT_PARAMS = ("target_vertices", "seed")   # typed: applied on Enter or blur, never per key
+SLIDER_PARAMS = tuple(n for n in PARAMS if n not in TEXT_PARAMS + ("s_text",))
 
 
 def convergence_chart(series: dict) -> dict:
@@ -76,71 +85,97 @@ def slider(name: str, label: str, lo, hi, step, shown: str | None = None, **kwar
 class QmeshView(TrameApp):
     """The web GUI: parameter drawer, Step/Iterate/Run/Reset, history slider, three views."""
 
-    def __init__(self, server=None, view_mode: str = "remote", **params):
+    def __init__(self, server=None, view_mode: str = "remote", memory_budget: int | None = None,
+                 **params):
         super().__init__(server, client_type="vue3")
         if view_mode not in VIEW_MODES:
             raise QmeshError(f"view_mode must be one of {VIEW_MODES}, got {view_mode!r}")
         self.view_mode = view_mode
-        self.controller = Controller(**params)
+        self.session = Session(memory_budget=memory_budget, **params)
         self.views = ViewSet(scalar_bar=False)
         for name in ("mesh", "quality"):
             self.views.plotters[name].enable_2d_style()
         self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="qmesh-view")
-        self._remesh_wanted = False
-        self._remesh_task = None
+        self._drain_task = None
         self._options_changed = False
         self._init_state()
-        self.views.draw(self.controller.current, self.controller.anisotropy,
-                        **self._view_options())
+        self.views.draw(self.session.current, self.session.anisotropy, **self._view_options())
         self._build_ui()
         self.server.controller.on_server_ready.add(self._fast_image_delivery)
         self._link_cameras()
+        for name in SLIDER_PARAMS:
+            self.state.change(name)(functools.partial(self.on_control, name))
         self._show()
+        status = self.session.status()
         with self.state:
-            self.state.status_line = status_text(self.controller.status())
+            self.state.status_line = status_text(status)
             self.state.update(self._chart())
+        self._messages(status["notes"])
+
+    @property
+    def controller(self):
+        """The run on screen (its history); `session` holds it."""
+        return self.session.controller
 
     # ------------------------------------------------------------------ state
     def _init_state(self) -> None:
-        self._sync_params()
+        self.state.update({f"rev_{name}": 0 for name in TEXT_PARAMS})
+        self._write_params(PARAMS)
         self.state.update(dict(history_index=0, history_length=1, busy=False, running=False,
                                z_scale=1.0, colour_by="quality", q_sign_edges=False,
                                edges="auto", maximised="",
-                               status_line="", error="", at_end=False,
+                               status_line="", messages="", at_end=False,
                                chart_energy=[], chart_kappa2=[], chart_n=[], chart_labels={}))
         self.state.update(legend.state(self.views.legend))
-        self.state.domain_items = domain_names(self.controller.uploads)
+        self.state.domain_items = self.session.domain_names()
         self.state.domain_file = None
-        self.state.update(dict(s_input=self.controller.params.s_text, s_error="",
+        self.state.update(dict(s_input=self.session.params.s_text, s_error="",
                                s_presets=list(S_PRESETS), s_preset=None))
 
-    def _sync_params(self) -> None:
-        """Controls ← the parameters of the run on screen (after a change, accepted or not)."""
-        p = self.controller.params
-        for name in PARAMS:
+    def _write_params(self, names) -> None:
+        """Controls `names` ← the parameters in force (pushed even when the state holds that
+        value: the browser may show another), and the Q readout."""
+        p = self.session.params
+        for name in names:
             self.state[name] = getattr(p, name)
-        self.state.update(self.controller.readout)
+            self.state.dirty(name)
+            if name in TEXT_PARAMS:         # a new key redraws the field over what was typed
+                self.state[f"rev_{name}"] = (self.state[f"rev_{name}"] or 0) + 1
+        self.state.update(self.session.readout)
 
-    def _params_shown_are_in_force(self) -> bool:
-        p = self.controller.params
-        return all(self.state[name] == getattr(p, name) for name in PARAMS)
+    def _settle_controls(self, sent: dict) -> None:
+        """After a change: write back only the controls whose value in force differs from what
+        they hold and that have nothing newer pending (adjusted or refused): never an echo."""
+        p = self.session.params
+        stale = [n for n in PARAMS if not self.session.has_pending(n)
+                 and (self.state[n] != getattr(p, n) or (n in sent and sent[n] != getattr(p, n)))]
+        with self.state:
+            self._write_params(stale)
+            if "s_text" in stale or "q_mode" in stale:
+                self.state.s_input = p.s_text
+
+    def _messages(self, notes=()) -> None:
+        """The line beside the status: refusals of the last action, warnings about the stage."""
+        with self.state:
+            self.state.messages = " · ".join(dict.fromkeys([*self.session.action_messages,
+                                                            *notes]))
 
     def _view_options(self) -> dict:
         return dict(z_scale=float(self.state.z_scale), colour_by=self.state.colour_by,
-                    q_sign_edges=bool(self.state.q_sign_edges), domain=self.controller.domain,
+                    q_sign_edges=bool(self.state.q_sign_edges), domain=self.session.domain,
                     edges=self.state.edges)
 
     def _chart(self) -> dict:
         """Worker thread: the convergence series as sparkline data (E on a log10 scale)."""
-        return convergence_chart(self.controller.convergence())
+        return convergence_chart(self.session.convergence())
 
     def _show(self) -> int:
         """Event loop: draw the shown stage, push its images, the slider and its quick numbers.
 
-        κ2 and the q_ij signs follow from the worker (`_move`); until then the status line
+        κ2 and the q_ij signs follow from the worker (`_act`); until then the status line
         shows "–" for them, so a large mesh is on screen before it is measured.
         """
-        c = self.controller
+        c = self.session
         with self.state:
             self.state.history_length = len(c.history)
             self.state.history_index = c.index
@@ -150,7 +185,7 @@ class QmeshView(TrameApp):
         return c.index
 
     def _redraw(self) -> None:
-        c = self.controller
+        c = self.session
         self.views.draw(c.current, c.anisotropy, **self._view_options())
         with self.state:
             self.state.update(legend.state(self.views.legend))
@@ -180,33 +215,26 @@ class QmeshView(TrameApp):
         """Run `fn` in the one worker thread (the mesher and measurements never run on the loop)."""
         return await asyncio.get_running_loop().run_in_executor(self._worker, fn)
 
-    async def _move(self, move) -> bool:
-        """Busy while: `move` the run (worker) → draw (loop) → measure and chart (worker).
+    async def _act(self, action):
+        """Busy while: the session's `action` (worker) → draw (loop) → measure (worker).
 
-        False when `move` was refused (QmeshError): its message goes to the error line.
+        Returns the Outcome; a refusal keeps the picture and shows its message.
         """
-        c = self.controller
         with self.state:
             self.state.busy = True
-            self.state.error = ""
         try:
-            before = (len(c.history), c.history[0])
-            await self._work(move)
-            index = self._show()
-            await self._frames_sent()
-            grew = (len(c.history), c.history[0]) != before     # more stages, or a new run
-            status, chart = await self._work(
-                lambda: (c.status(index), self._chart() if grew else None))
-            with self.state:
-                if c.index == index:
-                    self.state.status_line = status_text(status)
-                if chart is not None:
-                    self.state.update(chart)
-            return True
-        except QmeshError as e:
-            with self.state:
-                self.state.error = str(e)
-            return False
+            before = (len(self.session.history), self.session.controller)
+            outcome = await self._work(action)
+            if outcome.ok:
+                await self._after_stage(outcome, before)
+            else:
+                self._messages()
+            return outcome
+        except Exception as e:                        # noqa: BLE001  drawing or measuring
+            outcome = Outcome("refused", describe(e))
+            self.session.action_messages = [outcome.message]
+            self._messages()
+            return outcome
         finally:
             with self.state:
                 self.state.busy = False
@@ -214,10 +242,26 @@ class QmeshView(TrameApp):
                 self._options_changed = False
                 self._redraw()
 
-    def _start(self, move) -> None:
+    async def _after_stage(self, outcome, before=None) -> None:
+        """Show the stage on screen, then measure it (κ2, q_ij signs, warnings) and chart."""
+        c = self.session
+        index = self._show()
+        self._messages()
+        await self._frames_sent()
+        grew = before is None or (len(c.history), c.controller) != before
+        run = c.controller
+        status, chart = await self._work(lambda: (c.status(index), self._chart() if grew else None))
+        if c.controller is run and c.index == index:
+            with self.state:
+                self.state.status_line = status_text(status)
+                if chart is not None:
+                    self.state.update(chart)
+            self._messages(status["notes"])
+
+    def _start(self, action) -> None:
         if self.state.busy or self.state.running:
             return
-        asynchronous.create_task(self._move(move))
+        asynchronous.create_task(self._act(action))
 
     async def _when_idle(self) -> None:
         while self.state.busy:                        # let a running stage finish first
@@ -225,47 +269,50 @@ class QmeshView(TrameApp):
 
     # ------------------------------------------------------------------ buttons
     def on_step(self) -> None:
-        self._start(self.controller.step)
+        self._start(self.session.step)
 
     def on_iterate(self) -> None:
-        self._start(self.controller.iterate)
+        self._start(self.session.iterate)
 
     def on_reset(self) -> None:
         """Back to the first triangulation; a running Run is stopped first."""
-        self.state.running = False
+        self.session.stop()
         asynchronous.create_task(self._reset())
 
     async def _reset(self) -> None:
         await self._when_idle()
-        await self._move(self.controller.reset)
+        await self._act(self.session.reset)
 
     def on_run(self) -> None:
         """Run toggles: start the animated run, or ask a running one to stop after this stage."""
         if self.state.running:
-            self.state.running = False
+            self.session.stop()
             return
         if self.state.busy:
             return
-        self.state.running = True
         asynchronous.create_task(self._run())
 
     async def _run(self) -> None:
+        with self.state:
+            self.state.running = True
         try:
-            while self.state.running and not self.controller.at_end:
-                if not await self._move(self.controller.step):
-                    break
-                await asyncio.sleep(RUN_PAUSE)
+            outcome = await self.session.run(self._after_stage, work=self._work, pause=RUN_PAUSE)
+            if not outcome.ok:
+                self._messages()
+        except Exception as e:                        # noqa: BLE001  drawing or measuring
+            self.session.action_messages = [describe(e)]
+            self._messages()
         finally:
             with self.state:
                 self.state.running = False
-                self._sync_params()
+                self.state.at_end = self.session.at_end
 
     # ------------------------------------------------------------------ reactions
     @change("history_index")
     def on_history_index(self, history_index, **_):
-        if self.state.busy or int(history_index) == self.controller.index:
+        if self.state.busy or self.state.running or int(history_index) == self.session.index:
             return
-        asynchronous.create_task(self._move(lambda: self.controller.scrub(history_index)))
+        asynchronous.create_task(self._act(lambda: self.session.scrub(history_index)))
 
     @change("z_scale", "colour_by", "q_sign_edges", "edges")
     def on_view_option(self, **_):
@@ -292,9 +339,10 @@ class QmeshView(TrameApp):
         self.views.apply_edges()
         self._push()
 
-    def on_s_enter(self) -> None:
+    def on_s_enter(self, text=None) -> None:
         """Enter in the s(x, y) field: mesh that s from the start (also when unchanged)."""
-        asynchronous.create_task(self._apply_s(str(self.state.s_input or "")))
+        asynchronous.create_task(self._apply_s(str(text if text is not None
+                                                     else self.state.s_input or "")))
 
     @change("s_preset")
     def on_s_preset(self, s_preset, **_):
@@ -306,54 +354,74 @@ class QmeshView(TrameApp):
     async def _apply_s(self, text: str) -> None:
         """Re-mesh with s(x, y) = text; a refused text keeps the last mesh, its error (red)
         goes next to the field, and the text stays there to be corrected."""
-        self.state.running = False
+        self.session.stop()
         await self._when_idle()
-        c = self.controller
-        ok = await self._move(lambda: c.set_params(q_mode="expression", s_text=text)
-                              or c.reset())
+        outcome = await self._act(lambda: self.session.apply_s(text))
         with self.state:
-            if ok:
-                self.state.s_error = ""
-            else:
-                self.state.s_error, self.state.error = self.state.error, ""
-            self._sync_params()
+            self.state.s_error = "" if outcome.ok else outcome.message
+            self._settle_controls({})
+            if not outcome.ok:
+                self.state.s_input = text
 
     @change("domain_file")
     def on_domain_file(self, domain_file, **_):
-        """A polygon file arrived from the browser: read it, offer it and mesh it."""
+        """A polygon file arrived from the browser: read it, offer it and mesh it. The file
+        field is cleared either way: the domain list names what is on screen."""
         if not domain_file:
             return
         from trame.app.file_upload import ClientFile
-        upload = ClientFile(domain_file)
-        asynchronous.create_task(self._upload(upload.name, upload.content))
+        try:
+            upload = ClientFile(domain_file)
+            name, content = upload.name, upload.content
+        except Exception as e:                         # noqa: BLE001  (a forged value)
+            name, content = str(type(e).__name__), e
+        asynchronous.create_task(self._upload(name, content))
 
-    async def _upload(self, name: str, content) -> None:
-        self.state.running = False
+    async def _upload(self, name, content) -> None:
+        self.session.stop()
         await self._when_idle()
-        await self._move(lambda: self.controller.add_upload(name, content))
+        if isinstance(content, Exception):
+            self.session.action_messages = [f"the uploaded file could not be read: {content}"]
+            self._messages()
+        else:
+            await self._act(lambda: self.session.upload(name, content))
         with self.state:
-            self.state.domain_items = domain_names(self.controller.uploads)
-            self._sync_params()
+            self.state.domain_file = None
+            self.state.domain_items = self.session.domain_names()
+            self._settle_controls({})
 
-    @change(*PARAMS)
-    def on_param(self, **_):
-        """Any parameter change re-meshes from the start; the latest values win."""
-        if self._params_shown_are_in_force():
-            return                                   # our own sync, or nothing changed
-        self._remesh_wanted = True
-        if self._remesh_task is None or self._remesh_task.done():
-            self._remesh_task = asynchronous.create_task(self._remesh())
+    def on_control(self, name: str, **state) -> None:
+        """A slider or select moved: submit its value (the last one wins) unless it is the value
+        in force with nothing newer pending (the server's own write, or no change)."""
+        value = state.get(name, self.state[name])
+        if value == getattr(self.session.params, name) and not self.session.has_pending(name):
+            return
+        self._submit(name, value)
 
-    async def _remesh(self) -> None:
-        while self._remesh_wanted:
-            self._remesh_wanted = False
-            self.state.running = False
+    def on_text(self, name: str, text) -> None:
+        """A text field's value, sent on Enter or blur (never per keystroke)."""
+        if str(text).strip() == str(getattr(self.session.params, name)):
+            return
+        self._submit(name, str(text).strip())
+
+    def _submit(self, name: str, value) -> None:
+        self.session.submit(name, value)
+        if self._drain_task is None or self._drain_task.done():
+            self._drain_task = asynchronous.create_task(self._drain())
+
+    async def _drain(self) -> None:
+        """Apply the submitted changes, a batch at a time, until none is left."""
+        while self.session.has_pending():
             await self._when_idle()
-            changes = {name: self.state[name] for name in PARAMS
-                       if self.state[name] != getattr(self.controller.params, name)}
-            await self._move(lambda: self.controller.set_params(**changes))
-            with self.state:
-                self._sync_params()                  # accepted, adjusted or put back
+            while self.state.running:                  # the submit stopped it; let it end
+                await asyncio.sleep(0.02)
+            changes = self.session.take_pending()
+            if not changes:
+                continue
+            outcome = await self._act(lambda: self.session.change(**changes))
+            self._settle_controls(changes)
+            if outcome.kind == "unchanged":
+                self._messages()
 
     # ------------------------------------------------------------------ cameras
     def _link_cameras(self) -> None:
@@ -424,7 +492,8 @@ class QmeshView(TrameApp):
                                   hint="Enter re-meshes; x, y, numbers, + − * / **, exp log "
                                        "sqrt cosh …", persistent_hint=False,
                                   __events=[("on_enter", "keydown.enter")],
-                                  on_enter=self.on_s_enter, classes="my-1",
+                                  on_enter=(self.on_s_enter, "[$event.target.value]"),
+                                  classes="my-1",
                                   spellcheck="false", autocomplete="off")
                 with html.Div(id="select-s-preset"):
                     v3.VSelect(v_model=("s_preset", None), items=("s_presets",),
@@ -444,13 +513,15 @@ class QmeshView(TrameApp):
                 slider("vb", "VB", 8, 512, 1)
                 html.Div("VB (seed points) stays below the target: moving one moves the other.",
                          classes="text-caption text-medium-emphasis")
-            with html.Div(id="field-target"):
-                v3.VTextField(v_model_number=("target_vertices",), label="target vertices",
-                              type="number", density="compact", hide_details=True,
-                              classes="my-2")
-            slider("alpha", "α", 0.05, 1, 0.05)
-            v3.VTextField(v_model_number=("seed",), label="seed", type="number",
-                          density="compact", hide_details=True, classes="my-2")
+            for name, label in (("target_vertices", "target vertices"), ("seed", "seed")):
+                with html.Div(id=f"field-{'target' if name == 'target_vertices' else name}"):
+                    typed = f"['{name}', $event.target.value]"
+                    v3.VTextField(model_value=(name,), label=label, type="number",
+                                  key=(f"rev_{name}",),
+                                  density="compact", hide_details=True, classes="my-2",
+                                  __events=[("on_enter", "keydown.enter")],
+                                  on_enter=(self.on_text, typed), blur=(self.on_text, typed),
+                                  hint="Enter or leaving the field applies it")
             v3.VDivider(classes="my-2")
             html.Div("Views", classes="text-subtitle-2")
             slider("z_scale", "z-scale", 0.1, 3, 0.1, shown="Number(z_scale).toFixed(1)")
@@ -476,7 +547,12 @@ class QmeshView(TrameApp):
         with v3.VContainer(fluid=True, classes="pa-2"):
             html.Div("{{ status_line }}", id="status-line",
                      classes="text-body-2 font-weight-medium px-2")
-            html.Div("{{ error }}", v_show=("error",), classes="text-error px-2", id="error")
+            # refusals and warnings: always two lines high, so the views below never move
+            html.Div("{{ messages }}", id="messages", title=("messages",),
+                     classes="text-body-2 px-2",
+                     style="height: 2.6em; line-height: 1.3em; overflow: hidden; "
+                           "color: #b3261e; display: -webkit-box; -webkit-line-clamp: 2; "
+                           "-webkit-box-orient: vertical")
             with html.Div(classes="d-flex align-center px-2 mt-1", id="history-row"):
                 html.Span("stage", classes="text-body-2 mr-3")
                 with html.Div(style="flex: 1 1 auto"):

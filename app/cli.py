@@ -1,4 +1,4 @@
-"""`qmesh-view [--host 127.0.0.1] [--port 8080] [--server] [--domain NAME] [--s TEXT]`: the web GUI.
+"""`qmesh-view [--host 127.0.0.1] [--port 8080] [--server] [--domain NAME] [--s TEXT] [--memory-budget 4G]`: the web GUI.
 
 Binds 127.0.0.1 unless told otherwise and opens the system browser unless `--server`.
 Sets the off-screen rendering environment of HEADLESS.md before VTK is imported, so the
@@ -13,6 +13,22 @@ import sys
 from qmesh.errors import QmeshError
 
 from .system import headless_environment, require_rendering
+
+
+UNITS = {"": 1, "K": 2**10, "M": 2**20, "G": 2**30, "T": 2**40}
+
+
+def memory_size(text: str) -> int:
+    """"4G", "512M", "1.5G" or a number of bytes → bytes (argparse type)."""
+    t = str(text).strip().upper().removesuffix("B").removesuffix("I")
+    unit = t[-1:] if t[-1:] in UNITS else ""
+    try:
+        value = float(t[:len(t) - len(unit)]) * UNITS[unit]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a memory size: {text!r} (e.g. 4G, 512M)") from None
+    if not value > 0 or value == float("inf"):
+        raise argparse.ArgumentTypeError(f"the memory budget must be > 0, got {text!r}")
+    return int(value)
 
 
 def parser() -> argparse.ArgumentParser:
@@ -34,6 +50,9 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--s", dest="s_text", default=None, metavar="TEXT",
                    help="start with s(x, y) given as text, e.g. 'exp(x) + y**2' "
                         "(default: the constant Q = diag(0.1, 10))")
+    p.add_argument("--memory-budget", type=memory_size, default=None, metavar="SIZE",
+                   help="refuse requests whose estimated memory exceeds SIZE (e.g. 4G, 512M; "
+                        "default: half the memory available when the request is made)")
     return p
 
 
@@ -45,7 +64,7 @@ def main(argv: list[str] | None = None) -> int:
         from .app import QmeshView          # after the environment: imports VTK
         extra = {} if args.s_text is None else {"q_mode": "expression", "s_text": args.s_text}
         view = QmeshView(view_mode=args.views, vb=args.vb, target_vertices=args.target_vertices,
-                         domain=args.domain, **extra)
+                         domain=args.domain, memory_budget=args.memory_budget, **extra)
     except QmeshError as e:
         print(f"qmesh-view: error: {e}", file=sys.stderr)
         return 2

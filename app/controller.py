@@ -1,29 +1,27 @@
-"""The app's logic without a server: parameters, one `qmesh.iterate` run, and its history.
+"""One run of Algorithm 2.1 for one parameter set, and its history; the parameters themselves.
 
 Algorithm 2.1 runs as one generator (`qmesh.iterate`); every Step it yields is kept, so the
 history slider scrubs through stages already computed and Step/Iterate replay them before asking
-the generator for more. Any parameter change restarts the run from its first triangulation.
-The trame app (`qmesh_view.app`) and the Jupyter widget drive this class; it knows neither.
+the generator for more. A parameter change makes a new `Controller` (the session swaps it in only
+once its first triangulation exists). `qmesh_view.session.Session` drives this class; the trame
+app and the Jupyter widget drive the session.
 """
 
 from __future__ import annotations
 
-import threading
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, fields
 
 import numpy as np
 
 import qmesh
-from qmesh import domains, measure
-from qmesh.domain import polygon_file
+from qmesh import measure
 from qmesh.errors import QmeshError
+
+from .problem import DISK, Q_MODES, S_PRESETS, make_anisotropy, make_domain, q_matrix
 
 PARAMS = ("k1", "k2", "angle", "vb", "target_vertices", "alpha", "seed", "domain", "q_mode",
           "s_text")
-Q_MODES = ("constant", "expression")
-"""How the conductivity is given: constant Q (k1, k2, angle) or s(x, y) as text."""
-S_PRESETS = ("exp(x) + y**2", "cosh(3*x) + 0.02*y**2", "x**4 + y**4 + x**2 + y**2",
-             "log(exp(2*x) + exp(-2*x) + exp(2*y))")
 Q_PARAMS = ("k1", "k2", "angle")
 
 
@@ -46,31 +44,50 @@ class Params:
     q_mode: str = "constant"
     s_text: str = S_PRESETS[0]
 
+    def replace(self, **changes) -> "Params":
+        return Params(**{**{f.name: getattr(self, f.name) for f in fields(self)}, **changes})
 
-def q_matrix(k1: float, k2: float, angle: float) -> np.ndarray:
-    """Q = R diag(k1, k2) Rᵀ, R the rotation by `angle` degrees; round-off below 1e-12·max zeroed."""
-    t = np.deg2rad(angle)
-    R = np.array([[np.cos(t), -np.sin(t)], [np.sin(t), np.cos(t)]])
-    Q = R @ np.diag([k1, k2]) @ R.T
-    Q[np.abs(Q) < 1e-12 * np.abs(Q).max()] = 0.0
-    return 0.5 * (Q + Q.T)
+
+def _integer(name: str, value) -> int:
+    if isinstance(value, bool):
+        raise QmeshError(f"{name} must be an integer, got {value!r}")
+    try:
+        out = int(value)
+        exact = out == value or (isinstance(value, str) and float(value) == out)
+    except (TypeError, ValueError, OverflowError):
+        raise QmeshError(f"{name} must be an integer, got {value!r}") from None
+    if not exact:
+        raise QmeshError(f"{name} must be an integer, got {value!r}")
+    return out
+
+
+def _real(name: str, value) -> float:
+    if isinstance(value, bool):
+        raise QmeshError(f"{name} must be a number, got {value!r}")
+    try:
+        out = float(value)
+    except (TypeError, ValueError, OverflowError):
+        raise QmeshError(f"{name} must be a number, got {value!r}") from None
+    if not math.isfinite(out):
+        raise QmeshError(f"{name} must be finite, got {value!r}")
+    return out
 
 
 def _checked(p: Params) -> Params:
-    """Coerce integer fields and reject bad values with QmeshError before anything changes."""
-    try:
-        vb, target, seed = int(p.vb), int(p.target_vertices), int(p.seed)
-        k1, k2, angle, alpha = float(p.k1), float(p.k2), float(p.angle), float(p.alpha)
-    except (TypeError, ValueError) as e:
-        raise QmeshError(f"bad parameter value: {e}") from None
-    if vb != p.vb or target != p.target_vertices or seed != p.seed:
-        raise QmeshError("vb, target_vertices and seed must be integers")
+    """Coerce the fields to their types and refuse bad values with QmeshError (nothing built)."""
+    k1, k2, angle, alpha = (_real(n, getattr(p, n)) for n in ("k1", "k2", "angle", "alpha"))
+    vb, target, seed = (_integer(n, getattr(p, n)) for n in ("vb", "target_vertices", "seed"))
+    for name, k in (("k1", k1), ("k2", k2)):
+        if k <= 0:
+            raise QmeshError(f"{name} must be > 0 (Q is positive definite), got {k}")
+    if vb < 3:
+        raise QmeshError(f"vb must be at least 3 (a triangle), got {vb}")
+    if seed < 0:
+        raise QmeshError(f"seed must be ≥ 0, got {seed}")
     if not (0.0 < alpha <= 1.0):
         raise QmeshError(f"alpha must be in (0, 1], got {alpha}")
-    if p.domain == "disk" and target <= vb:
+    if p.domain == DISK and target <= vb:
         raise QmeshError(f"target_vertices ({target}) must exceed VB ({vb}), the seed points")
-    qmesh.Anisotropy.principal(k1, k2, angle)   # raises QmeshError for k ≤ 0 or non-finite
-    qmesh.Disk(vb)                              # raises QmeshError for VB < 3
     if not isinstance(p.domain, str):
         raise QmeshError(f"domain must be a name, got {type(p.domain).__name__}")
     if p.q_mode not in Q_MODES:
@@ -78,16 +95,6 @@ def _checked(p: Params) -> Params:
     if not isinstance(p.s_text, str):
         raise QmeshError(f"s_text must be text, got {type(p.s_text).__name__}")
     return Params(k1, k2, angle, vb, target, alpha, seed, p.domain, p.q_mode, p.s_text)
-
-
-DISK = "disk"
-FILE_PREFIX = "file: "
-"""Uploaded polygon files are domains named "file: <file name>"."""
-
-
-def domain_names(uploads=()) -> list[str]:
-    """The domains on offer: the named shapes of `qmesh.domains` (the disk first), then uploads."""
-    return list(domains.NAMED) + [FILE_PREFIX + name for name in uploads]
 
 
 def reconcile(params: Params, changes: dict) -> dict:
@@ -117,18 +124,17 @@ def reconcile(params: Params, changes: dict) -> dict:
 
 
 class Controller:
-    """Holds the parameters, the Steps computed so far and which one is shown.
+    """One run: its parameters (fixed), the Steps computed so far and which one is shown.
 
-    `step()` shows the next stage, `iterate()` the end of the next iteration, `run()` goes on
-    until convergence or `stop()`, `scrub(i)` shows stage i, `set_params(...)` restarts.
-    Not thread-safe except `stop()`: callers run one method at a time (the app does this with
-    its busy flag).
+    `step()` shows the next stage, `iterate()` the end of the next iteration, `scrub(i)` shows
+    stage i, `finish()` steps to the end, `reset()` starts again. `Controller(**params)` checks the parameters and builds the
+    first triangulation; `uploads` (name → Domain) are the polygon files offered as domains.
+    Not thread-safe: the session calls one method at a time.
     """
 
-    def __init__(self, **params):
+    def __init__(self, *, uploads: dict | None = None, **params):
         self.params = _checked(Params(**params))
-        self.uploads: dict[str, qmesh.Domain] = {}
-        self._stop = threading.Event()
+        self.uploads: dict[str, qmesh.Domain] = {} if uploads is None else uploads
         self._cache: dict[int, dict] = {}
         self.reset()
 
@@ -143,73 +149,21 @@ class Controller:
 
     @property
     def q(self) -> np.ndarray:
-        """The 2×2 conductivity Q of the current parameters."""
+        """The 2×2 conductivity Q of the parameters (k1, k2, angle)."""
         p = self.params
         return q_matrix(p.k1, p.k2, p.angle)
 
     @property
     def readout(self) -> dict:
-        """Q11, Q12, Q22 of the current parameters."""
+        """Q11, Q12, Q22 of the parameters."""
         Q = self.q
         return {"q11": float(Q[0, 0]), "q12": float(Q[0, 1]), "q22": float(Q[1, 1])}
 
-    def make_domain(self, p: Params | None = None) -> qmesh.Domain:
-        """The domain named by the parameters: the VB-gon, a named shape or an uploaded file.
-
-        QmeshError when the name is unknown or the target does not exceed the domain's seeds.
-        """
-        p = self.params if p is None else p
-        if p.domain == DISK:
-            domain = qmesh.Disk(p.vb)
-        elif p.domain in domains.NAMED:
-            domain = domains.NAMED[p.domain]()
-        elif p.domain.startswith(FILE_PREFIX) and p.domain[len(FILE_PREFIX):] in self.uploads:
-            domain = self.uploads[p.domain[len(FILE_PREFIX):]]
-        else:
-            raise QmeshError(f"domain must be one of {domain_names(self.uploads)}, "
-                             f"got {p.domain!r}")
-        seeds = len(domain.seeds)
-        if p.target_vertices <= seeds:
-            raise QmeshError(f"target_vertices ({p.target_vertices}) must exceed the "
-                             f"{seeds} seed points of the domain {p.domain!r}")
-        return domain
-
-    def add_upload(self, name: str, content) -> str:
-        """Read an uploaded polygon file (CSV or GeoJSON, by its name's suffix) and mesh it.
-
-        Returns the new domain's name ("file: <name>"); a bad file raises QmeshError and
-        changes nothing.
-        """
-        domain = polygon_file.domain_from_text(content, name)
-        key = FILE_PREFIX + name
-        old = self.uploads.get(name)
-        self.uploads[name] = domain
-        try:
-            if key == self.params.domain:
-                self.reset()                       # the same name uploaded again: new rings
-            else:
-                self.set_params(domain=key)
-        except QmeshError:
-            if old is None:
-                del self.uploads[name]
-            else:
-                self.uploads[name] = old
-            raise
-        return key
-
-    def make_anisotropy(self, p: Params | None = None) -> qmesh.Anisotropy:
-        """Constant Q from k1, k2, angle; or s(x, y) from its text (parsed, never run: a bad
-        text raises QmeshError pointing at the offending part)."""
-        p = self.params if p is None else p
-        if p.q_mode == "expression":
-            return qmesh.Anisotropy.from_expression(p.s_text)
-        return qmesh.Anisotropy.constant(q_matrix(p.k1, p.k2, p.angle))
-
     def reset(self) -> None:
-        """Start the run again from its initial triangulation with the current parameters."""
+        """Start the run again from its initial triangulation."""
         p = self.params
-        self._anisotropy = self.make_anisotropy(p)
-        self._domain = self.make_domain(p)
+        self._anisotropy = make_anisotropy(p)
+        self._domain = make_domain(p, self.uploads)
         self._gen = qmesh.iterate(self._domain, self._anisotropy,
                                   target_vertices=p.target_vertices, alpha=p.alpha, seed=p.seed)
         self.history: list[qmesh.Step] = []
@@ -219,7 +173,8 @@ class Controller:
         self._pull()
 
     def _pull(self) -> bool:
-        """Ask the generator for one more Step; False once the run has ended."""
+        """Ask the generator for one more Step; False once the run has ended. An exception from
+        the mesher ends the run (the generator is spent) and goes to the caller."""
         if self.done:
             return False
         try:
@@ -227,6 +182,9 @@ class Controller:
         except StopIteration:
             self.done = True
             return False
+        except BaseException:
+            self.done = True
+            raise
         return True
 
     @property
@@ -255,53 +213,18 @@ class Controller:
                 break
         return moved
 
-    def run(self, on_step=None, max_stages: int | None = None) -> int:
-        """Step until the run ends, `stop()` is called or `max_stages`; returns stages shown.
-
-        `on_step(step)` is called after each stage (the app redraws there).
-        """
-        self._stop.clear()
+    def finish(self) -> int:
+        """Step to the end at once (scripts and tests; the front ends animate the session's
+        `run`); returns the stages added."""
         n = 0
-        while not self._stop.is_set() and (max_stages is None or n < max_stages):
-            if not self.step():
-                break
+        while self.step():
             n += 1
-            if on_step is not None:
-                on_step(self.current)
         return n
-
-    def stop(self) -> None:
-        """Ask a `run()` in another thread to return after its current stage."""
-        self._stop.set()
 
     def scrub(self, index: int) -> qmesh.Step:
         """Show stage `index` of the history (clamped to the stages computed so far)."""
         self.index = int(np.clip(int(index), 0, len(self.history) - 1))
         return self.current
-
-    def set_params(self, **changes) -> bool:
-        """Change parameters; any change restarts the run. False (and no restart) if nothing changed.
-
-        VB and the target are adjusted together (`reconcile`): the one changed wins.
-        Bad names or values raise QmeshError and leave the controller as it was.
-        """
-        unknown = set(changes) - set(PARAMS)
-        if unknown:
-            raise QmeshError(f"unknown parameter(s) {sorted(unknown)}; known: {PARAMS}")
-        changes = reconcile(self.params, changes)
-        new = _checked(Params(**{**self.params.__dict__, **changes}))
-        if new == self.params:
-            return False
-        self.make_domain(new)                      # a bad domain or target: nothing changes
-        self.make_anisotropy(new)                  # a bad s(x, y): nothing changes
-        old, self.params = self.params, new
-        try:
-            self.reset()
-        except QmeshError:
-            self.params = old
-            self.reset()
-            raise
-        return True
 
     # ------------------------------------------------------------------ measurements
     def status(self, index: int | None = None, *, quick: bool = False) -> dict:

@@ -22,8 +22,10 @@ ARROW = "#1f5fbf"          # displacements of the last adjust stage
 SURFACE = "#9ecae1"        # the smooth s(x)
 FACET = "#fdae6b"          # the facets of s_h
 # edges by the sign of q_ij: (actor name, q_sign value, colour, line width); negatives stand out
-Q_SIGN_LINES = (("q_boundary", 0, "#7f7f7f", 1), ("q_positive", 1, "#1a7f37", 1),
+# (black and red stay visible on every colour of viridis, green vanished on its greens)
+Q_SIGN_LINES = (("q_boundary", 0, "#7f7f7f", 1), ("q_positive", 1, "#000000", 1),
                 ("q_negative", -1, "#e31a1c", 4))
+SIZE_CMAP = "Blues_r"      # mesh view when edges are too dense: triangles by area (log)
 QUALITY_CMAP = "viridis"
 SCALAR_TITLES = {"quality": "quality", "metric_area": "metric area"}
 VIEWS = ("lifted", "mesh", "quality")
@@ -72,8 +74,14 @@ def draw_lifted(plotter: pv.Plotter, view: scene.LiftedScene) -> None:
 
 def draw_projected(plotter: pv.Plotter, view: scene.ProjectedScene) -> None:
     """The plane mesh with edges, seeds, inserted points and displacement arrows."""
-    _put(plotter, "mesh", view.mesh, color=MESH_FACE, show_edges=True, edge_color=EDGE,
-         line_width=1, lighting=False, show_scalar_bar=False)
+    _put(plotter, "mesh", view.mesh, scalars="log_area", preference="cell", cmap=SIZE_CMAP,
+         show_edges=True, edge_color=EDGE, line_width=1, lighting=False, show_scalar_bar=False)
+    actor = plotter.actors.get("mesh")
+    if actor is not None and "log_area" in view.mesh.cell_data:
+        a = view.mesh.cell_data["log_area"]
+        lo, hi = float(a.min()), float(a.max())
+        actor.mapper.SetScalarRange(lo - 0.25, hi + 0.25 if hi > lo else lo + 1.0)
+    _put(plotter, "sample", view.sample, color=EDGE, line_width=1, show_scalar_bar=False)
     _put(plotter, "arrows", view.arrows, color=ARROW, line_width=2, show_scalar_bar=False)
     _put(plotter, "added", view.added, color=ADDED, point_size=9,
          render_points_as_spheres=True, show_scalar_bar=False)
@@ -154,6 +162,18 @@ def _narrow(plotter: pv.Plotter) -> float:
     return min(1.0, w / h) if w > 0 and h > 0 else 1.0
 
 
+def _scene_points(plotter: pv.Plotter, names, most: int = 4000) -> np.ndarray:
+    """Up to `most` points (evenly taken) of the named actors' data, (n, 3)."""
+    parts = []
+    for name in names:
+        actor = plotter.actors.get(name)
+        data = None if actor is None else actor.mapper.GetInput()
+        if data is not None and data.GetNumberOfPoints():
+            P = pv.wrap(data).points
+            parts.append(P[:: max(1, len(P) // most)])
+    return np.concatenate(parts) if parts else np.zeros((0, 3))
+
+
 def new_plotter(window_size=WINDOW_SIZE) -> pv.Plotter:
     """An off-screen plotter without multisampling: MSAA costs ~4× per frame on llvmpipe."""
     system.require_rendering()
@@ -205,9 +225,12 @@ class ViewSet:
         edge_look(edges, 0.0)                           # QmeshError for an unknown mode
         p = self.plotters
         draw_lifted(p["lifted"], scene.lifted(step, anisotropy, z_scale, domain=domain))
-        draw_projected(p["mesh"], scene.projected(step, arrow_scale=arrow_scale))
+        projected = scene.projected(step, arrow_scale=arrow_scale)
+        draw_projected(p["mesh"], projected)
         q = scene.quality(step, anisotropy, colour_by, q_sign_edges)
         draw_quality(p["quality"], q, scalar_bar=self.scalar_bar)
+        _put(p["quality"], "sample", None if q.edges is not None else projected.sample,
+             color=EDGE, line_width=1, show_scalar_bar=False)
         self.legend = {"title": SCALAR_TITLES[q.scalars], "clim": tuple(map(float, q.clim)),
                        "q_sign_edges": q.edges is not None, "n_negative": q.n_negative}
         key = None if domain is None else tuple(np.asarray(r).tobytes() for r in domain.rings)
@@ -228,7 +251,8 @@ class ViewSet:
         Called after every draw and after the user zooms (the app's camera observers).
         """
         looks = {}
-        targets = {"lifted": ("facets", "vertices"), "mesh": ("mesh",), "quality": ("triangles",)}
+        targets = {"lifted": ("facets", "vertices"), "mesh": ("mesh", "sample"),
+                   "quality": ("triangles", "sample")}
         for name, actors in targets.items():
             plotter = self.plotters[name]
             look = edge_look(self.edges, self.edge_length * pixels_per_unit(plotter))
@@ -240,11 +264,18 @@ class ViewSet:
                 if actor_name == "vertices":
                     actor.SetVisibility(look == "dark")
                     continue
+                if actor_name == "sample":        # crowded: a sample of triangles outlined
+                    actor.SetVisibility(look != "dark")
+                    continue
+                if actor_name == "mesh":          # crowded: the triangles coloured by area
+                    actor.mapper.SetScalarVisibility(look != "dark")
+                    actor.GetProperty().SetColor(pv.Color(MESH_FACE).float_rgb)
                 if actor_name == "triangles" and self.legend.get("q_sign_edges"):
                     continue                             # the q_ij-sign lines are the edges
                 prop = actor.GetProperty()
                 prop.SetEdgeVisibility(look is not None)
                 prop.SetEdgeColor(pv.Color(EDGE if look == "dark" else EDGE_LIGHT).float_rgb)
+        self.legend["crowded"] = looks["mesh"] != "dark"
         return looks
 
     def reset_cameras(self) -> None:
@@ -268,10 +299,41 @@ class ViewSet:
         top.camera.parallel_scale = margin * max((y1 - y0) / 2, (x1 - x0) / 2 / aspect)
 
     def fit_lifted(self) -> None:
-        """Fit the lifted view to its scene, keeping its direction (after a z-scale change)."""
+        """Fit the lifted view to its scene, keeping its direction: the scene's points, projected
+        to the screen, are centred and span 92% of the card's width or height (reset_camera
+        alone fits a bounding sphere, which left the surface a third of its card)."""
         lifted = self.plotters["lifted"]
         lifted.reset_camera(render=False)
-        lifted.camera.zoom(1.05 * _narrow(lifted))
+        w, h = lifted.render_window.GetSize()
+        X = _scene_points(lifted, ("surface", "facets"))
+        if w <= 0 or h <= 0 or len(X) == 0:
+            lifted.camera.zoom(1.05 * _narrow(lifted))
+            return
+        cam = lifted.camera
+        X = np.column_stack([X, np.ones(len(X))])
+        for _ in range(4):                           # perspective: converge in a few passes
+            M = np.array([[cam.GetCompositeProjectionTransformMatrix(w / h, -1, 1).GetElement(i, j)
+                           for j in range(4)] for i in range(4)])
+            Y = X @ M.T
+            ndc = Y[:, :2] / Y[:, 3:4]
+            lo, hi = ndc.min(axis=0), ndc.max(axis=0)
+            centre, half = (lo + hi) / 2, (hi - lo) / 2
+            # pan: NDC offset → world offset along the camera's right and up at the focal plane
+            d = cam.GetDistance()
+            up_half = d * np.tan(np.deg2rad(cam.GetViewAngle()) / 2)
+            right = np.cross(np.subtract(cam.GetFocalPoint(), cam.GetPosition()), cam.GetViewUp())
+            right /= np.linalg.norm(right)
+            up = np.asarray(cam.GetViewUp(), float)
+            up = up - np.dot(up, right) * right
+            up /= np.linalg.norm(up)
+            shift = centre[0] * up_half * w / h * right + centre[1] * up_half * up
+            cam.SetFocalPoint(*(np.asarray(cam.GetFocalPoint()) + shift))
+            cam.SetPosition(*(np.asarray(cam.GetPosition()) + shift))
+            factor = 0.92 / max(half.max(), 1e-9)
+            cam.Zoom(factor)
+            if abs(factor - 1) < 0.01 and np.abs(centre).max() < 0.01:
+                break
+        lifted.renderer.ResetCameraClippingRange()
 
     def render(self) -> None:
         """Render all three windows now.

@@ -15,6 +15,11 @@ VIRIDIS = ("#440154", "#482878", "#3e4989", "#31688e", "#26828e", "#1f9e89", "#3
            "#6ece58", "#b5de2b", "#fde725")
 """matplotlib's viridis at ten even stops (draw.QUALITY_CMAP), for the CSS colour bar."""
 
+VIEW_TITLES = {"lifted": "lifted: s(x) and the facets of s_h",
+               "mesh": "mesh: seeds, inserted points, moves",
+               "quality": "quality (2.94)"}
+"""The views' titles, one wording for the trame app and the widget."""
+
 _ROW = "display:flex;flex-wrap:wrap;align-items:center;gap:4px 12px;font-size:12px;padding:2px 6px"
 
 
@@ -51,6 +56,11 @@ def html(name: str, info: dict) -> str:
         items = [_item(_dot(draw.FIXED), "seed points (fixed)"),
                  _item(_dot(draw.ADDED), "inserted by the last insert"),
                  _item(_line(draw.ARROW), "moves of the last adjust")]
+        if info.get("crowded"):
+            bar = ("<span style='display:inline-block;width:70px;height:10px;border:1px solid "
+                   "#888;background:linear-gradient(to right,#08306b,#4292c6,#deebf7)'></span>")
+            items.append(f"<span class='legend-size'>edges too dense: a sample of "
+                         f"triangles outlined; area small {bar} large</span>")
     elif name == "quality":
         lo, hi = info.get("clim", (0.0, 1.0))
         bar = ("<span style='display:inline-block;width:140px;height:10px;border:1px solid #888;"

@@ -231,6 +231,7 @@ class ProjectedScene:
     arrows: pv.PolyData       # empty unless the step is an adjust stage that moved points
     n_added: int
     n_moved: int
+    sample: pv.PolyData = None   # outlines of one triangle per cell of a coarse grid (crowded)
 
 
 def projected(step, *, arrow_scale: float = 1.0, min_move: float = 0.0) -> ProjectedScene:
@@ -250,8 +251,36 @@ def projected(step, *, arrow_scale: float = 1.0, min_move: float = 0.0) -> Proje
         n_moved = int(keep.sum())
     else:
         arrows, n_moved = pv.PolyData(), 0
-    return ProjectedScene(triangles_polydata(P, m.triangles), points_polydata(P[m.fixed]),
-                          points_polydata(P[added]), arrows, len(added), n_moved)
+    tri = triangles_polydata(P, m.triangles)
+    T = m.triangles
+    u, v = P[T[:, 1]] - P[T[:, 0]], P[T[:, 2]] - P[T[:, 0]]
+    area = 0.5 * np.abs(u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0])
+    tri.cell_data["log_area"] = np.log10(np.maximum(area, 1e-300))   # colour when crowded
+    return ProjectedScene(tri, points_polydata(P[m.fixed]),
+                          points_polydata(P[added]), arrows, len(added), n_moved,
+                          sample_outlines(P, T))
+
+
+SAMPLE_CELLS = 36            # grid cells across the domain's width for the sampled outlines
+
+
+def sample_outlines(P: np.ndarray, T: np.ndarray, cells: int = SAMPLE_CELLS) -> pv.PolyData:
+    """A decimated wireframe: the outline of one triangle per cell of a `cells`-wide grid (the
+    one whose centroid is nearest the cell's centre), so shape, size and direction of the
+    elements stay visible when all edges together would only paint the domain grey."""
+    if len(T) == 0:
+        return pv.PolyData()
+    C = P[T].mean(axis=1)
+    lo = C.min(axis=0)
+    g = max(float(np.ptp(C, axis=0).max()) / cells, 1e-300)
+    ij = np.floor((C - lo) / g).astype(np.int64)
+    off = np.linalg.norm((C - lo) / g - ij - 0.5, axis=1)
+    key = ij[:, 0] * (cells + 2) + ij[:, 1]
+    order = np.lexsort((off, key))                       # per cell, the most central first
+    first = order[np.r_[True, key[order][1:] != key[order][:-1]]]
+    E = T[first][:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    lift = 1e-3 * max(float(np.ptp(P, axis=0).max()), 1e-300)     # just above the triangles
+    return pv.PolyData(_xyz(P, lift), lines=_lines(E))
 
 
 # --------------------------------------------------------------------------- quality view

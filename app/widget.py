@@ -4,9 +4,11 @@
 whichever way the module was imported; the package loads it on first use (ipywidgets is slow
 to import and the other front ends do not need it).
 
-The model and the pictures are the app's: `controller.Controller` runs Algorithm 2.1 and keeps
-its history, `draw.ViewSet` draws the three views (lifted, mesh, quality) from `scene`. This
-module only adds the controls and decides where the pictures go:
+The model and the pictures are the app's: `session.Session` holds the parameters in force, the
+run and its history and answers every change; `draw.ViewSet` draws the three views (lifted,
+mesh, quality) from `scene`. This module only binds controls to the session and decides where
+the pictures go (controls are written only with the values in force, their observers muted, so
+a change never echoes back):
 
 - `backend="trame"`: PyVista's trame Jupyter backend, one server-rendered view per plotter
   (an iframe served by a trame server inside the kernel); needs a browser that reaches it.
@@ -41,15 +43,14 @@ import numpy as np
 from qmesh.errors import QmeshError
 
 from . import delivery, legend
-from .controller import DISK, S_PRESETS, Controller, domain_names, status_text
+from .legend import VIEW_TITLES
+from .controller import status_text
 from .draw import VIEWS, ViewSet
+from .problem import DISK, S_PRESETS, domain_names
+from .session import RUN_PAUSE, Session, describe
 
 BACKENDS = ("auto", "trame", "static")
 VIEW_SIZE = (340, 320)
-VIEW_TITLES = {"lifted": "lifted: s(x) and the facets of s_h",
-               "mesh": "mesh: seeds, inserted points, moves",
-               "quality": "quality (2.94)"}
-RUN_PAUSE = 0.05       # seconds between the stages of an animated Run, so each frame is shown
 SLIDER_STYLE = {"description_width": "8.5em"}
 
 
@@ -128,23 +129,21 @@ class QmeshWidget(w.VBox):
 
     `sliders` ("k1", "k2", "angle", "vb", "target_vertices"), `buttons` ("step", "iterate",
     "run", "reset"), `history` (the stage slider), `status`, `error` and `view_widgets`
-    (name → Image or trame iframe) are the parts; `controller` and `views` the model and plotters.
+    (name → Image or trame iframe) are the parts; `session` and `views` the model and plotters.
     """
 
     def __init__(self, *, backend: str = "auto", view_size=VIEW_SIZE,
                  loop: asyncio.AbstractEventLoop | None = None, **params):
         super().__init__()
-        self.controller = Controller(**params)       # QmeshError on bad parameters, before any UI
+        self.session = Session(**params)             # QmeshError on bad parameters, before any UI
         self.backend = choose_backend(backend)
         self.main = MainThread(loop)
         self.view_size = tuple(int(v) for v in view_size)
         self.views = ViewSet(self.view_size, scalar_bar=False)   # legends are HTML, beside
-        self.running = False
-        self._run_id = 0
+        self._run_task = None
         self._syncing = False
         self._build_controls()
-        self.views.draw(self.controller.current, self.controller.anisotropy,
-                        **self._view_options())
+        self.views.draw(self.session.current, self.session.anisotropy, **self._view_options())
         self.view_widgets = (self._trame_views() if self.backend == "trame"
                              else self._static_views())
         self.children = self._layout()
@@ -152,8 +151,17 @@ class QmeshWidget(w.VBox):
         self._show()
 
     # ------------------------------------------------------------------ parts
+    @property
+    def controller(self) -> Session:
+        """The session (kept under its old name: params, history, index, current …)."""
+        return self.session
+
+    @property
+    def running(self) -> bool:
+        return self.session.running
+
     def _build_controls(self) -> None:
-        p = self.controller.params
+        p = self.session.params
         log = dict(base=10, min=-2, max=2, step=0.05, readout_format=".3g")
         self.sliders = {
             "k1": _slider(w.FloatLogSlider, "k1", p.k1, **log),
@@ -232,57 +240,49 @@ class QmeshWidget(w.VBox):
         self.edges.observe(on(lambda _change: self._show()), names="value")
         self.upload.observe(on(self._on_upload), names="value")
         self.s_text.observe(on(self._on_s_text), names="value")
-        self.buttons["step"].on_click(on(lambda _: self._move(self.controller.step)))
-        self.buttons["iterate"].on_click(on(lambda _: self._move(self.controller.iterate)))
+        self.buttons["step"].on_click(on(lambda _: self._move(self.session.step)))
+        self.buttons["iterate"].on_click(on(lambda _: self._move(self.session.iterate)))
         self.buttons["run"].on_click(on(self._on_run))
         self.buttons["reset"].on_click(on(self._on_reset))
 
     # ------------------------------------------------------------------ handlers (main thread)
-    def _guarded(self, fn) -> None:
-        """Run fn(); a QmeshError goes to the error line, so bad input never breaks the widget."""
-        try:
-            fn()
-        except QmeshError as e:
-            self._report(e)
+    def _answer(self, outcome, show_text_error: bool = False) -> None:
+        """After an action: the new stage on screen when something changed, else the controls
+        put back; the outcome's message and the warnings on the message line."""
+        if outcome.ok and outcome.kind != "unchanged":
+            try:
+                self._show()
+            except Exception as e:                      # noqa: BLE001  drawing or measuring
+                self.session.action_messages = [describe(e)]
+                self._report()
+        else:
+            self._sync()
+            self._report()
 
-    def _report(self, error: Exception) -> None:
-        self._sync()
-        self.error.value = f"<span style='color:#c62828'>{error}</span>"
+    def _report(self, notes=()) -> None:
+        lines = list(dict.fromkeys([*self.session.action_messages, *notes]))
+        self.error.value = "".join(f"<div style='color:#c62828'>{html_escape(m)}</div>"
+                                   for m in lines)
 
     def _on_param(self, name: str, change) -> None:
-        """Any parameter change restarts the run; VB and the target move together
-        (`controller.reconcile`); a refused value is put back on its control."""
+        """Any parameter change restarts the run; VB and the target move together; a refused
+        value is put back on its control."""
         if self._syncing:
             return
-        before = self.controller.params
-        self._stop()
-        try:
-            if self.controller.set_params(**{name: change["new"]}):
-                self._show()
-            else:
-                self._sync()
-        except QmeshError as e:
-            if self.controller.params != before:           # the restart itself failed:
-                self.controller.params = before            # start the old parameters again
-                self.controller.reset()
-                self._show()
-            self._report(e)
+        self.session.stop()
+        self._answer(self.session.change(name, change["new"]))
 
     def _on_s_text(self, change) -> None:
         """s(x, y) entered (Enter or a preset): mesh it from the start. A refused text keeps
         the last mesh and stays in the field, its error in red beside it."""
         if self._syncing:
             return
-        self._stop()
-        c = self.controller
-        try:
-            if not c.set_params(q_mode="expression", s_text=change["new"]):
-                c.reset()
-        except QmeshError as e:
-            self.s_error.value = f"<span style='color:#c62828'>{html_escape(str(e))}</span>"
-            return
-        self.s_error.value = ""
-        self._show()
+        self.session.stop()
+        outcome = self.session.apply_s(change["new"])
+        self.s_error.value = ("" if outcome.ok else
+                              f"<span style='color:#c62828'>{html_escape(outcome.message)}</span>")
+        if outcome.ok:
+            self._show()
 
     def _on_upload(self, change) -> None:
         """A polygon file (CSV or GeoJSON) was uploaded: offer it as a domain and mesh it."""
@@ -290,81 +290,71 @@ class QmeshWidget(w.VBox):
         if self._syncing or not files:
             return
         upload = files[0]
-        self._stop()
-        self._guarded(lambda: (self.controller.add_upload(upload["name"],
-                                                          bytes(upload["content"])),
-                               self._show()))
+        self.session.stop()
+        try:
+            content = bytes(upload["content"])
+        except Exception as e:                          # noqa: BLE001  (a forged value)
+            content = e
+        name = upload.get("name") if hasattr(upload, "get") else None
+        self._answer(self.session.upload(name, content))
 
     def _on_history(self, change) -> None:
-        if self._syncing or self.running or int(change["new"]) == self.controller.index:
+        if self._syncing or self.running or int(change["new"]) == self.session.index:
             return
-        self.controller.scrub(change["new"])
-        self._show()
+        self._answer(self.session.scrub(change["new"]))
 
-    def _move(self, move) -> None:
-        if self.running:
-            return
-        self._guarded(lambda: (move(), self._show()))
+    def _move(self, action) -> None:
+        if not self.running:
+            self._answer(action())
 
     def _on_reset(self, _button=None) -> None:
-        self._stop()
-        self._guarded(lambda: (self.controller.reset(), self._show()))
+        self.session.stop()
+        self._answer(self.session.reset())
 
     def _on_run(self, _button=None) -> None:
-        """Run toggles. In a kernel the stages are animated on its loop, one per callback, so
-        Stop and the sliders are heard between stages; without a running loop Run blocks."""
+        """Run toggles. In a kernel the session's run loop is a task on its loop, so Stop and
+        the sliders are heard between stages; without a running loop Run blocks."""
         if self.running:
-            self._stop()
-            self._sync()
+            self.session.stop()
             return
-        if self.controller.at_end:
+        if self.session.at_end:
             return
         loop = self.main.loop
         if loop is not None and loop.is_running() and self.main.here():
-            self.running = True
-            self._run_id += 1
+            self._run_task = loop.create_task(self._animate())
+            self.session.running = True               # at once: the buttons show Stop
             self._sync(quick=True)
-            loop.call_soon(self._run_stage, self._run_id)
         else:
-            self._guarded(lambda: (self.controller.run(), self._show()))
+            self._answer(asyncio.run(self.session.run(pause=0)))
 
-    def _run_stage(self, run_id: int) -> None:
-        if not self.running or run_id != self._run_id:
-            return
-        try:
-            more = self.controller.step() and not self.controller.at_end
-        except QmeshError as e:
-            self._stop()
-            self._report(e)
-            return
-        if more:
-            self._show(quick=True)
-            self.main.loop.call_later(RUN_PAUSE, self._run_stage, run_id)
-        else:
-            self.running = False
+    async def _animate(self) -> None:
+        outcome = await self.session.run(lambda _: self._show(quick=True), pause=RUN_PAUSE)
+        if outcome.ok:
             self._show()
+        else:
+            self._answer(outcome)
 
     def _stop(self) -> None:
-        self.running = False
-        self._run_id += 1
+        self.session.stop()
 
     # ------------------------------------------------------------------ showing a stage
     def _show(self, quick: bool = False) -> None:
-        """Draw the shown stage, update the controls, and send the new pictures."""
-        c = self.controller
+        """Draw the shown stage and send the pictures, then measure it for the status line."""
+        c = self.session
         self.views.draw(c.current, c.anisotropy, **self._view_options())
         for name, html in self.legends.items():
             html.value = legend.html(name, self.views.legend)
-        self.error.value = ""
-        self._sync(quick)
+        self._sync(quick=True)
         self._push()
+        if not quick:
+            self._sync(quick=False)
 
     def _view_options(self) -> dict:
-        return dict(domain=self.controller.domain, edges=self.edges.value)
+        return dict(domain=self.session.domain, edges=self.edges.value)
 
     def _sync(self, quick: bool = True) -> None:
         """Controls ← model, without their observers reacting."""
-        c = self.controller
+        c = self.session
         self._syncing = True
         try:
             self.sliders["domain"].options = domain_names(c.uploads)
@@ -387,7 +377,9 @@ class QmeshWidget(w.VBox):
             r = c.readout
             self.readout.value = (f"Q11 = {r['q11']:.4g} · Q12 = {r['q12']:.4g} · "
                                   f"Q22 = {r['q22']:.4g}")
-            self.status.value = status_text(c.status(quick=quick))
+            status = c.status(quick=quick)
+            self.status.value = status_text(status)
+            self._report(status["notes"])
             for name in ("step", "iterate"):
                 self.buttons[name].disabled = self.running or c.at_end
             self.buttons["run"].description = "Stop" if self.running else "Run"
@@ -426,7 +418,7 @@ def widget(*, backend: str = "auto", view_size=VIEW_SIZE,
            loop: asyncio.AbstractEventLoop | None = None, **params) -> QmeshWidget:
     """The qmesh viewer as an ipywidgets box (display it as a notebook cell's last value).
 
-    `params` are the controller's (k1, k2, angle, vb, target_vertices, alpha, seed; default
+    `params` are the session's (k1, k2, angle, vb, target_vertices, alpha, seed; default
     the chapter's case Q = diag(0.1, 10), VB = 64, N ≈ 212). `backend` is "auto", "trame" or
     "static" (module docstring). `loop` is the loop of the thread that renders; by default the
     one running where this is called (the kernel's main loop).

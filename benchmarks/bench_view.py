@@ -29,6 +29,7 @@ os.environ.setdefault("PYVISTA_OFF_SCREEN", "true")
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 
 from qmesh_view.controller import Controller  # noqa: E402
+from qmesh_view.session import Session  # noqa: E402
 from qmesh_view.draw import ViewSet  # noqa: E402
 
 
@@ -38,7 +39,7 @@ def timed(fn):
     return time.perf_counter() - t, out
 
 
-def redraw(views: ViewSet, c: Controller) -> None:
+def redraw(views: ViewSet, c) -> None:
     """Scene functions, then render and read back all three views (what a remote view sends)."""
     views.draw(c.current, c.anisotropy, domain=c.domain)
     views.images()
@@ -78,15 +79,16 @@ def stage_at_size(n: int, window, repeat: int) -> None:
 
 
 def q_change(window, repeat: int) -> None:
-    c = Controller()
+    c = Session()
     views = ViewSet(window)
     redraw(views, c)
     restart, full = [], []
     for i in range(repeat):
         k2 = 9.0 + 0.25 * i                      # a slider move: a new Q each time
-        t_restart, _ = timed(lambda: (c.set_params(k2=k2), redraw(views, c)))
+        t_restart, _ = timed(lambda: (c.change("k2", k2), redraw(views, c)))
         restart.append(t_restart)
-        t_full, _ = timed(lambda: (c.set_params(k2=k2 + 0.1), c.run(), redraw(views, c)))
+        t_full, _ = timed(lambda: (c.change("k2", k2 + 0.1), c.controller.finish(),
+                                   redraw(views, c)))
         full.append((t_full, len(c.history), c.current.mesh.n_vertices))
     views.close()
     print(f"2. Q slider change at VB = 64 (target 212), window {window[0]}x{window[1]} per view")
@@ -97,7 +99,7 @@ def q_change(window, repeat: int) -> None:
           f"max {max(ts):.3f} s ({full[0][1]} stages, N = {full[0][2]})")
 
 
-VB_FOR = {212: 64, 1000: 128, 10_000: 512}
+VB_FOR = {212: 64, 1000: 128, 10_000: 512, 100_000: 512}
 
 
 def browser_latency(mode: str, n: int, repeat: int) -> list:
@@ -109,8 +111,11 @@ def browser_latency(mode: str, n: int, repeat: int) -> list:
     rows = []
     with b.qmesh_view_server("--views", mode, "--vb", str(vb), "--target-vertices", str(n)) as url, \
             b.chromium_page(url) as page:
-        b.wait_drawn(page, timeout=120)
-        b.wait_idle(page, timeout=120)
+        t0 = time.monotonic()
+        b.wait_drawn(page, timeout=300)
+        b.wait_idle(page, timeout=300)
+        print(f"   {mode} N = {n}: first picture and measurements after "
+              f"{time.monotonic() - t0:.1f} s", flush=True)
         page.evaluate(b.LATENCY_PROBE)
         page.wait_for_timeout(500)
         step = page.get_by_role("button", name="Step", exact=True)

@@ -134,15 +134,14 @@ def test_vb_past_the_target_and_a_refused_target_never_wedge_the_controls():
         s1 = b.settled_status(page, s0)
         assert (_slider_value(page, "vb"), _target(page)) == ("512", "513")
         assert _iteration_stage(s1)[:2] == (0, "triangulate") and _iteration_stage(s1)[2] >= 512
-        assert not page.locator("#error").is_visible()
+        assert "target vertices set to 513" in b.page_text(page, "#messages")
         shown = b.views(page)
 
         # a target the mesher cannot have (VB would go below 3): refused, the field is put back
         field = page.locator("#field-target input")
         field.fill("3")
         field.press("Enter")
-        b.until(lambda: page.locator("#error").is_visible() or None, 20, "an error message")
-        assert "exceed" in b.page_text(page, "#error")
+        b.until(lambda: "exceed" in b.page_text(page, "#messages") or None, 20, "the refusal")
         b.until(lambda: _target(page) == "513" or None, 20, "the target field to be put back")
         assert _slider_value(page, "vb") == "512" and b.status(page) == s1
 
@@ -152,7 +151,7 @@ def test_vb_past_the_target_and_a_refused_target_never_wedge_the_controls():
         s2 = b.settled_status(page, s1)
         assert _iteration_stage(s2)[:2] == (0, "triangulate") and s2 != s1
         assert b.page_text(page, "#q-readout") == "Q11 = 20 · Q12 = 0 · Q22 = 10"
-        assert not page.locator("#error").is_visible()
+        assert "exceed" not in b.page_text(page, "#messages")
         assert (_slider_value(page, "vb"), _target(page), _slider_value(page, "k1")) == (
             "512", "513", "20")
         for name in ("lifted", "quality"):                 # s and the metric changed with Q
@@ -202,8 +201,18 @@ def test_choosing_l_shape_and_uploading_a_polygon_file(tmp_path):
         assert "file: plate.csv" in b.page_text(page, "#select-domain")
         for name in b.VIEWS:
             b.wait_view_change(page, name, lshape[name])
-        assert not page.locator("#error").is_visible()
+        assert b.page_text(page, "#messages") == ""
+        assert page.locator("#upload-domain input[type=file]").input_value() == ""   # cleared
         b.save(page, "browser-domain-upload")
+
+        # a bad file: refused on the page, the field cleared, the plate still on screen
+        bad = tmp_path / "bad.csv"
+        bad.write_text("1,2\n")
+        page.locator("#upload-domain input[type=file]").set_input_files(str(bad))
+        b.until(lambda: "bad.csv" in b.page_text(page, "#messages") or None, 20, "the refusal")
+        assert b.status(page) == s2 and "file: plate.csv" in b.page_text(page, "#select-domain")
+        b.until(lambda: page.locator("#upload-domain").inner_text().find("bad.csv") < 0 or None,
+                20, "the file field to forget the refused file")
 
 
 def test_s_typed_as_text_remeshes_and_a_hostile_text_shows_an_error():

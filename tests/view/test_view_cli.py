@@ -23,9 +23,10 @@ def test_console_script_is_installed_and_answers_help():
         assert option in out.stdout
 
 
-def test_scene_draw_and_controller_do_not_import_trame():
+def test_scene_draw_controller_and_session_do_not_import_trame():
     """The Jupyter widget reuses these modules, so they must not pull in the web server."""
-    code = ("import sys, qmesh_view.scene, qmesh_view.draw, qmesh_view.controller; "
+    code = ("import sys, qmesh_view.scene, qmesh_view.draw, qmesh_view.controller, "
+            "qmesh_view.session; "
             "bad = sorted(m for m in sys.modules if m.split('.')[0] in ('trame', 'wslink')); "
             "print(bad); sys.exit(1 if bad else 0)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
@@ -40,6 +41,18 @@ def test_views_default_to_remote_and_parameters_can_be_given():
     assert (args.views, args.vb, args.target_vertices) == ("local", 128, 1000)
 
 
+def test_memory_budget_option_reads_sizes_and_refuses_nonsense():
+    import pytest
+    from qmesh_view.cli import memory_size
+    assert parser().parse_args([]).memory_budget is None
+    assert parser().parse_args(["--memory-budget", "4G"]).memory_budget == 4 * 2**30
+    assert memory_size("512M") == memory_size("512MiB") == 512 * 2**20
+    assert memory_size("1.5g") == int(1.5 * 2**30) and memory_size("1000") == 1000
+    for bad in ("-1G", "0", "lots", "infG"):
+        with pytest.raises(SystemExit):
+            parser().parse_args([f"--memory-budget={bad}"])
+
+
 def test_domain_and_s_options():
     args = parser().parse_args(["--domain", "L-shape", "--s", "exp(x) + y**2"])
     assert (args.domain, args.s_text) == ("L-shape", "exp(x) + y**2")
@@ -49,7 +62,8 @@ def test_domain_and_s_options():
 def test_bad_parameters_give_one_error_line_and_exit_2():
     exe = shutil.which("qmesh-view")
     for bad, named in ((["--vb", "2"], "3"), (["--domain", "torus"], "torus"),
-                       (["--s", "__import__('os')"], "__import__")):
+                       (["--s", "__import__('os')"], "__import__"),
+                       (["--target-vertices", "1000", "--memory-budget", "10M"], "budget")):
         out = subprocess.run([exe, "--server", "--port", "0", *bad], capture_output=True,
                              text=True, timeout=120)
         assert out.returncode == 2, bad

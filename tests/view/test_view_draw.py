@@ -72,10 +72,41 @@ def test_every_colouring_has_a_legend():
                                    "q_sign_edges": True, "n_negative": 3})
     assert "metric area: 0.00047" in area and "0.025" in area
     assert "q_ij ≥ 0" in area and "q_ij &lt; 0 (3)" in area and "boundary edge" in area
-    for colour in ("#1a7f37", "#e31a1c", "#7f7f7f"):
+    for _, _, colour, _ in draw.Q_SIGN_LINES:
         assert colour in area
     assert "q_ij" not in q
     assert draw.FIXED in legend.html("mesh", {}) and draw.ADDED in legend.html("mesh", {})
     assert draw.FACET in legend.html("lifted", {})
     with pytest.raises(ValueError):
         legend.html("other", {})
+
+
+def test_q_sign_colours_stand_out_on_every_quality_colour():
+    """Green q_ij ≥ 0 lines vanished on viridis (issue 18): every interior sign colour keeps an
+    RGB distance of at least 90 from every colour of the quality map."""
+    def rgb(h):
+        return np.array([int(h[i:i + 2], 16) for i in (1, 3, 5)])
+    for _, value, colour, _ in draw.Q_SIGN_LINES:
+        if value != 0:
+            assert min(np.linalg.norm(rgb(colour) - rgb(c)) for c in legend.VIRIDIS) > 90, colour
+
+
+def test_a_crowded_mesh_is_coloured_by_area_with_a_sample_of_outlines():
+    from qmesh_view.session import Session
+    s = Session(vb=512, target_vertices=10_000)
+    views = draw.ViewSet((300, 280), scalar_bar=False)
+    try:
+        views.draw(s.current, s.anisotropy, domain=s.domain)
+        assert views.legend["crowded"] and "sample of" in legend.html("mesh", views.legend)
+        for name in ("mesh", "quality"):
+            assert views.plotters[name].actors["sample"].GetVisibility()
+        assert views.plotters["mesh"].actors["mesh"].mapper.GetScalarVisibility()
+        mesh = views.images()["mesh"].astype(float)
+        inner = mesh[70:210, 75:225]
+        assert inner.std(axis=(0, 1)).max() > 8.0         # not an even grey disk
+        views.edges = "on"
+        views.apply_edges()
+        assert not views.plotters["mesh"].actors["sample"].GetVisibility()
+        assert not views.plotters["mesh"].actors["mesh"].mapper.GetScalarVisibility()
+    finally:
+        views.close()

@@ -45,6 +45,7 @@ def qmesh_view_server(*args: str, start_timeout: float = 60.0):
     proc = subprocess.Popen([exe, "--server", "--port", str(port), *args], stdout=log,
                             stderr=subprocess.STDOUT, env=env)
     url = f"http://127.0.0.1:{port}/"
+    _servers.append(proc.pid)
     try:
         deadline = time.monotonic() + start_timeout
         while not _answers(url):
@@ -57,6 +58,14 @@ def qmesh_view_server(*args: str, start_timeout: float = 60.0):
     finally:
         stop_process(proc)
         log.close()
+
+
+_servers: list[int] = []
+
+
+def last_server_pid() -> int:
+    """The process id of the last `qmesh_view_server` started (to read its memory)."""
+    return _servers[-1]
 
 
 def view_image(page, name: str) -> np.ndarray:

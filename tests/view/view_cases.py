@@ -36,7 +36,7 @@ MAX_ERROR = 500.0
 def finished_run(**params) -> Controller:
     """A controller that has run the chapter's case (or `params` changed) to its end."""
     c = Controller(**params)
-    c.run()
+    c.finish()
     return c
 
 

@@ -1,0 +1,281 @@
+"""The viewer's one source of truth, free of any UI toolkit: what the trame app and the widget bind to.
+
+A `Session` holds the parameters in force and the run on screen (a `Controller`: its history of
+Steps and which one is shown). Every action returns an `Outcome`:
+
+- `change(name, value)` / `change(**changes)`: applied; adjusted (a dependent value moved with
+  it, VB and the target, and the message says so); refused (the reason; everything kept);
+  unchanged. A new parameter set is checked, measured against the memory budget
+  (`qmesh.mesher.budget`) and triangulated *before* it replaces the run on screen, so a refusal
+  or any exception (MemoryError, RecursionError …) leaves the previous mesh and history in place.
+- `apply_s(text)`, `upload(name, content)`, `step()`, `iterate()`, `scrub(i)`, `reset()`.
+- `run(on_step, work=…)`: the one animated run loop (async), stopped by `stop()` or by the next
+  change submitted.
+
+Changes arriving faster than a re-mesh are coalesced: `submit(name, value)` keeps the last value
+per control (and stops a run), `take_pending()` hands them over in the order they were last
+changed, so the last value always wins. `messages` are the refusals and warnings (every
+`QmeshWarning` and the run's own diagnosis) to show next to the status line.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import inspect
+import threading
+import warnings
+from dataclasses import asdict, dataclass
+
+from qmesh.errors import QmeshError, QmeshWarning
+from qmesh.mesher import budget, diagnose
+
+from .controller import PARAMS, Controller, Params, _checked, reconcile
+from .problem import FILE_PREFIX, domain_names, read_upload, varying
+
+RUN_PAUSE = 0.05     # seconds between animated stages, so every frame reaches the screen
+LABELS = {"vb": "VB", "target_vertices": "target vertices"}
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """What became of an action: "applied", "adjusted", "refused" or "unchanged", and why."""
+
+    kind: str
+    message: str = ""
+
+    @property
+    def ok(self) -> bool:
+        return self.kind != "refused"
+
+
+def describe(error: BaseException) -> str:
+    """An exception as one line for the page: QmeshError's own message, others with their type."""
+    if isinstance(error, QmeshError):
+        return str(error)
+    text = str(error) or "no message"
+    return f"{type(error).__name__}: {text}"[:400]
+
+
+class Session:
+    """Parameters in force, the run on screen, pending changes and the messages for the page."""
+
+    def __init__(self, *, memory_budget: int | None = None, **params):
+        self.memory_budget = None if memory_budget is None else int(memory_budget)
+        self.uploads: dict = {}
+        p = _checked(Params(**params))
+        self._check_budget(p)
+        self._run = Controller(uploads=self.uploads, **asdict(p))
+        self._pending: dict = {}
+        self._lock = threading.Lock()
+        self._stop = threading.Event()
+        self.running = False
+        self.action_messages: list[str] = []
+        self._notes: dict = {}
+
+    # ------------------------------------------------------------------ what is on screen
+    @property
+    def params(self) -> Params:
+        return self._run.params
+
+    @property
+    def controller(self) -> Controller:
+        return self._run
+
+    history = property(lambda self: self._run.history)
+    index = property(lambda self: self._run.index)
+    current = property(lambda self: self._run.current)
+    at_end = property(lambda self: self._run.at_end)
+    done = property(lambda self: self._run.done)
+    anisotropy = property(lambda self: self._run.anisotropy)
+    domain = property(lambda self: self._run.domain)
+    readout = property(lambda self: self._run.readout)
+    q = property(lambda self: self._run.q)
+
+    def domain_names(self) -> list[str]:
+        return domain_names(self.uploads)
+
+    def status(self, index: int | None = None, *, quick: bool = False) -> dict:
+        """The status line's numbers of stage `index` (default: shown) and its `notes`: the
+        warnings about that stage (a domain too thin for the size, κ2 undefined)."""
+        i = self.index if index is None else int(index)
+        row = self._run.status(i, quick=quick)
+        row["notes"] = [] if quick else self._stage_notes(i, row)
+        return row
+
+    def convergence(self) -> dict:
+        return self._run.convergence()
+
+    @property
+    def messages(self) -> list[str]:
+        """Refusals and warnings of the last action, then those about the stage on screen."""
+        return list(self.action_messages) + list(self._notes.get((id(self._run), self.index), []))
+
+    def _stage_notes(self, i: int, row: dict) -> list[str]:
+        key = (id(self._run), i)
+        if key not in self._notes:
+            notes = []
+            step = self._run.history[i]
+            if step.stage == "triangulate":
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    try:
+                        thin = diagnose.thin_domain(step.mesh, self._run.anisotropy)
+                    except Exception:                          # a diagnosis never breaks a view
+                        thin = None
+                if thin:
+                    notes.append(f"warning: {thin}")
+            if step.stage == "triangulate" and not (~step.mesh.boundary).any():
+                notes.append("κ2 is undefined: the mesh has no interior vertex to solve for")
+            if self._run.done and i == len(self._run.history) - 1 or step.converged:
+                target, n = self.params.target_vertices, step.mesh.n_vertices
+                if abs(n - target) > 0.1 * target:
+                    notes.append(f"warning: the run ended with N = {n}, "
+                                 f"{100 * (n - target) / target:+.0f}% off the target {target}")
+            if len(self._notes) > 64:
+                self._notes.clear()
+            self._notes[key] = notes
+        return self._notes[key]
+
+    # ------------------------------------------------------------------ every action
+    def _guard(self, action) -> Outcome:
+        """Run `action()`; any exception becomes a refusal (the state it left is the old one),
+        every QmeshWarning it raised a message."""
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", QmeshWarning)
+            try:
+                outcome = action()
+            except Exception as e:                     # noqa: BLE001  (MemoryError included)
+                outcome = Outcome("refused", describe(e))
+        said = [f"warning: {w.message}" for w in caught if issubclass(w.category, QmeshWarning)]
+        self.action_messages = ([outcome.message] if outcome.message else []) + said
+        return outcome
+
+    def _check_budget(self, p: Params) -> None:
+        budget.check(p.target_vertices, varying=varying(p), budget=self.memory_budget)
+
+    def _start(self, p: Params, uploads: dict | None = None) -> None:
+        """Build the run of `p` (its first triangulation); swap it in only when that worked."""
+        self._check_budget(p)
+        uploads = self.uploads if uploads is None else uploads
+        run = Controller(uploads=uploads, **asdict(p))
+        self._run, self.uploads = run, uploads
+
+    # ------------------------------------------------------------------ parameters
+    def change(self, name: str | None = None, value=None, /, **changes) -> Outcome:
+        """Set parameters (in the order given: a later one wins over an earlier one); the run
+        restarts from its first triangulation. VB and the target move together."""
+        if name is not None:
+            changes = {name: value, **changes}
+        return self._guard(lambda: self._change(changes))
+
+    def _change(self, changes: dict) -> Outcome:
+        unknown = sorted(set(changes) - set(PARAMS))
+        if unknown:
+            raise QmeshError(f"unknown parameter(s) {unknown}; known: {PARAMS}")
+        p, notes, refusals = self.params, [], []
+        for name, value in changes.items():
+            step = reconcile(p, {name: value})
+            try:
+                q = _checked(p.replace(**step))
+            except QmeshError as e:
+                refusals.append(str(e))
+                continue
+            for other in step:
+                if other != name and getattr(q, other) != getattr(p, other):
+                    notes.append(f"{LABELS[other]} set to {getattr(q, other)} so that VB stays "
+                                 f"below the target")
+            p = q
+        if p == self.params:
+            return Outcome("refused", "; ".join(refusals)) if refusals else Outcome("unchanged")
+        self._start(p)
+        kind = "adjusted" if notes or refusals else "applied"
+        return Outcome(kind, "; ".join(refusals + notes))
+
+    def apply_s(self, text) -> Outcome:
+        """Mesh s(x, y) = `text` from the start (also when it is the text in force)."""
+        def apply():
+            p = _checked(self.params.replace(q_mode="expression", s_text=text))
+            self._start(p)
+            return Outcome("applied")
+        return self._guard(apply)
+
+    def upload(self, name: str, content) -> Outcome:
+        """Read a polygon file (CSV or GeoJSON), offer it as the domain "file: <name>" and mesh
+        it; a bad file, or one the target cannot fill, changes nothing."""
+        def add():
+            if not isinstance(name, str) or not name:
+                raise QmeshError(f"an uploaded file needs a name, got {name!r}")
+            domain = read_upload(name, content)
+            p = self.params.replace(domain=FILE_PREFIX + name)
+            self._start(_checked(p), {**self.uploads, name: domain})
+            return Outcome("applied")
+        return self._guard(add)
+
+    # ------------------------------------------------------------------ coalescing
+    def submit(self, name: str, value) -> None:
+        """A control moved: keep its value (the last one wins) and stop a run in progress."""
+        with self._lock:
+            self._pending.pop(name, None)
+            self._pending[name] = value
+        self._stop.set()
+
+    def take_pending(self) -> dict:
+        """The changes submitted since the last call, in the order they were last changed."""
+        with self._lock:
+            out, self._pending = self._pending, {}
+        return out
+
+    def has_pending(self, name: str | None = None) -> bool:
+        with self._lock:
+            return bool(self._pending) if name is None else name in self._pending
+
+    def apply_pending(self) -> Outcome | None:
+        """Apply what was submitted, in one re-mesh; None when nothing was pending."""
+        changes = self.take_pending()
+        return self.change(**changes) if changes else None
+
+    # ------------------------------------------------------------------ moving through the run
+    def _move(self, move) -> Outcome:
+        return self._guard(lambda: Outcome("applied" if move() is not False else "unchanged"))
+
+    def step(self) -> Outcome:
+        return self._move(self._run.step)
+
+    def iterate(self) -> Outcome:
+        return self._move(self._run.iterate)
+
+    def scrub(self, index) -> Outcome:
+        return self._move(lambda: self._run.scrub(index))
+
+    def reset(self) -> Outcome:
+        """Back to the first triangulation (a new run of the same parameters)."""
+        def again():
+            self._start(self.params)
+            return Outcome("applied")
+        return self._guard(again)
+
+    async def run(self, on_step=None, *, work=None, pause: float = RUN_PAUSE) -> Outcome:
+        """Step until the end, `stop()` or a submitted change; after every stage await
+        `on_step(outcome)` (draw there). `work(fn)` runs a stage (e.g. in a worker thread: an
+        awaitable); by default on the calling thread. The last stage's outcome is returned."""
+        self._stop.clear()
+        self.running = True
+        outcome = Outcome("unchanged")
+        try:
+            while not self._stop.is_set() and not self.at_end:
+                outcome = self.step() if work is None else await work(self.step)
+                if outcome.kind != "applied":
+                    break
+                if on_step is not None:
+                    done = on_step(outcome)
+                    if inspect.isawaitable(done):
+                        await done
+                if pause:
+                    await asyncio.sleep(pause)
+        finally:
+            self.running = False
+        return outcome
+
+    def stop(self) -> None:
+        """Ask a `run` to return after its current stage."""
+        self._stop.set()
