@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from qmesh.errors import QmeshError
-from qmesh.mesher import seeding, sizing
+from qmesh.mesher import budget, seeding, sizing
 from qmesh.mesher.normalise import Normalisation
 from qmesh.mesher.options import Options
 
@@ -93,6 +93,7 @@ def _sized(norm, options: Options, aim: int | None, area_m: float, lengths: np.n
         h = norm.metric_length(float(options.size)) if options.size is not None else float(lengths.mean())
         expected = sizing.vertices_for_size(area_m, lengths, h, bfac)
         sizing.check_vertex_count(expected, f"size = {norm.scale * np.sqrt(norm.k) * h:.3g}")
+    budget.check(expected, varying=not norm.anisotropy.is_constant)   # refused before allocating
     min_area = (sizing.equilateral_area(h) / 16 if options.min_area is None
                 else norm.metric_area(float(options.min_area)))
     cap = int(min(sizing.MAX_VERTICES, 4 * expected + 4 * len(dom.seeds) + 100))

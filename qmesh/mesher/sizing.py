@@ -11,13 +11,14 @@ import numpy as np
 
 from qmesh.conductivity.anisotropy import Anisotropy
 from qmesh.errors import QmeshError
+from qmesh.mesher import budget
 from qmesh.mesher.conform import conforming_delaunay
 
 # Gauss–Legendre points on [0, 1] for the metric length of each boundary edge
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(8)
 _GL_X, _GL_W = 0.5 * (_GL_X + 1.0), 0.5 * _GL_W
 
-MAX_VERTICES = 50_000_000   # about 25 GB of working memory at ~500 bytes per vertex
+MAX_VERTICES = 50_000_000   # an absolute cap (about 61 GiB at budget.py's measured bytes per vertex)
 
 
 def metric_area(domain, anisotropy) -> float:
@@ -111,5 +112,6 @@ def size_for_vertices(area_m: float, edge_lengths: np.ndarray, n: int,
 def check_vertex_count(n: float, what: str) -> None:
     """Refuse a mesh that would need absurd memory, before any work is done."""
     if not np.isfinite(n) or n > MAX_VERTICES:
-        raise QmeshError(f"{what} asks for about {n:.3g} vertices (~{n * 500 / 2**30:.0f} GiB of "
-                         f"memory); the limit is {MAX_VERTICES:.0e}")
+        need = budget.estimate_bytes(min(n, 1e300), varying=False) / 2**30
+        raise QmeshError(f"{what} asks for about {n:.3g} vertices (~{need:.3g} GiB of "
+                         f"memory at least); the limit is {MAX_VERTICES:.0e}")

@@ -57,3 +57,35 @@ def test_bad_counts_and_budgets_are_refused(bad):
     if bad is not None:
         with pytest.raises(qmesh.QmeshError):
             budget.check(1000, varying=False, budget=bad if bad != -1 else 0)
+
+
+@pytest.mark.parametrize("anisotropy, varying", [
+    (lambda: qmesh.Anisotropy.constant([[0.1, 0], [0, 10]]), False),
+    (lambda: qmesh.Anisotropy.from_expression("exp(x) + y**2"), True),
+])
+def test_mesh_and_iterate_refuse_what_exceeds_the_memory_available(monkeypatch, anisotropy, varying):
+    """The estimate guards qmesh.mesh itself (issue 18 item 3, issue 20 item 3): with 256 MiB
+    available, 200,000 vertices (≥ 1e5·1300 B + 64 MiB, half of 256 MiB = 128 MiB) are refused
+    before anything of that size is allocated."""
+    import tracemalloc
+    monkeypatch.setattr(budget, "available_bytes", lambda: 256 * 2**20)
+    tracemalloc.start()
+    for run in (qmesh.mesh, qmesh.iterate):
+        with pytest.raises(qmesh.QmeshError, match="vertices with a (varying|constant) s need about"):
+            run(qmesh.Disk(16), anisotropy(), target_vertices=200_000)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert peak < budget.estimate_bytes(200_000, varying=varying) / 4   # nothing of that size
+    kind = "a varying" if varying else "a constant"
+    with pytest.raises(qmesh.QmeshError, match=kind):
+        qmesh.mesh(qmesh.Disk(16), anisotropy(), target_vertices=200_000)
+    m = qmesh.mesh(qmesh.Disk(16), anisotropy(), target_vertices=200)   # a small mesh still fits
+    assert abs(m.n_vertices - 200) <= 20
+
+
+def test_the_command_line_refuses_an_impossible_target_in_one_line(monkeypatch, capsys):
+    from qmesh.cli import main
+    monkeypatch.setattr(budget, "available_bytes", lambda: 2**30)
+    assert main(["mesh", "--disk", "16", "--target-vertices", "50000000", "-o", "x.vtu"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("qmesh: error:") and "GiB" in err[0]
