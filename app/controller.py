@@ -241,8 +241,7 @@ class Controller:
             if not quick:
                 try:
                     if not self._anisotropy.is_constant:
-                        row["q_nonnegative_sh"] = sh_nonnegative_fraction(step.mesh,
-                                                                          self._anisotropy)
+                        row["q_nonnegative_sh"] = measure.sh_convex_fraction(step.mesh, self._anisotropy)
                     row["q_nonnegative"] = measure.q_nonnegative_fraction(step.mesh,
                                                                           self._anisotropy)
                     row["kappa2"] = measure.condition_number(step.mesh, self._anisotropy)
@@ -259,41 +258,6 @@ class Controller:
                 "energy": [r["energy"] for r in rows],
                 "kappa2": [r["kappa2"] for r in rows],
                 "n_vertices": [r["n_vertices"] for r in rows]}
-
-
-def sh_nonnegative_fraction(mesh, anisotropy, rtol: float = 1e-9) -> float:
-    """Share of interior edges with q_ij ≥ 0 for s_h, the piecewise-linear interpolant of s.
-
-    For Q_h = adj ∇²s_h the weight of edge ij is its length times the jump of ∂s_h/∂n across
-    it ((2.74)–(2.75)): q_ij ≥ 0 exactly where the lifted facets meet convexly, which the
-    Q-Delaunay connectivity (the lower convex hull) guarantees after a triangulate stage.
-    Jumps above −rtol·max|jump| count as ≥ 0. 1.0 when there is no interior edge.
-    """
-    P, T = mesh.points, mesh.triangles
-    if len(T) == 0:
-        return 1.0
-    z = np.asarray(anisotropy.s(P), dtype=float)
-    A = np.stack([P[T[:, 1]] - P[T[:, 0]], P[T[:, 2]] - P[T[:, 0]]], axis=1)      # (M, 2, 2)
-    dz = np.stack([z[T[:, 1]] - z[T[:, 0]], z[T[:, 2]] - z[T[:, 0]]], axis=1)
-    grad = np.linalg.solve(A, dz[:, :, None])[:, :, 0]                          # ∇s_h per T
-    he = T[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)                  # half-edges, 3 per triangle
-    tri = np.repeat(np.arange(len(T)), 3)
-    opposite = T[:, [2, 0, 1]].ravel()                            # the third vertex of each
-    key = np.sort(he, axis=1)
-    _, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
-    inverse = inverse.ravel()
-    interior = counts[inverse] == 2
-    order = np.argsort(inverse[interior], kind="stable")
-    h = np.flatnonzero(interior)[order].reshape(-1, 2)             # the two half-edges per edge
-    if len(h) == 0:
-        return 1.0
-    a, b = P[he[h[:, 0], 0]], P[he[h[:, 0], 1]]
-    n = np.column_stack([b[:, 1] - a[:, 1], a[:, 0] - b[:, 0]])   # normal to the edge
-    away = np.einsum("ij,ij->i", n, P[opposite[h[:, 0]]] - a) > 0
-    n[away] *= -1                                                  # from the first triangle out
-    jump = np.einsum("ij,ij->i", grad[tri[h[:, 1]]] - grad[tri[h[:, 0]]], n)
-    scale = np.abs(jump).max()
-    return float(np.mean(jump >= -rtol * (scale if scale > 0 else 1.0)))
 
 
 def _stats_row(step) -> dict:

@@ -11,6 +11,7 @@ import numpy as np
 
 import qmesh
 from qmesh import domains
+from qmesh.conductivity.anisotropy import principal_matrix
 from qmesh.domain import polygon_file
 from qmesh.errors import QmeshError
 
@@ -25,9 +26,7 @@ S_PRESETS = ("exp(x) + y**2", "cosh(3*x) + 0.02*y**2", "x**4 + y**4 + x**2 + y**
 
 def q_matrix(k1: float, k2: float, angle: float) -> np.ndarray:
     """Q = R diag(k1, k2) Rᵀ, R the rotation by `angle` degrees; round-off below 1e-12·max zeroed."""
-    t = np.deg2rad(angle)
-    R = np.array([[np.cos(t), -np.sin(t)], [np.sin(t), np.cos(t)]])
-    Q = R @ np.diag([k1, k2]) @ R.T
+    Q = principal_matrix(k1, k2, angle)
     Q[np.abs(Q) < 1e-12 * np.abs(Q).max()] = 0.0
     return 0.5 * (Q + Q.T)
 

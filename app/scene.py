@@ -25,6 +25,7 @@ from scipy.spatial import ConvexHull, Delaunay, cKDTree
 
 from qmesh import measure
 from qmesh.errors import QmeshError
+from qmesh.geometry.rings import inside
 from qmesh.geometry.triangles import metric_areas, metric_hessians, metric_quality
 
 COLOUR_BY = ("quality", "metric_area")
@@ -130,17 +131,10 @@ _samples: dict = {}
 
 
 def _inside_rings(rings, P: np.ndarray) -> np.ndarray:
-    """Even-odd point-in-polygon test against all rings at once (vectorised over points)."""
-    inside = np.zeros(len(P), dtype=bool)
-    for ring in rings:
-        a, b = ring, np.roll(ring, -1, axis=0)
-        x, y = P[:, None, 0], P[:, None, 1]
-        crosses = (a[None, :, 1] > y) != (b[None, :, 1] > y)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = (y - a[None, :, 1]) / (b[None, :, 1] - a[None, :, 1])
-        xc = a[None, :, 0] + t * (b[None, :, 0] - a[None, :, 0])
-        inside ^= (np.sum(crosses & (x < xc), axis=1) % 2).astype(bool)
-    return inside
+    """Even-odd point-in-polygon test against all rings at once (qmesh.geometry.rings.inside)."""
+    A = np.concatenate(rings)
+    B = np.concatenate([np.roll(ring, -1, axis=0) for ring in rings])
+    return inside(P, A, B)
 
 
 def _sample_domain(rings, resolution: int, contains) -> tuple[np.ndarray, np.ndarray]:

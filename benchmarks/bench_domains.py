@@ -33,7 +33,7 @@ ANISOTROPIES = {
 def measure_row(domain: str, q: str, mesher: str, mesh, seconds: float, A) -> dict:
     r = measure.report(mesh, A)
     return {"domain": domain, "Q": q, "mesher": mesher, "N": mesh.n_vertices, "kappa2": r["kappa2"],
-            "q_int": r["q_nonnegative_fraction"], "q_bnd": metric_peers.boundary_q_fraction(mesh, A),
+            "q_int": r["q_nonnegative_fraction"], "q_bnd": measure.q_nonnegative_fraction_boundary(mesh, A),
             "min_q": r["min_quality"], "mean_q": r["mean_quality"], "seconds": seconds}
 
 

@@ -33,7 +33,7 @@ EXPRESSIONS = (
 def measure_row(expr: str, mesher: str, mesh, seconds: float, A) -> dict:
     r = measure.report(mesh, A)
     return {"s": expr, "mesher": mesher, "N": mesh.n_vertices, "kappa2": r["kappa2"],
-            "q_Q": r["q_nonnegative_fraction"], "q_sh": metric_peers.sh_convex_fraction(mesh, A),
+            "q_Q": r["q_nonnegative_fraction"], "q_sh": measure.sh_convex_fraction(mesh, A),
             "min_q": r["min_quality"], "mean_q": r["mean_quality"], "h1": r["h1_error"],
             "seconds": seconds}
 

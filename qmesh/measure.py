@@ -20,6 +20,7 @@ import scipy.sparse.linalg as spla
 from qmesh import checks
 from qmesh.geometry import quadrature
 from qmesh.errors import QmeshError
+from qmesh.geometry.topology import edge_keys
 from qmesh.geometry.triangles import Frame, corners, metric_hessians, metric_quality, signed_areas
 from qmesh.mesh import Mesh
 
@@ -311,3 +312,35 @@ def report(mesh: Mesh, anisotropy) -> dict:
         out["kappa2"] = condition_number(mesh, anisotropy)
         out["kappa2_laplacian"] = condition_number(mesh, None)
     return out
+
+
+def sh_convex_fraction(mesh: Mesh, anisotropy, rtol: float = 1e-9) -> float:
+    """Share of interior edges across which s_h (the P1 interpolant of s) is convex.
+
+    ∇²s_h is a measure on the edges, [∂s_h/∂n]·δ_e, so q_ij ≥ 0 for s_h (MATH.md) means a
+    non-negative jump of the normal derivative of s_h across every interior edge ((2.74)–(2.75):
+    the lifted facets meet convexly, as the Q-Delaunay connectivity guarantees after a
+    triangulate stage); the jump is taken relative to the largest one. 1.0 when there is no
+    interior edge.
+    """
+    checks.mesh(mesh)
+    checks.anisotropy(anisotropy)
+    checks.real(rtol, "rtol", low=0.0, high=1.0)
+    P, T = mesh.points, mesh.triangles
+    F = Frame(P, T)
+    sv = np.asarray(anisotropy.s(P), dtype=float)[T]
+    grad = np.column_stack([(sv * F.gx).sum(axis=1), (sv * F.gy).sum(axis=1)]) / F.A[:, None]  # ∇s_h per T
+    pairs = np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]])
+    tri = np.tile(np.arange(len(T)), 3)
+    key = edge_keys(pairs[:, 0], pairs[:, 1], len(P))
+    order = np.argsort(key, kind="stable")
+    k = key[order]
+    twin = np.flatnonzero(k[1:] == k[:-1])                 # interior edges: two half-edges
+    a, b = order[twin], order[twin + 1]
+    e = P[pairs[a, 1]] - P[pairs[a, 0]]                     # edge of triangle tri[a], Ω on its left
+    n_out = np.column_stack([e[:, 1], -e[:, 0]])            # outward normal of tri[a] across it
+    jump = np.einsum("ni,ni->n", grad[tri[b]] - grad[tri[a]], n_out) / np.hypot(e[:, 0], e[:, 1])
+    if not len(jump):
+        return 1.0
+    scale = np.abs(jump).max()
+    return float(np.mean(jump >= -rtol * (scale if scale > 0 else 1.0)))

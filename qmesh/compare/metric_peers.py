@@ -9,9 +9,8 @@ sides stay whole. The benchmarks for a varying s and for domains with holes need
   within `rtol` of the target;
 - `stretched_triangle`: Shewchuk's Triangle in metric coordinates y = Lᵀx (LLᵀ = ∇²s, constant),
   conforming Delaunay `pq30D` with one maximum area bisected until N lands on the target, then
-  mapped back — the peer that also gets every q_ij ≥ 0 for a constant Q;
-- two measurements the benchmarks need beside `qmesh.measure`: the share of boundary-edge
-  q_ij ≥ 0 and the share of interior edges across which s_h is convex (q_ij ≥ 0 for s_h).
+  mapped back — the peer that also gets every q_ij ≥ 0 for a constant Q.
+The meshes are measured with `qmesh.measure` like qmesh's own.
 """
 
 from __future__ import annotations
@@ -20,18 +19,16 @@ import time
 
 import numpy as np
 
-from qmesh import measure
 from qmesh.mesher import sizing
 from qmesh.errors import QmeshError
 from qmesh.geometry.triangles import Frame
-from qmesh.mesh import Mesh
 from qmesh.compare import require
 from qmesh.compare.peers import PeerMesh, _with_fixed, calibrate, mmg_remesh
 
 
 def _equilateral_h(metric_area: float, n: int) -> float:
-    """Metric edge length of n equilateral metric triangles' vertices filling metric_area."""
-    return float(np.sqrt(2.0 * metric_area / (np.sqrt(3.0) * max(n, 1))))
+    """Metric edge length when n vertices (2n equilateral metric triangles) fill metric_area."""
+    return float(sizing.size_of_area(metric_area / (2 * max(n, 1))))
 
 
 # --------------------------------------------------------------------------- Ω for Triangle
@@ -147,38 +144,3 @@ def stretched_triangle(domain, anisotropy, target_vertices: int, *, rtol: float 
     return PeerMesh(result.mesh, result.seconds, run, result.h)
 
 
-# --------------------------------------------------------------------------- measurements
-
-def boundary_q_fraction(mesh: Mesh, anisotropy, rtol: float = 1e-9) -> float:
-    """Share of boundary edges with q_ij ≥ −rtol·max|q| (the Neumann matrix's off-diagonals there)."""
-    _, q, interior = measure.edge_weights(mesh, anisotropy)
-    scale = np.abs(q).max() if len(q) else 1.0
-    r = q[~interior] / (scale if scale > 0 else 1.0)
-    return float(np.mean(r >= -rtol)) if len(r) else 1.0
-
-
-def sh_convex_fraction(mesh: Mesh, anisotropy, rtol: float = 1e-9) -> float:
-    """Share of interior edges across which s_h (the P1 interpolant of s) is convex.
-
-    ∇²s_h is a measure on the edges, [∂s_h/∂n]·δ_e, so q_ij ≥ 0 for s_h (MATH.md) means a
-    non-negative jump of the normal derivative of s_h across every interior edge; the jump is
-    taken relative to the largest one.
-    """
-    P, T = mesh.points, mesh.triangles
-    F = Frame(P, T)
-    sv = np.asarray(anisotropy.s(P), dtype=float)[T]
-    grad = np.column_stack([(sv * F.gx).sum(axis=1), (sv * F.gy).sum(axis=1)]) / F.A[:, None]  # ∇s_h per T
-    pairs = np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]])
-    tri = np.tile(np.arange(len(T)), 3)
-    key = np.minimum(pairs[:, 0], pairs[:, 1]) * len(P) + np.maximum(pairs[:, 0], pairs[:, 1])
-    order = np.argsort(key, kind="stable")
-    k = key[order]
-    twin = np.flatnonzero(k[1:] == k[:-1])                 # interior edges: two half-edges
-    a, b = order[twin], order[twin + 1]
-    e = P[pairs[a, 1]] - P[pairs[a, 0]]                     # edge of triangle tri[a], Ω on its left
-    n_out = np.column_stack([e[:, 1], -e[:, 0]])            # outward normal of tri[a] across it
-    jump = np.einsum("ni,ni->n", grad[tri[b]] - grad[tri[a]], n_out) / np.hypot(e[:, 0], e[:, 1])
-    if not len(jump):
-        return 1.0
-    scale = np.abs(jump).max()
-    return float(np.mean(jump >= -rtol * (scale if scale > 0 else 1.0)))

@@ -23,6 +23,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from qmesh.errors import QmeshError
+from qmesh.mesher import sizing
 from qmesh.geometry.triangles import signed_areas
 from qmesh.mesh import Mesh
 from qmesh.compare import require
@@ -196,7 +197,7 @@ def peer_mesh(peer: str, domain, anisotropy, target_vertices: int, *, rtol: floa
     if int(target_vertices) - n_b < 1:
         raise QmeshError(f"target_vertices must exceed the {n_b} boundary points")
     metric_area = np.sqrt(np.linalg.det(H)) * domain.area
-    h = np.sqrt(2.0 * metric_area / (np.sqrt(3.0) * (int(target_vertices) - n_b)))   # equilateral metric triangles
+    h = sizing.size_of_area(metric_area / (2 * (int(target_vertices) - n_b)))   # equilateral metric triangles
 
     def once(h):
         P, T = _ONCE[peer](seeds, H / h**2)

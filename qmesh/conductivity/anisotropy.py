@@ -63,6 +63,13 @@ class _UserField:
         return out
 
 
+def principal_matrix(k1: float, k2: float, angle_deg: float) -> np.ndarray:
+    """Q = R diag(k1, k2) Rᵀ, R the rotation by angle_deg: k1 along the direction at that angle."""
+    t = np.deg2rad(angle_deg)
+    R = np.array([[np.cos(t), -np.sin(t)], [np.sin(t), np.cos(t)]])
+    return R @ np.diag([k1, k2]) @ R.T
+
+
 @dataclass(frozen=True)
 class Anisotropy:
     """s, ∇s, ∇²s and Q = adj ∇²s as vectorised callables.
@@ -125,9 +132,7 @@ class Anisotropy:
         if min(k1, k2) <= 4 * np.finfo(float).eps * max(k1, k2):
             raise QmeshError(f"k1 = {k1:g} and k2 = {k2:g} are too far apart: the smaller is "
                              f"round-off next to the larger, so Q would be singular")
-        t = np.deg2rad(angle_deg)
-        R = np.array([[np.cos(t), -np.sin(t)], [np.sin(t), np.cos(t)]])
-        return cls.constant(R @ np.diag([k1, k2]) @ R.T)
+        return cls.constant(principal_matrix(k1, k2, angle_deg))
 
     @classmethod
     def from_s(cls, s: Field, grad: Field, hessian: Field, label: str = "s(x)") -> "Anisotropy":

@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from qmesh.geometry.topology import edge_keys
+
 
 def folded_mask(points, triangles) -> np.ndarray:
     """(M,) bool: the triangles that fold or overlap (see the module's docstring)."""
@@ -36,7 +38,7 @@ def folded_mask(points, triangles) -> np.ndarray:
     owner = np.repeat(good, 3)
     directed = u * n + v
     _, inv, cnt = np.unique(directed, return_inverse=True, return_counts=True)
-    undirected = np.minimum(u, v) * n + np.maximum(u, v)
+    undirected = edge_keys(u, v, n)
     _, inv2, cnt2 = np.unique(undirected, return_inverse=True, return_counts=True)
     overlap = (cnt[inv] > 1) | (cnt2[inv2] > 2)
     bad[owner[overlap]] = True

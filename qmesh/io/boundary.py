@@ -21,6 +21,7 @@ import re
 import numpy as np
 
 from qmesh.errors import QmeshError
+from qmesh.geometry import topology
 
 _NOT_WORD = re.compile(r"[^A-Za-z0-9_]+")
 
@@ -79,9 +80,9 @@ def tags_on(mesh, E: np.ndarray, tags: np.ndarray) -> tuple[np.ndarray, np.ndarr
 
 
 def edge_keys(E: np.ndarray, n) -> np.ndarray:
-    """One int64 per undirected edge (k, 2) of a mesh of n vertices: min·n + max."""
+    """One int64 per undirected edge of an edge array (k, 2) (`topology.edge_keys`)."""
     E = np.asarray(E, dtype=np.int64).reshape(-1, 2)
-    return E.min(axis=1) * np.int64(n) + E.max(axis=1)
+    return topology.edge_keys(E[:, 0], E[:, 1], int(n))
 
 
 def regions_of(mesh) -> tuple[np.ndarray, dict[int, str]]:

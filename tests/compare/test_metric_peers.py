@@ -49,7 +49,7 @@ def test_stretched_triangle_lands_on_n_with_every_q_nonnegative(name):
     _check_mesh_of(domain, pm.mesh)
     # conforming Delaunay in the metric: every interior and every boundary q_ij ≥ 0
     assert measure.q_nonnegative_fraction(pm.mesh, ROTATED) == 1.0
-    assert metric_peers.boundary_q_fraction(pm.mesh, ROTATED) == 1.0
+    assert measure.q_nonnegative_fraction_boundary(pm.mesh, ROTATED) == 1.0
 
 
 @pytest.mark.parametrize("name", list(DOMAINS))
@@ -98,13 +98,13 @@ def test_sh_convex_fraction_agrees_with_the_lifted_incircle_test(seed):
     A = qmesh.Anisotropy.from_expression("exp(3*x) + 5*y**2 + x*y")
     margin = locally_regular(P, T, A)              # one value per half-edge, both signs alike
     expected = np.mean(margin >= -1e-9)
-    assert metric_peers.sh_convex_fraction(mesh, A) == pytest.approx(expected, abs=1e-12)
+    assert measure.sh_convex_fraction(mesh, A) == pytest.approx(expected, abs=1e-12)
 
 
 def test_qmesh_mesh_is_convex_for_sh_and_a_flip_breaks_it():
     A = qmesh.Anisotropy.from_expression("log(exp(2*x) + exp(-2*x) + exp(2*y))")
     m = qmesh.mesh(qmesh.Disk(16), A, target_vertices=80, seed=0)
-    assert metric_peers.sh_convex_fraction(m, A) == 1.0
+    assert measure.sh_convex_fraction(m, A) == 1.0
     # flip one interior edge: it becomes the only edge across which s_h is concave
     from qmesh.geometry import topology
     twin = topology.twins(m.triangles)
@@ -112,16 +112,4 @@ def test_qmesh_mesh_is_convex_for_sh_and_a_flip_breaks_it():
     T, _ = topology.flip(m.triangles.copy(), twin.copy(), np.array([h]))
     flipped = qmesh.Mesh(m.points, T)
     n_interior = int((twin >= 0).sum() // 2)
-    assert metric_peers.sh_convex_fraction(flipped, A) == pytest.approx(1 - 1 / n_interior)
-
-
-def test_boundary_q_fraction_counts_boundary_edges_only():
-    # two triangles of the unit square; Q = I: the boundary edges opposite the right angles
-    # have q = cot 90°/2 = 0, the two legs of each triangle cot 45°/2 > 0 → all ≥ 0
-    P = np.array([[0.0, 0], [1, 0], [1, 1], [0, 1]])
-    sq = qmesh.Mesh(P, np.array([[0, 1, 2], [0, 2, 3]]))
-    assert metric_peers.boundary_q_fraction(sq, qmesh.Anisotropy.constant(np.eye(2))) == 1.0
-    # an obtuse boundary triangle: the edge opposite the 120° angle has q = cot 120°/2 < 0
-    P = np.array([[0.0, 0], [2, 0], [1, np.tan(np.pi / 6)]])
-    tri = qmesh.Mesh(P, np.array([[0, 1, 2]]))
-    assert metric_peers.boundary_q_fraction(tri, qmesh.Anisotropy.constant(np.eye(2))) == pytest.approx(2 / 3)
+    assert measure.sh_convex_fraction(flipped, A) == pytest.approx(1 - 1 / n_interior)

@@ -124,7 +124,7 @@ def _calls() -> list[BadCall]:
     for fn in (measure.energy, measure.quality, measure.stiffness, measure.stiffness_interior,
                measure.edge_weights, measure.q_nonnegative_fraction,
                measure.q_nonnegative_fraction_boundary, measure.condition_number,
-               measure.interpolation_errors, measure.report):
+               measure.interpolation_errors, measure.report, measure.sh_convex_fraction):
         add(f"measure.{fn.__name__}", "mesh", MESHES, lambda v, fn=fn: fn(v, A()))
         allowed_none = fn in (measure.stiffness, measure.stiffness_interior, measure.edge_weights,
                               measure.q_nonnegative_fraction, measure.q_nonnegative_fraction_boundary,

@@ -115,21 +115,3 @@ def test_convergence_series_has_one_point_per_iteration(chapter_run):
     assert series["energy"][-1] < series["energy"][0]           # the vertex step lowers E
     assert series["n_vertices"][-1] == chapter_run.history[-1].mesh.n_vertices
     assert all(k > 1 for k in series["kappa2"])
-
-
-def test_sh_share_counts_the_edges_where_the_lifted_facets_meet_convexly():
-    import qmesh
-    from qmesh_view.controller import sh_nonnegative_fraction
-    A = qmesh.Anisotropy.from_expression("x**2 + y**2")          # lower hull = Delaunay
-    P = np.array([[-1.0, 0.0], [1.0, 0.0], [0.0, 0.5], [0.0, -0.5]])
-    not_delaunay = qmesh.Mesh(P, np.array([[0, 1, 2], [1, 0, 3]]))   # across AB: a ridge
-    delaunay = qmesh.Mesh(P, np.array([[0, 3, 2], [3, 1, 2]]))       # across CD: a valley
-    assert sh_nonnegative_fraction(not_delaunay, A) == 0.0
-    assert sh_nonnegative_fraction(delaunay, A) == 1.0
-    # a constant Q: the share for s_h is the share of q_ij ≥ 0 (the same cotangent formula)
-    c = Controller()
-    c.finish()
-    frac = sh_nonnegative_fraction(c.current.mesh, c.anisotropy)
-    assert frac == measure.q_nonnegative_fraction(c.current.mesh, c.anisotropy) == 1.0
-
-
