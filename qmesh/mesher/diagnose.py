@@ -16,6 +16,7 @@ import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
 from qmesh.errors import QmeshWarning
+from qmesh.geometry.rings import convex_width
 from qmesh.geometry.triangles import metric_areas, metric_hessians, metric_quality
 
 ROWS = 2.0               # elements across the domain that a usable mesh needs
@@ -42,14 +43,7 @@ def metric_width(points: np.ndarray, H: np.ndarray, metric_area: float,
         V = X[ConvexHull(X).vertices]
     except (QhullError, ValueError):
         return 0.0                                  # all points on a line: no width at all
-    E = np.roll(V, -1, axis=0) - V
-    normal = np.column_stack([-E[:, 1], E[:, 0]]) / np.linalg.norm(E, axis=1)[:, None]
-    widths = np.zeros(len(V))
-    for start in range(0, len(V), 1024):            # bounded memory for long boundaries
-        rel = V[None, :, :] - V[start:start + 1024, None, :]      # hull vertex − edge start
-        dist = np.einsum("ki,kni->kn", normal[start:start + 1024], rel)
-        widths[start:start + 1024] = np.abs(dist).max(axis=1)
-    return float(min(widths.min(), by_area))
+    return float(min(convex_width(V), by_area))
 
 
 def vertices_for(metric_area: float, metric_perimeter: float, h: float) -> int:

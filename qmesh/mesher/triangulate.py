@@ -4,9 +4,12 @@ MATH.md "Connectivity" and the chapter's (2.74)–(2.75): the lower hull is the 
 with weights w_i = |x_i|² − s(x_i); for constant Q it is the Delaunay triangulation of the points
 mapped by H^{1/2}, and then every interior stiffness off-diagonal q_ij is ≥ 0.
 
-Two constructions:
-- `lower_hull` builds it from scratch with Qhull (scipy.spatial.ConvexHull): the reference, and
-  the mesher's initial triangulation.
+Three constructions:
+- `lower_hull` builds it from scratch with Qhull (scipy.spatial.ConvexHull): the reference;
+- `first_triangulation`, the mesher's initial one: Qhull's 2-D Delaunay triangulation of the
+  points mapped by a metric (H for a constant Q, the mean Hessian for a varying s), joggled
+  ("QJ") so that its cost follows N whatever the input's ties (points on one metric circle make
+  Qhull's exact modes quadratic: Disk(30000) with Q = I took 117 s), then `restore`;
 - `restore` repairs a valid triangulation whose vertices moved or were split in, by Lawson flips
   of locally non-regular edges (Lawson 1977; Edelsbrunner & Shah 1996 for the weighted case),
   in parallel batches. Because s is strictly convex every lifted point is a hull vertex and
@@ -122,6 +125,83 @@ def q_delaunay(P: np.ndarray, anisotropy) -> np.ndarray:
         raise QmeshError(f"{len(tri.coplanar)} points are not vertices of the triangulation "
                          "(duplicate points?)")
     return orient_ccw(P, tri.simplices)
+
+
+EXACT_MAX = 4000     # up to this many points the first triangulation is Qhull's exact hull
+JOGGLE_FLAT = 1e-9   # mapped triangles with |area| below this × (longest edge)²: joggle slivers
+
+
+def first_triangulation(P: np.ndarray, anisotropy) -> tuple[np.ndarray, np.ndarray]:
+    """The Q-Delaunay triangulation of P from scratch, and its twins; cost O(N log N) always.
+
+    Up to EXACT_MAX points, `lower_hull` (Qhull's exact modes: ties are split as they always
+    were). Beyond, or where that hull loses points, Qhull triangulates the points mapped
+    by x ↦ x L (LLᵀ = H, or the mean shape of the Hessian over P for a varying s) with a
+    joggle, which breaks ties (co-circular points) at random instead of merging facets — the
+    exact modes are quadratic on ties: Disk(30000) with Q = I took 117 s; flat slivers the
+    joggle leaves along collinear hull points are dropped (they lie outside Ω, beyond its
+    subsegments). `restore` then flips every edge left locally non-regular, with the local
+    tangent-plane test (2.74)–(2.75), which needs no global precision (s = exp(20x) + exp(20y)
+    spans 1e17 in curvature over Disk(32), beyond any global lifting).
+    """
+    P = np.asarray(P, dtype=float)
+    if len(P) == 3:
+        T = orient_ccw(P, np.array([[0, 1, 2]]))
+        return T, topology.twins(T)
+    T = _exact_lower_hull(P, anisotropy) if len(P) <= EXACT_MAX else None
+    if T is None:
+        X = (P - P.mean(axis=0)) @ _mean_factor(P, anisotropy)
+        X /= np.abs(X).max()
+        try:
+            T = Delaunay(X, qhull_options="QJ Qbb").simplices
+        except QhullError as err:
+            raise QmeshError(f"Qhull could not triangulate the points: {err}") from None
+        T = _drop_flat(X, T)
+        used = np.zeros(len(P), bool)
+        used[T.ravel()] = True
+        if not used.all():
+            raise QmeshError(f"{int((~used).sum())} points are not vertices of the triangulation "
+                             "(duplicate points?)")
+    T, twin, _ = restore(P, T, topology.twins(T), anisotropy)
+    return T, twin
+
+
+def _exact_lower_hull(P: np.ndarray, anisotropy) -> np.ndarray | None:
+    """`lower_hull`, or None where it fails."""
+    try:
+        return lower_hull(P, anisotropy)
+    except QmeshError:
+        return None
+
+
+def _mean_factor(P: np.ndarray, anisotropy) -> np.ndarray:
+    """L with LLᵀ the metric (constant Q) or the mean Hessian over (up to 4096 of) the points."""
+    if anisotropy.is_constant:
+        return np.linalg.cholesky(anisotropy.H)
+    sample = P[:: max(1, len(P) // 4096)]
+    with np.errstate(all="ignore"):
+        H = np.asarray(anisotropy.hessian(sample), dtype=float)
+    H = H[np.isfinite(H).all(axis=(1, 2))]
+    # each Hessian by its own norm: the mean then follows the shapes, not the steepest place
+    if len(H):
+        H = (H / np.abs(H).max(axis=(1, 2))[:, None, None]).mean(axis=0)
+    try:
+        return np.linalg.cholesky(0.5 * (H + H.T))
+    except (np.linalg.LinAlgError, ValueError):
+        return np.eye(2)
+
+
+def _drop_flat(X: np.ndarray, T: np.ndarray) -> np.ndarray:
+    """Triangles counter-clockwise in X, without the joggle's flat slivers."""
+    x, y = X[T, 0], X[T, 1]
+    A = (x[:, 1] - x[:, 0]) * (y[:, 2] - y[:, 0]) - (y[:, 1] - y[:, 0]) * (x[:, 2] - x[:, 0])
+    ex, ey = x - np.roll(x, 1, axis=1), y - np.roll(y, 1, axis=1)
+    longest = (ex * ex + ey * ey).max(axis=1)
+    keep = np.abs(A) > JOGGLE_FLAT * longest
+    T = T[keep]
+    cw = A[keep] < 0
+    T[cw] = T[cw][:, [0, 2, 1]]
+    return T.astype(np.int64, copy=False)
 
 
 def _violation(P, T, twin, h, anisotropy, s, g):
