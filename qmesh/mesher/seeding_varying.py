@@ -23,6 +23,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from qmesh.errors import QmeshError
+
 from qmesh.geometry import rings
 from qmesh.mesher import seeding
 from qmesh.mesher import sizing
@@ -34,6 +36,9 @@ MARGIN = 0.5          # points keep this many spacings (metric) inside Ω
 PASSES = 3            # draws to land the count
 MAX_LATTICE = 2e7     # at most about this many lattice points before filtering
 LATTICE_CHUNK = 500_000   # lattice points made at once (bounds the memory)
+PAIR_CHUNK = 1_000_000    # candidate pairs tested at once (bounds the memory)
+FOLLOW = 4.0          # the metric may change this much across one element ...
+UNFOLLOWED = 0.08     # ... over at most this share of the metric area
 
 
 def _sym_eig_min(H: np.ndarray) -> np.ndarray:
@@ -72,15 +77,21 @@ def _conflicts(X: np.ndarray, H: np.ndarray, r: float, Lbar: np.ndarray):
         src = np.flatnonzero(level == b)
         dst = np.flatnonzero(level >= b)
         radius = float(np.sqrt(2.0) * reach.min() * 2.0 ** (b + 1))
-        p = cKDTree(Y[src]).sparse_distance_matrix(cKDTree(Y[dst]), radius, output_type="ndarray")
-        i, j = src[p["i"]], dst[p["j"]]
-        keep = (level[j] > b) | (i < j)                     # each pair once
-        found.append(np.column_stack([np.minimum(i, j)[keep], np.maximum(i, j)[keep]]))
+        tree = cKDTree(Y[dst])
+        # searchers in chunks of at most PAIR_CHUNK candidates (a strongly anisotropic metric
+        # puts whole rows of points in one ball), each chunk filtered at once: bounded memory
+        count = np.cumsum(tree.query_ball_point(Y[src], radius, return_length=True))
+        cuts = np.searchsorted(count, np.arange(PAIR_CHUNK, count[-1], PAIR_CHUNK))
+        for chunk in np.split(src, np.unique(cuts[cuts > 0])):
+            p = cKDTree(Y[chunk]).sparse_distance_matrix(tree, radius, output_type="ndarray")
+            i, j = chunk[p["i"]], dst[p["j"]]
+            keep = (level[j] > b) | (i < j)                 # each pair once
+            i, j = np.minimum(i, j)[keep], np.maximum(i, j)[keep]
+            E = X[j] - X[i]
+            d2 = np.einsum("ni,nij,nj->n", E, 0.5 * (H[i] + H[j]), E)
+            found.append(np.column_stack([i, j])[d2 < r * r])
     i, j = np.concatenate(found).T
-    E = X[j] - X[i]
-    d2 = np.einsum("ni,nij,nj->n", E, 0.5 * (H[i] + H[j]), E)
-    close = d2 < r * r
-    return i[close], j[close]
+    return i, j
 
 
 def _luby(n: int, i: np.ndarray, j: np.ndarray, rng, priority=None) -> np.ndarray:
@@ -205,6 +216,32 @@ def _variation(domain, anisotropy, h: float, rng, samples: int = 2048):
     return factor, X, w
 
 
+def _check_followable(domain, anisotropy, h: float, n: int, rng) -> None:
+    """QmeshError, in well under a second, when the metric changes more than FOLLOW× across one
+    element over more than UNFOLLOWED of Ω's metric area (where the vertices go), and following
+    it would take more than twice the vertices (elements shrink as 1/√N): no mesh of this
+    size can follow s there (s = exp(20x) + exp(20y) on Disk(32) at N = 3000: 10%; the
+    smooth cases of the tests stay below 6% even at N = 30)."""
+    factor, _, w = _variation(domain, anisotropy, h, np.random.default_rng(0))
+    if not w.sum() > 0:
+        return
+    share = float((w * (factor > FOLLOW)).sum() / w.sum())
+    if share <= UNFOLLOWED:
+        return
+    order = np.argsort(factor)
+    cum = np.cumsum(w[order]) / w.sum()
+    f = float(factor[order][min(np.searchsorted(cum, 1.0 - UNFOLLOWED), len(order) - 1)])
+    more = n * (np.log(f) / np.log(FOLLOW)) ** 2 if np.isfinite(f) else np.inf
+    if more <= 2 * n:       # nearly followable: the insertions and the vertex step will cope
+        return
+    advice = (f"about {more:.2g} interior vertices would follow it" if np.isfinite(more)
+              and more < sizing.MAX_VERTICES else "no mesh of a usable size would follow it")
+    raise QmeshError(f"s varies faster than a mesh of {n} interior vertices can follow: over "
+                     f"{100 * share:.0f}% of the domain's metric area its Hessian changes more than "
+                     f"{FOLLOW:g}× across one element; {advice} (ask for more vertices, or a "
+                     f"gentler s)")
+
+
 def initial_points(domain, anisotropy, n: int, rng) -> np.ndarray:
     """About n (never more) interior points: patch lattices in the local metric, merged by a
     maximal independent set that prefers each patch's core."""
@@ -215,6 +252,7 @@ def initial_points(domain, anisotropy, n: int, rng) -> np.ndarray:
     area_m = sizing.metric_area(domain, anisotropy)
     cell = np.sqrt(3.0) / 2.0                         # lattice area per point is cell·h²
     h = np.sqrt(area_m / (cell * n))
+    _check_followable(domain, anisotropy, h, n, rng)
     best = np.empty((0, 2))
     for _ in range(PASSES):
         X, H, prio = _patch_lattices(domain, anisotropy, h, Lbar)

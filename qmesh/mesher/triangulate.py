@@ -6,10 +6,11 @@ mapped by H^{1/2}, and then every interior stiffness off-diagonal q_ij is ≥ 0.
 
 Three constructions:
 - `lower_hull` builds it from scratch with Qhull (scipy.spatial.ConvexHull): the reference;
-- `first_triangulation`, the mesher's initial one: Qhull's 2-D Delaunay triangulation of the
-  points mapped by a metric (H for a constant Q, the mean Hessian for a varying s), joggled
-  ("QJ") so that its cost follows N whatever the input's ties (points on one metric circle make
-  Qhull's exact modes quadratic: Disk(30000) with Q = I took 117 s), then `restore`;
+- `first_triangulation`, the mesher's initial one: beyond a few thousand points the lower hull
+  of the points lifted by a metric (H for a constant Q, the mean Hessian for a varying s) with
+  heights perturbed by 1e-9, so that its cost follows N whatever the input's ties (points on
+  one metric circle make Qhull's exact modes quadratic: Disk(30000) with Q = I took 117 s),
+  then `restore`;
 - `restore` repairs a valid triangulation whose vertices moved or were split in, by Lawson flips
   of locally non-regular edges (Lawson 1977; Edelsbrunner & Shah 1996 for the weighted case),
   in parallel batches. Because s is strictly convex every lifted point is a hull vertex and
@@ -128,21 +129,23 @@ def q_delaunay(P: np.ndarray, anisotropy) -> np.ndarray:
 
 
 EXACT_MAX = 4000     # up to this many points the first triangulation is Qhull's exact hull
-JOGGLE_FLAT = 1e-9   # mapped triangles with |area| below this × (longest edge)²: joggle slivers
+FIRST_ROUNDS = 100_000   # flip rounds allowed for the first triangulation
+PERTURB = 1e-9       # lifted heights (range 1) raised by up to this: ties broken, cost O(N log N)
 
 
 def first_triangulation(P: np.ndarray, anisotropy) -> tuple[np.ndarray, np.ndarray]:
     """The Q-Delaunay triangulation of P from scratch, and its twins; cost O(N log N) always.
 
     Up to EXACT_MAX points, `lower_hull` (Qhull's exact modes: ties are split as they always
-    were). Beyond, or where that hull loses points, Qhull triangulates the points mapped
-    by x ↦ x L (LLᵀ = H, or the mean shape of the Hessian over P for a varying s) with a
-    joggle, which breaks ties (co-circular points) at random instead of merging facets — the
-    exact modes are quadratic on ties: Disk(30000) with Q = I took 117 s; flat slivers the
-    joggle leaves along collinear hull points are dropped (they lie outside Ω, beyond its
-    subsegments). `restore` then flips every edge left locally non-regular, with the local
-    tangent-plane test (2.74)–(2.75), which needs no global precision (s = exp(20x) + exp(20y)
-    spans 1e17 in curvature over Disk(32), beyond any global lifting).
+    were). Beyond, or where that hull loses points, the lower hull of the points mapped by
+    x ↦ x L (LLᵀ = H, or the mean shape of the Hessian over P for a varying s) lifted to
+    ½|xL|² with heights perturbed by 1e-9 of their range: Qhull's exact modes are quadratic
+    on ties (Disk(30000) with Q = I took 117 s: its lifted boundary is one plane); the
+    perturbation breaks them at random (points closer than √1e-9 may then leave the hull:
+    there, Qhull's exact 2-D Delaunay of the mapped points). `restore` then flips every edge left locally
+    non-regular, with the local tangent-plane test (2.74)–(2.75), which needs no global
+    precision (s = exp(20x) + exp(20y) spans 1e17 in curvature over Disk(32), beyond any
+    global lifting).
     """
     P = np.asarray(P, dtype=float)
     if len(P) == 3:
@@ -150,19 +153,15 @@ def first_triangulation(P: np.ndarray, anisotropy) -> tuple[np.ndarray, np.ndarr
         return T, topology.twins(T)
     T = _exact_lower_hull(P, anisotropy) if len(P) <= EXACT_MAX else None
     if T is None:
-        X = (P - P.mean(axis=0)) @ _mean_factor(P, anisotropy)
-        X /= np.abs(X).max()
-        try:
-            T = Delaunay(X, qhull_options="QJ Qbb").simplices
-        except QhullError as err:
-            raise QmeshError(f"Qhull could not triangulate the points: {err}") from None
-        T = _drop_flat(X, T)
-        used = np.zeros(len(P), bool)
-        used[T.ravel()] = True
-        if not used.all():
-            raise QmeshError(f"{int((~used).sum())} points are not vertices of the triangulation "
-                             "(duplicate points?)")
-    T, twin, _ = restore(P, T, topology.twins(T), anisotropy)
+        T = _perturbed_hull(P, _mean_factor(P, anisotropy))
+    # from a start this far off, the flips may run along a needle of the metric for many rounds
+    # (660 for exp(20x) + exp(20y)); later rounds touch only the last round's triangles
+    try:
+        twin = topology.twins(T)
+    except ValueError as err:      # round-off decided the orientation of a flat triangle
+        raise QmeshError(f"the first triangulation is not valid ({err}): the points are closer "
+                         "than round-off allows at this s; please report this input") from None
+    T, twin, _ = restore(P, T, twin, anisotropy, max_rounds=FIRST_ROUNDS)
     return T, twin
 
 
@@ -191,17 +190,22 @@ def _mean_factor(P: np.ndarray, anisotropy) -> np.ndarray:
         return np.eye(2)
 
 
-def _drop_flat(X: np.ndarray, T: np.ndarray) -> np.ndarray:
-    """Triangles counter-clockwise in X, without the joggle's flat slivers."""
-    x, y = X[T, 0], X[T, 1]
-    A = (x[:, 1] - x[:, 0]) * (y[:, 2] - y[:, 0]) - (y[:, 1] - y[:, 0]) * (x[:, 2] - x[:, 0])
-    ex, ey = x - np.roll(x, 1, axis=1), y - np.roll(y, 1, axis=1)
-    longest = (ex * ex + ey * ey).max(axis=1)
-    keep = np.abs(A) > JOGGLE_FLAT * longest
-    T = T[keep]
-    cw = A[keep] < 0
-    T[cw] = T[cw][:, [0, 2, 1]]
-    return T.astype(np.int64, copy=False)
+def _perturbed_hull(P: np.ndarray, L: np.ndarray) -> np.ndarray:
+    """The lower hull of the points mapped by L and lifted to ½|xL|², each height raised by a
+    fixed random PERTURB share of the lifted range: no four lifted points are coplanar, so
+    Qhull's cost follows N, and the positions stay exact, so collinear hull points give
+    vertical facets, never slivers."""
+    X = (P - P.mean(axis=0)) @ L
+    X /= np.abs(X).max()
+    z = 0.5 * np.einsum("ni,ni->n", X, X)
+    z /= max(z.max(), 1e-300)
+    u = np.random.default_rng(0).random(len(P))
+    T = _valid(P, _lower_facets(np.column_stack([X, z + PERTURB * u]), "Qt"))
+    if T is None:       # points closer than the perturbation allows: the exact 2-D route
+        T = _valid(P, _delaunay(X))
+    if T is None:
+        raise QmeshError("some points are not vertices of the triangulation (duplicate points?)")
+    return T
 
 
 def _violation(P, T, twin, h, anisotropy, s, g):
