@@ -249,7 +249,7 @@ def _conforming(domain, P, edge_id, anisotropy, size, max_points, pinned) -> Con
         t[on] = np.einsum("ki,ki->k", P[on] - A[edge_id[on]], Bend[edge_id[on]] - A[edge_id[on]]) \
             / seg_len2[edge_id[on]]
         a, b = _subsegments(domain, n_seeds, edge_id, t)
-        T, twin = first_triangulation(P, anisotropy)
+        T, twin = first_triangulation(P, anisotropy, (np.arange(n) < n_seeds) | (edge_id >= 0))
         h = _find_half_edges(T, n, a, b)
         missing = h < 0
         apex = np.where(missing, 0, T.ravel()[np.where(missing, 0, (h - h % 3) + topology.PRV[h % 3])])

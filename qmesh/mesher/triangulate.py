@@ -133,27 +133,34 @@ FIRST_ROUNDS = 100_000   # flip rounds allowed for the first triangulation
 PERTURB = 1e-9       # lifted heights (range 1) raised by up to this: ties broken, cost O(N log N)
 
 
-def first_triangulation(P: np.ndarray, anisotropy) -> tuple[np.ndarray, np.ndarray]:
+def first_triangulation(P: np.ndarray, anisotropy,
+                        boundary: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The Q-Delaunay triangulation of P from scratch, and its twins; cost O(N log N) always.
 
     Up to EXACT_MAX points, `lower_hull` (Qhull's exact modes: ties are split as they always
     were). Beyond, or where that hull loses points, the lower hull of the points mapped by
     x ↦ x L (LLᵀ = H, or the mean shape of the Hessian over P for a varying s) lifted to
-    ½|xL|² with heights perturbed by 1e-9 of their range: Qhull's exact modes are quadratic
-    on ties (Disk(30000) with Q = I took 117 s: its lifted boundary is one plane); the
-    perturbation breaks them at random (points closer than √1e-9 may then leave the hull:
-    there, Qhull's exact 2-D Delaunay of the mapped points). `restore` then flips every edge left locally
-    non-regular, with the local tangent-plane test (2.74)–(2.75), which needs no global
-    precision (s = exp(20x) + exp(20y) spans 1e17 in curvature over Disk(32), beyond any
-    global lifting).
+    ½|xL|², the heights of the `boundary` points (default: all) perturbed by 1e-9 of their
+    range: Qhull's exact modes are quadratic on ties (Disk(30000) with Q = I took 117 s: its
+    lifted boundary is one plane); the perturbation breaks them at random (points closer than
+    √1e-9 may then leave the hull: there, Qhull's exact 2-D Delaunay of the mapped points).
+    `restore` then flips every edge left locally non-regular (for a constant Q only the
+    perturbed points' stars can be), with the local tangent-plane test (2.74)–(2.75), which
+    needs no global precision (s = exp(20x) + exp(20y) spans 1e17 in curvature over Disk(32),
+    beyond any global lifting).
     """
     P = np.asarray(P, dtype=float)
     if len(P) == 3:
         T = orient_ccw(P, np.array([[0, 1, 2]]))
         return T, topology.twins(T)
     T = _exact_lower_hull(P, anisotropy) if len(P) <= EXACT_MAX else None
+    candidates = None
     if T is None:
-        T = _perturbed_hull(P, _mean_factor(P, anisotropy))
+        perturbed = np.ones(len(P), bool) if boundary is None else np.asarray(boundary, bool)
+        T = _perturbed_hull(P, _mean_factor(P, anisotropy), perturbed)
+        if anisotropy.is_constant:      # the rest is exact: only the perturbed points' stars
+            near = perturbed[T].any(axis=1)
+            candidates = (3 * np.flatnonzero(near)[:, None] + np.arange(3)).ravel()
     # from a start this far off, the flips may run along a needle of the metric for many rounds
     # (660 for exp(20x) + exp(20y)); later rounds touch only the last round's triangles
     try:
@@ -161,7 +168,7 @@ def first_triangulation(P: np.ndarray, anisotropy) -> tuple[np.ndarray, np.ndarr
     except ValueError as err:      # round-off decided the orientation of a flat triangle
         raise QmeshError(f"the first triangulation is not valid ({err}): the points are closer "
                          "than round-off allows at this s; please report this input") from None
-    T, twin, _ = restore(P, T, twin, anisotropy, max_rounds=FIRST_ROUNDS)
+    T, twin, _ = restore(P, T, twin, anisotropy, candidates=candidates, max_rounds=FIRST_ROUNDS)
     return T, twin
 
 
@@ -190,16 +197,16 @@ def _mean_factor(P: np.ndarray, anisotropy) -> np.ndarray:
         return np.eye(2)
 
 
-def _perturbed_hull(P: np.ndarray, L: np.ndarray) -> np.ndarray:
-    """The lower hull of the points mapped by L and lifted to ½|xL|², each height raised by a
-    fixed random PERTURB share of the lifted range: no four lifted points are coplanar, so
-    Qhull's cost follows N, and the positions stay exact, so collinear hull points give
-    vertical facets, never slivers."""
+def _perturbed_hull(P: np.ndarray, L: np.ndarray, perturbed: np.ndarray) -> np.ndarray:
+    """The lower hull of the points mapped by L and lifted to ½|xL|², the heights of the
+    `perturbed` points (the boundary's: where ties live) raised by a fixed random PERTURB share
+    of the lifted range: no four lifted points are coplanar, so Qhull's cost follows N, and the
+    positions stay exact, so collinear hull points give vertical facets, never slivers."""
     X = (P - P.mean(axis=0)) @ L
     X /= np.abs(X).max()
     z = 0.5 * np.einsum("ni,ni->n", X, X)
     z /= max(z.max(), 1e-300)
-    u = np.random.default_rng(0).random(len(P))
+    u = np.random.default_rng(0).random(len(P)) * perturbed
     T = _valid(P, _lower_facets(np.column_stack([X, z + PERTURB * u]), "Qt"))
     if T is None:       # points closer than the perturbation allows: the exact 2-D route
         T = _valid(P, _delaunay(X))
