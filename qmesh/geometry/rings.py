@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-MAX_PAIRS = 1_000_000   # candidate pairs handled at once (bounds the temporary memory: ~500 MB at 4e6)
+MAX_PAIRS = 262_144     # candidate pairs handled at once (~150 bytes each: bounds the temporary memory)
 
 
 def signed_area(ring: np.ndarray) -> float:

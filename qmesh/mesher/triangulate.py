@@ -130,6 +130,7 @@ def q_delaunay(P: np.ndarray, anisotropy) -> np.ndarray:
 
 EXACT_MAX = 4000     # up to this many points the first triangulation is Qhull's exact hull
 FIRST_ROUNDS = 100_000   # flip rounds allowed for the first triangulation
+VIOLATION_CHUNK = 131_072   # edges tested at once (bounds the temporary memory)
 PERTURB = 1e-9       # lifted heights (range 1) raised by up to this: ties broken, cost O(N log N)
 
 
@@ -216,6 +217,15 @@ def _perturbed_hull(P: np.ndarray, L: np.ndarray, perturbed: np.ndarray) -> np.n
 
 
 def _violation(P, T, twin, h, anisotropy, s, g):
+    """`_violation_chunk` over h in chunks of VIOLATION_CHUNK (its ~25 temporaries per edge
+    took 660 bytes per vertex at once: the mesher's peak memory at 1e6)."""
+    if len(h) <= VIOLATION_CHUNK:
+        return _violation_chunk(P, T, twin, h, anisotropy, s, g)
+    return np.concatenate([_violation_chunk(P, T, twin, h[k:k + VIOLATION_CHUNK], anisotropy, s, g)
+                           for k in range(0, len(h), VIOLATION_CHUNK)])
+
+
+def _violation_chunk(P, T, twin, h, anisotropy, s, g):
     """Relative lifted in-circle test of half-edges h: > 0 means locally non-regular.
 
     For the edge u→v of triangle (u, v, a) with b opposite across it, the sign of
