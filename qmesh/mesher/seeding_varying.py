@@ -216,7 +216,7 @@ def _variation(domain, anisotropy, h: float, rng, samples: int = 2048):
     return factor, X, w
 
 
-def _check_followable(domain, anisotropy, h: float, n: int, rng) -> None:
+def _check_followable(domain, anisotropy, h: float, n: int) -> None:
     """QmeshError, in well under a second, when the metric changes more than FOLLOW× across one
     element over more than UNFOLLOWED of Ω's metric area (where the vertices go), and following
     it would take more than twice the vertices (elements shrink as 1/√N): no mesh of this
@@ -252,7 +252,7 @@ def initial_points(domain, anisotropy, n: int, rng) -> np.ndarray:
     area_m = sizing.metric_area(domain, anisotropy)
     cell = np.sqrt(3.0) / 2.0                         # lattice area per point is cell·h²
     h = np.sqrt(area_m / (cell * n))
-    _check_followable(domain, anisotropy, h, n, rng)
+    _check_followable(domain, anisotropy, h, n)
     best = np.empty((0, 2))
     for _ in range(PASSES):
         X, H, prio = _patch_lattices(domain, anisotropy, h, Lbar)

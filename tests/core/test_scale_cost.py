@@ -36,6 +36,20 @@ def test_co_circular_isotropic_disk_beyond_the_exact_hull_is_fast_and_q_delaunay
     assert locally_regular(P, T, A).min() > -1e-9
 
 
+@pytest.mark.parametrize("Q", [np.eye(2), np.diag([0.1, 10.0])])
+def test_perturbing_only_the_boundary_still_gives_a_q_delaunay_triangulation(Q):
+    """The mesher's call: only the boundary points' heights are perturbed, and for a constant
+    Q only their stars are checked by flips; the result must still be locally regular."""
+    n = 5000
+    t = 2 * np.pi * np.arange(n) / n
+    inner = np.random.default_rng(2).uniform(-0.6, 0.6, (2000, 2))
+    P = np.concatenate([np.column_stack([np.cos(t), np.sin(t)]), inner])
+    A = qmesh.Anisotropy.constant(Q)
+    T, _ = first_triangulation(P, A, np.arange(len(P)) < n)
+    assert len(T) == 2 * len(P) - n - 2
+    assert locally_regular(P, T, A).min() > -1e-9
+
+
 def test_first_triangulation_equals_the_lower_hull_on_generic_points():
     P = np.random.default_rng(3).random((5000, 2))      # beyond the exact route's size
     A = qmesh.Anisotropy.principal(1.0, 30.0, 25.0)
