@@ -11,8 +11,9 @@ the baseline (interpreter + imports) is printed beside the peak. qmesh is timed 
 MMG2D gets the constant metric ∇²s/h² with h calibrated to the same N (qmesh.compare.peers),
 and its time is that of the final, calibrated run (calibration runs are counted and timed
 separately); Shewchuk's Triangle meshes the same disk isotropically (pq30a, its maximum area
-calibrated to the same N by one probe run), the C limit of issue 20. The case: Q = diag(0.1, 10) on Disk(VB); the mesher adds boundary points between
-the VB seeds, so one VB (default 512) serves every size. Prints figures only: no assertion.
+calibrated to the same N by one probe run), the C limit of issue 20. The case:
+Q = diag(0.1, 10) on Disk(VB); the mesher adds boundary points between the VB seeds, so one VB
+(default 512) serves every size. Prints figures only: no assertion.
 """
 
 from __future__ import annotations

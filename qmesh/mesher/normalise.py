@@ -14,7 +14,8 @@ import numpy as np
 from qmesh.conductivity.anisotropy import Anisotropy
 from qmesh.errors import QmeshError
 
-CANCELLATION = 1e6   # |s(c)| + d|∇s(c)| this many times d²·|∇²s|: s − tangent plane by quadrature
+CANCELLATION = 1e6   # |s(c)| + d|∇s(c)| over d²·|∇²s| beyond which s − its tangent plane
+                     # is taken by quadrature (the difference would lose 6 of 16 digits)
 GAUSS = 6            # Gauss–Legendre points of that quadrature
 
 
