@@ -1,4 +1,4 @@
-"""Speed and memory of qmesh.mesh against MMG2D (mmgpy) on the chapter's case (issue 2).
+"""Speed and memory of qmesh.mesh against MMG2D (mmgpy) and Triangle on the chapter's case.
 
     python benchmarks/bench_mesher.py                 # ~1e5 vertices
     python benchmarks/bench_mesher.py --big           # ~1e5 and ~1e6 vertices
@@ -10,8 +10,10 @@ the baseline (interpreter + imports) is printed beside the peak. qmesh is timed 
 `qmesh.iterate` run to convergence, with the per-stage breakdown summed from `step.stats.seconds`;
 MMG2D gets the constant metric ∇²s/h² with h calibrated to the same N (qmesh.compare.peers),
 and its time is that of the final, calibrated run (calibration runs are counted and timed
-separately). The case: Q = diag(0.1, 10) on Disk(VB); the mesher adds boundary points between
-the VB seeds, so one VB (default 512) serves every size. Prints figures only: no assertion.
+separately); Shewchuk's Triangle meshes the same disk isotropically (pq30a, its maximum area
+calibrated to the same N by one probe run), the C limit of issue 20. The case:
+Q = diag(0.1, 10) on Disk(VB); the mesher adds boundary points between the VB seeds, so one VB
+(default 512) serves every size. Prints figures only: no assertion.
 """
 
 from __future__ import annotations
@@ -82,6 +84,28 @@ def child_mmg(n: int, vb: int) -> dict:
             "baseline_mb": base, "peak_mb": _rss_mb()}
 
 
+def child_triangle(n: int, vb: int) -> dict:
+    """Shewchuk's Triangle (isotropic quality mesh, pq30a), the C limit: one run to measure the
+    density, the timed run with the maximum area scaled so N lands near n."""
+    try:
+        import triangle
+    except ImportError as e:
+        return {"mesher": "triangle", "skipped": f"the triangle package is missing ({e})"}
+    import numpy as np
+    import qmesh
+    domain = qmesh.Disk(vb)
+    pslg = {"vertices": np.array(domain.seeds), "segments": np.array(domain.segments, np.int32)}
+    base = _rss_mb()
+    a = domain.area / n
+    probe = triangle.triangulate(pslg, f"pq30a{a:.15f}Q")
+    a *= len(probe["vertices"]) / n
+    t0 = time.perf_counter()
+    out = triangle.triangulate(pslg, f"pq30a{a:.15f}Q")
+    seconds = time.perf_counter() - t0
+    return {"mesher": "triangle", "seconds": seconds, "n_vertices": len(out["vertices"]),
+            "n_triangles": len(out["triangles"]), "baseline_mb": base, "peak_mb": _rss_mb()}
+
+
 def run_case(kind: str, n: int, vb, timeout: float) -> dict:
     """One case in a fresh interpreter; its JSON result (or why it failed)."""
     cmd = [sys.executable, __file__, "--child", kind, str(n), str(vb)]
@@ -94,16 +118,17 @@ def run_case(kind: str, n: int, vb, timeout: float) -> dict:
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
-def report(n: int, vb: int, q: dict, m: dict) -> None:
-    print(f"\n== target N = {n:,}  (Disk(VB = {vb}), Q = diag(0.1, 10)) ==")
-    for r in (q, m):
+def report(n: int, vb: int, q: dict, m: dict, t: dict) -> None:
+    print(f"\n== target N = {n:,}  (Disk(VB = {vb}), Q = diag(0.1, 10); Triangle isotropic) ==")
+    for r in (q, m, t):
         name = r["mesher"]
         if "skipped" in r or "failed" in r:
             print(f"{name:>6}: {'skipped' if 'skipped' in r else 'FAILED'}: "
                   f"{r.get('skipped', r.get('failed'))}")
             continue
         extra = (f", {r['iterations']} iterations, converged={r['converged']}" if name == "qmesh"
-                 else f", final of {r['runs']} calibration runs ({r['calibration_seconds']:.1f} s in all)")
+                 else f", final of {r['runs']} calibration runs ({r['calibration_seconds']:.1f} s in all)"
+                 if name == "mmg2d" else ", pq30a, area calibrated by one probe run")
         print(f"{name:>6}: {r['seconds']:8.2f} s   N = {r['n_vertices']:,}   "
               f"{r['n_vertices'] / r['seconds']:,.0f} vertices/s   peak {r['peak_mb']:,.0f} MB "
               f"(baseline {r['baseline_mb']:,.0f} MB){extra}")
@@ -113,6 +138,10 @@ def report(n: int, vb: int, q: dict, m: dict) -> None:
             f"{k} {v:.2f} s ({100 * v / total:.0f}%)" for k, v in sorted(q["stages"].items())))
     if "seconds" in q and "seconds" in m:
         print(f"  time ratio qmesh / MMG2D = {q['seconds'] / m['seconds']:.2f}")
+    if "seconds" in q and "seconds" in t:
+        print(f"  time ratio qmesh / Triangle = {q['seconds'] / t['seconds']:.1f}, "
+              f"peak memory qmesh / MMG2D = "
+              f"{q['peak_mb'] / m['peak_mb'] if 'peak_mb' in m else float('nan'):.2f}")
 
 
 def main(argv=None) -> int:
@@ -129,7 +158,9 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     if args.child:
         kind, n, vb = args.child[0], int(args.child[1]), args.child[2]
-        print(json.dumps(child_qmesh(n, vb) if kind == "qmesh" else child_mmg(n, int(vb))))
+        child = {"qmesh": lambda: child_qmesh(n, vb), "mmg2d": lambda: child_mmg(n, int(vb)),
+                 "triangle": lambda: child_triangle(n, int(vb))}[kind]
+        print(json.dumps(child()))
         return 0
     sizes = args.sizes or ([1e5, 1e6] if args.big else [1e5])
     if args.big and args.sizes:
@@ -139,7 +170,8 @@ def main(argv=None) -> int:
         q = run_case("qmesh", n, args.vb, args.timeout)
         m = ({"mesher": "mmg2d", "skipped": "--no-mmg"} if args.no_mmg
              else run_case("mmg2d", n, args.vb, args.timeout))
-        report(n, args.vb, q, m)
+        t = run_case("triangle", n, args.vb, args.timeout)
+        report(n, args.vb, q, m, t)
         if args.domains:
             for name in HOLED:
                 r = run_case("qmesh", n, name, args.timeout)

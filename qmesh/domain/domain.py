@@ -60,11 +60,13 @@ def _check_points(P: np.ndarray, name: str) -> None:
 
 
 def _check_ring_area(P: np.ndarray, name: str) -> float:
-    """The signed area of a simple ring, refused when zero."""
-    area = _rings.signed_area(P)
+    """The signed area of a simple ring, refused when zero; taken on the ring divided by its
+    extent, so its sign survives coordinates whose squares overflow or underflow (1e±300)."""
+    d = float(np.abs(P - P[0]).max())
+    area = _rings.signed_area((P - P[0]) / d) if d > 0 else 0.0
     if not abs(area) > 0:
         raise QmeshError(f"{name} has zero area")
-    return area
+    return area * d * d if abs(area * d * d) > 0 else np.copysign(np.finfo(float).tiny, area)
 
 
 def _ring_tags(tag, n: int, default: int, name: str) -> np.ndarray:
@@ -114,7 +116,7 @@ class Domain:
                 raise QmeshError(f"tags must have one entry per ring ({len(raw)}), got {len(tags)}")
         ring_tags = [_ring_tags(None if tags is None else tags[k], len(P), k + 1, _ring_name(k))
                      for k, P in enumerate(raw)]
-        _check_simple(raw)
+        _check_simple(_normalised(raw))
         areas = [_check_ring_area(P, _ring_name(k)) for k, P in enumerate(raw)]
 
         # orient: the outline counter-clockwise, holes clockwise (Ω on the left of every segment),
@@ -224,7 +226,8 @@ class Domain:
         seeds = np.concatenate(rings)
         seeds.setflags(write=False)
         new._seeds = seeds
-        new._area = self._area / scale**2
+        new._area = abs(_rings.signed_area(rings[0])) - sum(abs(_rings.signed_area(R))
+                                                             for R in rings[1:])
         return new
 
     def edge_of(self, P, tol: float = 1e-9) -> np.ndarray:
@@ -262,6 +265,20 @@ def _tag_names(names, ring_tags) -> dict[int, str]:
             raise QmeshError(f"{_ring_name(k)} has several tags: name them with a dict tag → name")
         out[int(t[0])] = name
     return out
+
+
+def _normalised(raw: list[np.ndarray]) -> list[np.ndarray]:
+    """The rings moved and scaled to about [-½, ½]², for the checks that multiply coordinates
+    (their test is relative to the domain's size): 1e300 overflows a product, 1e-300 underflows."""
+    pts = np.concatenate(raw)
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    with np.errstate(over="ignore"):
+        d = float((hi - lo).max())
+    if not np.isfinite(d):
+        raise QmeshError(f"the domain spans {lo.tolist()} to {hi.tolist()}: its size overflows a "
+                         "floating-point number")
+    c = 0.5 * lo + 0.5 * hi
+    return [(P - c) / d for P in raw]
 
 
 def _check_simple(raw: list[np.ndarray]) -> None:

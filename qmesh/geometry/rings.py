@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-MAX_PAIRS = 4_000_000   # candidate pairs handled at once (bounds the temporary memory)
+MAX_PAIRS = 262_144     # candidate pairs handled at once (~150 bytes each: bounds the temporary memory)
 
 
 def signed_area(ring: np.ndarray) -> float:
@@ -203,3 +203,29 @@ def segment_of(P: np.ndarray, A: np.ndarray, B: np.ndarray, reach: float) -> np.
         best_t[pt[better]] = along[better]
         out[pt[better]] = sg[better]
     return out
+
+
+def convex_width(V: np.ndarray) -> float:
+    """Minimum width of the convex polygon V (its vertices in order, either orientation).
+
+    The width across edge i is the largest distance of a vertex from its line; that vertex is
+    the polygon's support point in the direction of the inward normal, found by a binary search
+    of the edges' sorted normal angles (rotating calipers, vectorised): O(V log V), where the
+    all-pairs test costs O(V²) (19 s for the 30,000 points of Disk(30000)).
+    """
+    V = np.asarray(V, dtype=float)
+    if len(V) < 3:
+        return 0.0
+    if signed_area(V) < 0:
+        V = V[::-1]
+    E = np.roll(V, -1, axis=0) - V
+    theta = np.unwrap(np.arctan2(-E[:, 0], E[:, 1]))        # outward normals (E_y, −E_x), ccw
+    theta = np.concatenate([theta, theta + 2 * np.pi, theta + 4 * np.pi])
+    n = len(V)
+    j = np.searchsorted(theta, theta[:n] + np.pi) % n      # vertex j supports between θ_{j−1}, θ_j
+    inward = np.column_stack([-E[:, 1], E[:, 0]]) / np.hypot(E[:, 0], E[:, 1])[:, None]
+    width = np.zeros(n)
+    for k in (-1, 0, 1):                                    # neighbours too: ties in angle
+        d = np.einsum("ki,ki->k", inward, V[(j + k) % n] - V)
+        width = np.maximum(width, d)
+    return float(width.min())

@@ -31,7 +31,7 @@ from scipy.sparse.csgraph import connected_components
 from qmesh.geometry import topology
 from qmesh.errors import QmeshError
 from qmesh.geometry.triangles import signed_areas
-from qmesh.mesher.triangulate import lower_hull, restore
+from qmesh.mesher.triangulate import first_triangulation, restore
 
 ENCROACH_TOL = 1e-9     # relative depth below the plane that counts as encroaching
 MAX_ROUNDS = 200        # split rounds before giving up (never reached on valid input)
@@ -249,7 +249,7 @@ def _conforming(domain, P, edge_id, anisotropy, size, max_points, pinned) -> Con
         t[on] = np.einsum("ki,ki->k", P[on] - A[edge_id[on]], Bend[edge_id[on]] - A[edge_id[on]]) \
             / seg_len2[edge_id[on]]
         a, b = _subsegments(domain, n_seeds, edge_id, t)
-        T = lower_hull(P, anisotropy)
+        T, twin = first_triangulation(P, anisotropy, (np.arange(n) < n_seeds) | (edge_id >= 0))
         h = _find_half_edges(T, n, a, b)
         missing = h < 0
         apex = np.where(missing, 0, T.ravel()[np.where(missing, 0, (h - h % 3) + topology.PRV[h % 3])])
@@ -262,7 +262,6 @@ def _conforming(domain, P, edge_id, anisotropy, size, max_points, pinned) -> Con
         split = missing | (enc & ~free)
         split &= L2 > SHORTEST ** 2
         if not len(drop) and not split.any():
-            twin = topology.twins(T)
             keep = inside_triangles(T, twin, h)
             T = T[keep]
             used = np.zeros(n, bool)

@@ -16,6 +16,7 @@ import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
 from qmesh.errors import QmeshWarning
+from qmesh.geometry.rings import convex_width
 from qmesh.geometry.triangles import metric_areas, metric_hessians, metric_quality
 from qmesh.mesher.sizing import equilateral_area, vertices_from_counts
 
@@ -43,14 +44,7 @@ def metric_width(points: np.ndarray, H: np.ndarray, metric_area: float,
         V = X[ConvexHull(X).vertices]
     except (QhullError, ValueError):
         return 0.0                                  # all points on a line: no width at all
-    E = np.roll(V, -1, axis=0) - V
-    normal = np.column_stack([-E[:, 1], E[:, 0]]) / np.linalg.norm(E, axis=1)[:, None]
-    widths = np.zeros(len(V))
-    for start in range(0, len(V), 1024):            # bounded memory for long boundaries
-        rel = V[None, :, :] - V[start:start + 1024, None, :]      # hull vertex − edge start
-        dist = np.einsum("ki,kni->kn", normal[start:start + 1024], rel)
-        widths[start:start + 1024] = np.abs(dist).max(axis=1)
-    return float(min(widths.min(), by_area))
+    return float(min(convex_width(V), by_area))
 
 
 def vertices_for(metric_area: float, metric_perimeter: float, h: float) -> int:
@@ -60,10 +54,15 @@ def vertices_for(metric_area: float, metric_perimeter: float, h: float) -> int:
 
 def thin_domain(mesh, anisotropy) -> str | None:
     """A message when the domain is too thin for the mesh's size, else None."""
-    P, T = mesh.points, mesh.triangles
+    X, T = mesh.points, mesh.triangles
     if len(T) == 0:
         return None
-    Hs = metric_hessians(anisotropy, P, T)
+    Hs = metric_hessians(anisotropy, X, T)
+    # lengths in units of the mesh's extent (a domain 1e300 across overflows its areas);
+    # every test below compares ratios, and sizes are reported back in the user's units
+    lo, hi = X.min(axis=0), X.max(axis=0)
+    unit = float((hi - lo).max()) or 1.0
+    P = (X - (0.5 * lo + 0.5 * hi)) / unit
     areas = metric_areas(P, T, Hs)
     area_m = float(areas.sum())
     E = mesh.boundary_edges
@@ -73,7 +72,7 @@ def thin_domain(mesh, anisotropy) -> str | None:
         perimeter = float(np.sqrt(np.einsum("ni,ij,nj->n", d, H, d)).sum())
     else:
         H = np.einsum("m,mij->ij", np.abs(areas), Hs) / max(np.abs(areas).sum(), 1e-300)
-        He = np.asarray(anisotropy.hessian(0.5 * (P[E[:, 0]] + P[E[:, 1]])), float)
+        He = np.asarray(anisotropy.hessian(0.5 * (X[E[:, 0]] + X[E[:, 1]])), float)
         perimeter = float(np.sqrt(np.einsum("ni,nij,nj->n", d, He, d)).sum())
     h = element_size(area_m, len(T))
     edges = (3 * len(T) + len(E)) // 2
@@ -102,7 +101,7 @@ def thin_domain(mesh, anisotropy) -> str | None:
     need = (max(vertices_for(area_m, perimeter, h_need), int(mesh.n_vertices / min(ratio, 1.0)) + 1)
             if h_need > 0 else None)
     advice = (f"about {need} vertices (target_vertices / --target-vertices, or a metric size "
-              f"of {h_need:.3g}) would put {ROWS:g} elements across it"
+              f"of {h_need * unit:.3g}) would put {ROWS:g} elements across it"
               if need else "its metric width is zero")
     return (f"the domain is {width / (ROW_HEIGHT * h):.2g} elements wide in the metric at this "
             f"size (N = {mesh.n_vertices}, {symptom}); {advice}")

@@ -4,9 +4,13 @@ MATH.md "Connectivity" and the chapter's (2.74)–(2.75): the lower hull is the 
 with weights w_i = |x_i|² − s(x_i); for constant Q it is the Delaunay triangulation of the points
 mapped by H^{1/2}, and then every interior stiffness off-diagonal q_ij is ≥ 0.
 
-Two constructions:
-- `lower_hull` builds it from scratch with Qhull (scipy.spatial.ConvexHull): the reference, and
-  the mesher's initial triangulation.
+Three constructions:
+- `lower_hull` builds it from scratch with Qhull (scipy.spatial.ConvexHull): the reference;
+- `first_triangulation`, the mesher's initial one: beyond a few thousand points the lower hull
+  of the points lifted by a metric (H for a constant Q, the mean Hessian for a varying s) with
+  heights perturbed by 1e-9, so that its cost follows N whatever the input's ties (points on
+  one metric circle make Qhull's exact modes quadratic: Disk(30000) with Q = I took 117 s),
+  then `restore`;
 - `restore` repairs a valid triangulation whose vertices moved or were split in, by Lawson flips
   of locally non-regular edges (Lawson 1977; Edelsbrunner & Shah 1996 for the weighted case),
   in parallel batches. Because s is strictly convex every lifted point is a hull vertex and
@@ -124,7 +128,104 @@ def q_delaunay(P: np.ndarray, anisotropy) -> np.ndarray:
     return orient_ccw(P, tri.simplices)
 
 
+EXACT_MAX = 4000     # up to this many points the first triangulation is Qhull's exact hull
+FIRST_ROUNDS = 100_000   # flip rounds allowed for the first triangulation
+VIOLATION_CHUNK = 131_072   # edges tested at once (bounds the temporary memory)
+PERTURB = 1e-9       # lifted heights (range 1) raised by up to this: ties broken, cost O(N log N)
+
+
+def first_triangulation(P: np.ndarray, anisotropy,
+                        boundary: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The Q-Delaunay triangulation of P from scratch, and its twins; cost O(N log N) always.
+
+    Up to EXACT_MAX points, `lower_hull` (Qhull's exact modes: ties are split as they always
+    were). Beyond, or where that hull loses points, the lower hull of the points mapped by
+    x ↦ x L (LLᵀ = H, or the mean shape of the Hessian over P for a varying s) lifted to
+    ½|xL|², the heights of the `boundary` points (default: all) perturbed by 1e-9 of their
+    range: Qhull's exact modes are quadratic on ties (Disk(30000) with Q = I took 117 s: its
+    lifted boundary is one plane); the perturbation breaks them at random (points closer than
+    √1e-9 may then leave the hull: there, Qhull's exact 2-D Delaunay of the mapped points).
+    `restore` then flips every edge left locally non-regular (for a constant Q only the
+    perturbed points' stars can be), with the local tangent-plane test (2.74)–(2.75), which
+    needs no global precision (s = exp(20x) + exp(20y) spans 1e17 in curvature over Disk(32),
+    beyond any global lifting).
+    """
+    P = np.asarray(P, dtype=float)
+    if len(P) == 3:
+        T = orient_ccw(P, np.array([[0, 1, 2]]))
+        return T, topology.twins(T)
+    T = _exact_lower_hull(P, anisotropy) if len(P) <= EXACT_MAX else None
+    candidates = None
+    if T is None:
+        perturbed = np.ones(len(P), bool) if boundary is None else np.asarray(boundary, bool)
+        T = _perturbed_hull(P, _mean_factor(P, anisotropy), perturbed)
+        if anisotropy.is_constant:      # the rest is exact: only the perturbed points' stars
+            near = perturbed[T].any(axis=1)
+            candidates = (3 * np.flatnonzero(near)[:, None] + np.arange(3)).ravel()
+    # from a start this far off, the flips may run along a needle of the metric for many rounds
+    # (660 for exp(20x) + exp(20y)); later rounds touch only the last round's triangles
+    try:
+        twin = topology.twins(T)
+    except ValueError as err:      # round-off decided the orientation of a flat triangle
+        raise QmeshError(f"the first triangulation is not valid ({err}): the points are closer "
+                         "than round-off allows at this s; please report this input") from None
+    T, twin, _ = restore(P, T, twin, anisotropy, candidates=candidates, max_rounds=FIRST_ROUNDS)
+    return T, twin
+
+
+def _exact_lower_hull(P: np.ndarray, anisotropy) -> np.ndarray | None:
+    """`lower_hull`, or None where it fails."""
+    try:
+        return lower_hull(P, anisotropy)
+    except QmeshError:
+        return None
+
+
+def _mean_factor(P: np.ndarray, anisotropy) -> np.ndarray:
+    """L with LLᵀ the metric (constant Q) or the mean Hessian over (up to 4096 of) the points."""
+    if anisotropy.is_constant:
+        return np.linalg.cholesky(anisotropy.H)
+    sample = P[:: max(1, len(P) // 4096)]
+    with np.errstate(all="ignore"):
+        H = np.asarray(anisotropy.hessian(sample), dtype=float)
+    H = H[np.isfinite(H).all(axis=(1, 2))]
+    # each Hessian by its own norm: the mean then follows the shapes, not the steepest place
+    if len(H):
+        H = (H / np.abs(H).max(axis=(1, 2))[:, None, None]).mean(axis=0)
+    try:
+        return np.linalg.cholesky(0.5 * (H + H.T))
+    except (np.linalg.LinAlgError, ValueError):
+        return np.eye(2)
+
+
+def _perturbed_hull(P: np.ndarray, L: np.ndarray, perturbed: np.ndarray) -> np.ndarray:
+    """The lower hull of the points mapped by L and lifted to ½|xL|², the heights of the
+    `perturbed` points (the boundary's: where ties live) raised by a fixed random PERTURB share
+    of the lifted range: no four lifted points are coplanar, so Qhull's cost follows N, and the
+    positions stay exact, so collinear hull points give vertical facets, never slivers."""
+    X = (P - P.mean(axis=0)) @ L
+    X /= np.abs(X).max()
+    z = 0.5 * np.einsum("ni,ni->n", X, X)
+    z /= max(z.max(), 1e-300)
+    u = np.random.default_rng(0).random(len(P)) * perturbed
+    T = _valid(P, _lower_facets(np.column_stack([X, z + PERTURB * u]), "Qt"))
+    if T is None:       # points closer than the perturbation allows: the exact 2-D route
+        T = _valid(P, _delaunay(X))
+    if T is None:
+        raise QmeshError("some points are not vertices of the triangulation (duplicate points?)")
+    return T
+
+
 def _violation(P, T, twin, h, anisotropy, s, g):
+    """`_violation_chunk` over h in chunks of VIOLATION_CHUNK (its ~25 temporaries per edge
+    took 660 bytes per vertex at once: the mesher's peak memory at 1e6)."""
+    if len(h) <= VIOLATION_CHUNK:
+        return _violation_chunk(P, T, twin, h, anisotropy, s, g)
+    return np.concatenate([_violation_chunk(P, T, twin, h[k:k + VIOLATION_CHUNK], anisotropy, s, g)
+                           for k in range(0, len(h), VIOLATION_CHUNK)])
+
+
+def _violation_chunk(P, T, twin, h, anisotropy, s, g):
     """Relative lifted in-circle test of half-edges h: > 0 means locally non-regular.
 
     For the edge u→v of triangle (u, v, a) with b opposite across it, the sign of
