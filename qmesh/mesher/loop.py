@@ -119,6 +119,11 @@ def iterate(domain, anisotropy, *, target_vertices: int | None = None, size: flo
     boundary_refinement  allow vertices on the boundary between the input points (without
                       it, only the splits that keep q_ij ≥ 0 on boundary edges are made).
     """
+    if getattr(domain, "regions", ()) or (not isinstance(anisotropy, Anisotropy) and hasattr(anisotropy, "items")):
+        from qmesh import media   # a mapping conductivity or a domain with regions: heterogeneous media
+        return media.iterate(domain, anisotropy, target_vertices=target_vertices, size=size, alpha=alpha,
+                             quality_threshold=quality_threshold, min_area=min_area, max_iterations=max_iterations,
+                             seed=seed, boundary_refinement=boundary_refinement, **unknown)
     check_keywords(unknown, iterate, "iterate")
     check_options(target_vertices, size, alpha, quality_threshold, min_area, max_iterations, seed,
                   boundary_refinement)
@@ -328,6 +333,11 @@ def mesh(domain, anisotropy, *, target_vertices: int | None = None, size: float 
     cannot carry that many). Warns `QmeshWarning` when the domain is thinner than about two
     elements in the metric, saying what N would be needed.
     """
+    if getattr(domain, "regions", ()) or (not isinstance(anisotropy, Anisotropy) and hasattr(anisotropy, "items")):
+        from qmesh import media   # a mapping conductivity or a domain with regions: heterogeneous media
+        return media.mesh(domain, anisotropy, target_vertices=target_vertices, size=size, alpha=alpha,
+                          quality_threshold=quality_threshold, min_area=min_area, max_iterations=max_iterations,
+                          seed=seed, boundary_refinement=boundary_refinement, progress=progress, **unknown)
     check_keywords(unknown, iterate, "mesh")
     options = dict(target_vertices=target_vertices, size=size, alpha=alpha,
                    quality_threshold=quality_threshold, min_area=min_area,
