@@ -39,6 +39,7 @@ from qmesh.mesher import sizing as _msizing
 from qmesh.mesher.step import Stats, Step
 
 MAX_ROUNDS = 8
+CORRECTIONS = 3      # reruns of mesh() that correct N towards target_vertices
 _PASSED = ("alpha", "quality_threshold", "max_iterations", "seed", "boundary_refinement")
 
 
@@ -216,21 +217,29 @@ def _same(a, b) -> bool:
 
 def mesh(domain, conductivity, *, target_vertices: int | None = None, progress=None,
          **options) -> Mesh:
-    """Mesh a domain with regions to the end (see `iterate`); with `target_vertices`, a result
-    more than 10% off is redone once with the size corrected by the ratio."""
+    """Mesh a domain with regions to the end (see `iterate`). With `target_vertices`, a result
+    more than 5% off is redone (at most CORRECTIONS times) with the request scaled by the
+    ratio missed; the closest mesh is kept, and a QmeshWarning says when it is still > 10% off."""
     if progress is not None and not callable(progress):
         raise QmeshError(f"progress must be a function of one Step, got {type(progress).__name__}")
     m = _last(iterate(domain, conductivity, target_vertices=target_vertices, **options), progress)
-    if target_vertices is not None and abs(m.n_vertices - target_vertices) > 0.1 * target_vertices:
-        plan_n = int(round(target_vertices * target_vertices / m.n_vertices))
-        if plan_n > 0:
-            try:
-                again = _last(iterate(domain, conductivity, target_vertices=plan_n, **options),
-                              progress)
-            except QmeshError:
-                again = m
-            if abs(again.n_vertices - target_vertices) < abs(m.n_vertices - target_vertices):
-                m = again
+    if target_vertices is None:
+        return m
+    ask = target_vertices
+    for _ in range(CORRECTIONS):
+        if abs(m.n_vertices - target_vertices) <= 0.05 * target_vertices:
+            break
+        ask = int(round(ask * target_vertices / m.n_vertices))
+        try:
+            again = _last(iterate(domain, conductivity, target_vertices=ask, **options), progress)
+        except QmeshError:
+            break
+        if abs(again.n_vertices - target_vertices) < abs(m.n_vertices - target_vertices):
+            m = again
+    if abs(m.n_vertices - target_vertices) > 0.1 * target_vertices:
+        from qmesh.errors import QmeshWarning
+        warnings.warn(f"target_vertices = {target_vertices}: the mesh has {m.n_vertices} vertices "
+                      "(the interfaces and q_ij >= 0 on them need these)", QmeshWarning, stacklevel=2)
     return m
 
 
