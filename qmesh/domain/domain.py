@@ -151,6 +151,13 @@ class Domain:
             from qmesh.media.regions import attach      # region checks live with qmesh.media
             attach(self, regions, region_names, ring_tags)
 
+    @classmethod
+    def from_cells(cls, x, y, k1, k2, angle=0.0):
+        """(Domain, {region tag: Anisotropy}) of a structured grid with per-cell k1, k2, angle
+        (MODFLOW's convention), cells of equal conductivity merged into regions (qmesh.media.cells)."""
+        from qmesh.media.cells import from_cells
+        return from_cells(x, y, k1, k2, angle)
+
     @property
     def regions(self) -> tuple:
         """The regions as given, each a `Domain` (outline and holes); region k is regions[k-1]."""
