@@ -29,6 +29,7 @@ import numpy as np
 
 from qmesh.conductivity.anisotropy import Anisotropy
 from qmesh.domain.domain import as_domain
+from qmesh import measure
 from qmesh.errors import QmeshError
 from qmesh.media import faces as _faces
 from qmesh.media import sizing as _sizing
@@ -199,9 +200,12 @@ def _rounds(plan, max_rounds, options) -> Iterator[Step]:
                 if part.interface[e] and not _same(has[i].get(e), extra.get(e))}
         m = stitch(part, meshes, [f.region for f in plan.faces], plan.domain)
         done = not todo
-        yield Step("triangulate", rnd, m, Stats(m.n_vertices, m.n_triangles, 0.0, 0.0, 0.0,
-                                                added=added, seconds=time.perf_counter() - t0),
-                   converged=done)
+        seconds = time.perf_counter() - t0
+        cond = {f.region: a for f, a in zip(plan.faces, plan.anis)}
+        q = measure.quality(m, cond)
+        yield Step("triangulate", rnd, m,
+                   Stats(m.n_vertices, m.n_triangles, measure.energy(m, cond), float(q.min()),
+                         float(q.mean()), added=added, seconds=seconds), converged=done)
         if done:
             return
     raise QmeshError(f"the region meshes did not agree on their interfaces after {max_rounds} "
