@@ -16,6 +16,8 @@ outside [min g, max g] (beyond 1e-10 of the range) and the worst excess relative
 κ2(qmesh) / κ2(MMG2D).
 
     python benchmarks/bench_media.py [--n 2000 8000] [--cases fvca4 ...] [--no-mmg]
+    python benchmarks/bench_media.py --figure screenshots/media_inclusion.png
+    python benchmarks/bench_media.py --timing 100000     (layered box with and without regions)
 """
 
 from __future__ import annotations
@@ -93,12 +95,66 @@ HEADER = ("| case | mesher | N | q_ij ≥ 0 % interior / interface / boundary | 
           "violations (worst) | κ2 | min quality | s |\n|---|---|---|---|---|---|---|---|")
 
 
+def figure(path, case="inclusion", n=2000) -> None:
+    """qmesh, MMG2D and Triangle meshes of one case side by side: triangles coloured by region,
+    edges with q_ij < 0 (each triangle's own Q) in red."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.collections import LineCollection
+    domain, cond, _ = SHORT[case]()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", qmesh.QmeshWarning)
+        m = qmesh.mesh(domain, cond, target_vertices=n)
+    meshes = [("qmesh", m), ("MMG2D", peers.mmg2d(domain, cond, m.n_vertices).mesh),
+              ("Triangle", peers.triangle(domain, m.n_vertices).mesh)]
+    from matplotlib.colors import ListedColormap
+    colours = ListedColormap(["#eeeeee", "#a6cee3", "#b2df8a", "#fdbf6f", "#cab2d6", "#ffff99"])
+    fig, axes = plt.subplots(1, 3, figsize=(15, 5.6))
+    for ax, (name, mesh) in zip(axes, meshes):
+        E, q, _ = measure.edge_weights(mesh, cond)
+        bad = q < -1e-9 * np.abs(q).max()
+        ax.tripcolor(mesh.points[:, 0], mesh.points[:, 1], mesh.triangles,
+                     facecolors=mesh.region_tags.astype(float), cmap=colours, vmin=0, vmax=5)
+        ax.triplot(mesh.points[:, 0], mesh.points[:, 1], mesh.triangles, lw=0.2, color="0.35")
+        ax.add_collection(LineCollection(mesh.points[E[bad]], colors="red", linewidths=1.2))
+        ax.set_title(f"{name}: N = {mesh.n_vertices}, {int(bad.sum())} edges with q_ij < 0")
+        ax.set_aspect("equal")
+        ax.set_axis_off()
+    fig.suptitle(f"{NAMES[SHORT[case]]}: regions coloured, q_ij < 0 in red (each triangle's own Q)")
+    fig.tight_layout(rect=(0, 0, 1, 0.94))
+    fig.savefig(path, dpi=90)
+
+
+def timing(n: int) -> None:
+    """Seconds for the layered box with its regions, and for the same box with one Q."""
+    domain, cond, _ = media_cases.layered()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", qmesh.QmeshWarning)
+        t0 = time.perf_counter()
+        m = qmesh.mesh(domain, cond, target_vertices=n)
+        t1 = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        m2 = qmesh.mesh(qmesh.Polygon(domain.rings[0]), cond[1], target_vertices=n)
+        t2 = time.perf_counter() - t0
+    print(f"layered, 5 regions: N = {m.n_vertices}, {t1:.1f} s; same box, one Q: "
+          f"N = {m2.n_vertices}, {t2:.1f} s; ratio {t1 / t2:.2f}")
+
+
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--figure", metavar="PNG", help="only draw the figure of the inclusion case")
+    ap.add_argument("--timing", type=int, metavar="N", help="only time the layered box at N")
     ap.add_argument("--n", type=int, nargs="+", default=[2000, 8000])
     ap.add_argument("--cases", nargs="+", choices=sorted(SHORT), default=list(SHORT))
     ap.add_argument("--no-mmg", action="store_true")
     args = ap.parse_args(argv)
+    if args.figure:
+        figure(args.figure)
+        return
+    if args.timing:
+        timing(args.timing)
+        return
     print(HEADER)
     rows = run([SHORT[c] for c in args.cases], args.n, mmg=not args.no_mmg)
     q = [r for r in rows if r["mesher"] == "qmesh"]
