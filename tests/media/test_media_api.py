@@ -87,3 +87,18 @@ def test_thin_face_warnings_name_their_region():
         warnings.simplefilter("always")
         qmesh.mesh(d, {0: COND[0], 1: COND[0]}, target_vertices=300)
     assert all(str(w.message).startswith("region") for w in said if w.category is qmesh.QmeshWarning)
+
+
+def test_nested_regions_holes_and_a_varying_s():
+    from tests.media.cases import check_mesh
+    ring = qmesh.Domain([(1, 0.2), (1.8, 0.2), (1.8, 0.8), (1, 0.8)], [[(1.2, 0.4), (1.4, 0.4), (1.3, 0.6)]])
+    d = qmesh.Domain([(0, 0), (2, 0), (2, 1), (0, 1)], [[(0.2, 0.2), (0.4, 0.2), (0.3, 0.4)]],
+                     regions=[ring, [(1.2, 0.4), (1.4, 0.4), (1.3, 0.6)]])
+    cond = {0: Anisotropy.from_expression("exp(x) + y**2"), 1: Anisotropy.principal(100, 1, 20),
+            2: Anisotropy.constant(0.01 * np.eye(2))}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", qmesh.QmeshWarning)
+        m = qmesh.mesh(d, cond, target_vertices=600)
+    check_mesh(d, cond, m)
+    assert set(np.unique(m.region_tags)) == {0, 1, 2}
+    assert set(m.boundary_tags.tolist()) == {1, 2}          # the outline's and the hole's
