@@ -130,8 +130,8 @@ def partition(rings: list[Ring], segment_tags: list[np.ndarray], size: float) ->
     edge_tag = np.zeros(len(E), np.int64)
     on_omega = owner == 0
     tags = np.concatenate(segment_tags)
-    edge_tag[inv[on_omega]] = tags[offsets[sring[dseg[on_omega]]] + sseg[dseg[on_omega]]
-                                   - 0]  # Ω rings come first, so their segments index `tags`
+    # Ω's rings come first, so their segments' global index is their index into `tags`
+    edge_tag[inv[on_omega]] = tags[offsets[sring[dseg[on_omega]]] + sseg[dseg[on_omega]]]
     _check_crossings(V, E, edge_source)
 
     # 4. the faces: the half-edge walk, and the cycles' nesting
