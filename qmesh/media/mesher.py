@@ -7,12 +7,15 @@ guarantees on its boundary (GEOMETRY.md §1). So each face of the partition (par
 meshed on its own by Algorithm 2.1 (qmesh.mesher.loop), on shared interface points:
 
     cut every interface edge into pieces ≤ h in the metric of both sides (sizing.py)
-    repeat                                             (at most `max_rounds`)
-        mesh every face whose interface points changed, its interface points fixed
-        gather the points each face mesh added on an interface; give them to both sides
-    until no face mesh adds an interface point
+    for each face in turn
+        mesh it, every interface point known so far fixed
+        insert the points it added on an interface into the finished neighbours:
+            split their boundary edge there, flip back to Q-Delaunay (insert_shared.py)
     stitch the face meshes into one Mesh with region_tags (stitch.py)
 
+Re-meshing a neighbour instead (the first version) made two faces meeting at a small metric
+angle hand each other ever closer split points (a cascade of concentric shells that never
+lined up); inserting adds no point, so the pass ends, and keeps q_ij ≥ 0 (insert_shared.py).
 Input points stay fixed, points the face meshers add on the outline or a hole slide as usual,
 interface points are fixed once shared (junctions are input points). Each triangle is meshed,
 adjusted and measured in its own region's metric.
@@ -33,13 +36,13 @@ from qmesh import measure
 from qmesh.errors import QmeshError
 from qmesh.media import faces as _faces
 from qmesh.media import sizing as _sizing
+from qmesh.media.insert_shared import insert_on_boundary
 from qmesh.media.partition import Ring, partition
 from qmesh.media.stitch import stitch
 from qmesh.mesh import Mesh
 from qmesh.mesher import sizing as _msizing
 from qmesh.mesher.step import Stats, Step
 
-MAX_ROUNDS = 8
 CORRECTIONS = 3      # reruns of mesh() that correct N towards target_vertices
 _PASSED = ("alpha", "quality_threshold", "max_iterations", "seed", "boundary_refinement")
 
@@ -85,14 +88,14 @@ def conductivities(domain, conductivity, part) -> dict:
 
 
 def iterate(domain, conductivity, *, target_vertices: int | None = None, size: float | None = None,
-            max_rounds: int = MAX_ROUNDS, min_area: float | None = None,
-            **options) -> Iterator[Step]:
-    """Mesh a domain with regions, yielding a `Step` after each round (the stitched mesh so far).
+            min_area: float | None = None, **options) -> Iterator[Step]:
+    """Mesh a domain with regions, yielding a `Step` after each face (the stitched, conforming
+    mesh of the faces done so far; the last one is the whole domain, `converged`).
 
     `conductivity`: one Anisotropy, or {region tag: Anisotropy} covering every region;
     `target_vertices` N of the stitched mesh (shared between faces by metric area), or `size`
     the metric edge length h in each region's metric with its size divided out (sizing.py);
-    `max_rounds` bounds the interface exchange; the other options (alpha, quality_threshold,
+    the other options (alpha, quality_threshold,
     max_iterations, seed, boundary_refinement) go to each face's mesher.
     """
     from qmesh.mesher.options import check_options
@@ -102,17 +105,15 @@ def iterate(domain, conductivity, *, target_vertices: int | None = None, size: f
     unknown = set(options) - set(_PASSED)
     if unknown:
         raise QmeshError(f"unknown option {sorted(unknown)[0]!r} for a domain with regions "
-                         f"(allowed: target_vertices, size, max_rounds, {', '.join(_PASSED)})")
+                         f"(allowed: target_vertices, size, {', '.join(_PASSED)})")
     domain = as_domain(domain)
     check_options(target_vertices, size, options.get("alpha", 0.5),
                   options.get("quality_threshold", 0.5), None, options.get("max_iterations", 40),
                   options.get("seed", 0), options.get("boundary_refinement", True))
-    if isinstance(max_rounds, bool) or not isinstance(max_rounds, (int, np.integer)) or max_rounds < 1:
-        raise QmeshError(f"max_rounds must be a positive integer, got {max_rounds!r}")
     part = partition_of(domain)
     cond = conductivities(domain, conductivity, part)
     plan = _Plan(domain, part, cond, target_vertices, size)
-    return _rounds(plan, int(max_rounds), options)
+    return _faces_in_turn(plan, options)
 
 
 class _Plan:
@@ -175,48 +176,64 @@ def _mesh_face(plan, i, extra, options):
     return m, len(dom.seeds)
 
 
-def _rounds(plan, max_rounds, options) -> Iterator[Step]:
+def _faces_in_turn(plan, options) -> Iterator[Step]:
+    """Mesh the faces one after another, each with every interface point known so far fixed;
+    the points a face adds on an interface go into the finished neighbours at once
+    (insert_shared.py), so every Step's mesh is conforming and the pass ends."""
     part, n_faces = plan.part, len(plan.faces)
     extra = dict(plan.extra)                 # interface points shared so far, per edge
     meshes = [None] * n_faces
-    has = [dict() for _ in range(n_faces)]   # per face: edge → the points its mesh has there
     face_edges = [np.unique(np.concatenate([part.cycle(c) for c in f.cycles]) >> 1)
                   for f in plan.faces]
-    todo = set(range(n_faces))
-    for rnd in range(1, max_rounds + 1):
+    order = sorted(range(n_faces), key=lambda i: -plan.faces[i].region)   # regions first
+    done = []
+    for step, i in enumerate(order, start=1):
         t0 = time.perf_counter()
-        added = 0
-        for i in sorted(todo):
-            # faces are meshed one after another: a face sees what the earlier ones added
-            meshes[i], n_seeds = _mesh_face(plan, i, extra, options)
-            new = _faces.points_on_edges(meshes[i], part, n_seeds)
-            has[i] = {e: extra.get(e) for e in face_edges[i]}
-            for e, X in new.items():
-                if part.interface[e]:
-                    extra[e] = _faces.merge_points(part, e, extra.get(e), X)
-                    has[i][e] = extra[e]
-                    added += len(X)
-        todo = {i for i in range(n_faces) for e in face_edges[i]
-                if part.interface[e] and not _same(has[i].get(e), extra.get(e))}
-        m = stitch(part, meshes, [f.region for f in plan.faces], plan.domain)
-        done = not todo
+        meshes[i], n_seeds = _mesh_face(plan, i, extra, options)
+        new = {e: X for e, X in _faces.points_on_edges(meshes[i], part, n_seeds).items()
+               if part.interface[e]}
+        for e, X in new.items():
+            extra[e] = _faces.merge_points(part, e, extra.get(e), X)
+        added = sum(len(X) for X in new.values())
+        done.append(i)
+        _share(plan, meshes, done, face_edges, new, extra)
+        m = stitch(part, [meshes[k] for k in done], [plan.faces[k].region for k in done],
+                   plan.domain)
         seconds = time.perf_counter() - t0
-        cond = {f.region: a for f, a in zip(plan.faces, plan.anis)}
+        cond = {plan.faces[k].region: plan.anis[k] for k in done}
         q = measure.quality(m, cond)
-        yield Step("triangulate", rnd, m,
+        yield Step("triangulate", step, m,
                    Stats(m.n_vertices, m.n_triangles, measure.energy(m, cond), float(q.min()),
-                         float(q.mean()), added=added, seconds=seconds), converged=done)
-        if done:
+                         float(q.mean()), added=added, seconds=seconds),
+                   converged=step == n_faces)
+
+
+MAX_HANDOVERS = 1000
+
+
+def _share(plan, meshes, done, face_edges, new, extra) -> None:
+    """Hand the interface points `new` {edge: points} to the finished faces beside them; the
+    points those must add in turn (a shell split on an interface) are handed on likewise."""
+    part = plan.part
+    queue = [new]
+    for _ in range(MAX_HANDOVERS):
+        if not queue:
             return
-    raise QmeshError(f"the region meshes did not agree on their interfaces after {max_rounds} "
-                     "rounds (each round added interface points the neighbours then needed); "
-                     "raise max_rounds or ask for more vertices")
-
-
-def _same(a, b) -> bool:
-    if a is None or b is None:
-        return (a is None or len(a) == 0) and (b is None or len(b) == 0)
-    return a.shape == b.shape and bool(np.array_equal(a, b))
+        pts = queue.pop()
+        for j in done:
+            give = {e: X for e, X in pts.items() if e in set(face_edges[j].tolist())}
+            if not give:
+                continue
+            try:
+                meshes[j], more = insert_on_boundary(meshes[j], plan.anis[j], give, part.interface)
+            except ValueError as err:
+                raise QmeshError(f"{plan.face_name(j)}: {err}") from None
+            for e, X in more.items():
+                extra[e] = _faces.merge_points(part, e, extra.get(e), X)
+            if more:
+                queue.append(more)
+    raise QmeshError("the faces kept handing each other interface points (more than "
+                     f"{MAX_HANDOVERS} hand-overs); ask for more vertices")
 
 
 def mesh(domain, conductivity, *, target_vertices: int | None = None, progress=None,
