@@ -10,6 +10,7 @@ boundary edges say which partition edge they lie on.
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from qmesh.errors import QmeshError
 
@@ -47,7 +48,16 @@ def points_on_edges(mesh, part, n_seeds: int) -> dict:
         new = v >= n_seeds
         for e in np.unique(tags[new]):
             out.setdefault(int(e), []).append(v[new][tags[new] == e])
-    return {e: mesh.points[np.unique(np.concatenate(v))] for e, v in out.items()}
+    # a corner of the partition is never a point "on" an edge (round-off copies included)
+    tree = cKDTree(part.points)
+    tol = 1e-12 * float(np.ptp(part.points, axis=0).max())
+    res = {}
+    for e, v in out.items():
+        X = mesh.points[np.unique(np.concatenate(v))]
+        far = np.array([not tree.query_ball_point(x, tol) for x in X], bool)
+        if far.any():
+            res[e] = X[far]
+    return res
 
 
 def merge_points(part, e: int, old: np.ndarray | None, new: np.ndarray) -> np.ndarray:

@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from scipy.spatial import cKDTree
+
 from qmesh.geometry import topology
 from qmesh.mesh import Mesh
 from qmesh.mesher.triangulate import restore
@@ -22,18 +24,21 @@ from qmesh.mesher.triangulate import restore
 MAX_SPLITS = 200     # shell splits of encroached boundary edges after one insertion
 
 
-def insert_on_boundary(mesh: Mesh, anisotropy, points: dict, shared: np.ndarray):
+def insert_on_boundary(mesh: Mesh, anisotropy, points: dict, part):
     """`mesh` with `points` {partition edge: (k, 2)} inserted on its boundary edges of that
     edge (boundary tag = partition edge + 1; points it already has are skipped), and the points
-    it then had to add on interface edges (`shared[e]` true), {edge: (k, 2)}, for the neighbours.
+    it then had to add on interface edges of the partition `part`, {edge: (k, 2)}, for the
+    neighbours.
 
     A point put next to a corner may encroach the boundary edge on the corner's other side
-    (a small angle in this face's metric); that edge is split where the encroaching vertex's
-    metric distance from the corner puts it, a concentric shell (Ruppert 1995), so both pieces
-    at the corner are alike and neither is encroached.
+    (a small angle in this face's metric); that edge is split at the encroaching vertex's metric
+    distance from the corner (the end of its partition edge nearer the vertex): a concentric
+    shell (Ruppert 1995), so the two pieces at the corner are alike and neither is encroached.
     """
-    have = {tuple(x) for x in mesh.points}
-    todo = [(int(e), x) for e, X in points.items() for x in np.asarray(X) if tuple(x) not in have]
+    tol = 1e-12 * float(np.ptp(mesh.points, axis=0).max())
+    tree = cKDTree(mesh.points)
+    todo = [(int(e), x) for e, X in points.items() for x in np.asarray(X)
+            if not tree.query_ball_point(x, tol)]
     if not todo:
         return mesh, {}
     st = _State(mesh)
@@ -42,13 +47,13 @@ def insert_on_boundary(mesh: Mesh, anisotropy, points: dict, shared: np.ndarray)
     st.restore(anisotropy)
     added = {}
     for _ in range(MAX_SPLITS):
-        splits = st.encroached(anisotropy)
+        splits = st.encroached(anisotropy, part)
         if not splits:
             break
         st.split(splits)
         st.restore(anisotropy)
         for e, x in splits:
-            if shared[e]:
+            if part.interface[e]:
                 added.setdefault(e, []).append(x)
     else:
         raise ValueError("boundary edges stay encroached after "
@@ -77,7 +82,10 @@ class _State:
         hb, t, u, v, _ = self.boundary()
         hb_tag = np.array([self.tag[(int(a), int(b))] for a, b in zip(u, v)])
         chosen, rest, used = [], [], set()
+        scale = float(np.ptp(self.P, axis=0).max())
         for e, x in todo:
+            if np.min(np.hypot(*(self.P - x).T)) <= 1e-12 * scale:
+                continue                      # already a vertex (given twice, or a corner)
             on = np.flatnonzero(hb_tag == e + 1)
             a, b = self.P[u[on]], self.P[v[on]]
             ab = b - a
@@ -104,28 +112,34 @@ class _State:
     def restore(self, anisotropy):
         self.T, self.twin, _ = restore(self.P, self.T, self.twin, anisotropy)   # own metric
 
-    def encroached(self, anisotropy, tol=1e-12):
+    def encroached(self, anisotropy, part, tol=1e-12):
         """(edge, split point) for every boundary edge whose apex sees it at more than 90° in
-        the metric (q_ij < 0): the point at the apex's metric distance from the nearer end."""
+        the metric (q_ij < 0): on the partition edge, at the apex's metric distance from the
+        edge's end nearer the apex when that falls inside the piece, else its midpoint."""
         _, t, u, v, w = self.boundary()
         a, b, c = self.P[u], self.P[v], self.P[w]
         H = (np.broadcast_to(anisotropy.H, (len(t), 2, 2)) if anisotropy.is_constant else
              np.asarray(anisotropy.hessian((a + b + c) / 3), dtype=float))
-        ca, cb, ab = a - c, b - c, b - a
+        ca, cb = a - c, b - c
 
-        def norm(x):
-            return np.sqrt(np.einsum("ni,nij,nj->n", x, H, x))
+        def norm(x, Hx):
+            return float(np.sqrt(x @ Hx @ x))
         dot = np.einsum("ni,nij,nj->n", ca, H, cb)
-        bad = np.flatnonzero(dot < -tol * norm(ca) * norm(cb))
+        lens = np.sqrt(np.einsum("ni,nij,nj->n", ca, H, ca) * np.einsum("ni,nij,nj->n", cb, H, cb))
         out = []
-        for i in bad:
-            L = norm(ab[i:i + 1])[0]
-            ra, rb = norm(ca[i:i + 1])[0], norm(cb[i:i + 1])[0]
-            if ra <= rb:                       # the apex is nearer a: shell around a
-                x = a[i] + min(ra / L, 0.5) * ab[i]
-            else:
-                x = b[i] - min(rb / L, 0.5) * ab[i]
-            out.append((self.tag[(int(u[i]), int(v[i]))] - 1, x))
+        for i in np.flatnonzero(dot < -tol * lens):
+            e = self.tag[(int(u[i]), int(v[i]))] - 1
+            p0, p1 = part.points[part.edges[e]]
+            d0, d1 = norm(c[i] - p0, H[i]), norm(c[i] - p1, H[i])
+            corner, far, r = (p0, p1, d0) if d0 <= d1 else (p1, p0, d1)
+            L = norm(far - corner, H[i])
+            x = corner + (r / L) * (far - corner)
+            ta = norm(a[i] - corner, H[i]) / L
+            tb = norm(b[i] - corner, H[i]) / L
+            lo, hi = min(ta, tb), max(ta, tb)
+            if not lo + 1e-9 < r / L < hi - 1e-9:
+                x = 0.5 * (a[i] + b[i])
+            out.append((e, x))
         return out
 
     def mesh(self, old: Mesh) -> Mesh:

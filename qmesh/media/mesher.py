@@ -167,10 +167,15 @@ def _mesh_face(plan, i, extra, options):
     dom = _faces.face_domain(plan.part, plan.faces[i], extra, plan.face_name(i))
     with warnings.catch_warnings(record=True) as said:
         warnings.simplefilter("always")
-        try:
-            m = mesh_one(dom, plan.anis[i], size=plan.size_of(i), **options)
-        except QmeshError as e:
-            raise QmeshError(f"{plan.face_name(i)}: {e}") from None
+        # a face thinner (or sharper) in its metric than the shared size needs a finer one:
+        # its own mesher says "too large"; halve the size for this face, a few times
+        for k in range(FINER + 1):
+            try:
+                m = mesh_one(dom, plan.anis[i], size=plan.size_of(i) / 2**k, **options)
+                break
+            except QmeshError as e:
+                if k == FINER or "too large" not in str(e):
+                    raise QmeshError(f"{plan.face_name(i)}: {e}") from None
     for w in said:       # a face's own warning (a thin face, say) names the region it is in
         warnings.warn(f"{plan.face_name(i)}: {w.message}", w.category, stacklevel=4)
     return m, len(dom.seeds)
@@ -209,6 +214,7 @@ def _faces_in_turn(plan, options) -> Iterator[Step]:
 
 
 MAX_HANDOVERS = 1000
+FINER = 4              # halvings of the size a face that is too thin for it may take
 
 
 def _share(plan, meshes, done, face_edges, new, extra) -> None:
@@ -225,7 +231,7 @@ def _share(plan, meshes, done, face_edges, new, extra) -> None:
             if not give:
                 continue
             try:
-                meshes[j], more = insert_on_boundary(meshes[j], plan.anis[j], give, part.interface)
+                meshes[j], more = insert_on_boundary(meshes[j], plan.anis[j], give, part)
             except ValueError as err:
                 raise QmeshError(f"{plan.face_name(j)}: {err}") from None
             for e, X in more.items():

@@ -9,7 +9,11 @@ from qmesh import measure
 from qmesh.geometry import rings
 
 
-def rectangle(w):
+def rectangle(w, notched=False):
+    """The w × 1 box; `notched`: with a V-notch down to y = 0.85 in the top side (non-convex)."""
+    if notched:
+        return np.array([(0.0, 0.0), (w, 0.0), (w, 1.0), (0.55 * w, 1.0), (0.5 * w, 0.85),
+                         (0.45 * w, 1.0), (0.0, 1.0)])
     return np.array([(0.0, 0.0), (w, 0.0), (w, 1.0), (0.0, 1.0)])
 
 
@@ -22,7 +26,7 @@ def star(center, radius, n, rng):
 
 @st.composite
 def media(draw):
-    """(domain, {tag: Anisotropy}): a w × 1 rectangle cut by a straight (oblique) cut, a band,
+    """(domain, {tag: Anisotropy}): a w × 1 rectangle (convex, or notched) cut by a straight (oblique) cut, a band,
     a polygonal inclusion inside or touching the outline, or several of them."""
     w = draw(st.floats(0.8, 2.0))
     rng = np.random.default_rng(draw(st.integers(0, 2**31)))
@@ -42,11 +46,12 @@ def media(draw):
         xb = xr + (xr1 - xr) * yb if regions else w
         regions.append([(0.0, ya), (xa, ya), (xb, yb), (0.0, yb)])
     if "inclusion" in kinds:      # strictly inside, left of everything else
-        regions.append(star((0.22 * w, 0.2 if "band" in kinds else 0.5), 0.12, int(rng.integers(3, 7)), rng))
+        # left of the notch (x ≤ 0.3w) and below the band (y ≤ 0.25) when there is one
+        regions.append(star((0.2 * w, 0.17 if "band" in kinds else 0.5), 0.08, int(rng.integers(3, 7)), rng))
     if "notch" in kinds:          # a triangle on the bottom side
         a = rng.uniform(0.3, 0.4) * w
         regions.append([(a, 0.0), (a + 0.1 * w, 0.0), (a + 0.05 * w, rng.uniform(0.1, 0.2))])
-    domain = qmesh.Domain(rectangle(w), regions=regions)
+    domain = qmesh.Domain(rectangle(w, draw(st.booleans())), regions=regions)
     cond = {}
     for k in range(len(regions) + 1):
         ratio = 10 ** draw(st.floats(0, 3))
