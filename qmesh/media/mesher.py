@@ -88,7 +88,7 @@ def conductivities(domain, conductivity, part) -> dict:
 
 
 def iterate(domain, conductivity, *, target_vertices: int | None = None, size: float | None = None,
-            min_area: float | None = None, **options) -> Iterator[Step]:
+            min_area: float | None = None, _every: bool = True, **options) -> Iterator[Step]:
     """Mesh a domain with regions, yielding a `Step` after each face (the stitched, conforming
     mesh of the faces done so far; the last one is the whole domain, `converged`).
 
@@ -113,7 +113,7 @@ def iterate(domain, conductivity, *, target_vertices: int | None = None, size: f
     part = partition_of(domain)
     cond = conductivities(domain, conductivity, part)
     plan = _Plan(domain, part, cond, target_vertices, size)
-    return _faces_in_turn(plan, options)
+    return _faces_in_turn(plan, options, _every)
 
 
 class _Plan:
@@ -181,7 +181,7 @@ def _mesh_face(plan, i, extra, options):
     return m, len(dom.seeds)
 
 
-def _faces_in_turn(plan, options) -> Iterator[Step]:
+def _faces_in_turn(plan, options, every: bool = True) -> Iterator[Step]:
     """Mesh the faces one after another, each with every interface point known so far fixed;
     the points a face adds on an interface go into the finished neighbours at once
     (insert_shared.py), so every Step's mesh is conforming and the pass ends."""
@@ -202,6 +202,8 @@ def _faces_in_turn(plan, options) -> Iterator[Step]:
         added = sum(len(X) for X in new.values())
         done.append(i)
         _share(plan, meshes, done, face_edges, new, extra)
+        if not every and step < n_faces:     # mesh() without progress: the last Step only
+            continue
         m = stitch(part, [meshes[k] for k in done], [plan.faces[k].region for k in done],
                    plan.domain)
         seconds = time.perf_counter() - t0
@@ -249,7 +251,9 @@ def mesh(domain, conductivity, *, target_vertices: int | None = None, progress=N
     ratio missed; the closest mesh is kept, and a QmeshWarning says when it is still > 10% off."""
     if progress is not None and not callable(progress):
         raise QmeshError(f"progress must be a function of one Step, got {type(progress).__name__}")
-    m = _last(iterate(domain, conductivity, target_vertices=target_vertices, **options), progress)
+    every = progress is not None
+    m = _last(iterate(domain, conductivity, target_vertices=target_vertices, _every=every,
+                      **options), progress)
     if target_vertices is None:
         return m
     ask = target_vertices
@@ -258,7 +262,8 @@ def mesh(domain, conductivity, *, target_vertices: int | None = None, progress=N
             break
         ask = int(round(ask * target_vertices / m.n_vertices))
         try:
-            again = _last(iterate(domain, conductivity, target_vertices=ask, **options), progress)
+            again = _last(iterate(domain, conductivity, target_vertices=ask, _every=every,
+                                  **options), progress)
         except QmeshError:
             break
         if abs(again.n_vertices - target_vertices) < abs(m.n_vertices - target_vertices):
