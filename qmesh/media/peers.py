@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from qmesh.compare import require
+from qmesh.compare.metric_peers import hole_points
 from qmesh.compare.peers import MMG_PASSES, PeerMesh, calibrate
 from qmesh.errors import QmeshError
 from qmesh.geometry import rings as _rings
@@ -44,11 +45,7 @@ def _pslg(domain):
     part = partition_of(domain)
     pslg = {"vertices": np.array(part.points, dtype=float),
             "segments": np.array(part.edges, dtype=np.int32)}
-    holes = []
-    for R in domain.rings[1:]:
-        from qmesh.compare.metric_peers import hole_points
-        holes = hole_points(domain)
-        break
+    holes = hole_points(domain) if len(domain.rings) > 1 else []
     if len(holes):
         pslg["holes"] = np.asarray(holes, dtype=float)
     return part, pslg
