@@ -33,6 +33,7 @@ from qmesh.io.conductivity import PREFIX as RECORD_PREFIX, record_of
 from qmesh.meshing import iterate
 from qmesh.meshing import mesh as run_mesher
 from qmesh.domain.polygon_file import read_domain
+from qmesh.media.region_file import conductivity_per_region, read_regions
 from qmesh.sweep.cli import add_parser as add_sweep_parser
 
 _MESHER_DEFAULTS = {k: v.default for k, v in inspect.signature(iterate).parameters.items()}
@@ -76,7 +77,6 @@ def cmd_mesh(args) -> int:
     anisotropy = anisotropy_from(args)
     domain = read_domain(args.polygon) if args.polygon else Disk(args.disk)
     if args.regions or args.region_Q or args.region_principal:      # a conductivity per region
-        from qmesh.media.region_file import conductivity_per_region, read_regions
         domain, from_file = read_regions(args.regions) if args.regions else (domain, {})
         anisotropy = conductivity_per_region(domain, from_file, args.region_Q, args.region_principal, anisotropy)
     show = not args.quiet and (args.progress or sys.stderr.isatty())
@@ -98,7 +98,7 @@ def cmd_mesh(args) -> int:
                           progress=on_step)
     seconds = time.perf_counter() - start
     last = steps[-1]
-    io.write(out, mesh, anisotropy=None if isinstance(anisotropy, dict) else anisotropy)
+    io.write(out, mesh, anisotropy=anisotropy)      # one Q, or one per region
 
     q = measure.quality(mesh, anisotropy)
     # with no interior vertex there is no Dirichlet matrix whose signs q_ij would matter: n/a
@@ -147,16 +147,15 @@ def conductivity_for_report(args) -> tuple[Anisotropy, str]:
     given = any(getattr(args, name, None) is not None for name in ("Q", "principal", "s"))
     if given:
         return anisotropy_from(args), "command line"
-    stored = io.read_anisotropy(args.meshfile)
-    if isinstance(stored, dict):
-        raise QmeshError(f"{args.meshfile} stores a conductivity per region; qmesh report measures with one "
-                         "Q: give it with --Q, --principal or --s")
+    stored = io.read_anisotropy(args.meshfile)      # one Anisotropy, or {region tag: Anisotropy}
     if stored is not None:
         return stored, "file"
     return Anisotropy.constant(CHAPTER_Q), "default"
 
 
-def _conductivity_text(anisotropy: Anisotropy) -> str:
+def _conductivity_text(anisotropy) -> str:
+    if isinstance(anisotropy, dict):           # a conductivity per region
+        return "; ".join(f"region {tag}: {_conductivity_text(a)}" for tag, a in sorted(anisotropy.items()))
     record = record_of(anisotropy)
     return record[len(RECORD_PREFIX):] if record else anisotropy.label
 

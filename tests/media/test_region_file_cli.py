@@ -67,3 +67,19 @@ def test_cli_meshes_regions_with_a_conductivity_per_region(tmp_path, capsys):
     code = main(["mesh", "--regions", str(path), "--region-Q", "3", "1", "0", "1", "-o", str(out)])
     _, err = capsys.readouterr()
     assert code == 2 and "region tags are 0 to 2" in err
+
+
+def test_the_mesh_file_keeps_each_regions_conductivity_and_report_measures_with_them(tmp_path, capsys):
+    path = tmp_path / "m.geojson"
+    path.write_text(collection(feature(0, SQUARE, principal=[1, 100, 30]), feature("fault", RIGHT, Q=[5, 0, 0.05])))
+    out = tmp_path / "m.vtu"
+    assert main(["mesh", "--regions", str(path), "--target-vertices", "300", "-o", str(out), "--quiet"]) == 0
+    capsys.readouterr()
+    stored = qmesh.io.read_anisotropy(out)
+    assert sorted(stored) == [0, 1]
+    np.testing.assert_allclose(stored[1].H, qmesh.Anisotropy.constant([[5, 0], [0, 0.05]]).H)
+    assert main(["report", str(out), "--json"]) == 0
+    rep = json.loads(capsys.readouterr().out)
+    assert rep["conductivity_source"] == "file" and "region 1: Q = [[5" in rep["conductivity"]
+    assert rep["q_nonnegative_fraction_interface"] == 1.0
+    assert (qmesh.io.read(out).region_tags == 1).any()
