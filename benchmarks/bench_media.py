@@ -6,7 +6,7 @@ barrier), a layered box and an inclusion. For each target N:
 - MMG2D (mmgpy) from the constrained triangulation of every region edge, triangle references =
   regions (so MMG keeps the interfaces), the per-vertex metric ∇²s_r / k_r of the vertex's
   region, the mean of its regions' for a vertex on an interface, scaled to N
-  (`qmesh.media.peers.mmg2d`);
+  (`qmesh.compare.media_peers.mmg2d`);
 - Triangle, isotropic, regions as segments (`pq30a`, area calibrated to N).
 Columns: N; share of q_ij ≥ 0 on interior / interface / boundary edges (each triangle's own Q);
 the discrete maximum principle on −div(Q∇u) = 0, u = g on ∂Ω (g the case's data): vertices
@@ -32,7 +32,7 @@ import scipy.sparse.linalg as spla
 import qmesh
 from qmesh import measure
 from qmesh.media import cases as media_cases
-from qmesh.media import peers
+from qmesh.compare import media_peers as peers
 
 SHORT = {"fvca4": media_cases.fvca4, "fvca6": media_cases.fvca6, "fvca7": media_cases.fvca7,
          "layered": media_cases.layered, "inclusion": media_cases.inclusion}
