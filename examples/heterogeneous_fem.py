@@ -19,7 +19,8 @@ import skfem
 from skfem import BilinearForm, ElementTriP1
 
 import qmesh
-from qmesh.media import cases, peers
+from qmesh.compare import media_peers as peers
+from qmesh.media import cases
 
 
 @BilinearForm
