@@ -197,3 +197,16 @@ def mesh(value, name: str = "mesh"):
     if not _is(value, "qmesh.mesh.Mesh"):
         raise QmeshError(f"{name} must be a qmesh.Mesh, got {describe(value)}")
     return value
+
+
+def tag_names(value: dict, name: str, tags: range | None = None) -> dict[int, str]:
+    """A mapping integer tag → name (boundary tags, regions), or QmeshError naming the entry;
+    with `tags`, every key must be one of them."""
+    out = {}
+    for k, v in value.items():
+        if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not isinstance(v, str):
+            raise QmeshError(f"{name} must map integer tags to strings, got {k!r}: {v!r}")
+        if tags is not None and int(k) not in tags:
+            raise QmeshError(f"{name} names region {k}; the tags are {tags.start} to {tags.stop - 1}")
+        out[int(k)] = v
+    return out

@@ -274,12 +274,7 @@ def _tag_names(names, ring_tags) -> dict[int, str]:
     if names is None:
         return {}
     if isinstance(names, dict):
-        out = {}
-        for k, v in names.items():
-            if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not isinstance(v, str):
-                raise QmeshError(f"names must map integer tags to strings, got {k!r}: {v!r}")
-            out[int(k)] = v
-        return out
+        return checks.tag_names(names, "names")
     if isinstance(names, str):
         raise QmeshError("names must be a dict tag → name or one name per ring, got a string")
     names = list(names)

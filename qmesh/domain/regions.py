@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from qmesh import checks
 from qmesh.errors import QmeshError
 from qmesh.domain.partition import Ring, partition
 
@@ -29,14 +30,7 @@ def _names(region_names, n: int) -> dict[int, str]:
     if region_names is None:
         return {}
     if isinstance(region_names, dict):
-        out = {}
-        for k, v in region_names.items():
-            if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not isinstance(v, str):
-                raise QmeshError(f"region_names must map integer tags to strings, got {k!r}: {v!r}")
-            if not 0 <= int(k) <= n:
-                raise QmeshError(f"region_names names region {k}; the tags are 0 to {n}")
-            out[int(k)] = v
-        return out
+        return checks.tag_names(region_names, "region_names", range(n + 1))
     if isinstance(region_names, str):
         raise QmeshError("region_names must be a dict tag → name or one name per region, got a string")
     names = list(region_names)
