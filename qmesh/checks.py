@@ -210,3 +210,13 @@ def tag_names(value: dict, name: str, tags: range | None = None) -> dict[int, st
             raise QmeshError(f"{name} names region {k}; the tags are {tags.start} to {tags.stop - 1}")
         out[int(k)] = v
     return out
+
+
+def polygon_list(value, name: str) -> list:
+    """`value` as a list of polygons (holes, regions): a sequence, not an array or a string."""
+    if value is None or isinstance(value, (str, bytes, np.ndarray)):
+        raise QmeshError(f"{name} must be a list of polygons, got {type(value).__name__}")
+    try:
+        return list(value)
+    except TypeError:
+        raise QmeshError(f"{name} must be a list of polygons, got {type(value).__name__}") from None

@@ -103,13 +103,7 @@ class Domain:
     """
 
     def __init__(self, outer, holes=(), tags=None, names=None, regions=(), region_names=None):
-        if isinstance(holes, np.ndarray) or holes is None:
-            raise QmeshError("holes must be a sequence of polygons (a list), "
-                             f"got {type(holes).__name__}")
-        try:
-            holes = list(holes)
-        except TypeError:
-            raise QmeshError(f"holes must be a sequence of polygons, got {type(holes).__name__}") from None
+        holes = checks.polygon_list(holes, "holes")
         raw = [_as_points(outer, "the outline")]
         raw += [_as_points(h, _ring_name(k + 1)) for k, h in enumerate(holes)]
         for k, P in enumerate(raw):

@@ -44,13 +44,7 @@ def _names(region_names, n: int) -> dict[int, str]:
 def attach(domain, regions, region_names, ring_tags, Domain) -> None:
     """Check `regions` against `domain` and store them, their names and the partition on it
     (`Domain` the class regions are made of: domain.py passes it, as it imports this module)."""
-    if isinstance(regions, (str, bytes, np.ndarray)):
-        raise QmeshError("regions must be a list of polygons (one entry per region), "
-                         f"got {type(regions).__name__}")
-    try:
-        regions = list(regions)
-    except TypeError:
-        raise QmeshError(f"regions must be a list of polygons, got {type(regions).__name__}") from None
+    regions = checks.polygon_list(regions, "regions")
     if len(regions) > MAX_REGIONS:
         raise QmeshError(f"{len(regions)} regions; the limit is {MAX_REGIONS}")
     regs = tuple(as_region(r, k + 1, Domain) for k, r in enumerate(regions))

@@ -63,7 +63,7 @@ def test_polygons_and_disks_are_accepted_as_rings():
     ([[0, 0], [2, 0], [1, 0], [1, 1]], [], r"intersects itself"),                      # a spike
     (SQUARE, [[[0, 0], [0.1, 0]]], r"hole 1 needs at least 3 points"),
     ("square", [], r"the outline must be an \(n, 2\) array"),
-    (SQUARE, np.zeros((3, 2)), r"holes must be a sequence"),
+    (SQUARE, np.zeros((3, 2)), r"holes must be a list of polygons"),
 ])
 def test_bad_geometry_names_the_ring_and_segment(outer, holes, message):
     with pytest.raises(QmeshError, match=message):
