@@ -17,9 +17,10 @@ from qmesh.mesher.step import Stats, Step
 from qmesh import io, measure  # io imports meshio only when a file is read or written
 from qmesh.domain import named as domains
 from qmesh.mesher import diagnose
+from qmesh import media   # heterogeneous media: a conductivity per region
 
 __all__ = ["Anisotropy", "Disk", "Domain", "Polygon", "domains", "Mesh", "Step", "Stats", "QmeshError",
-           "QmeshWarning", "iterate", "mesh", "io", "measure", "diagnose"]
+           "QmeshWarning", "iterate", "mesh", "io", "measure", "diagnose", "media"]
 __version__ = "0.1.0"
 
 CHAPTER_Q = ((0.1, 0.0), (0.0, 10.0))

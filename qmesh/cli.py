@@ -75,6 +75,10 @@ def cmd_mesh(args) -> int:
     out = io.check_writable(args.output)
     anisotropy = anisotropy_from(args)
     domain = read_domain(args.polygon) if args.polygon else Disk(args.disk)
+    if args.regions or args.region_Q or args.region_principal:      # a conductivity per region
+        from qmesh.media.region_file import conductivity_per_region, read_regions
+        domain, from_file = read_regions(args.regions) if args.regions else (domain, {})
+        anisotropy = conductivity_per_region(domain, from_file, args.region_Q, args.region_principal, anisotropy)
     show = not args.quiet and (args.progress or sys.stderr.isatty())
 
     start = time.perf_counter()
@@ -94,7 +98,7 @@ def cmd_mesh(args) -> int:
                           progress=on_step)
     seconds = time.perf_counter() - start
     last = steps[-1]
-    io.write(out, mesh, anisotropy=anisotropy)
+    io.write(out, mesh, anisotropy=None if isinstance(anisotropy, dict) else anisotropy)
 
     q = measure.quality(mesh, anisotropy)
     # with no interior vertex there is no Dirichlet matrix whose signs q_ij would matter: n/a
@@ -111,6 +115,8 @@ def cmd_mesh(args) -> int:
         "q_nonnegative_fraction_boundary": measure.q_nonnegative_fraction_boundary(mesh, anisotropy),
         "seconds": seconds,
     }
+    if isinstance(anisotropy, dict):
+        summary["q_nonnegative_fraction_interface"] = measure.q_nonnegative_fraction_interface(mesh, anisotropy)
     if args.json:
         print(json.dumps(summary))
     else:
@@ -118,8 +124,10 @@ def cmd_mesh(args) -> int:
               f"iterations={summary['iterations']} quality min={summary['min_quality']:.3f} "
               f"mean={summary['mean_quality']:.3f} "
               f"q_ij>=0: interior {_percent(summary['q_nonnegative_fraction'])} "
-              f"boundary {_percent(summary['q_nonnegative_fraction_boundary'])} time={seconds:.2f}s")
-    warning = None if args.quiet else thin_domain(mesh, anisotropy)
+              f"boundary {_percent(summary['q_nonnegative_fraction_boundary'])}"
+              + (f" interface {_percent(summary['q_nonnegative_fraction_interface'])}"
+                 if "q_nonnegative_fraction_interface" in summary else "") + f" time={seconds:.2f}s")
+    warning = None if args.quiet or isinstance(anisotropy, dict) else thin_domain(mesh, anisotropy)
     if warning is not None:
         print(f"qmesh: warning: {warning}", file=sys.stderr)
     return 0
@@ -217,6 +225,11 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--polygon", metavar="FILE", help="a domain file: CSV of x,y rows (a blank line between "
                    "rings: the outline first, then holes) or GeoJSON (.geojson/.json: a Polygon, or a Feature "
                    "holding one)")
+    g.add_argument("--regions", metavar="FILE", help="a region file: a GeoJSON FeatureCollection whose features "
+                   "carry 'region' (0: the domain, else the region's name) and optionally 'Q', 'principal' or 's'")
+    for flag, meta in (("--region-Q", ("TAG", "Q11", "Q12", "Q22")), ("--region-principal", ("TAG", "K1", "K2", "ANGLE"))):
+        p.add_argument(flag, nargs=4, type=float, action="append", metavar=meta, help="the conductivity of region TAG "
+                       "(repeatable; regions given none use --Q/--principal/--s)")
     g = p.add_mutually_exclusive_group()
     g.add_argument("--target-vertices", type=int, metavar="N", help="aim for N vertices: the mesh ends on N, or near it where keeping q_ij >= 0 "
                    "on the boundary needs more vertices (a few percent; more for small N)")

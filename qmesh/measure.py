@@ -8,9 +8,16 @@ the spectral condition number κ2 of the Dirichlet-reduced matrix, the interpola
 E = ‖s_h − s‖_L1 (2.77) that the vertex step (2.90)–(2.93) minimises.
 
 Every sum over triangles is vectorised; sparse matrices come from scipy.sparse.
+
+Heterogeneous media (MEDIA.md §2, §4): wherever a function takes `anisotropy` it also takes a
+mapping {region tag: Anisotropy}; each triangle then uses its own region's Q and metric
+(`mesh.region_tags`), and the report gives the share of q_ij ≥ 0 on interface edges (two
+triangles of different regions) apart from the interior and boundary ones.
 """
 
 from __future__ import annotations
+
+from collections.abc import Mapping
 
 import numpy as np
 import scipy.linalg
@@ -64,9 +71,40 @@ def triangle_energy(P: np.ndarray, T: np.ndarray, anisotropy) -> np.ndarray:
 
 
 def energy(mesh: Mesh, anisotropy) -> float:
-    """E = ∫_Ω (s_h − s) = ‖s_h − s‖_L1 (2.77) (MATH.md "Vertex adjustment")."""
+    """E = ∫_Ω (s_h − s) = ‖s_h − s‖_L1 (2.77) (MATH.md "Vertex adjustment"); with one s per
+    region, the sum of each region's own."""
     checks.mesh(mesh)
-    return float(triangle_energy(mesh.points, mesh.triangles, anisotropy).sum())
+    return float(sum(triangle_energy(mesh.points, mesh.triangles[sel], A).sum()
+                     for sel, A in _by_region(mesh, anisotropy)))
+
+
+# --------------------------------------------------------------------------- regions
+
+def _check(anisotropy, mesh: Mesh | None = None, allow_none: bool = False):
+    """An Anisotropy (or None when allowed), or a mapping {tag: Anisotropy} that covers every
+    region of `mesh`."""
+    if not isinstance(anisotropy, Mapping):
+        return checks.anisotropy_or_none(anisotropy) if allow_none else checks.anisotropy(anisotropy)
+    for k, v in anisotropy.items():
+        if isinstance(k, bool) or not isinstance(k, (int, np.integer)):
+            raise QmeshError(f"conductivity keys must be region tags (integers), got {k!r}")
+        checks.anisotropy(v, f"the conductivity of region {k}")
+    if mesh is not None:
+        missing = sorted(set(np.unique(mesh.region_tags).tolist()) - {int(k) for k in anisotropy})
+        if missing:
+            raise QmeshError(f"no conductivity for region {missing[0]} of the mesh "
+                             f"(the mapping has {sorted(int(k) for k in anisotropy)})")
+    return anisotropy
+
+
+def _by_region(mesh: Mesh, anisotropy):
+    """[(triangle selector, Anisotropy)]: everything for one Anisotropy, one pair per region
+    present in the mesh for a mapping."""
+    _check(anisotropy, mesh)
+    if not isinstance(anisotropy, Mapping):
+        return [(slice(None), anisotropy)]
+    tags = mesh.region_tags
+    return [(tags == r, anisotropy[r]) for r in np.unique(tags).tolist()]
 
 
 # --------------------------------------------------------------------------- quality
@@ -74,15 +112,28 @@ def energy(mesh: Mesh, anisotropy) -> float:
 def quality(mesh: Mesh, anisotropy) -> np.ndarray:
     """Metric quality (2.94) of every triangle: 1 = equilateral in metric space, ≤ 0 = degenerate/inverted."""
     checks.mesh(mesh)
-    checks.anisotropy(anisotropy)
     P, T = mesh.points, mesh.triangles
+    if isinstance(anisotropy, Mapping):
+        H = np.empty((len(T), 2, 2))
+        for sel, A in _by_region(mesh, anisotropy):
+            H[sel] = metric_hessians(A, P, T[sel])
+        return metric_quality(P, T, H)                                  # (2.94), own metric
+    checks.anisotropy(anisotropy)
     return metric_quality(P, T, metric_hessians(anisotropy, P, T))   # (2.94)
 
 
 # --------------------------------------------------------------------------- stiffness
 
-def _conductivity(x: np.ndarray, y: np.ndarray, anisotropy):
-    """Q11, Q12, Q22 per triangle at its centroid (scalars when Q is constant; None → Q = I)."""
+def _conductivity(x: np.ndarray, y: np.ndarray, anisotropy, regions=None):
+    """Q11, Q12, Q22 per triangle at its centroid (scalars when Q is constant; None → Q = I;
+    a mapping: each triangle its region's, by `regions`)."""
+    if isinstance(anisotropy, Mapping):
+        out = np.empty((3, len(x)))
+        for r in np.unique(regions).tolist():
+            sel = regions == r
+            out[:, sel] = np.asarray([np.broadcast_to(q, (int(sel.sum()),)) for q in
+                                      _conductivity(x[sel], y[sel], anisotropy[r])])
+        return out[0], out[1], out[2]
     if anisotropy is None:
         return 1.0, 0.0, 1.0
     if anisotropy.is_constant:
@@ -92,7 +143,7 @@ def _conductivity(x: np.ndarray, y: np.ndarray, anisotropy):
     return Q[:, 0, 0], 0.5 * (Q[:, 0, 1] + Q[:, 1, 0]), Q[:, 1, 1]
 
 
-def _element_matrices(P: np.ndarray, T: np.ndarray, anisotropy) -> np.ndarray:
+def _element_matrices(P: np.ndarray, T: np.ndarray, anisotropy, regions=None) -> np.ndarray:
     """K_T[a, b] = |T| ∇φ_aᵀ Q(x_T) ∇φ_b for every triangle, shape (M, 3, 3).
 
     ∇φ_a = ∇_{x_a}|T| / |T| (signed area), so K_T = G_aᵀ Q G_b / | |T| | with G_a = ∇_{x_a}|T|.
@@ -103,7 +154,8 @@ def _element_matrices(P: np.ndarray, T: np.ndarray, anisotropy) -> np.ndarray:
     if np.any(area == 0.0):
         raise QmeshError(f"mesh has {int(np.sum(area == 0.0))} degenerate (zero-area) triangles; "
                          "its stiffness matrix is undefined")
-    q11, q12, q22 = (np.reshape(q, (-1, 1)) if np.ndim(q) else q for q in _conductivity(x, y, anisotropy))
+    q11, q12, q22 = (np.reshape(q, (-1, 1)) if np.ndim(q) else q
+                     for q in _conductivity(x, y, anisotropy, regions))
     inv = 1.0 / np.abs(area)
     Qgx = (q11 * gx + q12 * gy) * inv[:, None]
     Qgy = (q12 * gx + q22 * gy) * inv[:, None]
@@ -113,7 +165,7 @@ def _element_matrices(P: np.ndarray, T: np.ndarray, anisotropy) -> np.ndarray:
 def _assemble(mesh: Mesh, anisotropy, index: np.ndarray, n: int) -> sp.csr_matrix:
     """Sum the element matrices into an n×n csr matrix; vertex v goes to row index[v] (< 0: dropped)."""
     T = mesh.triangles
-    Ke = _element_matrices(mesh.points, T, anisotropy)
+    Ke = _element_matrices(mesh.points, T, anisotropy, mesh.region_tags)
     it = index[T]
     rows = np.broadcast_to(it[:, :, None], Ke.shape).ravel()
     cols = np.broadcast_to(it[:, None, :], Ke.shape).ravel()
@@ -127,7 +179,7 @@ def _assemble(mesh: Mesh, anisotropy, index: np.ndarray, n: int) -> sp.csr_matri
 def stiffness(mesh: Mesh, anisotropy) -> sp.csr_matrix:
     """The N×N P1 stiffness matrix for Q (Neumann: all vertices), Q at each triangle's centroid."""
     checks.mesh(mesh)
-    checks.anisotropy_or_none(anisotropy)
+    _check(anisotropy, mesh, allow_none=True)
     n = mesh.n_vertices
     return _assemble(mesh, anisotropy, np.arange(n), n)
 
@@ -142,7 +194,7 @@ def free_vertices(mesh: Mesh) -> np.ndarray:
 
 def stiffness_interior(mesh: Mesh, anisotropy) -> sp.csr_matrix:
     """The stiffness matrix restricted to `free_vertices(mesh)`, in that order (homogeneous Dirichlet)."""
-    checks.anisotropy_or_none(anisotropy)
+    _check(anisotropy, mesh, allow_none=True)
     idx = free_vertices(mesh)
     index = np.full(mesh.n_vertices, -1, dtype=np.int64)
     index[idx] = np.arange(len(idx))
@@ -157,9 +209,9 @@ def edge_weights(mesh: Mesh, anisotropy) -> tuple[np.ndarray, np.ndarray, np.nda
     edge (one triangle) q_ij is the off-diagonal entry of that triangle's element matrix.
     """
     checks.mesh(mesh)
-    checks.anisotropy_or_none(anisotropy)
+    _check(anisotropy, mesh, allow_none=True)
     T = mesh.triangles
-    Ke = _element_matrices(mesh.points, T, anisotropy)
+    Ke = _element_matrices(mesh.points, T, anisotropy, mesh.region_tags)
     pairs = np.concatenate([T[:, [a, b]] for a, b in _EDGE_CORNERS])
     q_part = np.concatenate([-Ke[:, a, b] for a, b in _EDGE_CORNERS])
     pairs.sort(axis=1)
@@ -171,12 +223,33 @@ def edge_weights(mesh: Mesh, anisotropy) -> tuple[np.ndarray, np.ndarray, np.nda
     return edges, q, count == 2
 
 
-def _relative_q(mesh: Mesh, anisotropy) -> tuple[np.ndarray, np.ndarray]:
-    """Interior and boundary q_ij, each divided by max |q| over all edges."""
+def interface_edges(mesh: Mesh) -> tuple[np.ndarray, np.ndarray]:
+    """Every edge (k, 2) (i < j, as `edge_weights`) and whether its two triangles lie in
+    different regions (an interface edge)."""
+    T, reg = mesh.triangles, mesh.region_tags
+    pairs = np.concatenate([T[:, [a, b]] for a, b in _EDGE_CORNERS])
+    pairs.sort(axis=1)
+    n = np.int64(mesh.n_vertices)
+    key = pairs[:, 0] * n + pairs[:, 1]
+    ukey, inverse = np.unique(key, return_inverse=True)
+    r = np.tile(reg, 3)
+    lo = np.full(len(ukey), np.iinfo(np.int64).max)
+    hi = np.full(len(ukey), np.iinfo(np.int64).min)
+    np.minimum.at(lo, inverse, r)
+    np.maximum.at(hi, inverse, r)
+    return np.stack([ukey // n, ukey % n], axis=1), lo != hi
+
+
+def _relative_q(mesh: Mesh, anisotropy, split: bool = False):
+    """Interior and boundary q_ij, each divided by max |q| over all edges; with `split`, the
+    interior ones apart from the interface ones: (interior, boundary, interface)."""
     _, q, interior = edge_weights(mesh, anisotropy)
     scale = np.abs(q).max() if len(q) else 1.0
     r = q / (scale if scale > 0 else 1.0)
-    return r[interior], r[~interior]
+    if not split:
+        return r[interior], r[~interior]
+    inter = interface_edges(mesh)[1]
+    return r[interior & ~inter], r[~interior], r[interior & inter]
 
 
 def q_nonnegative_fraction(mesh: Mesh, anisotropy, rtol: float = 1e-9) -> float | None:
@@ -185,7 +258,14 @@ def q_nonnegative_fraction(mesh: Mesh, anisotropy, rtol: float = 1e-9) -> float 
     ≥ 0 on every interior edge makes the Dirichlet stiffness matrix an M-matrix.
     """
     rtol = checks.real(rtol, "rtol", low=0.0, high=1.0)
-    return _fraction_nonnegative(_relative_q(mesh, anisotropy)[0], rtol)
+    return _fraction_nonnegative(_relative_q(mesh, anisotropy, split=True)[0], rtol)
+
+
+def q_nonnegative_fraction_interface(mesh: Mesh, anisotropy, rtol: float = 1e-9) -> float | None:
+    """Fraction of interface edges (two triangles of different regions, each with its own Q)
+    with q_ij ≥ −rtol·max|q| (None when there is none). MEDIA.md §2."""
+    rtol = checks.real(rtol, "rtol", low=0.0, high=1.0)
+    return _fraction_nonnegative(_relative_q(mesh, anisotropy, split=True)[2], rtol)
 
 
 def q_nonnegative_fraction_boundary(mesh: Mesh, anisotropy, rtol: float = 1e-9) -> float | None:
@@ -213,7 +293,7 @@ def condition_number(mesh: Mesh, anisotropy=None, *, method: str = "auto",
     or "auto" (dense up to DENSE_LIMIT unknowns). `tol` is eigsh's relative tolerance.
     """
     checks.mesh(mesh)
-    checks.anisotropy_or_none(anisotropy)
+    _check(anisotropy, mesh, allow_none=True)
     checks.choice(method, "method", ("auto", "dense", "sparse"))
     tol = checks.real(tol, "tol", low=0.0, high=1.0, high_open=True)
     K = stiffness_interior(mesh, anisotropy)
@@ -254,8 +334,15 @@ def interpolation_errors(mesh: Mesh, anisotropy) -> tuple[float, float]:
     |∇s_h − ∇s|² degree 2 when s is quadratic.
     """
     checks.mesh(mesh)
-    checks.anisotropy(anisotropy)
-    P, T = mesh.points, mesh.triangles
+    l2 = h1 = 0.0
+    for sel, A in _by_region(mesh, anisotropy):
+        a, b = _interpolation_errors2(mesh.points, mesh.triangles[sel], A)
+        l2, h1 = l2 + a, h1 + b
+    return float(np.sqrt(l2)), float(np.sqrt(h1))
+
+
+def _interpolation_errors2(P, T, anisotropy) -> tuple[float, float]:
+    """The squares of (2.96) and (2.97) over the triangles T."""
     F = Frame(P, T)
     x, y, gx, gy, area = F.x, F.y, F.gx, F.gy, F.A
     if np.any(area == 0.0):
@@ -268,7 +355,7 @@ def interpolation_errors(mesh: Mesh, anisotropy) -> tuple[float, float]:
     dx = ((s_vertex * gx).sum(axis=1) / area)[:, None] - grad_s[:, :, 0]   # ∇s_h = Σ_a s_a ∇φ_a
     dy = ((s_vertex * gy).sum(axis=1) / area)[:, None] - grad_s[:, :, 1]
     h1 = np.abs(area) @ ((dx * dx + dy * dy) @ w)                            # (2.97)
-    return float(np.sqrt(l2)), float(np.sqrt(h1))
+    return float(l2), float(h1)
 
 
 # --------------------------------------------------------------------------- report
@@ -280,9 +367,14 @@ def report(mesh: Mesh, anisotropy) -> dict:
     triangle; κ2 is None when there is no interior vertex; a share of q_ij ≥ 0 is None when
     there is no edge of its kind (interior, boundary), and the interior share also when there
     is no interior vertex (no Dirichlet matrix whose signs would matter).
+
+    `anisotropy` may be a mapping {region tag: Anisotropy}: every triangle then uses its own
+    region's Q. When the mesh has interface edges (or a mapping is given), the interior share
+    counts edges inside one region, and `q_nonnegative_fraction_interface` /
+    `min_q_ij_relative_interface` the interface edges (MEDIA.md §4).
     """
     checks.mesh(mesh)
-    checks.anisotropy(anisotropy)
+    _check(anisotropy, mesh)
     P, T = mesh.points, mesh.triangles
     area = signed_areas(P, T)
     qual = quality(mesh, anisotropy)
@@ -302,7 +394,10 @@ def report(mesh: Mesh, anisotropy) -> dict:
     if len(T) == 0 or np.any(area == 0.0):
         return out
     out["l2_error"], out["h1_error"] = interpolation_errors(mesh, anisotropy)
-    r_in, r_b = _relative_q(mesh, anisotropy)
+    r_in, r_b, r_if = _relative_q(mesh, anisotropy, split=True)
+    if len(r_if) or isinstance(anisotropy, Mapping):
+        out["q_nonnegative_fraction_interface"] = _fraction_nonnegative(r_if, 1e-9)
+        out["min_q_ij_relative_interface"] = float(r_if.min()) if len(r_if) else None
     # no interior vertex: no Dirichlet matrix whose signs would matter (CLI: "n/a")
     out["q_nonnegative_fraction"] = _fraction_nonnegative(r_in, 1e-9) if out["n_interior"] else None
     out["q_nonnegative_fraction_boundary"] = _fraction_nonnegative(r_b, 1e-9)

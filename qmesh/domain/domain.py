@@ -91,9 +91,13 @@ class Domain:
     `tags`: None (1 for the outline, 2, 3, … for the holes), or one entry per ring, each an int
     or a sequence of ints, one per segment (segment i runs from point i to point i + 1 as given).
     `names`: a dict tag → name, or a sequence of names, one per ring.
+    `regions`: simple polygons (arrays, `Polygon`s, or `Domain(outer, holes)` for a region with
+    holes) inside Ω, pairwise non-overlapping, that may share edges with each other and with
+    the boundary; region k (1-based) has tag k, the rest of Ω is region 0 (MEDIA.md).
+    `region_names`: a dict tag → name, or one name per region.
     """
 
-    def __init__(self, outer, holes=(), tags=None, names=None):
+    def __init__(self, outer, holes=(), tags=None, names=None, regions=(), region_names=None):
         if isinstance(holes, np.ndarray) or holes is None:
             raise QmeshError("holes must be a sequence of polygons (a list), "
                              f"got {type(holes).__name__}")
@@ -142,6 +146,26 @@ class Domain:
         self._ring_of_seed = np.repeat(np.arange(len(oriented)), np.diff(offsets))
         self._tag_names = _tag_names(names, ring_tags)
         self._area = abs(areas[0]) - sum(abs(a) for a in areas[1:])
+        self._regions, self._region_names, self._partition = (), {}, None
+        if regions is not None and not (isinstance(regions, (list, tuple)) and not regions):
+            from qmesh.media.regions import attach      # region checks live with qmesh.media
+            attach(self, regions, region_names, ring_tags)
+
+    @classmethod
+    def from_cells(cls, x, y, k1, k2, angle=0.0):
+        """(Domain, {region tag: Anisotropy}) of a structured grid with per-cell k1, k2, angle
+        (MODFLOW's convention), cells of equal conductivity merged into regions (qmesh.media.cells)."""
+        from qmesh.media.cells import from_cells
+        return from_cells(x, y, k1, k2, angle)
+
+    @property
+    def regions(self) -> tuple:
+        """The regions as given, each a `Domain` (outline and holes); region k is regions[k-1]."""
+        return self._regions
+
+    @property
+    def region_names(self) -> dict[int, str]:
+        return dict(self._region_names)
 
     # ------------------------------------------------------------------ what the mesher reads
     @property

@@ -93,6 +93,11 @@ def iterate(domain, anisotropy, *, target_vertices: int | None = None, size: flo
     follow (its first Step is iteration 0 again). A last mesh that misses the target by more
     than 10% raises QmeshError after that Step, saying why.
     """
+    if getattr(domain, "regions", ()) or (not isinstance(anisotropy, Anisotropy) and hasattr(anisotropy, "items")):
+        from qmesh import media   # a mapping conductivity or a domain with regions: heterogeneous media
+        return media.iterate(domain, anisotropy, target_vertices=target_vertices, size=size, alpha=alpha,
+                             quality_threshold=quality_threshold, min_area=min_area, max_iterations=max_iterations,
+                             seed=seed, boundary_refinement=boundary_refinement, **unknown)
     check_keywords(unknown, iterate, "iterate")
     options = Options.checked(target_vertices=target_vertices, size=size, alpha=alpha,
                               quality_threshold=quality_threshold, min_area=min_area,
@@ -131,6 +136,11 @@ def mesh(domain, anisotropy, *, target_vertices: int | None = None, size: float 
     q_ij ≥ 0, or cannot carry that many). Warns `QmeshWarning` when the domain is thinner than
     about two elements in the metric, saying what N would be needed.
     """
+    if getattr(domain, "regions", ()) or (not isinstance(anisotropy, Anisotropy) and hasattr(anisotropy, "items")):
+        from qmesh import media   # a mapping conductivity or a domain with regions: heterogeneous media
+        return media.mesh(domain, anisotropy, target_vertices=target_vertices, size=size, alpha=alpha,
+                          quality_threshold=quality_threshold, min_area=min_area, max_iterations=max_iterations,
+                          seed=seed, boundary_refinement=boundary_refinement, progress=progress, **unknown)
     check_keywords(unknown, iterate, "mesh")
     if progress is not None and not callable(progress):
         raise QmeshError(f"progress must be a function of one Step, got {type(progress).__name__}")

@@ -1,0 +1,172 @@
+"""Heterogeneous media (issue 17 item 8): qmesh vs MMG2D vs Triangle at equal N.
+
+Cases (`qmesh.media.cases`): FVCA5 tests 4 (vertical fault), 6 (oblique drain), 7 (oblique
+barrier), a layered box and an inclusion. For each target N:
+- qmesh: `qmesh.mesh(domain, {tag: Anisotropy}, target_vertices=N)`;
+- MMG2D (mmgpy) from the constrained triangulation of every region edge, triangle references =
+  regions (so MMG keeps the interfaces), the per-vertex metric ∇²s_r / k_r of the vertex's
+  region, the mean of its regions' for a vertex on an interface, scaled to N
+  (`qmesh.media.peers.mmg2d`);
+- Triangle, isotropic, regions as segments (`pq30a`, area calibrated to N).
+Columns: N; share of q_ij ≥ 0 on interior / interface / boundary edges (each triangle's own Q);
+the discrete maximum principle on −div(Q∇u) = 0, u = g on ∂Ω (g the case's data): vertices
+outside [min g, max g] (beyond 1e-10 of the range) and the worst excess relative to the range;
+κ2 of the Dirichlet matrix; min metric quality (2.94) in each triangle's own metric; seconds
+(qmesh: the whole run; peers: their final calibrated run). Then the geometric mean of
+κ2(qmesh) / κ2(MMG2D).
+
+    python benchmarks/bench_media.py [--n 2000 8000] [--cases fvca4 ...] [--no-mmg]
+    python benchmarks/bench_media.py --figure screenshots/media_inclusion.png
+    python benchmarks/bench_media.py --timing 100000     (layered box with and without regions)
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+import warnings
+
+import numpy as np
+import scipy.sparse.linalg as spla
+
+import qmesh
+from qmesh import measure
+from qmesh.media import cases as media_cases
+from qmesh.media import peers
+
+SHORT = {"fvca4": media_cases.fvca4, "fvca6": media_cases.fvca6, "fvca7": media_cases.fvca7,
+         "layered": media_cases.layered, "inclusion": media_cases.inclusion}
+NAMES = {v: k for k, v in media_cases.CASES.items()}
+
+
+def maximum_principle(mesh, cond, g) -> tuple[int, float]:
+    """(vertices outside the range of g, worst excess / range) of the P1 solution of
+    −div(Q∇u) = 0 with u = g on the boundary, Q per triangle."""
+    K = measure.stiffness(mesh, cond).tocsr()
+    bnd = mesh.boundary
+    I, B = np.flatnonzero(~bnd), np.flatnonzero(bnd)
+    gb = g(*mesh.points[B].T)
+    u = spla.spsolve(K[I][:, I].tocsc(), -(K[I][:, B] @ gb))
+    span = gb.max() - gb.min()
+    excess = np.maximum(u - gb.max(), gb.min() - u) / span
+    return int(np.sum(excess > 1e-10)), float(max(excess.max(), 0.0))
+
+
+def row(case, mesher, mesh, seconds, cond, g) -> dict:
+    r = measure.report(mesh, cond)
+    v, worst = maximum_principle(mesh, cond, g)
+    return {"case": case, "mesher": mesher, "N": mesh.n_vertices,
+            "q_int": r["q_nonnegative_fraction"], "q_if": r.get("q_nonnegative_fraction_interface"),
+            "q_bnd": r["q_nonnegative_fraction_boundary"], "mp": v, "mp_worst": worst,
+            "kappa2": r["kappa2"], "min_q": r["min_quality"], "seconds": seconds}
+
+
+def run(case_fns, ns, mmg=True) -> list[dict]:
+    rows = []
+    for fn in case_fns:
+        name = NAMES[fn]
+        domain, cond, g = fn()
+        for n in ns:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", qmesh.QmeshWarning)
+                t0 = time.perf_counter()
+                m = qmesh.mesh(domain, cond, target_vertices=n)
+                rows.append(row(name, "qmesh", m, time.perf_counter() - t0, cond, g))
+            if mmg:
+                pm = peers.mmg2d(domain, cond, m.n_vertices)
+                rows.append(row(name, "MMG2D", pm.mesh, pm.seconds, cond, g))
+            pt = peers.triangle(domain, m.n_vertices)
+            rows.append(row(name, "Triangle", pt.mesh, pt.seconds, cond, g))
+            print(*(_line(r) for r in rows[-(3 if mmg else 2):]), sep="\n", flush=True)
+    return rows
+
+
+def _pct(x):
+    return "n/a" if x is None else f"{100 * x:.1f}"
+
+
+def _line(r) -> str:
+    return (f"| {r['case']} | {r['mesher']} | {r['N']} | {_pct(r['q_int'])} / {_pct(r['q_if'])} / "
+            f"{_pct(r['q_bnd'])} | {r['mp']} ({r['mp_worst']:.1e}) | {r['kappa2']:.3g} | "
+            f"{r['min_q']:.3f} | {r['seconds']:.2f} |")
+
+
+HEADER = ("| case | mesher | N | q_ij ≥ 0 % interior / interface / boundary | max-principle "
+          "violations (worst) | κ2 | min quality | s |\n|---|---|---|---|---|---|---|---|")
+
+
+def figure(path, case="inclusion", n=2000) -> None:
+    """qmesh, MMG2D and Triangle meshes of one case side by side: triangles coloured by region,
+    edges with q_ij < 0 (each triangle's own Q) in red."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.collections import LineCollection
+    domain, cond, _ = SHORT[case]()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", qmesh.QmeshWarning)
+        m = qmesh.mesh(domain, cond, target_vertices=n)
+    meshes = [("qmesh", m), ("MMG2D", peers.mmg2d(domain, cond, m.n_vertices).mesh),
+              ("Triangle", peers.triangle(domain, m.n_vertices).mesh)]
+    from matplotlib.colors import ListedColormap
+    colours = ListedColormap(["#eeeeee", "#a6cee3", "#b2df8a", "#fdbf6f", "#cab2d6", "#ffff99"])
+    fig, axes = plt.subplots(1, 3, figsize=(15, 5.6))
+    for ax, (name, mesh) in zip(axes, meshes):
+        E, q, _ = measure.edge_weights(mesh, cond)
+        bad = q < -1e-9 * np.abs(q).max()
+        ax.tripcolor(mesh.points[:, 0], mesh.points[:, 1], mesh.triangles,
+                     facecolors=mesh.region_tags.astype(float), cmap=colours, vmin=0, vmax=5)
+        ax.triplot(mesh.points[:, 0], mesh.points[:, 1], mesh.triangles, lw=0.2, color="0.35")
+        ax.add_collection(LineCollection(mesh.points[E[bad]], colors="red", linewidths=1.2))
+        ax.set_title(f"{name}: N = {mesh.n_vertices}, {int(bad.sum())} edges with q_ij < 0")
+        ax.set_aspect("equal")
+        ax.set_axis_off()
+    fig.suptitle(f"{NAMES[SHORT[case]]}: regions coloured, q_ij < 0 in red (each triangle's own Q)")
+    fig.tight_layout(rect=(0, 0, 1, 0.94))
+    fig.savefig(path, dpi=90)
+
+
+def timing(n: int) -> None:
+    """Seconds for the layered box with its regions, and for the same box with one Q."""
+    domain, cond, _ = media_cases.layered()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", qmesh.QmeshWarning)
+        t0 = time.perf_counter()
+        m = qmesh.mesh(domain, cond, target_vertices=n)
+        t1 = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        m2 = qmesh.mesh(qmesh.Polygon(domain.rings[0]), cond[1], target_vertices=n)
+        t2 = time.perf_counter() - t0
+    print(f"layered, 5 regions: N = {m.n_vertices}, {t1:.1f} s; same box, one Q: "
+          f"N = {m2.n_vertices}, {t2:.1f} s; ratio {t1 / t2:.2f}")
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--figure", metavar="PNG", help="only draw the figure of the inclusion case")
+    ap.add_argument("--timing", type=int, metavar="N", help="only time the layered box at N")
+    ap.add_argument("--n", type=int, nargs="+", default=[2000, 8000])
+    ap.add_argument("--cases", nargs="+", choices=sorted(SHORT), default=list(SHORT))
+    ap.add_argument("--no-mmg", action="store_true")
+    args = ap.parse_args(argv)
+    if args.figure:
+        figure(args.figure)
+        return
+    if args.timing:
+        timing(args.timing)
+        return
+    print(HEADER)
+    rows = run([SHORT[c] for c in args.cases], args.n, mmg=not args.no_mmg)
+    q = [r for r in rows if r["mesher"] == "qmesh"]
+    mm = [r for r in rows if r["mesher"] == "MMG2D"]
+    if mm:
+        ratio = np.exp(np.mean([np.log(a["kappa2"] / b["kappa2"]) for a, b in zip(q, mm)]))
+        print(f"\ngeometric mean of κ2(qmesh) / κ2(MMG2D): {ratio:.3f}")
+    print(f"qmesh: {sum(r['mp'] for r in q)} maximum-principle violations in {len(q)} meshes; "
+          f"min quality {min(r['min_q'] for r in q):.3f}; N within "
+          f"{max(abs(r['N'] - n) / n for r, n in zip(q, [n for _ in args.cases for n in args.n])):.1%} "
+          "of the target")
+
+
+if __name__ == "__main__":
+    main()

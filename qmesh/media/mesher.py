@@ -1,0 +1,253 @@
+"""Meshes of heterogeneous media: a conductivity per region, q_ij ≥ 0 on interfaces too.
+
+MEDIA.md §2–3. An interface is a boundary segment seen from both sides, each in its own
+region's metric: q_ij = Σ_T q_ij^T and each side's share is ≥ 0 when its apex lies outside the
+diametral ellipse of the edge in its own metric, which is what the single-region mesher already
+guarantees on its boundary (GEOMETRY.md §1). So each face of the partition (partition.py) is
+meshed on its own by Algorithm 2.1 (qmesh.mesher.loop), on shared interface points:
+
+    cut every interface edge into pieces ≤ h in the metric of both sides (sizing.py)
+    repeat                                             (at most `max_rounds`)
+        mesh every face whose interface points changed, its interface points fixed
+        gather the points each face mesh added on an interface; give them to both sides
+    until no face mesh adds an interface point
+    stitch the face meshes into one Mesh with region_tags (stitch.py)
+
+Input points stay fixed, points the face meshers add on the outline or a hole slide as usual,
+interface points are fixed once shared (junctions are input points). Each triangle is meshed,
+adjusted and measured in its own region's metric.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from collections.abc import Mapping
+from typing import Iterator
+
+import numpy as np
+
+from qmesh.conductivity.anisotropy import Anisotropy
+from qmesh.domain.domain import as_domain
+from qmesh import measure
+from qmesh.errors import QmeshError
+from qmesh.media import faces as _faces
+from qmesh.media import sizing as _sizing
+from qmesh.media.partition import Ring, partition
+from qmesh.media.stitch import stitch
+from qmesh.mesh import Mesh
+from qmesh.mesher import sizing as _msizing
+from qmesh.mesher.step import Stats, Step
+
+MAX_ROUNDS = 8
+CORRECTIONS = 3      # reruns of mesh() that correct N towards target_vertices
+_PASSED = ("alpha", "quality_threshold", "max_iterations", "seed", "boundary_refinement")
+
+
+def partition_of(domain):
+    """The domain's partition (one face per connected piece of Ω when it has no regions)."""
+    if domain._partition is not None:
+        return domain._partition
+    rings = [Ring(np.asarray(R), 0, "the outline" if j == 0 else f"hole {j}")
+             for j, R in enumerate(domain.rings)]
+    offs = np.cumsum([0] + [len(R) for R in domain.rings])
+    tags = [domain.segment_tags[o:o + len(R)] for o, R in zip(offs, domain.rings)]
+    return partition(rings, tags, domain.diameter)
+
+
+def conductivities(domain, conductivity, part) -> dict:
+    """{region tag: Anisotropy} for every region that has a face; QmeshError for a missing
+    region, an unknown tag or a value that is not an Anisotropy."""
+    present = sorted({f.region for f in part.faces})
+    if isinstance(conductivity, Anisotropy):
+        return {r: conductivity for r in present}
+    if not isinstance(conductivity, Mapping):
+        raise QmeshError("the conductivity must be a qmesh.Anisotropy or a mapping {region tag: "
+                         f"Anisotropy}}, got {type(conductivity).__name__}")
+    out = {}
+    for k, v in conductivity.items():
+        if isinstance(k, bool) or not isinstance(k, (int, np.integer)):
+            raise QmeshError(f"conductivity keys must be region tags (integers), got {k!r}")
+        if not isinstance(v, Anisotropy):
+            raise QmeshError(f"the conductivity of region {k} must be a qmesh.Anisotropy, "
+                             f"got {type(v).__name__}")
+        if not 0 <= int(k) <= len(domain.regions):
+            raise QmeshError(f"the conductivity names region {k}, but the domain has regions "
+                             f"0 to {len(domain.regions)}")
+        out[int(k)] = v
+    missing = [r for r in present if r not in out]
+    if missing:
+        names = domain.region_names
+        what = ", ".join(f"{r}" + (f" ({names[r]})" if r in names else "") for r in missing)
+        raise QmeshError(f"no conductivity for region {what}: give one Anisotropy per region "
+                         f"(tags {present})")
+    return out
+
+
+def iterate(domain, conductivity, *, target_vertices: int | None = None, size: float | None = None,
+            max_rounds: int = MAX_ROUNDS, min_area: float | None = None,
+            **options) -> Iterator[Step]:
+    """Mesh a domain with regions, yielding a `Step` after each round (the stitched mesh so far).
+
+    `conductivity`: one Anisotropy, or {region tag: Anisotropy} covering every region;
+    `target_vertices` N of the stitched mesh (shared between faces by metric area), or `size`
+    the metric edge length h in each region's metric with its size divided out (sizing.py);
+    `max_rounds` bounds the interface exchange; the other options (alpha, quality_threshold,
+    max_iterations, seed, boundary_refinement) go to each face's mesher.
+    """
+    from qmesh.mesher.options import Options
+    if min_area is not None:
+        raise QmeshError("min_area is a metric area in one metric; with regions each face uses "
+                         "its own, so it cannot be given (leave it out)")
+    unknown = set(options) - set(_PASSED)
+    if unknown:
+        raise QmeshError(f"unknown option {sorted(unknown)[0]!r} for a domain with regions "
+                         f"(allowed: target_vertices, size, max_rounds, {', '.join(_PASSED)})")
+    domain = as_domain(domain)
+    Options.checked(target_vertices=target_vertices, size=size, **{k: options[k] for k in _PASSED if k in options})
+    if isinstance(max_rounds, bool) or not isinstance(max_rounds, (int, np.integer)) or max_rounds < 1:
+        raise QmeshError(f"max_rounds must be a positive integer, got {max_rounds!r}")
+    part = partition_of(domain)
+    cond = conductivities(domain, conductivity, part)
+    plan = _Plan(domain, part, cond, target_vertices, size)
+    return _rounds(plan, int(max_rounds), options)
+
+
+class _Plan:
+    """Per face: its anisotropy, size k, metric area; the global h; the first interface cuts."""
+
+    def __init__(self, domain, part, cond, target_vertices, size):
+        self.domain, self.part = domain, part
+        self.faces = part.faces
+        self.anis = [cond[f.region] for f in self.faces]
+        bare = [_faces.face_domain(part, f, {}, self.face_name(i)) for i, f in enumerate(self.faces)]
+        self.k = [_sizing.region_scale(a, d.seeds) for a, d in zip(self.anis, bare)]
+        area = [_msizing.metric_area(d, a) / k for d, a, k in zip(bare, self.anis, self.k)]
+        lengths = [_sizing.edge_lengths(*d.segment_ends, a, k)
+                   for d, a, k in zip(bare, self.anis, self.k)]
+
+        def pieces(h):
+            return _sizing.interface_pieces(part, self.anis, self.k, h)
+        if target_vertices is not None:
+            if target_vertices <= len(part.points):
+                raise QmeshError(f"target_vertices = {target_vertices} must exceed the "
+                                 f"{len(part.points)} input points of the domain and its regions")
+            self.h = _sizing.size_for_vertices(part, area, lengths, target_vertices, pieces)
+        else:
+            self.h = float(size) if size is not None else float(np.mean(np.concatenate(lengths)))
+            n = _sizing.expected_vertices(part, area, lengths, self.h, pieces)
+            _msizing.check_vertex_count(n, f"size = {self.h:.3g}")
+        self.target = target_vertices
+        self.extra = self._cuts(pieces(self.h))
+
+    def face_name(self, i: int) -> str:
+        r = self.faces[i].region
+        names = self.domain.region_names
+        return f"region {r}" + (f" ({names[r]})" if r in names else "")
+
+    def _cuts(self, pieces) -> dict:
+        """Evenly spaced points on every interface edge cut into more than one piece."""
+        V, E = self.part.points, self.part.edges
+        out = {}
+        for e in np.flatnonzero(pieces > 1):
+            t = (np.arange(1, pieces[e]) / pieces[e])[:, None]
+            out[int(e)] = V[E[e, 0]] + t * (V[E[e, 1]] - V[E[e, 0]])
+        return out
+
+    def size_of(self, i: int) -> float:
+        """The face mesher's `size`: h in the user's metric ∇²s_r (= h·√k_r)."""
+        return self.h * np.sqrt(self.k[i])
+
+
+def _mesh_face(plan, i, extra, options):
+    from qmesh.mesher.loop import mesh as mesh_one       # the single-region mesher, untouched
+    dom = _faces.face_domain(plan.part, plan.faces[i], extra, plan.face_name(i))
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        try:
+            m = mesh_one(dom, plan.anis[i], size=plan.size_of(i), **options)
+        except QmeshError as e:
+            raise QmeshError(f"{plan.face_name(i)}: {e}") from None
+    for w in said:       # a face's own warning (a thin face, say) names the region it is in
+        warnings.warn(f"{plan.face_name(i)}: {w.message}", w.category, stacklevel=4)
+    return m, len(dom.seeds)
+
+
+def _rounds(plan, max_rounds, options) -> Iterator[Step]:
+    part, n_faces = plan.part, len(plan.faces)
+    extra = dict(plan.extra)                 # interface points shared so far, per edge
+    meshes = [None] * n_faces
+    has = [dict() for _ in range(n_faces)]   # per face: edge → the points its mesh has there
+    face_edges = [np.unique(np.concatenate([part.cycle(c) for c in f.cycles]) >> 1)
+                  for f in plan.faces]
+    todo = set(range(n_faces))
+    for rnd in range(1, max_rounds + 1):
+        t0 = time.perf_counter()
+        added = 0
+        for i in sorted(todo):
+            # faces are meshed one after another: a face sees what the earlier ones added
+            meshes[i], n_seeds = _mesh_face(plan, i, extra, options)
+            new = _faces.points_on_edges(meshes[i], part, n_seeds)
+            has[i] = {e: extra.get(e) for e in face_edges[i]}
+            for e, X in new.items():
+                if part.interface[e]:
+                    extra[e] = _faces.merge_points(part, e, extra.get(e), X)
+                    has[i][e] = extra[e]
+                    added += len(X)
+        todo = {i for i in range(n_faces) for e in face_edges[i]
+                if part.interface[e] and not _same(has[i].get(e), extra.get(e))}
+        m = stitch(part, meshes, [f.region for f in plan.faces], plan.domain)
+        done = not todo
+        seconds = time.perf_counter() - t0
+        cond = {f.region: a for f, a in zip(plan.faces, plan.anis)}
+        q = measure.quality(m, cond)
+        yield Step("triangulate", rnd, m,
+                   Stats(m.n_vertices, m.n_triangles, measure.energy(m, cond), float(q.min()),
+                         float(q.mean()), added=added, seconds=seconds), converged=done)
+        if done:
+            return
+    raise QmeshError(f"the region meshes did not agree on their interfaces after {max_rounds} "
+                     "rounds (each round added interface points the neighbours then needed); "
+                     "raise max_rounds or ask for more vertices")
+
+
+def _same(a, b) -> bool:
+    if a is None or b is None:
+        return (a is None or len(a) == 0) and (b is None or len(b) == 0)
+    return a.shape == b.shape and bool(np.array_equal(a, b))
+
+
+def mesh(domain, conductivity, *, target_vertices: int | None = None, progress=None,
+         **options) -> Mesh:
+    """Mesh a domain with regions to the end (see `iterate`). With `target_vertices`, a result
+    more than 5% off is redone (at most CORRECTIONS times) with the request scaled by the
+    ratio missed; the closest mesh is kept, and a QmeshWarning says when it is still > 10% off."""
+    if progress is not None and not callable(progress):
+        raise QmeshError(f"progress must be a function of one Step, got {type(progress).__name__}")
+    m = _last(iterate(domain, conductivity, target_vertices=target_vertices, **options), progress)
+    if target_vertices is None:
+        return m
+    ask = target_vertices
+    for _ in range(CORRECTIONS):
+        if abs(m.n_vertices - target_vertices) <= 0.05 * target_vertices:
+            break
+        ask = int(round(ask * target_vertices / m.n_vertices))
+        try:
+            again = _last(iterate(domain, conductivity, target_vertices=ask, **options), progress)
+        except QmeshError:
+            break
+        if abs(again.n_vertices - target_vertices) < abs(m.n_vertices - target_vertices):
+            m = again
+    if abs(m.n_vertices - target_vertices) > 0.1 * target_vertices:
+        from qmesh.errors import QmeshWarning
+        warnings.warn(f"target_vertices = {target_vertices}: the mesh has {m.n_vertices} vertices "
+                      "(the interfaces and q_ij >= 0 on them need these)", QmeshWarning, stacklevel=2)
+    return m
+
+
+def _last(steps, progress) -> Mesh:
+    last = None
+    for last in steps:
+        if progress is not None:
+            progress(last)
+    return last.mesh

@@ -1,0 +1,46 @@
+"""The face meshes glued into one `qmesh.Mesh` with `region_tags`.
+
+Interface vertices are the same floating-point numbers on both sides (an input point of a face
+mesh comes back bit-exactly, `Normalisation.to_user`), so they merge by exact coordinates; a
+KD-tree then checks that no two distinct vertices are closer than round-off, which would mean
+a crack in the mesh.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from qmesh.errors import QmeshError
+from qmesh.mesh import Mesh
+
+
+def stitch(part, meshes: list, face_regions: list, domain) -> Mesh:
+    """One mesh from the face meshes (in partition face order)."""
+    offs = np.cumsum([0] + [m.n_vertices for m in meshes])
+    P = np.concatenate([m.points for m in meshes])
+    U, vid = np.unique(P, axis=0, return_inverse=True)
+    vid = vid.ravel()
+    pairs = cKDTree(U).query_pairs(1e-12 * domain.diameter, output_type="ndarray")
+    if len(pairs):
+        raise QmeshError(f"two face meshes put vertices {U[pairs[0, 0]].tolist()} and "
+                         f"{U[pairs[0, 1]].tolist()} a round-off apart: the interface does not match")
+    T = np.concatenate([vid[m.triangles + o] for m, o in zip(meshes, offs)])
+    regions = np.concatenate([np.full(m.n_triangles, r) for m, r in zip(meshes, face_regions)])
+    # fixed: the input points of the user's domain and regions (the partition's vertices)
+    fixed = np.zeros(len(U), bool)
+    key = {tuple(x): i for i, x in enumerate(U)}
+    for x in part.points:
+        i = key.get(tuple(x))
+        if i is not None:
+            fixed[i] = True
+    # boundary edges: the face meshes' edges on ∂Ω, with the user's tags
+    be, bt = [], []
+    for m, o in zip(meshes, offs):
+        e = m.boundary_tags - 1
+        on = part.edge_tag[e] > 0
+        on &= (part.edge_faces[e] < 0).any(axis=1)
+        be.append(vid[m.boundary_edges[on] + o])
+        bt.append(part.edge_tag[e[on]])
+    return Mesh(U, T, fixed, np.concatenate(be), np.concatenate(bt), domain.tag_names,
+                regions, domain.region_names)

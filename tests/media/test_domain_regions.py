@@ -1,0 +1,57 @@
+"""Domain(regions=...): what is accepted, and bad regions refused naming the region and segment."""
+
+import numpy as np
+import pytest
+
+import qmesh
+
+SQUARE = [(0, 0), (2, 0), (2, 1), (0, 1)]
+HOLE = [(0.2, 0.2), (0.4, 0.2), (0.3, 0.4)]
+
+
+def test_regions_and_names_are_kept():
+    d = qmesh.Domain(SQUARE, regions=[[(1, 0), (2, 0), (2, 1), (1, 1)]], region_names=["right"])
+    assert len(d.regions) == 1 and d.region_names == {1: "right"}
+    assert d.regions[0].area == pytest.approx(1.0)
+    assert sorted(f.region for f in d._partition.faces) == [0, 1]
+
+
+def test_a_region_with_a_hole_filled_by_another_region():
+    ring = qmesh.Domain([(1, 0.2), (1.8, 0.2), (1.8, 0.8), (1, 0.8)], [[(1.2, 0.4), (1.4, 0.4), (1.3, 0.6)]])
+    d = qmesh.Domain(SQUARE, [HOLE], regions=[ring, [(1.2, 0.4), (1.4, 0.4), (1.3, 0.6)]])
+    faces = d._partition.faces
+    assert sorted(f.region for f in faces) == [0, 1, 2]
+    assert [len(f.cycles) for f in faces if f.region == 1] == [2]      # region 1 keeps its hole
+
+
+def test_a_corner_on_another_regions_edge_splits_it():
+    # region 2's corners (1, 0.3) and (1, 0.6) lie on region 1's left edge
+    d = qmesh.Domain(SQUARE, regions=[[(1, 0), (2, 0), (2, 1), (1, 1)],
+                                      [(0.5, 0.3), (1, 0.3), (1, 0.6), (0.5, 0.6)]])
+    part = d._partition
+    x1 = np.isclose(part.points[part.edges[:, 0], 0], 1) & np.isclose(part.points[part.edges[:, 1], 0], 1)
+    assert x1.sum() == 3                          # x = 1 cut into three edges
+    assert part.interface[x1].all()
+
+
+@pytest.mark.parametrize("regions, words", [
+    ([[(1, 0.2), (3, 0.2), (3, 0.8), (1, 0.8)]], ["region 1", "outline", "segment"]),
+    ([[(0.5, 0.5), (1.5, 0.5), (1, 0.8)], [(0.5, 0.6), (1.5, 0.6), (1, 0.9)]], ["region 1", "region 2", "segment"]),
+    ([[(0.1, 0.1), (0.5, 0.1), (0.5, 0.5), (0.1, 0.5)]], ["hole 1", "region 1", "segment"]),
+    ([[(0.25, 0.25), (0.35, 0.25), (0.3, 0.3)]], ["region 1", "outside"]),
+    ([[(0.5, 0.5), (0.7, 0.5), (0.6, 0.6)], [(0.1, 0.1) , (1.9, 0.1), (1.9, 0.9), (0.1, 0.9)]], ["region 2"]),
+    ([[(3, 3), (4, 3), (4, 4)]], ["region 1", "outside"]),
+    ([[(0, 0), (1, 1), (1, 0), (0, 1)]], ["region 1", "intersects itself"]),
+    ([[(2, 0), (3, 0), (3, 1), (2, 1)]], ["region 1"]),
+    (["abc"], ["region 1"]),
+])
+def test_bad_regions_are_refused_by_name(regions, words):
+    with pytest.raises(qmesh.QmeshError) as e:
+        qmesh.Domain(SQUARE, [HOLE], regions=regions)
+    for w in words:
+        assert w in str(e.value)
+
+
+def test_region_names_checked():
+    with pytest.raises(qmesh.QmeshError, match="one entry per region"):
+        qmesh.Domain(SQUARE, regions=[[(1, 0), (2, 0), (2, 1), (1, 1)]], region_names=["a", "b"])

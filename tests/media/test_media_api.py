@@ -1,0 +1,104 @@
+"""qmesh.mesh / qmesh.iterate with a conductivity per region, and measure.report with one."""
+
+import warnings
+
+import numpy as np
+import pytest
+
+import qmesh
+from qmesh import Anisotropy, measure
+
+SQUARE = [(0, 0), (1, 0), (1, 1), (0, 1)]
+FAULT = qmesh.Domain(SQUARE, regions=[[(0.5, 0), (1, 0), (1, 1), (0.5, 1)]], region_names=["right"])
+COND = {0: Anisotropy.constant([[1, 0], [0, 1]]), 1: Anisotropy.principal(100, 1, 30)}
+
+
+def test_a_missing_region_is_refused():
+    with pytest.raises(qmesh.QmeshError, match="no conductivity for region 1 \\(right\\)"):
+        qmesh.mesh(FAULT, {0: COND[0]}, target_vertices=200)
+
+
+def test_bad_conductivity_mappings_are_refused():
+    with pytest.raises(qmesh.QmeshError, match="must be a qmesh.Anisotropy"):
+        qmesh.mesh(FAULT, {0: COND[0], 1: [[1, 0], [0, 1]]}, target_vertices=200)
+    with pytest.raises(qmesh.QmeshError, match="region 5"):
+        qmesh.mesh(FAULT, {**COND, 5: COND[0]}, target_vertices=200)
+
+
+def test_mesh_meets_the_target_and_tags_regions():
+    m = qmesh.mesh(FAULT, COND, target_vertices=600)
+    assert abs(m.n_vertices - 600) <= 60
+    assert set(np.unique(m.region_tags)) == {0, 1} and m.region_names == {1: "right"}
+    r = measure.report(m, COND)
+    assert r["q_nonnegative_fraction"] == r["q_nonnegative_fraction_interface"] == 1.0
+    assert r["q_nonnegative_fraction_boundary"] == 1.0
+    # the interface x = 0.5 is covered by interface edges
+    E, inter = measure.interface_edges(m)
+    L = np.linalg.norm(m.points[E[inter, 0]] - m.points[E[inter, 1]], axis=1).sum()
+    assert L == pytest.approx(1.0, rel=1e-12)
+    # boundary edges: the outline's tag, none on the interface x = 0.5 (unless on y = 0 or 1)
+    assert set(m.boundary_tags.tolist()) == {1}
+    B = m.points[m.boundary_edges]
+    on_outline = np.isclose(B, 0).all(axis=1) | np.isclose(B, 1).all(axis=1)
+    assert on_outline.any(axis=1).all()
+
+
+def test_iterate_yields_rounds_ending_converged():
+    steps = list(qmesh.iterate(FAULT, COND, target_vertices=300))
+    assert steps and steps[-1].converged and not any(s.converged for s in steps[:-1])
+    assert all(isinstance(s, qmesh.Step) for s in steps)
+
+
+def test_a_single_anisotropy_without_regions_is_todays_mesher():
+    A = Anisotropy.constant(qmesh.CHAPTER_Q)
+    from qmesh.mesher import loop
+    m1 = qmesh.mesh(qmesh.Disk(32), A, target_vertices=150)
+    steps = list(loop._explained(loop.iterate(qmesh.Disk(32), A, target_vertices=150), ""))
+    assert all(s.stage in ("triangulate", "adjust", "insert") for s in steps)
+    assert any(s.stage == "adjust" for s in steps)         # the media path only yields rounds
+    assert np.array_equal(m1.points, qmesh.mesh(qmesh.Disk(32), A, target_vertices=150).points)
+
+
+def test_a_mapping_on_a_domain_without_regions():
+    m = qmesh.mesh(qmesh.Disk(24), {0: COND[1]}, target_vertices=150)
+    assert (m.region_tags == 0).all()
+    assert measure.report(m, {0: COND[1]})["kappa2"] == pytest.approx(
+        measure.report(m, COND[1])["kappa2"], rel=1e-12)
+
+
+def test_report_with_a_mapping_uses_each_triangles_q():
+    m = qmesh.mesh(FAULT, COND, target_vertices=300)
+    K = measure.stiffness(m, COND).toarray()
+    # assemble by hand, region by region, from sub-meshes of the same points
+    K2 = np.zeros_like(K)
+    for r, A in COND.items():
+        sub = qmesh.Mesh(m.points, m.triangles[m.region_tags == r])
+        K2 += measure.stiffness(sub, A).toarray()
+    assert np.allclose(K, K2, atol=1e-12 * np.abs(K).max())
+    one = measure.report(m, COND[0])              # one Q for every triangle: different matrix
+    assert one["kappa2"] != measure.report(m, COND)["kappa2"]
+    with pytest.raises(qmesh.QmeshError, match="no conductivity for region 1"):
+        measure.report(m, {0: COND[0]})
+
+
+def test_thin_face_warnings_name_their_region():
+    d = qmesh.Domain(SQUARE, regions=[[(0, 0.45), (1, 0.45), (1, 0.47), (0, 0.47)]])
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        qmesh.mesh(d, {0: COND[0], 1: COND[0]}, target_vertices=300)
+    assert all(str(w.message).startswith("region") for w in said if w.category is qmesh.QmeshWarning)
+
+
+def test_nested_regions_holes_and_a_varying_s():
+    from tests.media.cases import check_mesh
+    ring = qmesh.Domain([(1, 0.2), (1.8, 0.2), (1.8, 0.8), (1, 0.8)], [[(1.2, 0.4), (1.4, 0.4), (1.3, 0.6)]])
+    d = qmesh.Domain([(0, 0), (2, 0), (2, 1), (0, 1)], [[(0.2, 0.2), (0.4, 0.2), (0.3, 0.4)]],
+                     regions=[ring, [(1.2, 0.4), (1.4, 0.4), (1.3, 0.6)]])
+    cond = {0: Anisotropy.from_expression("exp(x) + y**2"), 1: Anisotropy.principal(100, 1, 20),
+            2: Anisotropy.constant(0.01 * np.eye(2))}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", qmesh.QmeshWarning)
+        m = qmesh.mesh(d, cond, target_vertices=600)
+    check_mesh(d, cond, m)
+    assert set(np.unique(m.region_tags)) == {0, 1, 2}
+    assert set(m.boundary_tags.tolist()) == {1, 2}          # the outline's and the hole's
