@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import json
 
-from qmesh.domain.polygon_file import _checked_ring, _geojson_ring, _path
+from qmesh.domain.polygon_file import _checked_ring, _path, rings_from_polygon
 from qmesh.errors import QmeshError
 
 MAX_BYTES = 200_000_000
@@ -55,10 +55,7 @@ def regions_from_text(text: str, where: str):
         geometry = feature.get("geometry")
         if not isinstance(geometry, dict) or geometry.get("type") != "Polygon":
             raise QmeshError(f"{what}: its geometry must be a Polygon")
-        coords = geometry.get("coordinates")
-        if not isinstance(coords, list) or not coords:
-            raise QmeshError(f"{what}: a Polygon needs 'coordinates', a non-empty list of rings")
-        rings = [_checked_ring(_geojson_ring(r, i, what), i, what) for i, r in enumerate(coords)]
+        rings = [_checked_ring(r, i, what) for i, r in enumerate(rings_from_polygon(geometry, what))]
         region = props["region"]
         if region == 0 and not isinstance(region, bool):
             if outer is not None:
