@@ -163,7 +163,7 @@ class QmeshView(TrameApp):
     def _view_options(self) -> dict:
         return dict(z_scale=float(self.state.z_scale), colour_by=self.state.colour_by,
                     q_sign_edges=bool(self.state.q_sign_edges), domain=self.session.domain,
-                    edges=self.state.edges)
+                    edges=self.state.edges, regions=self.session.regions)
 
     def _chart(self) -> dict:
         """Worker thread: the convergence series as sparkline data (E on a log10 scale)."""

@@ -350,7 +350,8 @@ class QmeshWidget(w.VBox):
             self._sync(quick=False)
 
     def _view_options(self) -> dict:
-        return dict(domain=self.session.domain, edges=self.edges.value)
+        return dict(domain=self.session.domain, edges=self.edges.value,
+                    regions=self.session.regions)
 
     def _sync(self, quick: bool = True) -> None:
         """Controls ← model, without their observers reacting."""
