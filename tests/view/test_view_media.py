@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from qmesh import measure
-from qmesh_view import legend, scene
+from qmesh_view import draw, legend, scene
 from qmesh_view.draw import ViewSet
 from qmesh_view.problem import MEDIA
 from qmesh_view.session import Session
@@ -61,7 +61,9 @@ def test_the_legend_names_every_region_with_its_q(layered):
         for r in layered.regions:
             assert f"{r['name']}: Q = [[{r['q11']:.3g}" in mesh
             assert scene.region_colour(r["tag"]) in mesh
-        assert "interface" in legend.html("quality", views.legend)
+        quality = legend.html("quality", views.legend)
+        assert "interface, q_ij ≥ 0" in quality
+        assert all(colour in quality for _, _, colour, _ in draw.Q_SIGN_LINES)
         assert "one s per region" in legend.html("lifted", views.legend)
     finally:
         views.close()
