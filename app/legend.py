@@ -92,12 +92,16 @@ def html(name: str, info: dict) -> str:
 
 
 def state(info: dict) -> dict:
-    """{"legend_lifted": …, "legend_mesh": …, "legend_quality": …} for the trame state."""
-    return {f"legend_{name}": html(name, info) for name in draw.VIEWS}
+    """{"legend_lifted": …, "legend_mesh": …, "legend_quality": …} for the trame state, and
+    `legend_height` (px, one for all three, so the views keep one height and one scale): two
+    lines, or room for a medium's region list."""
+    out = {f"legend_{name}": html(name, info) for name in draw.VIEWS}
+    out["legend_height"] = 44 if not info.get("regions") else 50 + 20 * len(info["regions"])
+    return out
 
 
 def html_legend(name: str) -> None:
     """The trame element showing view `name`'s legend from the state (id legend-NAME)."""
     from trame.widgets import html as h
-    h.Div(v_html=(f"legend_{name}",), id=f"legend-{name}",
-          style="min-height: 44px")        # two lines: the views keep one height, one scale
+    h.Div(v_html=(f"legend_{name}",), id=f"legend-{name}",     # one height for all three
+          style=("`height: ${legend_height}px; overflow-y: auto`",))
