@@ -124,7 +124,7 @@ class QmeshView(TrameApp):
         self.state.update(dict(history_index=0, history_length=1, busy=False, running=False,
                                z_scale=1.0, colour_by="quality", q_sign_edges=False,
                                edges="auto", maximised="",
-                               status_line="", messages="", at_end=False,
+                               status_line="", messages="", at_end=False, regions_text="",
                                chart_energy=[], chart_kappa2=[], chart_n=[], chart_labels={}))
         self.state.update(legend.state(self.views.legend))
         self.state.domain_items = self.session.domain_names()
@@ -163,7 +163,7 @@ class QmeshView(TrameApp):
     def _view_options(self) -> dict:
         return dict(z_scale=float(self.state.z_scale), colour_by=self.state.colour_by,
                     q_sign_edges=bool(self.state.q_sign_edges), domain=self.session.domain,
-                    edges=self.state.edges)
+                    edges=self.state.edges, regions=self.session.regions)
 
     def _chart(self) -> dict:
         """Worker thread: the convergence series as sparkline data (E on a log10 scale)."""
@@ -472,12 +472,14 @@ class QmeshView(TrameApp):
     def _parameters(self) -> None:
         with v3.VContainer(classes="pa-3", style="font-size: 0.85rem"):
             html.Div("Conductivity", classes="text-subtitle-2")
-            with html.Div(id="q-mode", classes="my-1"):
+            html.Div("{{ regions_text }}", v_show=("regions_text",), id="media-readout",
+                     classes="my-2 text-body-2")
+            with html.Div(id="q-mode", classes="my-1", v_show=("!regions_text",)):
                 with v3.VBtnToggle(v_model=("q_mode",), mandatory=True, density="compact",
                                    variant="outlined", divided=True):
                     v3.VBtn("constant Q", value="constant", size="small")
                     v3.VBtn("s(x, y)", value="expression", size="small")
-            with html.Div(v_show=("q_mode === 'constant'",)):
+            with html.Div(v_show=("q_mode === 'constant' && !regions_text",)):
                 html.Div("principal values and the angle of k1",
                          classes="text-caption text-medium-emphasis")
                 slider("k1", "k1", 0.05, 20, 0.05)
@@ -485,7 +487,7 @@ class QmeshView(TrameApp):
                 slider("angle", "angle", 0, 180, 5, shown="angle + '°'")
                 html.Div("Q11 = {{ q11.toPrecision(4) * 1 }} · Q12 = {{ q12.toPrecision(4) * 1 }}"
                          " · Q22 = {{ q22.toPrecision(4) * 1 }}", classes="my-2", id="q-readout")
-            with html.Div(v_show=("q_mode === 'expression'",)):
+            with html.Div(v_show=("q_mode === 'expression' && !regions_text",)):
                 with html.Div(id="field-s"):
                     v3.VTextField(v_model=("s_input",), label="s(x, y)", density="compact",
                                   error_messages=("s_error ? [s_error] : []",),

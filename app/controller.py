@@ -18,7 +18,8 @@ import qmesh
 from qmesh import measure
 from qmesh.errors import QmeshError
 
-from .problem import DISK, Q_MODES, S_PRESETS, make_anisotropy, make_domain, q_matrix
+from .problem import (DISK, Q_MODES, S_PRESETS, make_anisotropy, make_domain, q_matrix, regions,
+                      regions_text)
 
 PARAMS = ("k1", "k2", "angle", "vb", "target_vertices", "alpha", "seed", "domain", "q_mode",
           "s_text")
@@ -140,8 +141,16 @@ class Controller:
 
     # ------------------------------------------------------------------ the run
     @property
-    def anisotropy(self) -> qmesh.Anisotropy:
+    def anisotropy(self):
+        """The conductivity meshed: one `qmesh.Anisotropy`, or `{region tag: Anisotropy}` for a
+        media preset."""
         return self._anisotropy
+
+    @property
+    def regions(self) -> list[dict]:
+        """A medium's regions (tag, name, q11, q12, q22); [] for one conductivity."""
+        names = self.history[0].mesh.region_names if self.history else None
+        return regions(self.params.domain, self._anisotropy, names)
 
     @property
     def domain(self) -> qmesh.Domain:
@@ -155,9 +164,11 @@ class Controller:
 
     @property
     def readout(self) -> dict:
-        """Q11, Q12, Q22 of the parameters."""
+        """Q11, Q12, Q22 of the parameters, and `regions_text`: a medium's Q per region (the
+        single Q then does not apply), "" otherwise."""
         Q = self.q
-        return {"q11": float(Q[0, 0]), "q12": float(Q[0, 1]), "q22": float(Q[1, 1])}
+        return {"q11": float(Q[0, 0]), "q12": float(Q[0, 1]), "q22": float(Q[1, 1]),
+                "regions_text": regions_text(self.regions)}
 
     def reset(self) -> None:
         """Start the run again from its initial triangulation."""
@@ -240,7 +251,7 @@ class Controller:
             row = _stats_row(step)
             if not quick:
                 try:
-                    if not self._anisotropy.is_constant:
+                    if not getattr(self._anisotropy, "is_constant", True):   # s as text
                         row["q_nonnegative_sh"] = measure.sh_convex_fraction(step.mesh, self._anisotropy)
                     row["q_nonnegative"] = measure.q_nonnegative_fraction(step.mesh,
                                                                           self._anisotropy)

@@ -23,8 +23,10 @@ SURFACE = "#9ecae1"        # the smooth s(x)
 FACET = "#fdae6b"          # the facets of s_h
 # edges by the sign of q_ij: (actor name, q_sign value, colour, line width); negatives stand out
 # (black and red stay visible on every colour of viridis, green vanished on its greens)
+# interface edges of a medium (two triangles, two regions) with q_ij ≥ 0: thick magenta
 Q_SIGN_LINES = (("q_boundary", 0, "#7f7f7f", 1), ("q_positive", 1, "#000000", 1),
-                ("q_negative", -1, "#e31a1c", 4))
+                ("q_interface", 2, "#e7298a", 3), ("q_negative", -1, "#e31a1c", 4))
+INTERFACE = "#e7298a"      # the region boundaries in the mesh view of a medium
 SIZE_CMAP = "Blues_r"      # mesh view when edges are too dense: triangles by area (log)
 QUALITY_CMAP = "viridis"
 SCALAR_TITLES = {"quality": "quality", "metric_area": "metric area"}
@@ -62,22 +64,37 @@ def _put(plotter: pv.Plotter, name: str, mesh: pv.PolyData | None, **kwargs) -> 
 
 
 def draw_lifted(plotter: pv.Plotter, view: scene.LiftedScene) -> None:
-    """The translucent s(x), the lifted vertices, the s_h facets with their edges."""
+    """The translucent s(x), the lifted vertices, the s_h facets with their edges (a medium:
+    no surface, each region's piece in its region's colour)."""
     _put(plotter, "surface", view.surface, color=SURFACE, opacity=0.3, ambient=0.5,
          show_scalar_bar=False)
-    _put(plotter, "facets", view.facets, color=FACET, ambient=0.3, show_edges=True, edge_color=EDGE,
-         line_width=1, show_scalar_bar=False)
+    if "region_rgb" in view.facets.cell_data:
+        _put(plotter, "facets", view.facets, scalars="region_rgb", rgb=True, preference="cell",
+             ambient=0.3, show_edges=True, edge_color=EDGE, line_width=1, show_scalar_bar=False)
+    else:
+        _put(plotter, "facets", view.facets, color=FACET, ambient=0.3, show_edges=True,
+             edge_color=EDGE, line_width=1, show_scalar_bar=False)
     many = view.vertices.n_points > SPHERE_LIMIT
     _put(plotter, "vertices", view.vertices, color=EDGE, point_size=3 if many else 5,
          render_points_as_spheres=not many, show_scalar_bar=False)
 
 
 def draw_projected(plotter: pv.Plotter, view: scene.ProjectedScene) -> None:
-    """The plane mesh with edges, seeds, inserted points and displacement arrows."""
-    _put(plotter, "mesh", view.mesh, scalars="log_area", preference="cell", cmap=SIZE_CMAP,
-         show_edges=True, edge_color=EDGE, line_width=1, lighting=False, show_scalar_bar=False)
+    """The plane mesh with edges, seeds, inserted points and displacement arrows; a medium's
+    triangles in their region's colour, its interfaces as thick lines."""
+    by_region = "region_rgb" in view.mesh.cell_data
+    if by_region:
+        _put(plotter, "mesh", view.mesh, scalars="region_rgb", rgb=True, preference="cell",
+             show_edges=True, edge_color=EDGE, line_width=1, lighting=False,
+             show_scalar_bar=False)
+    else:
+        _put(plotter, "mesh", view.mesh, scalars="log_area", preference="cell", cmap=SIZE_CMAP,
+             show_edges=True, edge_color=EDGE, line_width=1, lighting=False,
+             show_scalar_bar=False)
+    _put(plotter, "interfaces", view.interfaces, color=INTERFACE, line_width=3,
+         show_scalar_bar=False)
     actor = plotter.actors.get("mesh")
-    if actor is not None and "log_area" in view.mesh.cell_data:
+    if actor is not None and not by_region and "log_area" in view.mesh.cell_data:
         a = view.mesh.cell_data["log_area"]
         lo, hi = float(a.min()), float(a.max())
         actor.mapper.SetScalarRange(lo - 0.25, hi + 0.25 if hi > lo else lo + 1.0)
@@ -220,8 +237,9 @@ class ViewSet:
 
     def draw(self, step, anisotropy, *, z_scale: float = 1.0, colour_by: str = "quality",
              q_sign_edges: bool = False, domain=None, arrow_scale: float = 1.0,
-             edges: str = "auto") -> None:
-        """Redraw the three views from `step`; `edges` is "auto" (by density), "on" or "off"."""
+             edges: str = "auto", regions=()) -> None:
+        """Redraw the three views from `step`; `edges` is "auto" (by density), "on" or "off";
+        `regions` a medium's rows (tag, name, q11, q12, q22) for the legend."""
         edge_look(edges, 0.0)                           # QmeshError for an unknown mode
         p = self.plotters
         draw_lifted(p["lifted"], scene.lifted(step, anisotropy, z_scale, domain=domain))
@@ -232,7 +250,9 @@ class ViewSet:
         _put(p["quality"], "sample", None if q.edges is not None else projected.sample,
              color=EDGE, line_width=1, show_scalar_bar=False)
         self.legend = {"title": SCALAR_TITLES[q.scalars], "clim": tuple(map(float, q.clim)),
-                       "q_sign_edges": q.edges is not None, "n_negative": q.n_negative}
+                       "q_sign_edges": q.edges is not None, "n_negative": q.n_negative,
+                       "regions": list(regions) if scene.is_medium(anisotropy) else [],
+                       "n_interface": q.n_interface}
         key = None if domain is None else tuple(np.asarray(r).tobytes() for r in domain.rings)
         if not self._drawn or key != self._domain_key:      # first draw, or a new domain
             self.reset_cameras()
@@ -267,7 +287,10 @@ class ViewSet:
                 if actor_name == "sample":        # crowded: a sample of triangles outlined
                     actor.SetVisibility(look != "dark")
                     continue
-                if actor_name == "mesh":          # crowded: the triangles coloured by area
+                if actor_name == "mesh" and "region_rgb" in pv.wrap(actor.mapper.GetInput()
+                                                                      ).cell_data:
+                    pass                          # a medium: always coloured by region
+                elif actor_name == "mesh":        # crowded: the triangles coloured by area
                     actor.mapper.SetScalarVisibility(look != "dark")
                     actor.GetProperty().SetColor(pv.Color(MESH_FACE).float_rgb)
                 if actor_name == "triangles" and self.legend.get("q_sign_edges"):

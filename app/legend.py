@@ -9,7 +9,8 @@ from __future__ import annotations
 
 from html import escape
 
-from . import draw
+from . import draw, scene
+from .problem import q_text
 
 VIRIDIS = ("#440154", "#482878", "#3e4989", "#31688e", "#26828e", "#1f9e89", "#35b779",
            "#6ece58", "#b5de2b", "#fde725")
@@ -48,7 +49,12 @@ def _number(x: float) -> str:
 
 def html(name: str, info: dict) -> str:
     """The legend of view `name` ("lifted", "mesh", "quality"); `info` is `ViewSet.legend`."""
-    if name == "lifted":
+    if name == "lifted" and info.get("regions"):
+        items = [_item(_swatch(draw.FACET), "a medium has one s per region, not one surface: "
+                       "each region's triangles lifted onto its own s_r (own height scale), "
+                       "in its region's colour"),
+                 _item(_dot(draw.EDGE), "vertices (x, s_r(x))")]
+    elif name == "lifted":
         items = [_item(_swatch(draw.SURFACE, 0.5), "s(x), translucent"),
                  _item(_swatch(draw.FACET), "facets of s_h"),
                  _item(_dot(draw.EDGE), "vertices (x, s(x))")]
@@ -56,7 +62,12 @@ def html(name: str, info: dict) -> str:
         items = [_item(_dot(draw.FIXED), "seed points (fixed)"),
                  _item(_dot(draw.ADDED), "inserted by the last insert"),
                  _item(_line(draw.ARROW), "moves of the last adjust")]
-        if info.get("crowded"):
+        regions = info.get("regions") or []
+        if regions:
+            items.append(_item(_line(draw.INTERFACE, 3), "interface"))
+            items += [f"<span class='legend-region'>{_swatch(scene.region_colour(r['tag']))}"
+                      f"{escape(r['name'])}: {escape(q_text(r))}</span>" for r in regions]
+        if info.get("crowded") and not regions:
             bar = ("<span style='display:inline-block;width:70px;height:10px;border:1px solid "
                    "#888;background:linear-gradient(to right,#08306b,#4292c6,#deebf7)'></span>")
             items.append(f"<span class='legend-size'>edges too dense: a sample of "
@@ -71,6 +82,9 @@ def html(name: str, info: dict) -> str:
             look = {value: (colour, width) for _, value, colour, width in draw.Q_SIGN_LINES}
             items += [_item(_line(*look[1]), "q_ij ≥ 0"),
                       _item(_line(*look[-1]), f"q_ij < 0 ({info.get('n_negative', 0)})"),
+                      *([_item(_line(*look[2]), f"interface, q_ij ≥ 0 "
+                                                f"({info.get('n_interface', 0)})")]
+                        if info.get("regions") else []),
                       _item(_line(*look[0]), "boundary edge")]
     else:
         raise ValueError(f"no legend for view {name!r}")
@@ -78,12 +92,16 @@ def html(name: str, info: dict) -> str:
 
 
 def state(info: dict) -> dict:
-    """{"legend_lifted": …, "legend_mesh": …, "legend_quality": …} for the trame state."""
-    return {f"legend_{name}": html(name, info) for name in draw.VIEWS}
+    """{"legend_lifted": …, "legend_mesh": …, "legend_quality": …} for the trame state, and
+    `legend_height` (px, one for all three, so the views keep one height and one scale): two
+    lines, or room for a medium's region list."""
+    out = {f"legend_{name}": html(name, info) for name in draw.VIEWS}
+    out["legend_height"] = 44 if not info.get("regions") else 50 + 20 * len(info["regions"])
+    return out
 
 
 def html_legend(name: str) -> None:
     """The trame element showing view `name`'s legend from the state (id legend-NAME)."""
     from trame.widgets import html as h
-    h.Div(v_html=(f"legend_{name}",), id=f"legend-{name}",
-          style="min-height: 44px")        # two lines: the views keep one height, one scale
+    h.Div(v_html=(f"legend_{name}",), id=f"legend-{name}",     # one height for all three
+          style=("`height: ${legend_height}px; overflow-y: auto`",))

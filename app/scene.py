@@ -12,11 +12,18 @@ by the trame app and the Jupyter widget (ARCHITECTURE.md "qmesh_view.scene").
 - `quality`: triangles coloured by the metric quality (2.94) or the metric area, and optionally
   every edge coloured by the sign of q_ij = −K_ij (Glickenstein 2007).
 
-Every array operation is vectorised over vertices, triangles or edges.
+A medium (a `{region tag: Anisotropy}` mapping) has one s per region, not one surface: the
+lifted view then shows each region's own piece (its triangles lifted onto its s_r, normalised
+per region, no smooth surface); the projected mesh is coloured by region; the quality view
+uses each triangle's own metric and marks the interface edges (two triangles, two regions).
+
+Every array operation is vectorised over vertices, triangles or edges (and looped only over the
+few regions of a medium).
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -30,6 +37,10 @@ from qmesh.geometry.triangles import metric_areas, metric_hessians, metric_quali
 
 COLOUR_BY = ("quality", "metric_area")
 """What the quality view can colour triangles by."""
+
+REGION_COLOURS = ("#8dd3c7", "#fdb462", "#bebada", "#fb8072", "#80b1d3", "#b3de69", "#fccde5",
+                  "#ffffb3", "#bc80bd", "#d9d9d9")
+"""The mesh view's colour of region k (matplotlib's Set3, reordered), k modulo 10."""
 
 SURFACE_RESOLUTION = 41
 """Grid points across the domain's bounding box used to sample the smooth s(x)."""
@@ -163,6 +174,38 @@ def _sample_domain(rings, resolution: int, contains) -> tuple[np.ndarray, np.nda
     return P, T
 
 
+def region_colour(tag: int) -> str:
+    """The mesh view's colour of region `tag` (hex)."""
+    return REGION_COLOURS[int(tag) % len(REGION_COLOURS)]
+
+
+def region_rgb(tags: np.ndarray) -> np.ndarray:
+    """(M, 3) uint8 colours of regions `tags`."""
+    rgb = np.array([pv.Color(c).int_rgb for c in REGION_COLOURS], dtype=np.uint8)
+    return rgb[np.asarray(tags) % len(REGION_COLOURS)]
+
+
+def is_medium(anisotropy) -> bool:
+    """True for a conductivity per region (`{tag: Anisotropy}`)."""
+    return isinstance(anisotropy, Mapping)
+
+
+def hessians(mesh, anisotropy) -> np.ndarray:
+    """The metric H of every triangle (M, 2, 2): its region's for a medium."""
+    P, T = mesh.points, mesh.triangles
+    if not is_medium(anisotropy):
+        return metric_hessians(anisotropy, P, T)
+    tags = mesh.region_tags
+    missing = sorted(set(np.unique(tags).tolist()) - {int(k) for k in anisotropy})
+    if missing:
+        raise QmeshError(f"no conductivity for region {missing[0]} of the mesh")
+    H = np.empty((len(T), 2, 2))
+    for tag in np.unique(tags).tolist():
+        sel = tags == tag
+        H[sel] = metric_hessians(anisotropy[tag], P, T[sel])
+    return H
+
+
 # --------------------------------------------------------------------------- lifted view
 
 @dataclass(frozen=True)
@@ -196,6 +239,8 @@ def lifted(step, anisotropy, z_scale: float = 1.0, *, domain=None,
         raise QmeshError(f"z_scale must be finite and > 0, got {z_scale}")
     P, T = step.mesh.points, step.mesh.triangles
     rings = domain_rings(step, domain)
+    if is_medium(anisotropy):
+        return _lifted_pieces(step, anisotropy, z_scale, rings)
     SP, ST = sample_domain(rings, resolution,
                            None if domain is None else lambda X: domain.contains(X))
     s_surface = np.asarray(anisotropy.s(SP), dtype=float)
@@ -213,6 +258,29 @@ def lifted(step, anisotropy, z_scale: float = 1.0, *, domain=None,
     return LiftedScene(surface, points_polydata(P, z_vertex), facets, float(z_scale))
 
 
+def _lifted_pieces(step, anisotropy, z_scale: float, rings) -> LiftedScene:
+    """A medium: every region's triangles lifted onto its own s_r (one s per region, each
+    normalised to its own range: s_r is only defined up to an affine function), the pieces
+    side by side over the plane; no smooth surface (there is no single one)."""
+    P, T, tags = step.mesh.points, step.mesh.triangles, step.mesh.region_tags
+    width = float(np.ptp(np.concatenate(rings), axis=0).max())
+    points, faces, heights, region, offset = [], [], [], [], 0
+    for tag in np.unique(tags).tolist():
+        Tr = T[tags == tag]
+        used, local = np.unique(Tr, return_inverse=True)
+        s_r = np.asarray(anisotropy[tag].s(P[used]), dtype=float)
+        heights.append(height_map(s_r, s_r.min(), s_r.max(), width, z_scale))
+        points.append(P[used])
+        faces.append(local.reshape(Tr.shape)[:, ::-1] + offset)
+        region.append(np.full(len(Tr), tag))
+        offset += len(used)
+    X, z = np.concatenate(points), np.concatenate(heights)
+    facets = triangles_polydata(X, np.concatenate(faces), z)
+    facets.cell_data["region"] = np.concatenate(region)
+    facets.cell_data["region_rgb"] = region_rgb(facets.cell_data["region"])
+    return LiftedScene(pv.PolyData(), points_polydata(X, z), facets, float(z_scale))
+
+
 # --------------------------------------------------------------------------- projected view
 
 @dataclass(frozen=True)
@@ -226,6 +294,7 @@ class ProjectedScene:
     n_added: int
     n_moved: int
     sample: pv.PolyData = None   # outlines of one triangle per cell of a coarse grid (crowded)
+    interfaces: pv.PolyData = None   # a medium's interface edges (two regions), else empty
 
 
 def projected(step, *, arrow_scale: float = 1.0, min_move: float = 0.0) -> ProjectedScene:
@@ -250,9 +319,19 @@ def projected(step, *, arrow_scale: float = 1.0, min_move: float = 0.0) -> Proje
     u, v = P[T[:, 1]] - P[T[:, 0]], P[T[:, 2]] - P[T[:, 0]]
     area = 0.5 * np.abs(u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0])
     tri.cell_data["log_area"] = np.log10(np.maximum(area, 1e-300))   # colour when crowded
+    tags = np.asarray(m.region_tags)
+    interfaces = pv.PolyData()
+    if len(tags) and tags.min() != tags.max():                         # a medium: by region
+        tri.cell_data["region"] = tags
+        tri.cell_data["region_rgb"] = region_rgb(tags)
+        E = np.unique(np.sort(T[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1), axis=0)
+        E = E[interface_mask(m, E)]
+        if len(E):
+            lift = 2e-3 * max(float(np.ptp(P, axis=0).max()), 1e-300)
+            interfaces = pv.PolyData(_xyz(P, lift), lines=_lines(E))
     return ProjectedScene(tri, points_polydata(P[m.fixed]),
                           points_polydata(P[added]), arrows, len(added), n_moved,
-                          sample_outlines(P, T))
+                          sample_outlines(P, T), interfaces)
 
 
 SAMPLE_CELLS = 36            # grid cells across the domain's width for the sampled outlines
@@ -286,16 +365,41 @@ class QualityScene:
     triangles: pv.PolyData
     scalars: str              # name of the cell array the triangles are coloured by
     clim: tuple[float, float]
-    edges: pv.PolyData | None  # cell array "q_sign": interior +1 (q_ij ≥ 0) / −1 (< 0), boundary 0
+    edges: pv.PolyData | None  # cell array "q_sign": interior +1 (q_ij ≥ 0) / −1 (< 0), boundary 0,
+    #                            interface (two regions) with q_ij ≥ 0: 2
     n_negative: int           # interior edges with q_ij < 0
+    n_interface: int = 0      # interface edges (a medium) with q_ij ≥ 0
 
 
 def q_signs(step, anisotropy, rtol: float = 1e-9) -> tuple[np.ndarray, np.ndarray]:
     """Every edge (k, 2) and its sign: +1 interior with q_ij ≥ 0, −1 interior with q_ij < 0,
-    0 on the boundary (where the M-matrix property says nothing). Round-off counts as ≥ 0."""
+    0 on the boundary (where the M-matrix property says nothing), 2 on an interface between two
+    regions with q_ij ≥ 0 (assembled from both sides, each triangle with its own Q). Round-off
+    counts as ≥ 0."""
     edges, q, interior = measure.edge_weights(step.mesh, anisotropy)
     scale = np.abs(q).max() if len(q) else 1.0
-    return edges, np.where(interior, np.where(q >= -rtol * scale, 1, -1), 0)
+    sign = np.where(interior, np.where(q >= -rtol * scale, 1, -1), 0)
+    if is_medium(anisotropy):
+        sign[interface_mask(step.mesh, edges) & (sign == 1)] = 2
+    return edges, sign
+
+
+def interface_mask(mesh, edges: np.ndarray) -> np.ndarray:
+    """Which of `edges` (k, 2) lie on an interface: their two triangles are in different
+    regions (by `mesh.region_tags`)."""
+    T, tags = mesh.triangles, np.asarray(mesh.region_tags)
+    n = np.int64(mesh.n_vertices)
+    sides = np.sort(np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]]), axis=1)
+    key = sides[:, 0] * n + sides[:, 1]
+    r = np.tile(tags, 3)
+    order = np.lexsort((r, key))
+    key, r = key[order], r[order]
+    first = np.r_[True, key[1:] != key[:-1]]
+    start = np.flatnonzero(first)
+    stop = np.r_[start[1:], len(key)] - 1
+    across = key[start][r[start] != r[stop]]            # lowest and highest tag differ
+    E = np.sort(np.asarray(edges, dtype=np.int64), axis=1)
+    return np.isin(E[:, 0] * n + E[:, 1], across)
 
 
 def quality(step, anisotropy, colour_by: str = "quality",
@@ -304,7 +408,7 @@ def quality(step, anisotropy, colour_by: str = "quality",
     if colour_by not in COLOUR_BY:
         raise QmeshError(f"colour_by must be one of {COLOUR_BY}, got {colour_by!r}")
     P, T = step.mesh.points, step.mesh.triangles
-    H = metric_hessians(anisotropy, P, T)
+    H = hessians(step.mesh, anisotropy)                    # each triangle its own metric
     tri = triangles_polydata(P, T)
     if colour_by == "quality":
         values = metric_quality(P, T, H)                   # (2.94)
@@ -321,4 +425,5 @@ def quality(step, anisotropy, colour_by: str = "quality",
         edges = pv.PolyData(_xyz(P, 0.0), lines=_lines(E))
         edges.cell_data["q_sign"] = sign
         n_negative = int(np.sum(sign < 0))
-    return QualityScene(tri, colour_by, clim, edges, n_negative)
+    return QualityScene(tri, colour_by, clim, edges, n_negative,
+                        0 if edges is None else int(np.sum(sign == 2)))

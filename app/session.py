@@ -90,6 +90,7 @@ class Session:
     domain = property(lambda self: self._run.domain)
     readout = property(lambda self: self._run.readout)
     q = property(lambda self: self._run.q)
+    regions = property(lambda self: self._run.regions)      # a medium's regions, else []
 
     def domain_names(self) -> list[str]:
         return domain_names(self.uploads)

@@ -189,6 +189,7 @@ class QmeshWidget(w.VBox):
         self.history = _slider(w.IntSlider, "history", 0, min=0, max=0,
                                layout=w.Layout(width="60%"))
         self.readout = w.HTML()
+        self.media_readout = w.HTML()     # a medium: every region's Q (one Q does not apply)
         self.status = w.HTML()
         self.error = w.HTML()
         self.edges = w.ToggleButtons(options=["auto", "on", "off"], value="auto",
@@ -226,7 +227,8 @@ class QmeshWidget(w.VBox):
                         for name in VIEWS])
         self._constant_box = w.VBox([s["k1"], s["k2"], s["angle"], self.readout])
         self._s_box = w.VBox([self.s_text, self.s_error])
-        return [w.HBox([w.VBox([s["q_mode"], self._constant_box, self._s_box]),
+        return [w.HBox([w.VBox([s["q_mode"], self._constant_box, self._s_box,
+                                self.media_readout]),
                         w.VBox([s["domain"], self.upload, s["vb"], s["target_vertices"],
                                 self.edges])]),
                 w.HBox([*b.values(), self.history]),
@@ -350,7 +352,8 @@ class QmeshWidget(w.VBox):
             self._sync(quick=False)
 
     def _view_options(self) -> dict:
-        return dict(domain=self.session.domain, edges=self.edges.value)
+        return dict(domain=self.session.domain, edges=self.edges.value,
+                    regions=self.session.regions)
 
     def _sync(self, quick: bool = True) -> None:
         """Controls ← model, without their observers reacting."""
@@ -362,8 +365,11 @@ class QmeshWidget(w.VBox):
                 slider.value = getattr(c.params, name)
             self.sliders["vb"].disabled = c.params.domain != DISK
             constant = c.params.q_mode == "constant"
-            self._constant_box.layout.display = None if constant else "none"
-            self._s_box.layout.display = "none" if constant else None
+            medium = bool(c.readout["regions_text"])       # one Q per region: no Q controls
+            self._constant_box.layout.display = None if constant and not medium else "none"
+            self._s_box.layout.display = "none" if constant or medium else None
+            self.sliders["q_mode"].layout.display = "none" if medium else None
+            self.media_readout.value = html_escape(c.readout["regions_text"])
             if not self.s_error.value:
                 self.s_text.value = c.params.s_text
             last = len(c.history) - 1

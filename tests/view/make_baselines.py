@@ -3,7 +3,8 @@
     python tests/view/make_baselines.py          # the off-screen view baselines
     python tests/view/make_baselines.py --app    # also browser screenshots of the whole app:
                                                  # app.png (the chapter's case) and
-                                                 # app_holes.png (a plate with three holes)
+                                                 # app_holes.png (a plate with three holes),
+                                                 # app_layered.png (the layered medium)
 
 Run it only when the drawing or the mesher changed on purpose, then LOOK at every image written.
 """
@@ -63,6 +64,7 @@ def main() -> None:
     if args.app:
         write_app(cases.BASELINES / "app.png")
         write_app(cases.BASELINES / "app_holes.png", "plate with holes")
+        write_app(cases.BASELINES / "app_layered.png", "layered")
 
 
 if __name__ == "__main__":

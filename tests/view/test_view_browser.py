@@ -257,3 +257,26 @@ def test_s_typed_as_text_remeshes_and_a_hostile_text_shows_an_error():
         assert _iteration_stage(s3)[:2] == (0, "triangulate")
         assert field.input_value() == "x**4 + y**4 + x**2 + y**2"
         b.until(lambda: message.inner_text().strip() == "" or None, 20, "the error to clear")
+
+
+def test_choosing_layered_shows_regions_and_their_q():
+    with b.qmesh_view_server() as url, b.chromium_page(url) as page:
+        start = b.wait_drawn(page)
+        b.wait_idle(page)
+        s0 = b.status(page)
+        assert not page.locator("#media-readout").is_visible()
+        page.locator("#select-domain .v-field").click()
+        page.get_by_role("option", name="layered", exact=True).click()
+        s1 = b.settled_status(page, s0)
+        assert _iteration_stage(s1)[1] == "triangulate"     # (media count from iteration 1)
+        for name in b.VIEWS:
+            assert drawn(b.wait_view_change(page, name, start[name])), name
+        b.until(lambda: page.locator("#media-readout").is_visible() or None, 20,
+                "the regions' Q on the page")
+        readout = b.page_text(page, "#media-readout")
+        assert "do not apply" in readout and "layer 1 (bottom): Q = " in readout
+        assert readout.count("Q = ") == 5
+        assert not page.locator("#q-readout").is_visible()          # one Q does not apply
+        mesh_legend = b.page_text(page, "#legend-mesh")
+        assert "layer 5 (top): Q = " in mesh_legend and "interface" in mesh_legend
+        b.save(page, "browser-domain-layered")

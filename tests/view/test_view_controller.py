@@ -11,7 +11,7 @@ STAGES = ("triangulate", "adjust", "insert")
 
 def test_starts_on_the_chapters_case():
     c = Controller()
-    assert c.readout == {"q11": 0.1, "q12": 0.0, "q22": 10.0}
+    assert c.readout == {"q11": 0.1, "q12": 0.0, "q22": 10.0, "regions_text": ""}   # one Q
     np.testing.assert_array_equal(c.anisotropy.H, [[10.0, 0.0], [0.0, 0.1]])   # s = 5x² + 0.05y²
     assert c.params.vb == 64 and c.params.target_vertices == 212
     assert len(c.history) == 1 and c.index == 0

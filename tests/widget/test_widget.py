@@ -304,3 +304,21 @@ def test_a_failure_while_drawing_is_shown_not_raised(view, monkeypatch):
     monkeypatch.undo()
     view.buttons["step"].click()
     assert view.controller.index == 2 and "RuntimeError" not in view.error.value
+
+
+def test_a_media_preset_binds_regions_and_hides_the_single_q_controls(view):
+    before = pictures(view)
+    view.sliders["domain"].value = "layered"
+    c = view.controller
+    assert c.params.domain == "layered"
+    assert len(np.unique(c.current.mesh.region_tags)) >= 2
+    assert view._constant_box.layout.display == "none"
+    assert view.sliders["q_mode"].layout.display == "none"
+    for r in c.regions:
+        assert r["name"] in view.media_readout.value
+        assert r["name"] in view.legends["mesh"].value
+    after = pictures(view)
+    assert all(changed(after[name], before[name]) for name in after)
+    view.sliders["domain"].value = "disk"
+    assert view._constant_box.layout.display is None and view.media_readout.value == ""
+    assert "Q11 = 0.1" in view.readout.value
