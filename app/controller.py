@@ -182,6 +182,10 @@ class Controller:
         self.done = False
         self.index = 0
         self._pull()
+        if self.regions:            # a medium yields one Step per face: show the whole medium first
+            while self._pull():
+                pass
+            self.index = len(self.history) - 1
 
     def _pull(self) -> bool:
         """Ask the generator for one more Step; False once the run has ended. An exception from

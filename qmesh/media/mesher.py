@@ -112,8 +112,38 @@ def iterate(domain, conductivity, *, target_vertices: int | None = None, size: f
                     **{k: options[k] for k in _PASSED if k in options})
     part = partition_of(domain)
     cond = conductivities(domain, conductivity, part)
-    plan = _Plan(domain, part, cond, target_vertices, size)
-    return _faces_in_turn(plan, options, _every)
+    passes = lambda ask: _faces_in_turn(_Plan(domain, part, cond, ask, size), options, _every)  # noqa: E731
+    return _corrected(passes, target_vertices)
+
+
+def _corrected(passes, target: int | None) -> Iterator[Step]:
+    """The steps of the first pass; with a target, a result more than 5% off is redone (at most
+    CORRECTIONS times) with the request scaled by the ratio missed (the interface cuts make the
+    first estimate high). The closest pass's mesh is the last Step, so `mesh` returns it; a
+    QmeshWarning says when it is still more than 10% off."""
+    best = None
+    for step in passes(target):
+        yield step
+    best = step
+    if target is None:
+        return
+    ask = target
+    for _ in range(CORRECTIONS):
+        if abs(best.mesh.n_vertices - target) <= 0.05 * target:
+            break
+        ask = int(round(ask * target / step.mesh.n_vertices))
+        try:
+            for step in passes(ask):
+                yield step
+        except QmeshError:
+            break
+        if abs(step.mesh.n_vertices - target) < abs(best.mesh.n_vertices - target):
+            best = step
+    if step is not best:
+        yield best                                   # the closest pass ends the run
+    if abs(best.mesh.n_vertices - target) > 0.1 * target:
+        warnings.warn(f"target_vertices = {target}: the mesh has {best.mesh.n_vertices} vertices "
+                      "(the interfaces and q_ij >= 0 on them need these)", QmeshWarning, stacklevel=3)
 
 
 class _Plan:
@@ -245,32 +275,12 @@ def _share(plan, meshes, done, face_edges, new, extra) -> None:
 
 def mesh(domain, conductivity, *, target_vertices: int | None = None, progress=None,
          **options) -> Mesh:
-    """Mesh a domain with regions to the end (see `iterate`). With `target_vertices`, a result
-    more than 5% off is redone (at most CORRECTIONS times) with the request scaled by the
-    ratio missed; the closest mesh is kept, and a QmeshWarning says when it is still > 10% off."""
+    """Mesh a domain with regions to the end: the mesh of the last Step of `iterate` with the
+    same arguments (its corrections towards target_vertices included)."""
     if progress is not None and not callable(progress):
         raise QmeshError(f"progress must be a function of one Step, got {type(progress).__name__}")
-    every = progress is not None
-    m = _last(iterate(domain, conductivity, target_vertices=target_vertices, _every=every,
-                      **options), progress)
-    if target_vertices is None:
-        return m
-    ask = target_vertices
-    for _ in range(CORRECTIONS):
-        if abs(m.n_vertices - target_vertices) <= 0.05 * target_vertices:
-            break
-        ask = int(round(ask * target_vertices / m.n_vertices))
-        try:
-            again = _last(iterate(domain, conductivity, target_vertices=ask, _every=every,
-                                  **options), progress)
-        except QmeshError:
-            break
-        if abs(again.n_vertices - target_vertices) < abs(m.n_vertices - target_vertices):
-            m = again
-    if abs(m.n_vertices - target_vertices) > 0.1 * target_vertices:
-        warnings.warn(f"target_vertices = {target_vertices}: the mesh has {m.n_vertices} vertices "
-                      "(the interfaces and q_ij >= 0 on them need these)", QmeshWarning, stacklevel=2)
-    return m
+    return _last(iterate(domain, conductivity, target_vertices=target_vertices,
+                         _every=progress is not None, **options), progress)
 
 
 def _last(steps, progress) -> Mesh:

@@ -45,7 +45,8 @@ def test_mesh_meets_the_target_and_tags_regions():
 
 def test_iterate_yields_rounds_ending_converged():
     steps = list(qmesh.iterate(FAULT, COND, target_vertices=300))
-    assert steps and steps[-1].converged and not any(s.converged for s in steps[:-1])
+    assert steps and steps[-1].converged             # each pass towards the target ends converged
+    assert steps[0].iteration == 1 and not steps[0].converged
     assert all(isinstance(s, qmesh.Step) for s in steps)
 
 
@@ -104,3 +105,17 @@ def test_nested_regions_holes_and_a_varying_s():
     check_mesh(d, cond, m)
     assert set(np.unique(m.region_tags)) == {0, 1, 2}
     assert set(m.boundary_tags.tolist()) == {1, 2}          # the outline's and the hole's
+
+
+def test_iterate_ends_on_the_mesh_of_mesh_for_a_medium():
+    """The viewer steps through iterate, the CLI calls mesh: the corrections towards the target
+    run inside iterate, so both end on the same mesh (issue 16's rule, for media too)."""
+    from qmesh.media import cases
+    domain, cond, _ = cases.layered()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", qmesh.QmeshWarning)
+        m = qmesh.mesh(domain, cond, target_vertices=212)
+        last = list(qmesh.iterate(domain, cond, target_vertices=212))[-1].mesh
+    assert np.array_equal(m.points, last.points) and np.array_equal(m.triangles, last.triangles)
+    assert np.array_equal(m.region_tags, last.region_tags)
+    assert abs(m.n_vertices - 212) <= 0.1 * 212
