@@ -131,7 +131,7 @@ def _corrected(passes, target: int | None) -> Iterator[Step]:
     for _ in range(CORRECTIONS):
         if abs(best.mesh.n_vertices - target) <= 0.05 * target:
             break
-        ask = int(round(ask * target / step.mesh.n_vertices))
+        ask = int(round(ask * target / best.mesh.n_vertices))
         try:
             for step in passes(ask):
                 yield step
