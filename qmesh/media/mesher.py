@@ -121,7 +121,6 @@ def _corrected(passes, target: int | None) -> Iterator[Step]:
     CORRECTIONS times) with the request scaled by the ratio missed (the interface cuts make the
     first estimate high). The closest pass's mesh is the last Step, so `mesh` returns it; a
     QmeshWarning says when it is still more than 10% off."""
-    best = None
     for step in passes(target):
         yield step
     best = step
