@@ -16,6 +16,8 @@ Each returns the (temporary, final) files written.
 
 from __future__ import annotations
 
+import importlib
+
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
@@ -28,12 +30,16 @@ from qmesh.io.boundary import filler
 VERTEX_DATA = "qmesh:vertex"
 
 
-def _meshio():
+def optional(module: str, what: str):
+    """The optional package `module` (an extra of qmesh[io]), or QmeshError saying `what` needs it."""
     try:
-        import meshio
+        return importlib.import_module(module)
     except ImportError as e:  # pragma: no cover - depends on the environment
-        raise QmeshError("reading and writing mesh files needs meshio: pip install qmesh[io]") from e
-    return meshio
+        raise QmeshError(f"{what} needs {module}: pip install qmesh[io]") from e
+
+
+def _meshio():
+    return optional("meshio", "reading and writing mesh files")
 
 
 def _xyz(P):

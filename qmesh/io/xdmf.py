@@ -24,17 +24,13 @@ import numpy as np
 
 from qmesh.errors import QmeshError
 from qmesh.io import metadata
-from qmesh.io.meshio_writers import _meshio
+from qmesh.io.meshio_writers import _meshio, optional
 
 XINCLUDE = "http://www.w3.org/2001/XInclude"
 
 
 def _h5py():
-    try:
-        import h5py
-    except ImportError as e:  # pragma: no cover - depends on the environment
-        raise QmeshError("XDMF files need h5py: pip install qmesh[io]") from e
-    return h5py
+    return optional("h5py", "XDMF files")
 
 
 def h5_name(path: Path) -> Path:
