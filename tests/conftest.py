@@ -1,4 +1,7 @@
-"""Fixtures shared by the test suites: the chapter's anisotropy and a small mesh made without qmesh's mesher."""
+"""Fixtures shared by the test suites (the chapter's anisotropy, a small mesh made without qmesh's
+mesher) and the order the suite runs in: tests marked `slow(seconds)` (each starts a server, a
+browser or a kernel) go first, longest first, so that the workers of `pytest -n` share them out
+and the many quick tests fill in behind (see the README's test command)."""
 
 import numpy as np
 import pytest
@@ -26,3 +29,12 @@ def delaunay_mesh():
     T[cw] = T[cw][:, [0, 2, 1]]
     fixed = np.arange(len(P)) < len(corners)
     return qmesh.Mesh(P, T, fixed)
+
+
+def pytest_collection_modifyitems(items):
+    """Slow tests first, longest first; the rest in their usual order (a stable sort: the same
+    order on every worker, as pytest-xdist requires)."""
+    def seconds(item):
+        mark = item.get_closest_marker("slow")
+        return mark.args[0] if mark else 0
+    items.sort(key=lambda item: -seconds(item))

@@ -10,7 +10,7 @@
     * `python3 -m venv .venv`, `. .venv/bin/activate`: make and enter the virtual environment
       these tests already run in;
     * `pip install -e ".[all,peers]"`: minutes of downloads; the tests run in its result;
-    * `python -m pytest -q`: this test suite itself.
+    * `python -m pytest -q -n auto --maxschedchunk 2`: this test suite itself.
   `qmesh setup` runs as `qmesh setup --check` (a test must not install system packages; a
   missing package fails it just the same).
 - `.ci/run` holds exactly the README's two Set-up commands; the files the commands write are
@@ -33,7 +33,7 @@ ROOT = Path(__file__).resolve().parents[1]
 README = (ROOT / "README.md").read_text()
 BIN = Path(sys.executable).parent
 SKIPPED_FOR_COST = ("python3 -m venv .venv", ". .venv/bin/activate", 'pip install -e ".[all,peers]"',
-                    "python -m pytest -q")
+                    "python -m pytest -q -n auto --maxschedchunk 2")
 HEADLESS = {"PYVISTA_OFF_SCREEN": "true", "VTK_DEFAULT_OPENGL_WINDOW": "vtkEGLRenderWindow"}
 NUMBER = re.compile(r"-?\d+(?:\.\d+)?(?:e[-+]?\d+)?")
 

@@ -9,6 +9,7 @@ Screenshots go to test-artifacts/.
 
 import re
 
+import pytest
 import view_browser as b
 from headless_browser import drawn
 
@@ -22,6 +23,7 @@ def _iteration_stage(line):
 STEP_BUDGET = 3.0     # seconds from the click on Step to the new picture in every view
 
 
+@pytest.mark.slow(21)
 def test_app_session_in_chromium():
     with b.qmesh_view_server() as url, b.chromium_page(url) as page:
         start = b.wait_drawn(page)
@@ -121,6 +123,7 @@ def _target(page):
     return page.locator("#field-target input").input_value()
 
 
+@pytest.mark.slow(12)
 def test_vb_past_the_target_and_a_refused_target_never_wedge_the_controls():
     with b.qmesh_view_server() as url, b.chromium_page(url) as page:
         b.wait_drawn(page)
@@ -166,6 +169,7 @@ def test_vb_past_the_target_and_a_refused_target_never_wedge_the_controls():
         b.save(page, "browser-vb-recovered")
 
 
+@pytest.mark.slow(12)
 def test_choosing_l_shape_and_uploading_a_polygon_file(tmp_path):
     with b.qmesh_view_server() as url, b.chromium_page(url) as page:
         start = b.wait_drawn(page)
@@ -215,6 +219,7 @@ def test_choosing_l_shape_and_uploading_a_polygon_file(tmp_path):
                 20, "the file field to forget the refused file")
 
 
+@pytest.mark.slow(13)
 def test_s_typed_as_text_remeshes_and_a_hostile_text_shows_an_error():
     with b.qmesh_view_server() as url, b.chromium_page(url) as page:
         start = b.wait_drawn(page)
@@ -259,6 +264,7 @@ def test_s_typed_as_text_remeshes_and_a_hostile_text_shows_an_error():
         b.until(lambda: message.inner_text().strip() == "" or None, 20, "the error to clear")
 
 
+@pytest.mark.slow(9)
 def test_choosing_layered_shows_regions_and_their_q():
     with b.qmesh_view_server() as url, b.chromium_page(url) as page:
         start = b.wait_drawn(page)

@@ -4,6 +4,8 @@ import shutil
 import subprocess
 import sys
 
+import pytest
+
 from qmesh_view.cli import parser
 
 
@@ -59,6 +61,7 @@ def test_domain_and_s_options():
     assert parser().parse_args([]).s_text is None
 
 
+@pytest.mark.slow(4)
 def test_bad_parameters_give_one_error_line_and_exit_2():
     exe = shutil.which("qmesh-view")
     for bad, named in ((["--vb", "2"], "3"), (["--domain", "torus"], "torus"),

@@ -9,6 +9,8 @@ import pytest
 
 import view_browser as b
 
+SETTLE = 600      # ms without a change that counts as settled
+
 
 def _n(line):
     m = re.search(r"N = (\d+)", line)
@@ -30,12 +32,13 @@ def _rss_mb(pid: int) -> float:
 
 
 def _wait_settled(page, timeout=60.0):
-    """Idle, with nothing more arriving: the status line unchanged for 1.5 s."""
+    """Idle, with nothing more arriving: the status line and the Q readout unchanged over
+    SETTLE ms, seen twice."""
     last = [None]
 
     def same():
         b.wait_idle(page, timeout)
-        page.wait_for_timeout(1500)
+        page.wait_for_timeout(SETTLE)
         now = (b.status(page), b.page_text(page, "#q-readout"))
         ok = now == last[0]
         last[0] = now
@@ -43,6 +46,7 @@ def _wait_settled(page, timeout=60.0):
     return b.until(same, timeout, "the page to settle")
 
 
+@pytest.mark.slow(37)
 def test_typed_target_fast_slider_keys_and_a_refused_huge_target():
     with b.qmesh_view_server() as url, b.chromium_page(url) as page:
         b.wait_drawn(page)
@@ -134,6 +138,7 @@ def test_typed_target_fast_slider_keys_and_a_refused_huge_target():
         b.save(page, "browser-inputs-refused-2e7")
 
 
+@pytest.mark.slow(11)
 def test_a_warning_is_shown_and_the_mesh_view_is_readable_at_10000():
     with b.qmesh_view_server("--vb", "512", "--target-vertices", "513") as url, \
             b.chromium_page(url) as page:

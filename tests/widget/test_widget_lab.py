@@ -11,6 +11,7 @@ import os
 import shutil
 from pathlib import Path
 
+import pytest
 from lab_browser import (ARTIFACTS, drawn, jupyter_lab, lab_page, mean_diff, screenshot,
                          until)
 
@@ -34,6 +35,7 @@ def drag(page, slider, fraction: float) -> None:
     page.mouse.up()
 
 
+@pytest.mark.slow(19)
 def test_widget_views_stay_drawn_after_two_slider_moves_in_jupyterlab(tmp_path):
     shutil.copy(NOTEBOOK, tmp_path)
     env = {name: os.environ[name] for name in HEADLESS_ENV}
