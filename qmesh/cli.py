@@ -4,7 +4,7 @@
                  [--target-vertices N | --size H] [--alpha A] [--seed S] [--max-iterations K] -o OUT
     qmesh report MESHFILE [--Q ... | --principal ... | --s TEXT] [--json]
                  (default Q: the one stored in the file)
-    qmesh table  [--vb VB ...] [--out DIR] [--peers] [--solve]
+    qmesh table  [--vb VB ...] [--out DIR] [--peers] [--solve] [--workers N | --scheduler ADDRESS]
     qmesh setup  [--check] [--all]
     qmesh sweep  STUDY -o RESULTS [--scheduler ADDRESS | --workers N]   (qmesh.sweep.cli)
 
@@ -34,7 +34,7 @@ from qmesh.meshing import iterate
 from qmesh.meshing import mesh as run_mesher
 from qmesh.domain.polygon_file import read_domain
 from qmesh.media.region_file import conductivity_per_region, read_regions
-from qmesh.sweep.cli import add_parser as add_sweep_parser
+from qmesh.sweep.cli import add_dask_options, add_parser as add_sweep_parser
 
 _MESHER_DEFAULTS = {k: v.default for k, v in inspect.signature(iterate).parameters.items()}
 
@@ -190,7 +190,9 @@ def cmd_table(args) -> int:
         from .compare.table import run_table
     except ImportError as e:
         raise QmeshError(f"qmesh table needs the compare extra (pip install qmesh[compare]): {e}") from e
-    print(run_table(vb=args.vb, out=args.out, peers=args.peers, solve=args.solve))
+    print(run_table(vb=args.vb, out=args.out, peers=args.peers, solve=args.solve,
+                    progress=lambda line: print(line, file=sys.stderr, flush=True),
+                    scheduler=args.scheduler, workers=args.workers))
     return 0
 
 
@@ -261,6 +263,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default="results", metavar="DIR", help="folder for meshes and figures (default: results)")
     p.add_argument("--peers", action="store_true", help="also run the optional MMG2D/BAMG peers")
     p.add_argument("--solve", action="store_true", help="also solve the model problem on every mesh")
+    add_dask_options(p, "to run the (VB, mesher) cells on (its workers need qmesh and the peers)",
+                     "to run the cells on (default: neither, all in this process; sweep extra)")
     p.set_defaults(handler=cmd_table)
 
     p = sub.add_parser("setup", help="install the system libraries the installed extras need (Debian/Ubuntu)",

@@ -68,31 +68,56 @@ def _row(vb: int, mesher: str, mesh, seconds: float, anisotropy, target=None, ru
 
 
 def build_rows(vb=None, peers: bool = False, solve: bool = False,
-               progress: Callable[[str], None] | None = None) -> tuple[list[dict], dict]:
-    """Mesh and measure every (VB, mesher); returns the rows and {peer: reason} for skipped peers."""
+               progress: Callable[[str], None] | None = None, *, scheduler: str | None = None,
+               workers: int | None = None) -> tuple[list[dict], dict]:
+    """Mesh and measure every (VB, mesher); returns the rows and {peer: reason} for skipped peers.
+
+    Each (VB, mesher) cell is one `table_row` call: in this process, or, with `scheduler` (a
+    running Dask scheduler's address) or `workers` (a LocalCluster of that many processes), one
+    Dask task each (qmesh.sweep.runner.map_ordered; the `sweep` extra). The rows are the same
+    either way, apart from `seconds`, which then includes the other tasks' load.
+    """
     vbs = _check_vb(vb)
-    anisotropy = Anisotropy.constant(CHAPTER_Q)
     skipped = {}
     active = []
     if peers:
         for name, reason in peer_meshers.available().items():
             (skipped.__setitem__(name, reason) if reason else active.append(name))
-    rows = []
-    for v in vbs:
-        domain, target = Disk(v), chapter.adapted_target(v)
-        t0 = time.perf_counter()
-        iso = isotropic.isotropic_mesh(v)
-        rows.append(_row(v, "isotropic", iso, time.perf_counter() - t0, anisotropy, solve=solve))
-        t0 = time.perf_counter()
+    meshers = ("isotropic", "qmesh", *active)
+    cells = [(v, m, solve) for v in vbs for m in meshers]
+    rows: list[dict] = []
+
+    def done(row: dict) -> None:
+        rows.append(row)
+        mine = sorted((r for r in rows if r["vb"] == row["vb"]), key=lambda r: meshers.index(r["mesher"]))
+        if progress and len(mine) == len(meshers):
+            progress(f"VB {row['vb']}: " + ", ".join(f"{r['mesher']} N={r['n_vertices']}" for r in mine))
+
+    if scheduler is None and workers is None:
+        return [_done(table_row(*c), done) for c in cells], skipped
+    from qmesh.sweep.runner import map_ordered
+    return map_ordered(table_row, cells, scheduler=scheduler, workers=workers, done=done), skipped
+
+
+def _done(row: dict, done) -> dict:
+    done(row)
+    return row
+
+
+def table_row(vb: int, mesher: str, solve: bool = False) -> dict:
+    """One cell of the table: mesher "isotropic" (Triangle, the chapter's areas), "qmesh" (the
+    chapter's adapted N as target, seed 0) or a peer's name, on Disk(vb), measured."""
+    anisotropy = Anisotropy.constant(CHAPTER_Q)
+    domain, target = Disk(vb), chapter.adapted_target(vb)
+    t0 = time.perf_counter()
+    if mesher == "isotropic":
+        iso = isotropic.isotropic_mesh(vb)
+        return _row(vb, mesher, iso, time.perf_counter() - t0, anisotropy, solve=solve)
+    if mesher == "qmesh":
         ada = adapted_mesh(domain, anisotropy, target_vertices=target, seed=0)
-        rows.append(_row(v, "qmesh", ada, time.perf_counter() - t0, anisotropy, target, solve=solve))
-        for name in active:
-            pm = peer_meshers.peer_mesh(name, domain, anisotropy, target)
-            rows.append(_row(v, name, pm.mesh, pm.seconds, anisotropy, target, pm.runs, solve))
-        if progress:
-            progress(f"VB {v}: " + ", ".join(f"{r['mesher']} N={r['n_vertices']}"
-                                             for r in rows if r["vb"] == v))
-    return rows, skipped
+        return _row(vb, mesher, ada, time.perf_counter() - t0, anisotropy, target, solve=solve)
+    pm = peer_meshers.peer_mesh(mesher, domain, anisotropy, target)
+    return _row(vb, mesher, pm.mesh, pm.seconds, anisotropy, target, pm.runs, solve)
 
 
 # --------------------------------------------------------------------------- formatting
@@ -231,13 +256,15 @@ def write_csv(rows: list[dict], path: Path, solve: bool) -> None:
 
 
 def run_table(vb: list[int] | None = None, out: str = "results", peers: bool = False,
-              solve: bool = False, *, progress: Callable[[str], None] | None = None) -> str:
+              solve: bool = False, *, progress: Callable[[str], None] | None = None,
+              scheduler: str | None = None, workers: int | None = None) -> str:
     """Build, measure and compare every mesh; write OUT/table.md, table.csv and the figures.
 
-    Returns the Markdown (the CLI prints it). `progress` receives one line per VB.
+    Returns the Markdown (the CLI prints it). `progress` receives one line per VB. `scheduler`
+    / `workers`: run the cells on Dask (see build_rows).
     """
     t0 = time.perf_counter()
-    rows, skipped = build_rows(vb, peers, solve, progress)
+    rows, skipped = build_rows(vb, peers, solve, progress, scheduler=scheduler, workers=workers)
     out_dir = Path(out)
     out_dir.mkdir(parents=True, exist_ok=True)
     write_csv(rows, out_dir / "table.csv", solve)

@@ -20,6 +20,15 @@ def _positive_int(text: str) -> int:
     return value
 
 
+def add_dask_options(p, scheduler_note: str, workers_note: str) -> None:
+    """--scheduler ADDRESS | --workers N, for every subcommand that runs on Dask."""
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--scheduler", metavar="ADDRESS", help="a running Dask scheduler, e.g. tcp://10.0.0.5:8786 "
+                   + scheduler_note)
+    g.add_argument("--workers", type=_positive_int, metavar="N",
+                   help="worker processes of a local Dask cluster on 127.0.0.1 " + workers_note)
+
+
 def add_parser(sub) -> None:
     """Register `sweep` on the `qmesh` command's subparsers."""
     p = sub.add_parser(
@@ -31,11 +40,8 @@ def add_parser(sub) -> None:
         "re-run finishes an interrupted sweep. Needs the sweep extra.")
     p.add_argument("study", metavar="STUDY", help="the study file (.toml or .json)")
     p.add_argument("-o", "--output", required=True, metavar="RESULTS", help="the results table (.csv or .parquet)")
-    g = p.add_mutually_exclusive_group()
-    g.add_argument("--scheduler", metavar="ADDRESS", help="a running Dask scheduler, e.g. tcp://10.0.0.5:8786 "
-                   "(its workers need qmesh and the mesh folder); default: a local cluster")
-    g.add_argument("--workers", type=_positive_int, metavar="N",
-                   help="worker processes of the local cluster (default: one per CPU, at most one per job)")
+    add_dask_options(p, "(its workers need qmesh and the mesh folder); default: a local cluster",
+                     "(default: one per CPU, at most one per job)")
     p.add_argument("--meshes", metavar="DIR", help="folder for the mesh files (default: RESULTS' name "
                    "without extension, plus -meshes)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")

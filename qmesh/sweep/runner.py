@@ -67,7 +67,7 @@ def run_sweep(jobs: list[Job], output, *, scheduler: str | None = None, workers:
 
     try:
         if todo:
-            with _client(scheduler, workers or min(len(todo), os.cpu_count() or 1)) as client:
+            with dask_client(scheduler, workers or min(len(todo), os.cpu_count() or 1)) as client:
                 for folder in {Path(j.mesh).parent for j in todo}:
                     folder.mkdir(parents=True, exist_ok=True)
                 _collect(client, todo, bar, new, save)
@@ -104,12 +104,13 @@ def _ordered(jobs: list[Job], rows: list[dict]) -> list[dict]:
 
 
 @contextmanager
-def _client(scheduler: str | None, workers: int):
-    """A dask.distributed Client: to the scheduler at `scheduler`, or to a new LocalCluster."""
+def dask_client(scheduler: str | None, workers: int):
+    """A dask.distributed Client: to the scheduler at `scheduler`, or to a new LocalCluster of
+    `workers` single-threaded processes on 127.0.0.1 (`qmesh sweep`, `qmesh table --workers`)."""
     try:
         from dask.distributed import Client, LocalCluster
     except ImportError as e:
-        raise QmeshError(f"qmesh sweep needs Dask (pip install 'qmesh[sweep]'): {e}") from e
+        raise QmeshError(f"Dask is not installed (pip install 'qmesh[sweep]'): {e}") from e
     if scheduler:
         try:
             client = Client(scheduler, timeout=CONNECT_TIMEOUT)
@@ -134,3 +135,25 @@ def _client(scheduler: str | None, workers: int):
 
 def _main_thread() -> bool:
     return threading.current_thread() is threading.main_thread()
+
+
+def map_ordered(fn, args: list[tuple], *, scheduler: str | None = None, workers: int | None = None,
+                done=None) -> list:
+    """[fn(*a) for a in args], each call a task on Dask (see `dask_client`), results in the order
+    of `args`; `done(result)` as each finishes. A failed task raises QmeshError naming its
+    arguments, after the others were cancelled."""
+    from dask.distributed import as_completed
+    with dask_client(scheduler, workers or min(len(args), os.cpu_count() or 1)) as client:
+        futures = {client.submit(fn, *a, pure=False): i for i, a in enumerate(args)}
+        out: list = [None] * len(args)
+        for future in as_completed(futures):
+            i = futures[future]
+            try:
+                out[i] = future.result()
+            except Exception as e:  # noqa: BLE001 — any task error ends the map with its arguments
+                client.cancel(list(futures))
+                raise QmeshError(f"{getattr(fn, '__name__', fn)}{args[i]!r} failed on Dask: "
+                                 f"{type(e).__name__}: {e}") from e
+            if done:
+                done(out[i])
+    return out

@@ -94,8 +94,8 @@ def test_report_text_and_json(tmp_path, capsys, delaunay_mesh, chapter_anisotrop
 def test_table_delegates_to_compare(monkeypatch, capsys):
     calls = []
 
-    def run_table(vb, out, peers, solve):
-        calls.append((vb, out, peers, solve))
+    def run_table(vb, out, peers, solve, progress=None, scheduler=None, workers=None):
+        calls.append((vb, out, peers, solve, scheduler, workers))
         return "| VB | N |\n|---|---|\n| 32 | 101 |"
 
     table = types.ModuleType("qmesh.compare.table")
@@ -104,9 +104,9 @@ def test_table_delegates_to_compare(monkeypatch, capsys):
     compare.table = table
     monkeypatch.setitem(sys.modules, "qmesh.compare", compare)
     monkeypatch.setitem(sys.modules, "qmesh.compare.table", table)
-    code, out, _ = run(capsys, "table", "--vb", 32, 45, "--out", "somewhere", "--peers")
+    code, out, _ = run(capsys, "table", "--vb", 32, 45, "--out", "somewhere", "--peers", "--workers", 3)
     assert code == 0
-    assert calls == [([32, 45], "somewhere", True, False)]
+    assert calls == [([32, 45], "somewhere", True, False, None, 3)]
     assert out == run_table(None, None, None, None) + "\n"
 
 

@@ -1,8 +1,10 @@
-"""`qmesh sweep --scheduler`: a real `dask scheduler` and two `dask worker` processes on
-127.0.0.1 run a small study, and its rows equal direct `qmesh.mesh` calls. The scheduler picks a
+"""`qmesh sweep --scheduler` and `qmesh table --scheduler`: a real `dask scheduler` and two
+`dask worker` processes on 127.0.0.1 run a small study, and its rows equal direct `qmesh.mesh`
+calls; the chapter's table made there equals the one made in this process. The scheduler picks a
 free port itself (port 0) and tells it through its scheduler file; every process is started in
 its own session and killed at the end, whatever happens; every wait is bounded."""
 
+import csv
 import json
 import os
 import signal
@@ -54,10 +56,12 @@ def wait_for(condition, what: str, processes) -> None:
         time.sleep(0.2)
 
 
-@pytest.fixture
-def cluster(tmp_path):
-    """The scheduler's address, with two single-threaded workers connected."""
+@pytest.fixture(scope="module")
+def cluster(tmp_path_factory):
+    """The scheduler's address, with two single-threaded workers connected (one cluster for the
+    module: starting it costs more than the tests)."""
     from dask.distributed import Client   # the sweep extra, part of "all", which CI installs
+    tmp_path = tmp_path_factory.mktemp("cluster")
     file = tmp_path / "scheduler.json"
     processes = [start("scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
                        "--scheduler-file", str(file), log=tmp_path / "scheduler.log")]
@@ -96,6 +100,28 @@ def test_sweep_on_a_running_scheduler_equals_direct_calls(tmp_path, cluster, cap
         assert r["error"] is None and r["n_vertices"] == m.n_vertices
         assert r["kappa2"] == pytest.approx(qmesh.measure.condition_number(m, anisotropy), rel=1e-9)
         assert qmesh.io.read(r["mesh"]).n_vertices == m.n_vertices
+
+
+def test_the_chapter_table_on_a_running_scheduler_equals_the_one_made_here(tmp_path, cluster, capsys):
+    from qmesh.compare import table
+    address, _ = cluster
+    vb = [32, 45]
+    code = main(["table", "--vb", *map(str, vb), "--out", str(tmp_path), "--scheduler", address])
+    out, err = capsys.readouterr()
+    assert code == 0, err
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", qmesh.QmeshWarning)
+        here, _ = table.build_rows(vb)
+    n = {(r["vb"], r["mesher"]): r["n_vertices"] for r in here}
+    assert err.splitlines() == [f"VB {v}: isotropic N={n[v, 'isotropic']}, qmesh N={n[v, 'qmesh']}"
+                                for v in vb], err             # one progress line per VB
+    with open(tmp_path / "table.csv", newline="") as f:
+        there = list(csv.DictReader(f))
+    assert [(int(r["vb"]), r["mesher"]) for r in there] == [(r["vb"], r["mesher"]) for r in here]
+    for a, b in zip(there, here):
+        for key in table.MEASURED:
+            assert float(a[key]) == pytest.approx(b[key], rel=1e-12), (a["vb"], a["mesher"], key)
+    assert f"| 45 | qmesh | {n[45, 'qmesh']} |" in out
 
 
 def test_an_unreachable_scheduler_is_one_error_line(tmp_path, capsys, monkeypatch):

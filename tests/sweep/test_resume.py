@@ -79,7 +79,7 @@ def test_an_interrupted_sweep_keeps_its_rows_and_the_old_failures(tmp_path, monk
     def no_cluster(scheduler, workers):
         yield None
 
-    monkeypatch.setattr(runner, "_client", no_cluster)
+    monkeypatch.setattr(runner, "dask_client", no_cluster)
     monkeypatch.setattr(runner, "_collect", one_then_interrupt)
     try:
         run_sweep(jobs, table, quiet=True)
