@@ -6,6 +6,7 @@ its own session and killed at the end, whatever happens; every wait is bounded."
 
 import csv
 import json
+import math
 import os
 import signal
 import subprocess
@@ -122,6 +123,14 @@ def test_the_chapter_table_on_a_running_scheduler_equals_the_one_made_here(tmp_p
         for key in table.MEASURED:
             assert float(a[key]) == pytest.approx(b[key], rel=1e-12), (a["vb"], a["mesher"], key)
     assert f"| 45 | qmesh | {n[45, 'qmesh']} |" in out
+
+
+def test_a_failed_task_names_its_arguments_and_the_rest_come_back_in_order(cluster):
+    from qmesh.sweep.runner import map_ordered
+    address, _ = cluster
+    assert map_ordered(math.sqrt, [(9.0,), (4.0,), (1.0,)], scheduler=address) == [3.0, 2.0, 1.0]
+    with pytest.raises(qmesh.QmeshError, match=r"sqrt\(-1\.0,\) failed on Dask: ValueError: math domain"):
+        map_ordered(math.sqrt, [(4.0,), (-1.0,)], scheduler=address)
 
 
 def test_an_unreachable_scheduler_is_one_error_line(tmp_path, capsys, monkeypatch):
