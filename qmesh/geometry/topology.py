@@ -11,9 +11,42 @@ re-triangulating from scratch.
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
 
 NXT = np.array([1, 2, 0])
 PRV = np.array([2, 0, 1])
+
+
+def find_half_edges(T: np.ndarray, n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Half-edge id of a→b in T (n vertices), or -1 where there is none."""
+    key = T.astype(np.int64) * n + T[:, NXT]
+    flat = key.ravel()
+    order = np.argsort(flat, kind="stable")
+    want = a.astype(np.int64) * n + b
+    pos = np.searchsorted(flat[order], want)
+    pos = np.minimum(pos, len(flat) - 1)
+    hit = flat[order][pos] == want
+    return np.where(hit, order[pos], -1)
+
+
+def left_of(T: np.ndarray, twin: np.ndarray, h_in: np.ndarray) -> np.ndarray:
+    """Mask of the triangles on the left of the cut half-edges h_in: connected components across
+    the other edges, labelled by the side of a cut edge they touch. ValueError where a component
+    touches both sides."""
+    M = len(T)
+    cut = np.zeros(3 * M, bool)
+    cut[h_in] = True
+    tw = twin[h_in]
+    cut[tw[tw >= 0]] = True
+    h = np.flatnonzero((twin >= 0) & ~cut)
+    g = sp.coo_matrix((np.ones(len(h)), (h // 3, twin[h] // 3)), shape=(M, M))
+    _, comp = connected_components(g, directed=False)
+    label = np.zeros(comp.max() + 1 if M else 0, np.int8)
+    np.maximum.at(label, comp[h_in // 3], 1)
+    if np.any(label[comp[tw[tw >= 0] // 3]] == 1):
+        raise ValueError("a region lies on both sides of the cut")
+    return label[comp] == 1
 
 
 def edge_keys(a: np.ndarray, b: np.ndarray, n: int) -> np.ndarray:

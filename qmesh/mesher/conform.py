@@ -25,12 +25,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sp
-from scipy.sparse.csgraph import connected_components
 
 from qmesh.geometry import topology
 from qmesh.errors import QmeshError
 from qmesh.geometry.triangles import signed_areas
+from qmesh.mesher import lattice_delaunay
 from qmesh.mesher.triangulate import first_triangulation, restore
 
 ENCROACH_TOL = 1e-9     # relative depth below the plane that counts as encroaching
@@ -136,36 +135,14 @@ def _canonical_order(T: np.ndarray) -> np.ndarray:
     return T[np.lexsort((T[:, 2], T[:, 1], T[:, 0]))]
 
 
-def _find_half_edges(T: np.ndarray, n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Half-edge id of a→b in T, or -1 where there is none."""
-    key = T.astype(np.int64) * n + T[:, topology.NXT]
-    flat = key.ravel()
-    order = np.argsort(flat, kind="stable")
-    want = a.astype(np.int64) * n + b
-    pos = np.searchsorted(flat[order], want)
-    pos = np.minimum(pos, len(flat) - 1)
-    hit = flat[order][pos] == want
-    return np.where(hit, order[pos], -1)
-
-
 def inside_triangles(T: np.ndarray, twin: np.ndarray, h_in: np.ndarray) -> np.ndarray:
     """Mask of the triangles of Ω: components across non-boundary edges, labelled by the
     subsegment half-edges h_in (Ω on their left) and their twins (outside)."""
-    M = len(T)
-    cut = np.zeros(3 * M, bool)
-    cut[h_in] = True
-    tw = twin[h_in]
-    cut[tw[tw >= 0]] = True
-    h = np.flatnonzero((twin >= 0) & ~cut)
-    g = sp.coo_matrix((np.ones(len(h)), (h // 3, twin[h] // 3)), shape=(M, M))
-    _, comp = connected_components(g, directed=False)
-    label = np.zeros(comp.max() + 1 if M else 0, np.int8)
-    np.maximum.at(label, comp[h_in // 3], 1)
-    out = comp[tw[tw >= 0] // 3]
-    if np.any(label[out] == 1):
+    try:
+        return topology.left_of(T, twin, h_in)
+    except ValueError:
         raise QmeshError("the boundary is not conforming: a region lies on both sides of it; "
-                         "please report this domain")
-    return label[comp] == 1
+                         "please report this domain") from None
 
 
 class TooManySplits(QmeshError):
@@ -209,7 +186,7 @@ def _encroaching_free(domain, P, edge_id, anisotropy, h) -> np.ndarray:
 
 def conforming_delaunay(domain, P: np.ndarray, edge_id: np.ndarray, anisotropy, h: float,
                         max_points: int | None = None, pinned: np.ndarray | None = None,
-                        target: int | None = None, rng=None) -> Conforming:
+                        target: int | None = None, rng=None, lattice=None) -> Conforming:
     """The conforming Q-Delaunay triangulation of Ω from scratch (Qhull), restricted to Ω.
 
     P holds the seeds first (as `domain.seeds`), then points on segments (`edge_id` ≥ 0), then
@@ -220,8 +197,16 @@ def conforming_delaunay(domain, P: np.ndarray, edge_id: np.ndarray, anisotropy, 
     More than `max_points` points raises TooManySplits (a QmeshError). With a `target` vertex
     count, the splits take the place of as many interior points (drawn with `rng`), and the
     triangulation is built once more without them.
+    `lattice` (seeding.Lattice): the last len(lattice) points of P are its points; their
+    triangles away from the boundary are then known in closed form (lattice_delaunay.py).
     """
-    built = _conforming(domain, P, edge_id, anisotropy, h, max_points, pinned)
+    place = np.full(len(P), -1, np.int64)
+    if lattice is not None and len(lattice):
+        place[len(P) - len(lattice):] = np.arange(len(lattice))
+        lattice = (lattice, lattice_delaunay.deep_points(domain, lattice))
+    else:
+        lattice = None
+    built, place = _conforming(domain, P, edge_id, anisotropy, h, max_points, pinned, place, lattice)
     excess = len(built.P) - target if target is not None else 0
     free = np.flatnonzero((np.arange(len(built.P)) >= len(domain.seeds)) & (built.edge_id < 0))
     if excess <= 0 or not len(free):
@@ -229,11 +214,11 @@ def conforming_delaunay(domain, P: np.ndarray, edge_id: np.ndarray, anisotropy, 
     keep = np.ones(len(built.P), bool)
     keep[rng.choice(free, size=min(excess, len(free)), replace=False)] = False
     return _conforming(domain, built.P[keep], built.edge_id[keep], anisotropy, h, max_points,
-                       built.pinned[keep])
+                       built.pinned[keep], place[keep], lattice)[0]
 
 
-def _conforming(domain, P, edge_id, anisotropy, size, max_points, pinned) -> Conforming:
-    """One conforming build (see conforming_delaunay)."""
+def _conforming(domain, P, edge_id, anisotropy, size, max_points, pinned, place, lattice):
+    """One conforming build (see conforming_delaunay), and the lattice place of its points."""
     n_seeds = len(domain.seeds)
     A, Bend = domain.segment_ends
     seg_len2 = np.einsum("ki,ki->k", Bend - A, Bend - A)
@@ -241,7 +226,7 @@ def _conforming(domain, P, edge_id, anisotropy, size, max_points, pinned) -> Con
     pinned = np.zeros(len(P), bool) if pinned is None else pinned
     if anisotropy.is_constant:
         keep = _encroaching_free(domain, P, edge_id, anisotropy, size)
-        P, edge_id, pinned = P[keep], edge_id[keep], pinned[keep]
+        P, edge_id, pinned, place = P[keep], edge_id[keep], pinned[keep], place[keep]
     for _ in range(MAX_ROUNDS):
         n = len(P)
         t = np.zeros(n)
@@ -249,8 +234,9 @@ def _conforming(domain, P, edge_id, anisotropy, size, max_points, pinned) -> Con
         t[on] = np.einsum("ki,ki->k", P[on] - A[edge_id[on]], Bend[edge_id[on]] - A[edge_id[on]]) \
             / seg_len2[edge_id[on]]
         a, b = _subsegments(domain, n_seeds, edge_id, t)
-        T, twin = first_triangulation(P, anisotropy, (np.arange(n) < n_seeds) | (edge_id >= 0))
-        h = _find_half_edges(T, n, a, b)
+        closed = None if lattice is None else lattice_delaunay.closed_form(lattice[0], place, lattice[1])
+        T, twin = first_triangulation(P, anisotropy, (np.arange(n) < n_seeds) | (edge_id >= 0), closed)
+        h = topology.find_half_edges(T, n, a, b)
         missing = h < 0
         apex = np.where(missing, 0, T.ravel()[np.where(missing, 0, (h - h % 3) + topology.PRV[h % 3])])
         enc = ~missing & encroached(P[a], P[b], P[apex], anisotropy)
@@ -270,7 +256,7 @@ def _conforming(domain, P, edge_id, anisotropy, size, max_points, pinned) -> Con
                 raise QmeshError(f"{int((~used).sum())} points lie outside the domain; "
                                  "please report this domain")
             T = _canonical_order(T)
-            return Conforming(P, T, topology.twins(T), edge_id, pinned)
+            return Conforming(P, T, topology.twins(T), edge_id, pinned), place
         crowd = ~missing[split] & ~free[split]              # split for another boundary point
         a, b = a[split], b[split]
         if max_points is not None and n + len(a) > max_points:
@@ -282,6 +268,7 @@ def _conforming(domain, P, edge_id, anisotropy, size, max_points, pinned) -> Con
         P = np.concatenate([P[keep], new])
         edge_id = np.concatenate([edge_id[keep], new_seg])
         pinned = np.concatenate([pinned[keep], crowd])
+        place = np.concatenate([place[keep], np.full(len(new), -1, np.int64)])
     raise QmeshError("the conforming triangulation did not settle; please report this domain")
 
 

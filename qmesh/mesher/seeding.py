@@ -15,6 +15,8 @@ however thin or rotated Ω is in the metric.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from qmesh.geometry import rings
@@ -74,7 +76,25 @@ def _metric_frame(domain, H):
     return L @ R
 
 
-def metric_lattice(domain, H, h, rng) -> np.ndarray:
+@dataclass(frozen=True)
+class Lattice:
+    """Lattice points and where they sit on the lattice: `points` (n, 2) in the domain's
+    coordinates; `u`, `row` (n,) their places (point k is at x = lo[0] + u[k]·h/2,
+    y = lo[1] + (row[k] + ½)·dy in the metric frame x ↦ x·frame, before the jitter; u and row
+    have the same parity), so that its triangles are known in closed form (lattice_delaunay.py)."""
+
+    points: np.ndarray
+    u: np.ndarray
+    row: np.ndarray
+    frame: np.ndarray       # (2, 2): metric frame coordinates are x @ frame
+    lo: np.ndarray          # (2,) origin of the lattice in the frame
+    h: float                # metric spacing
+
+    def __len__(self) -> int:
+        return len(self.points)
+
+
+def metric_lattice(domain, H, h, rng) -> Lattice:
     """Hexagonal lattice of metric spacing h, mapped back, at least MARGIN·h inside Ω."""
     M = _metric_frame(domain, H)
     A, B = domain.segment_ends
@@ -84,7 +104,7 @@ def metric_lattice(domain, H, h, rng) -> np.ndarray:
     dy = h * np.sqrt(3.0) / 2.0
     n_rows = int(np.ceil(rounded((hi[1] - lo[1]) / dy))) + 1
     if n_rows > 10 * 50_000_000:
-        return np.empty((0, 2))
+        return _empty(M, lo, h)
     y = lo[1] + (np.arange(n_rows) + 0.5) * dy
     row, x0, x1 = rings.scanline_intervals(y, Am, Bm)
     off = lo[0] + 0.5 * h * (row % 2)
@@ -94,18 +114,22 @@ def metric_lattice(domain, H, h, rng) -> np.ndarray:
     i = np.repeat(i0, count) + np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
     X = np.column_stack([lo[0] + (i + 0.5 * (r % 2)) * h, y[r]])
     X += rng.uniform(-JITTER, JITTER, X.shape) * h
-    X = X[~np.isfinite(rings.distance(X, Am, Bm, rounded(MARGIN * h)))]
-    return X @ np.linalg.inv(M)
+    keep = ~np.isfinite(rings.distance(X, Am, Bm, rounded(MARGIN * h)))
+    return Lattice(X[keep] @ np.linalg.inv(M), (2 * i + r % 2)[keep], r[keep].astype(np.int64), M, lo, h)
 
 
-def lattice_for_count(domain, H, n, rng) -> np.ndarray:
+def _empty(M, lo, h) -> Lattice:
+    return Lattice(np.empty((0, 2)), np.empty(0, np.int64), np.empty(0, np.int64), M, lo, h)
+
+
+def lattice_for_count(domain, H, n, rng) -> Lattice:
     """A metric lattice with at most, and about, n points.
 
     The spacing first comes from the metric area less the boundary band the margin leaves
     empty, then from one count; a last step widens it by 1% while there are too many points.
     """
     if n < 1:
-        return np.empty((0, 2))
+        return _empty(np.eye(2), np.zeros(2), 1.0)
     A, B = domain.segment_ends
     L = np.linalg.cholesky(H)
     E = (B - A) @ L

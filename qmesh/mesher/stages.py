@@ -59,17 +59,18 @@ def _build(plan: Plan, rng):
     seeds = domain.seeds
     bpts, bseg = seeding.boundary_points(domain, anisotropy, h, plan.boundary_factor)
     n_b = len(seeds) + len(bpts)
+    lattice = None
     if not anisotropy.is_constant:
         inner = seeding_varying.initial_points(domain, anisotropy,
                                                int(LATTICE_FILL * (plan.expected - n_b)), rng)
-    elif target is None:
-        inner = seeding.metric_lattice(domain, anisotropy.H, h, rng)
     else:
-        inner = seeding.lattice_for_count(domain, anisotropy.H, LATTICE_FILL * (target - n_b), rng)
+        lattice = (seeding.metric_lattice(domain, anisotropy.H, h, rng) if target is None else
+                   seeding.lattice_for_count(domain, anisotropy.H, LATTICE_FILL * (target - n_b), rng))
+        inner = lattice.points
     P = np.concatenate([seeds, bpts, inner])
     edge_id = np.concatenate([np.full(len(seeds), -1), bseg, np.full(len(inner), -1)]).astype(np.int64)
     return conform.conforming_delaunay(domain, P, edge_id, anisotropy, h, plan.cap,
-                                       target=target, rng=rng)
+                                       target=target, rng=rng, lattice=lattice)
 
 
 def adjust_vertices(plan: Plan, st: State, it: int) -> Step:

@@ -134,8 +134,8 @@ VIOLATION_CHUNK = 131_072   # edges tested at once (bounds the temporary memory)
 PERTURB = 1e-9       # lifted heights (range 1) raised by up to this: ties broken, cost O(N log N)
 
 
-def first_triangulation(P: np.ndarray, anisotropy,
-                        boundary: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+def first_triangulation(P: np.ndarray, anisotropy, boundary: np.ndarray | None = None,
+                        closed_form=None) -> tuple[np.ndarray, np.ndarray]:
     """The Q-Delaunay triangulation of P from scratch, and its twins; cost O(N log N) always.
 
     Up to EXACT_MAX points, `lower_hull` (Qhull's exact modes: ties are split as they always
@@ -149,6 +149,11 @@ def first_triangulation(P: np.ndarray, anisotropy,
     perturbed points' stars can be), with the local tangent-plane test (2.74)–(2.75), which
     needs no global precision (s = exp(20x) + exp(20y) spans 1e17 in curvature over Disk(32),
     beyond any global lifting).
+
+    `closed_form(hull_of)`, beyond EXACT_MAX points, may give the perturbed hull's triangles
+    without building all of it (lattice_delaunay.py: the lattice's interior in closed form);
+    `hull_of(among)` is the perturbed hull of the points in the mask `among`, lifted exactly as
+    in the whole set's. It returns None where it cannot; the whole hull is built then.
     """
     P = np.asarray(P, dtype=float)
     if len(P) == 3:
@@ -158,7 +163,10 @@ def first_triangulation(P: np.ndarray, anisotropy,
     candidates = None
     if T is None:
         perturbed = np.ones(len(P), bool) if boundary is None else np.asarray(boundary, bool)
-        T = _perturbed_hull(P, _mean_factor(P, anisotropy), perturbed)
+        L = _mean_factor(P, anisotropy)
+        T = None if closed_form is None else closed_form(lambda among: _perturbed_hull(P, L, perturbed, among))
+        if T is None:
+            T = _perturbed_hull(P, L, perturbed)
         if anisotropy.is_constant:      # the rest is exact: only the perturbed points' stars
             near = perturbed[T].any(axis=1)
             candidates = (3 * np.flatnonzero(near)[:, None] + np.arange(3)).ravel()
@@ -198,22 +206,26 @@ def _mean_factor(P: np.ndarray, anisotropy) -> np.ndarray:
         return np.eye(2)
 
 
-def _perturbed_hull(P: np.ndarray, L: np.ndarray, perturbed: np.ndarray) -> np.ndarray:
+def _perturbed_hull(P: np.ndarray, L: np.ndarray, perturbed: np.ndarray,
+                    among: np.ndarray | None = None) -> np.ndarray:
     """The lower hull of the points mapped by L and lifted to ½|xL|², the heights of the
     `perturbed` points (the boundary's: where ties live) raised by a fixed random PERTURB share
     of the lifted range: no four lifted points are coplanar, so Qhull's cost follows N, and the
-    positions stay exact, so collinear hull points give vertical facets, never slivers."""
+    positions stay exact, so collinear hull points give vertical facets, never slivers.
+    With the mask `among`: the hull of those points only, each lifted as in the whole set."""
     X = (P - P.mean(axis=0)) @ L
     X /= np.abs(X).max()
     z = 0.5 * np.einsum("ni,ni->n", X, X)
     z /= max(z.max(), 1e-300)
     u = np.random.default_rng(0).random(len(P)) * perturbed
-    T = _valid(P, _lower_facets(np.column_stack([X, z + PERTURB * u]), "Qt"))
+    idx = np.arange(len(P)) if among is None else np.flatnonzero(among)
+    X, z, u, Q = X[idx], z[idx], u[idx], P[idx]
+    T = _valid(Q, _lower_facets(np.column_stack([X, z + PERTURB * u]), "Qt"))
     if T is None:       # points closer than the perturbation allows: the exact 2-D route
-        T = _valid(P, _delaunay(X))
+        T = _valid(Q, _delaunay(X))
     if T is None:
         raise QmeshError("some points are not vertices of the triangulation (duplicate points?)")
-    return T
+    return idx[T]
 
 
 def _violation(P, T, twin, h, anisotropy, s, g):
