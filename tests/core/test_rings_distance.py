@@ -1,0 +1,47 @@
+"""rings.distance: the grid that rules out far points first (`_far`) changes nothing: every
+point gets the distance a brute force over all (point, segment) pairs gives, or inf beyond
+`reach`, for rings of any size and position and any reach."""
+
+import numpy as np
+from hypothesis import given, settings, strategies as st
+
+from qmesh.geometry import rings
+
+
+def _brute(P, A, B, reach):
+    """min over all segments of |p − closest point|, written out pair by pair (all pairs)."""
+    ab = (B - A)[None]
+    ap = P[:, None] - A[None]
+    t = np.clip((ap * ab).sum(-1) / np.maximum((ab * ab).sum(-1), 1e-300), 0, 1)
+    d = np.hypot(*(ap - t[..., None] * ab).transpose(2, 0, 1)).min(axis=1)
+    return np.where(d <= reach, d, np.inf)
+
+
+@given(seed=st.integers(0, 2**32 - 1), n_seg=st.integers(3, 40), log_size=st.floats(-6, 6),
+       log_shift=st.floats(-3, 6), reach_share=st.floats(1e-4, 0.5), many=st.booleans())
+@settings(max_examples=40, deadline=None)
+def test_grid_prefilter_gives_the_brute_force_distances(seed, n_seg, log_size, log_shift, reach_share,
+                                                        many):
+    rng = np.random.default_rng(seed)
+    size, shift = 10.0 ** log_size, 10.0 ** log_shift * rng.standard_normal(2)
+    ang = np.sort(rng.uniform(0, 2 * np.pi, n_seg))
+    R = size * rng.uniform(0.3, 1.0, n_seg)
+    ring = shift + np.column_stack([R * np.cos(ang), R * np.sin(ang)])
+    A, B = ring, np.roll(ring, -1, axis=0)
+    n = rings.GRID_MIN + 10 if many else 500          # past GRID_MIN the grid is used
+    P = shift + size * rng.uniform(-1.2, 1.2, (n, 2))
+    reach = reach_share * size
+    got = rings.distance(P, A, B, reach)
+    want = _brute(P, A, B, reach)
+    assert np.array_equal(np.isfinite(got), np.isfinite(want))
+    np.testing.assert_allclose(got[np.isfinite(got)], want[np.isfinite(want)], rtol=1e-9,
+                               atol=1e-12 * (size + np.abs(shift).max()))
+
+
+def test_the_grid_is_used_and_rules_out_most_points_of_a_large_cloud():
+    rng = np.random.default_rng(0)
+    t = np.linspace(0, 2 * np.pi, 65)[:-1]
+    ring = np.column_stack([np.cos(t), np.sin(t)])
+    P = rng.uniform(-1, 1, (rings.GRID_MIN * 5, 2))
+    far = rings._far(P, ring, np.roll(ring, -1, axis=0), 0.01)
+    assert far is not None and far.mean() > 0.5
