@@ -102,7 +102,7 @@ def cmd_mesh(args) -> int:
 
     q = measure.quality(mesh, anisotropy)
     # with no interior vertex there is no Dirichlet matrix whose signs q_ij would matter: n/a
-    has_matrix = len(measure.free_vertices(mesh)) > 0 and measure.edge_weights(mesh, anisotropy)[2].any()
+    shares = measure.q_nonnegative_fractions(mesh, anisotropy)
     summary = {
         "output": str(out),
         "n_vertices": mesh.n_vertices,
@@ -110,13 +110,12 @@ def cmd_mesh(args) -> int:
         "iterations": last.iteration,
         "min_quality": float(q.min()),
         "mean_quality": float(q.mean()),
-        "q_nonnegative_fraction": (measure.q_nonnegative_fraction(mesh, anisotropy)
-                                   if has_matrix else None),
-        "q_nonnegative_fraction_boundary": measure.q_nonnegative_fraction_boundary(mesh, anisotropy),
+        "q_nonnegative_fraction": shares["q_nonnegative_fraction"],
+        "q_nonnegative_fraction_boundary": shares["q_nonnegative_fraction_boundary"],
         "seconds": seconds,
     }
     if isinstance(anisotropy, dict):
-        summary["q_nonnegative_fraction_interface"] = measure.q_nonnegative_fraction_interface(mesh, anisotropy)
+        summary["q_nonnegative_fraction_interface"] = shares["q_nonnegative_fraction_interface"]
     if args.json:
         print(json.dumps(summary))
     else:

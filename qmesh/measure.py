@@ -215,29 +215,31 @@ def edge_weights(mesh: Mesh, anisotropy) -> tuple[np.ndarray, np.ndarray, np.nda
     pairs = np.concatenate([T[:, [a, b]] for a, b in _EDGE_CORNERS])
     q_part = np.concatenate([-Ke[:, a, b] for a, b in _EDGE_CORNERS])
     pairs.sort(axis=1)
-    n = np.int64(mesh.n_vertices)
-    key = pairs[:, 0] * n + pairs[:, 1]
-    ukey, inverse, count = np.unique(key, return_inverse=True, return_counts=True)
-    edges = np.stack([ukey // n, ukey % n], axis=1)
-    q = np.bincount(inverse, weights=q_part, minlength=len(ukey))     # q_ij = −K_ij (2.67)
-    return edges, q, count == 2
+    # summed per (i, j) by a sparse matrix (a counting sort), in the order of sorted (i, j)
+    edges, (q, count) = _sum_per_edge(pairs, mesh.n_vertices, q_part, np.ones(len(q_part)))
+    return edges, q, count == 2                                       # q_ij = −K_ij (2.67)
+
+
+def _sum_per_edge(pairs: np.ndarray, n: int, *values: np.ndarray):
+    """The distinct rows (i, j) of `pairs`, sorted, and each of `values` summed over them."""
+    shape = (n, n)
+    sums = [sp.csr_matrix((v, (pairs[:, 0], pairs[:, 1])), shape=shape) for v in values]
+    first = sums[0]
+    rows = np.repeat(np.arange(n), np.diff(first.indptr))
+    return np.stack([rows, first.indices.astype(np.int64)], axis=1), [m.data for m in sums]
 
 
 def interface_edges(mesh: Mesh) -> tuple[np.ndarray, np.ndarray]:
     """Every edge (k, 2) (i < j, as `edge_weights`) and whether its two triangles lie in
     different regions (an interface edge)."""
-    T, reg = mesh.triangles, mesh.region_tags
+    T = mesh.triangles
     pairs = np.concatenate([T[:, [a, b]] for a, b in _EDGE_CORNERS])
     pairs.sort(axis=1)
-    n = np.int64(mesh.n_vertices)
-    key = pairs[:, 0] * n + pairs[:, 1]
-    ukey, inverse = np.unique(key, return_inverse=True)
-    r = np.tile(reg, 3)
-    lo = np.full(len(ukey), np.iinfo(np.int64).max)
-    hi = np.full(len(ukey), np.iinfo(np.int64).min)
-    np.minimum.at(lo, inverse, r)
-    np.maximum.at(hi, inverse, r)
-    return np.stack([ukey // n, ukey % n], axis=1), lo != hi
+    rank = np.unique(mesh.region_tags, return_inverse=True)[1].ravel().astype(float)   # 0, 1, …
+    r = np.tile(rank, 3)
+    # two triangles' regions a, b differ iff 2(a² + b²) > (a + b)² (exact: small integers)
+    edges, (count, total, squares) = _sum_per_edge(pairs, mesh.n_vertices, np.ones(len(r)), r, r * r)
+    return edges, (count == 2) & (2.0 * squares > total * total)
 
 
 def _relative_q(mesh: Mesh, anisotropy, split: bool = False):
@@ -248,8 +250,29 @@ def _relative_q(mesh: Mesh, anisotropy, split: bool = False):
     r = q / (scale if scale > 0 else 1.0)
     if not split:
         return r[interior], r[~interior]
-    inter = interface_edges(mesh)[1]
+    tags = mesh.region_tags
+    inter = (interface_edges(mesh)[1] if len(tags) and tags.min() != tags.max()
+             else np.zeros(len(q), bool))                      # one region: no interface
     return r[interior & ~inter], r[~interior], r[interior & inter]
+
+
+def q_nonnegative_fractions(mesh: Mesh, anisotropy, rtol: float = 1e-9) -> dict:
+    """The shares of q_ij ≥ −rtol·max|q| as `report` gives them, from one assembly:
+    "q_nonnegative_fraction" (interior edges; None also with no interior vertex: no Dirichlet
+    matrix), "q_nonnegative_fraction_boundary", and "q_nonnegative_fraction_interface" when
+    the mesh has interface edges or `anisotropy` is a mapping."""
+    rtol = checks.real(rtol, "rtol", low=0.0, high=1.0)
+    return _shares(_relative_q(mesh, anisotropy, split=True), len(free_vertices(mesh)) > 0,
+                   isinstance(anisotropy, Mapping), rtol)
+
+
+def _shares(relative, has_interior: bool, per_region: bool, rtol: float) -> dict:
+    r_in, r_b, r_if = relative
+    out = {"q_nonnegative_fraction": _fraction_nonnegative(r_in, rtol) if has_interior else None,
+           "q_nonnegative_fraction_boundary": _fraction_nonnegative(r_b, rtol)}
+    if len(r_if) or per_region:
+        out["q_nonnegative_fraction_interface"] = _fraction_nonnegative(r_if, rtol)
+    return out
 
 
 def q_nonnegative_fraction(mesh: Mesh, anisotropy, rtol: float = 1e-9) -> float | None:
@@ -394,13 +417,10 @@ def report(mesh: Mesh, anisotropy) -> dict:
     if len(T) == 0 or np.any(area == 0.0):
         return out
     out["l2_error"], out["h1_error"] = interpolation_errors(mesh, anisotropy)
-    r_in, r_b, r_if = _relative_q(mesh, anisotropy, split=True)
+    r_in, r_b, r_if = relative = _relative_q(mesh, anisotropy, split=True)
+    out.update(_shares(relative, out["n_interior"] > 0, isinstance(anisotropy, Mapping), 1e-9))
     if len(r_if) or isinstance(anisotropy, Mapping):
-        out["q_nonnegative_fraction_interface"] = _fraction_nonnegative(r_if, 1e-9)
         out["min_q_ij_relative_interface"] = float(r_if.min()) if len(r_if) else None
-    # no interior vertex: no Dirichlet matrix whose signs would matter (CLI: "n/a")
-    out["q_nonnegative_fraction"] = _fraction_nonnegative(r_in, 1e-9) if out["n_interior"] else None
-    out["q_nonnegative_fraction_boundary"] = _fraction_nonnegative(r_b, 1e-9)
     out["min_q_ij_relative"] = float(r_in.min()) if len(r_in) else None
     out["min_q_ij_relative_boundary"] = float(r_b.min()) if len(r_b) else None
     if out["n_interior"] > 0:

@@ -107,3 +107,43 @@ def test_a_mesh_with_nan_coordinates_cannot_be_made():
         qmesh.Mesh([[0.0, 0.0], [1.0, np.nan], [0.0, 1.0]], [[0, 1, 2]])
 
 
+
+
+def test_edge_sums_and_interfaces_match_a_triangle_by_triangle_count(delaunay_mesh):
+    """edge_weights and interface_edges (summed by a sparse matrix) against a plain dict over
+    the triangles' edges, with region tags that are large, negative and unordered."""
+    rng = np.random.default_rng(3)
+    m = delaunay_mesh
+    tags = rng.choice([-7, 4, 10**12], size=m.n_triangles)
+    regions = qmesh.Mesh(m.points, m.triangles, m.fixed, region_tags=tags)
+    K = measure.stiffness(m, A).toarray()
+    seen: dict = {}
+    for t, tri in enumerate(m.triangles.tolist()):
+        for a, b in ((0, 1), (1, 2), (2, 0)):
+            seen.setdefault(tuple(sorted((tri[a], tri[b]))), []).append(tags[t])
+    edges, q, interior = measure.edge_weights(m, A)
+    assert [tuple(e) for e in edges.tolist()] == sorted(seen)
+    assert interior.tolist() == [len(seen[e]) == 2 for e in sorted(seen)]
+    inner = [i for i, e in enumerate(sorted(seen)) if len(seen[e]) == 2]
+    np.testing.assert_allclose(q[inner], [-K[i, j] for i, j in np.array(sorted(seen))[inner]], rtol=1e-12)
+    e2, inter = measure.interface_edges(regions)
+    assert np.array_equal(e2, edges)
+    assert inter.tolist() == [len(set(seen[e])) == 2 for e in sorted(seen)]
+
+
+def test_the_shares_at_once_are_the_shares_one_by_one(delaunay_mesh):
+    m = delaunay_mesh
+    tags = (m.points[m.triangles].mean(axis=1)[:, 0] > 0).astype(int)
+    regions = qmesh.Mesh(m.points, m.triangles, m.fixed, region_tags=tags)
+    Q = {0: A, 1: qmesh.Anisotropy.principal(1, 50, 30)}
+    for mesh, anisotropy in ((m, A), (regions, Q), (OBTUSE, A)):
+        shares = measure.q_nonnegative_fractions(mesh, anisotropy)
+        assert shares["q_nonnegative_fraction_boundary"] == measure.q_nonnegative_fraction_boundary(mesh, anisotropy)
+        if len(measure.free_vertices(mesh)):
+            assert shares["q_nonnegative_fraction"] == measure.q_nonnegative_fraction(mesh, anisotropy)
+        else:
+            assert shares["q_nonnegative_fraction"] is None
+        assert ("q_nonnegative_fraction_interface" in shares) == (anisotropy is Q)
+        if anisotropy is Q:
+            assert shares["q_nonnegative_fraction_interface"] == measure.q_nonnegative_fraction_interface(mesh, Q)
+            assert shares["q_nonnegative_fraction_interface"] < 1.0       # anisotropic neighbour: some q < 0
