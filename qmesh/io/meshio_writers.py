@@ -1,6 +1,7 @@
 """Writers that lay a Payload out as meshio cells and let meshio write the file.
 
-- `.vtu`, `.vtk`: triangles then one line block; integer cell data "boundary_tag" (lines: the
+- `.vtu`, `.vtk`: triangles then one line block (int32 indices; a `.vtu` zlib-compressed up
+  to ZLIB_MAX vertices, uncompressed beyond); integer cell data "boundary_tag" (lines: the
   tag, triangles 0), "region" (triangles: the region tag, lines 0) and "gmsh:physical" (both in
   gmsh numbering, `Payload.cell_tags`); `.vtu` also gets a `<FieldData>` block {identifier:
   [tag, dim]}, which meshio reads as `field_data`, so that scikit-fem's `MeshTri.load` names
@@ -28,6 +29,8 @@ from qmesh.io import metadata
 from qmesh.io.boundary import filler
 
 VERTEX_DATA = "qmesh:vertex"
+ZLIB_MAX = 200_000      # .vtu of more vertices are written uncompressed: zlib took 3.7 s of the
+                        # 23 s `qmesh mesh` at 1e6 vertices (49 MB; uncompressed 155 MB in 0.5 s)
 
 
 def optional(module: str, what: str):
@@ -54,14 +57,22 @@ def vtk_family(fmt: str):
         cell_data["boundary_tag"] = [np.zeros(len(p.triangles), np.int32), p.tags.astype(np.int32)]
         cell_data["region"] = [p.regions.astype(np.int32), np.zeros(k, np.int32)]
         cell_data["gmsh:physical"] = [p.cell_tags, p.tags.astype(np.int32)]
-        m = meshio.Mesh(_xyz(p.points), [("triangle", p.triangles), ("line", p.edges)],
+        m = meshio.Mesh(_xyz(p.points), [("triangle", _compact(p.triangles)), ("line", _compact(p.edges))],
                         point_data={"fixed": p.fixed, **p.point_data}, cell_data=cell_data)
-        getattr(meshio, fmt).write(tmp, m)
+        if fmt == "vtu":
+            meshio.vtu.write(tmp, m, compression="zlib" if len(p.points) <= ZLIB_MAX else None)
+        else:
+            meshio.vtk.write(tmp, m)
         if fmt == "vtu":
             _add_field_data(tmp, p.field_data())
         metadata.add(tmp, "root" if fmt == "vtu" else "title", p.meta)
         return [(tmp, final)]
     return write
+
+
+def _compact(cells: np.ndarray) -> np.ndarray:
+    """Vertex indices as int32 where they fit: half the bytes to encode and to read."""
+    return cells.astype(np.int32) if cells.size == 0 or cells.max() < 2**31 - 1 else cells
 
 
 def _add_field_data(path: Path, groups: dict) -> None:

@@ -136,6 +136,22 @@ def test_read_errors(tmp_path, name, content, message):
         io.read(path)
 
 
+def test_large_vtu_is_written_uncompressed_and_reads_back_the_same(tmp_path, delaunay_mesh,
+                                                                   chapter_anisotropy, monkeypatch):
+    from qmesh.io import meshio_writers
+    small, large = tmp_path / "small.vtu", tmp_path / "large.vtu"
+    io.write(small, delaunay_mesh, anisotropy=chapter_anisotropy)
+    monkeypatch.setattr(meshio_writers, "ZLIB_MAX", delaunay_mesh.n_vertices - 1)
+    io.write(large, delaunay_mesh, anisotropy=chapter_anisotropy)
+    assert b"vtkZLibDataCompressor" in small.read_bytes()
+    assert b"vtkZLibDataCompressor" not in large.read_bytes()
+    a, b = io.read(small), io.read(large)
+    assert np.array_equal(a.points, b.points) and np.array_equal(a.triangles, b.triangles)
+    assert np.array_equal(b.triangles, delaunay_mesh.triangles)
+    cells = meshio.read(large).cells_dict["triangle"]
+    assert np.array_equal(cells, delaunay_mesh.triangles)
+
+
 def test_write_errors_leave_no_file(tmp_path, delaunay_mesh):
     cases = [
         (tmp_path / "m.stl", {}, "unknown mesh file extension"),
