@@ -23,19 +23,25 @@ from qmesh.geometry.topology import NXT, PRV
 from qmesh.geometry.triangles import (Frame, area_gradients, metric_hessians, quadratic_form,
                        quadratic_form_xy, signed_areas)
 
+CHUNK = 1 << 18        # triangles per block of the per-triangle passes (bounds their temporaries)
 STAR_SHRINK = 0.5      # largest fraction of a triangle's area one vertex's move may remove
 FAN_WEIGHT = 0.15     # shape_step's weight of triangles with two boundary corners (see there)
 MIN_AREA_KEPT = 0.1    # after all moves every triangle keeps at least this fraction of its area
 
 
-def _corner_brackets(P, T, anisotropy, F: Frame):
-    """Σ_{k∈T, k≠i} [s(x_k) − s(x_i) − ∇s(x_i)·(x_k − x_i)] for every corner i of every T: (M, 3)."""
+def chunks(m: int):
+    """Slices of CHUNK triangles covering range(m)."""
+    return [slice(k, min(k + CHUNK, m)) for k in range(0, max(m, 1), CHUNK)]
+
+
+def _corner_brackets(T, anisotropy, F: Frame, s_at, grad_at):
+    """Σ_{k∈T, k≠i} [s(x_k) − s(x_i) − ∇s(x_i)·(x_k − x_i)] for every corner i of every T: (M, 3);
+    `s_at`, `grad_at`: s and ∇s at every vertex (None for a constant Q)."""
     if anisotropy.is_constant:
         w = 0.5 * quadratic_form_xy(F.ex, F.ey, anisotropy.H)              # s(x_k − x_i) of (2.91)
         return w.sum(axis=1, keepdims=True) - w                # the two edges at the corner
     X = np.stack([F.x, F.y], axis=-1)
-    s = np.asarray(anisotropy.s(P), dtype=float)[T]
-    g = np.asarray(anisotropy.grad(P), dtype=float)[T]
+    s, g = s_at[T], grad_at[T]
     out = np.zeros(T.shape)
     for shift in (1, 2):
         k = np.roll(np.arange(3), -shift)
@@ -52,13 +58,27 @@ def _scatter(T, values, n):
     return np.column_stack([np.bincount(idx, v[:, j], minlength=n) for j in range(v.shape[1])])
 
 
-def newton_rhs(P, T, anisotropy, F: Frame | None = None):
-    """b_i of (2.91)/(2.93) and the star areas |Ω_i|."""
+def newton_rhs(P, T, anisotropy):
+    """b_i of (2.91)/(2.93) and the star areas |Ω_i|.
+
+    The per-corner terms are computed CHUNK triangles at a time into three arrays, then summed
+    once: the temporaries of a whole-mesh Frame were the mesher's peak memory at 1e6 vertices,
+    and one sum keeps the result bit for bit what it was."""
     n = len(P)
-    F = Frame(P, T) if F is None else F
-    star = np.bincount(T.ravel(), np.repeat(F.A, 3), minlength=n)
-    S = _corner_brackets(P, T, anisotropy, F)
-    B = np.column_stack([_scatter(T, F.gx * S, n), _scatter(T, F.gy * S, n)])
+    area = np.empty(len(T))
+    wx, wy = np.empty(T.shape), np.empty(T.shape)
+    s_at = grad_at = None
+    if not anisotropy.is_constant:
+        s_at = np.asarray(anisotropy.s(P), dtype=float)
+        grad_at = np.asarray(anisotropy.grad(P), dtype=float)
+    for c in chunks(len(T)):
+        F = Frame(P, T[c])
+        S = _corner_brackets(T[c], anisotropy, F, s_at, grad_at)
+        area[c] = F.A
+        np.multiply(F.gx, S, out=wx[c])
+        np.multiply(F.gy, S, out=wy[c])
+    star = np.bincount(T.ravel(), np.repeat(area, 3), minlength=n)
+    B = np.column_stack([_scatter(T, wx, n), _scatter(T, wy, n)])
     return -B / np.where(star > 0, star, 1.0)[:, None], star
 
 
@@ -174,11 +194,15 @@ def limit_moves(P, T, d, keep=None):
 
     Vertices in `keep` move exactly by d (their moves were checked already).
     """
-    F = Frame(P, T)
-    cap = _star_cap(T, F, d)
+    cap = np.ones(len(d))
+    area = np.empty(len(T))
+    for c in chunks(len(T)):              # by chunks: see newton_rhs (a minimum is exact anyway)
+        F = Frame(P, T[c])
+        area[c] = F.A
+        _star_cap(T[c], F, d, cap)
     if keep is not None:
         cap[keep] = 1.0
-    return _no_inversion(P, T, F.A, d * cap[:, None], keep)
+    return _no_inversion(P, T, area, d * cap[:, None], keep)
 
 
 def vertex_step(P, T, anisotropy, *, fixed, tangent, alpha=0.5):
@@ -187,21 +211,20 @@ def vertex_step(P, T, anisotropy, *, fixed, tangent, alpha=0.5):
                                          alpha=alpha))
 
 
-def _star_cap(T, F: Frame, d):
-    """Largest factor ≤ 1 per vertex so its move alone keeps every triangle of its star."""
+def _star_cap(T, F: Frame, d, cap):
+    """Lower `cap` (per vertex, ≤ 1) so each vertex's move alone keeps every triangle of T."""
     rate = (F.gx * np.take(np.ascontiguousarray(d[:, 0]), T)
             + F.gy * np.take(np.ascontiguousarray(d[:, 1]), T))   # dA/dt for each corner's move
     shrink = rate < -STAR_SHRINK * F.A[:, None]                # would lose over half the area
-    cap = np.ones(len(d))
     np.minimum.at(cap, T[shrink], -STAR_SHRINK * F.A[:, None].repeat(3, 1)[shrink] / rate[shrink])
-    return cap
 
 
 def _no_inversion(P, T, A0, d, keep=None, max_halvings=30):
     """Halve the moves of vertices whose triangles would lose too much area."""
     d = d.copy()
     for i in range(max_halvings + 1):
-        bad = signed_areas(P + d, T) < MIN_AREA_KEPT * A0
+        Pd = P + d
+        bad = np.concatenate([signed_areas(Pd, T[c]) < MIN_AREA_KEPT * A0[c] for c in chunks(len(T))])
         if not bad.any():
             return P + d, d
         v = np.zeros(len(P), bool)

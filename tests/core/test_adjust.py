@@ -186,3 +186,18 @@ def test_vertex_step_does_not_increase_energy_for_random_q(k1, ratio, angle, see
     assert triangle_energy(Pn, T, A).sum() <= E0 * (1 + 1e-12)
     assert np.all(signed_areas(Pn, T) > 0)
     np.testing.assert_array_equal(Pn[fixed], P[fixed])
+
+
+@pytest.mark.parametrize("name", sorted(ANISOTROPIES))
+def test_blocks_of_triangles_change_no_bit_of_the_step(name, monkeypatch):
+    """newton_rhs and limit_moves work CHUNK triangles at a time (their memory); any block size
+    gives exactly the whole-array result."""
+    A = ANISOTROPIES[name]()
+    P, T, _ = perturbed_mesh(A, 1)
+    d = np.random.default_rng(0).normal(size=P.shape) * 0.05
+    whole = adjust.newton_rhs(P, T, A), adjust.limit_moves(P, T, d)
+    monkeypatch.setattr(adjust, "CHUNK", 7)
+    assert len(adjust.chunks(len(T))) > 3
+    blocks = adjust.newton_rhs(P, T, A), adjust.limit_moves(P, T, d)
+    for a, b in zip(whole, blocks):
+        assert all(np.array_equal(x, y) for x, y in zip(a, b))
