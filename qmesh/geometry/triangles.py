@@ -8,6 +8,14 @@ from __future__ import annotations
 
 import numpy as np
 
+CHUNK = 1 << 18        # triangles per block of a per-triangle pass (bounds its temporaries)
+
+
+def chunks(m: int) -> list[slice]:
+    """Slices of CHUNK triangles covering range(m): per-triangle passes over a whole mesh of
+    1e6 vertices made a Frame's seven (M, 3) arrays at once, the mesher's peak memory."""
+    return [slice(k, min(k + CHUNK, m)) for k in range(0, max(m, 1), CHUNK)]
+
 
 def corners(P: np.ndarray, T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Corner coordinates x (M, 3) and y (M, 3).
@@ -119,3 +127,14 @@ def rounded(x: np.ndarray, bits: int = 32) -> np.ndarray:
     """
     m, e = np.frexp(np.asarray(x, dtype=float))
     return np.ldexp(np.round(m * 2.0**bits) / 2.0**bits, e)
+
+
+def metric_measures(P: np.ndarray, T: np.ndarray, H: np.ndarray):
+    """metric_areas, metric_quality and metric_edge_lengths2 of every triangle, CHUNK triangles
+    at a time (each value exactly what the whole-array function gives)."""
+    area, quality, L2 = np.empty(len(T)), np.empty(len(T)), np.empty(T.shape)
+    for c in chunks(len(T)):
+        area[c] = metric_areas(P, T[c], H[c])
+        quality[c] = metric_quality(P, T[c], H[c])
+        L2[c] = metric_edge_lengths2(P, T[c], H[c])
+    return area, quality, L2

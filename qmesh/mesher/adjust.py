@@ -20,18 +20,12 @@ from __future__ import annotations
 import numpy as np
 
 from qmesh.geometry.topology import NXT, PRV
-from qmesh.geometry.triangles import (Frame, area_gradients, metric_hessians, quadratic_form,
+from qmesh.geometry.triangles import (Frame, area_gradients, chunks, metric_hessians, quadratic_form,
                        quadratic_form_xy, signed_areas)
 
-CHUNK = 1 << 18        # triangles per block of the per-triangle passes (bounds their temporaries)
 STAR_SHRINK = 0.5      # largest fraction of a triangle's area one vertex's move may remove
 FAN_WEIGHT = 0.15     # shape_step's weight of triangles with two boundary corners (see there)
 MIN_AREA_KEPT = 0.1    # after all moves every triangle keeps at least this fraction of its area
-
-
-def chunks(m: int):
-    """Slices of CHUNK triangles covering range(m)."""
-    return [slice(k, min(k + CHUNK, m)) for k in range(0, max(m, 1), CHUNK)]
 
 
 def _corner_brackets(T, anisotropy, F: Frame, s_at, grad_at):

@@ -29,8 +29,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from qmesh.geometry import topology
-from qmesh.geometry.triangles import (metric_areas, metric_edge_lengths2, metric_hessians, metric_quality,
-                       rounded)
+from qmesh.geometry.triangles import metric_hessians, metric_measures, rounded
 
 GROSS = 4.0             # above this multiple of the threshold, neighbours may be refined together
 GRADE_QUALITY = 0.35    # below this metric quality, a triangle whose shortest edge is a boundary
@@ -60,9 +59,7 @@ def insert(P, T, twin, anisotropy, *, area_threshold, boundary_length, corner_ed
     if budget <= 0:
         return none
     Hm = metric_hessians(anisotropy, P, T)
-    area = rounded(metric_areas(P, T, Hm))
-    quality = rounded(metric_quality(P, T, Hm))
-    L2 = rounded(metric_edge_lengths2(P, T, Hm))               # edge opposite each corner
+    area, quality, L2 = map(rounded, metric_measures(P, T, Hm))  # L2: edge opposite each corner
     At = area_threshold
     cand = (area > At) | ((quality < quality_threshold) & (area > min_area))
     # badly shaped triangles first (they have a budget only while N is below its target),
@@ -267,7 +264,8 @@ def relocate_degree3(P, T, twin, anisotropy, on_boundary):
     tri, vert = tri[order], vert[order]
     v, star = vert[::3], tri.reshape(-1, 3)
     Hm = metric_hessians(anisotropy, P, T)
-    size = rounded(metric_areas(P, T, Hm) / np.maximum(metric_quality(P, T, Hm), 1e-3))
+    area, quality, _ = metric_measures(P, T, Hm)
+    size = rounded(area / np.maximum(quality, 1e-3))
     size[star.ravel()] = -np.inf
     target = np.argsort(-size, kind="stable")[:len(v)]
     P = P.copy()

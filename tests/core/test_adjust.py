@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 import qmesh
 from cases import exp_plus_y2
 from qmesh.mesher import adjust
+from qmesh.geometry import triangles
 from qmesh.geometry.triangles import signed_areas
 from qmesh.measure import energy, triangle_energy
 from qmesh.mesher.triangulate import lower_hull
@@ -196,8 +197,8 @@ def test_blocks_of_triangles_change_no_bit_of_the_step(name, monkeypatch):
     P, T, _ = perturbed_mesh(A, 1)
     d = np.random.default_rng(0).normal(size=P.shape) * 0.05
     whole = adjust.newton_rhs(P, T, A), adjust.limit_moves(P, T, d)
-    monkeypatch.setattr(adjust, "CHUNK", 7)
-    assert len(adjust.chunks(len(T))) > 3
+    monkeypatch.setattr(triangles, "CHUNK", 7)
+    assert len(triangles.chunks(len(T))) > 3
     blocks = adjust.newton_rhs(P, T, A), adjust.limit_moves(P, T, d)
     for a, b in zip(whole, blocks):
         assert all(np.array_equal(x, y) for x, y in zip(a, b))
