@@ -120,6 +120,9 @@ def insert(P, T, twin, anisotropy, *, area_threshold, boundary_length, corner_ed
     hb, hi = he[twin[he] < 0], he[twin[he] >= 0]
     if len(hb) + len(hi) + len(tri) + len(g_host) == 0:
         return none
+    # the per-triangle arrays are not needed any more: free them before the splits copy T
+    del Hm, area, quality, L2, cand, priority, longest, on_boundary, he_len2, long_bnd, shortest
+    del grade, want, prio, gross, chosen, hosted, touched
 
     new_b = _midpoints(P, T, hb)
     new_e = _midpoints(P, T, hi)
