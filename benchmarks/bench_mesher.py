@@ -13,7 +13,9 @@ and its time is that of the final, calibrated run (calibration runs are counted 
 separately); Shewchuk's Triangle meshes the same disk isotropically (pq30a, its maximum area
 calibrated to the same N by one probe run), the C limit of issue 20. The case:
 Q = diag(0.1, 10) on Disk(VB); the mesher adds boundary points between the VB seeds, so one VB
-(default 512) serves every size. Prints figures only: no assertion.
+(default 512) serves every size. The whole `qmesh mesh … -o x.vtu` command (meshing, the
+summary's measures, writing the file) is timed too, from its own process. Prints figures only:
+no assertion.
 """
 
 from __future__ import annotations
@@ -106,6 +108,28 @@ def child_triangle(n: int, vb: int) -> dict:
             "n_triangles": len(out["triangles"]), "baseline_mb": base, "peak_mb": _rss_mb()}
 
 
+def child_command(n: int, vb: int) -> dict:
+    """The whole `qmesh mesh --Q 0.1 0 10 --disk VB --target-vertices N -o x.vtu` command, run
+    from this (fresh) process: wall seconds from start to exit, its peak RSS (this process's
+    only child), and the meshing time it prints (time=…s)."""
+    import os
+    import re
+    import shutil
+    import tempfile
+    exe = shutil.which("qmesh") or "qmesh"
+    with tempfile.TemporaryDirectory() as tmp:
+        cmd = [exe, "mesh", "--Q", "0.1", "0", "10", "--disk", str(vb), "--target-vertices", str(n),
+               "-o", os.path.join(tmp, "x.vtu")]
+        t0 = time.perf_counter()
+        out = subprocess.run(cmd, capture_output=True, text=True)
+        wall = time.perf_counter() - t0
+    if out.returncode != 0:
+        return {"mesher": "command", "failed": out.stderr.strip().splitlines()[-1:]}
+    meshing = float(re.search(r"time=([0-9.]+)s", out.stdout).group(1))
+    return {"mesher": "command", "seconds": wall, "meshing_seconds": meshing,
+            "peak_mb": resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024.0}
+
+
 def run_case(kind: str, n: int, vb, timeout: float) -> dict:
     """One case in a fresh interpreter; its JSON result (or why it failed)."""
     cmd = [sys.executable, __file__, "--child", kind, str(n), str(vb)]
@@ -159,7 +183,8 @@ def main(argv=None) -> int:
     if args.child:
         kind, n, vb = args.child[0], int(args.child[1]), args.child[2]
         child = {"qmesh": lambda: child_qmesh(n, vb), "mmg2d": lambda: child_mmg(n, int(vb)),
-                 "triangle": lambda: child_triangle(n, int(vb))}[kind]
+                 "triangle": lambda: child_triangle(n, int(vb)),
+                 "command": lambda: child_command(n, int(vb))}[kind]
         print(json.dumps(child()))
         return 0
     sizes = args.sizes or ([1e5, 1e6] if args.big else [1e5])
@@ -172,6 +197,13 @@ def main(argv=None) -> int:
              else run_case("mmg2d", n, args.vb, args.timeout))
         t = run_case("triangle", n, args.vb, args.timeout)
         report(n, args.vb, q, m, t)
+        c = run_case("command", n, args.vb, args.timeout)
+        if "seconds" in c:
+            print(f"  the whole `qmesh mesh … -o x.vtu` command: {c['seconds']:.2f} s (meshing "
+                  f"{c['meshing_seconds']:.2f} s), peak {c['peak_mb']:,.0f} MB"
+                  + (f"; {c['seconds'] / t['seconds']:.1f}x Triangle's time" if "seconds" in t else ""))
+        else:
+            print(f"  the whole command: FAILED: {c.get('failed')}")
         if args.domains:
             for name in HOLED:
                 r = run_case("qmesh", n, name, args.timeout)
