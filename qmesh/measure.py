@@ -28,7 +28,7 @@ from qmesh import checks
 from qmesh.geometry import quadrature
 from qmesh.errors import QmeshError
 from qmesh.geometry.topology import edge_keys
-from qmesh.geometry.triangles import Frame, corners, metric_hessians, metric_quality, signed_areas
+from qmesh.geometry.triangles import Frame, chunks, corners, metric_hessians, metric_quality, signed_areas
 from qmesh.mesh import Mesh
 
 DENSE_LIMIT = 300
@@ -211,9 +211,18 @@ def edge_weights(mesh: Mesh, anisotropy) -> tuple[np.ndarray, np.ndarray, np.nda
     checks.mesh(mesh)
     _check(anisotropy, mesh, allow_none=True)
     T = mesh.triangles
-    Ke = _element_matrices(mesh.points, T, anisotropy, mesh.region_tags)
+    # −K_T[a, b] for the three corner pairs, CHUNK triangles at a time (the (M, 3, 3) element
+    # matrices of a whole mesh were the largest array of `qmesh mesh`'s summary at 1e6)
+    q_part = np.empty((len(_EDGE_CORNERS), len(T)))
+    regions = mesh.region_tags
+    if len(T) > 0 and np.any(signed_areas(mesh.points, T) == 0.0):       # counted over all blocks
+        _element_matrices(mesh.points, T, anisotropy, regions)            # raises, naming how many
+    for c in chunks(len(T)):
+        Ke = _element_matrices(mesh.points, T[c], anisotropy, None if regions is None else regions[c])
+        for k, (a, b) in enumerate(_EDGE_CORNERS):
+            q_part[k, c] = -Ke[:, a, b]
+    q_part = q_part.ravel()
     pairs = np.concatenate([T[:, [a, b]] for a, b in _EDGE_CORNERS])
-    q_part = np.concatenate([-Ke[:, a, b] for a, b in _EDGE_CORNERS])
     pairs.sort(axis=1)
     # summed per (i, j) by a sparse matrix (a counting sort), in the order of sorted (i, j)
     edges, (q, count) = _sum_per_edge(pairs, mesh.n_vertices, q_part, np.ones(len(q_part)))

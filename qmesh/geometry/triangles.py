@@ -113,7 +113,17 @@ def metric_areas(P: np.ndarray, T: np.ndarray, H: np.ndarray) -> np.ndarray:
 
 
 def metric_quality(P: np.ndarray, T: np.ndarray, H: np.ndarray) -> np.ndarray:
-    """Quality (2.94) in metric space, normalised to 1 for an equilateral triangle: 4√3 Ã / Σ l̃²."""
+    """Quality (2.94) in metric space, normalised to 1 for an equilateral triangle: 4√3 Ã / Σ l̃²
+    (CHUNK triangles at a time: the values do not depend on it)."""
+    if len(T) <= CHUNK:
+        return _metric_quality(P, T, H)
+    out = np.empty(len(T))
+    for c in chunks(len(T)):
+        out[c] = _metric_quality(P, T[c], H[c] if H.ndim == 3 else H)
+    return out
+
+
+def _metric_quality(P: np.ndarray, T: np.ndarray, H: np.ndarray) -> np.ndarray:
     l2 = metric_edge_lengths2(P, T, H).sum(axis=1)
     return 4.0 * np.sqrt(3.0) * metric_areas(P, T, H) / l2
 
@@ -135,6 +145,6 @@ def metric_measures(P: np.ndarray, T: np.ndarray, H: np.ndarray):
     area, quality, L2 = np.empty(len(T)), np.empty(len(T)), np.empty(T.shape)
     for c in chunks(len(T)):
         area[c] = metric_areas(P, T[c], H[c])
-        quality[c] = metric_quality(P, T[c], H[c])
+        quality[c] = _metric_quality(P, T[c], H[c])
         L2[c] = metric_edge_lengths2(P, T[c], H[c])
     return area, quality, L2

@@ -19,3 +19,16 @@ def test_the_mesh_does_not_depend_on_the_block_size(anisotropy, monkeypatch):
     assert len(triangles.chunks(whole.n_triangles)) > 20
     assert np.array_equal(whole.points, blocks.points)
     assert np.array_equal(whole.triangles, blocks.triangles)
+
+
+def test_measures_do_not_depend_on_the_block_size(monkeypatch):
+    from qmesh import measure
+    from qmesh.media import cases
+    domain, Q, _ = cases.layered()
+    m = qmesh.mesh(domain, Q, target_vertices=600)
+    whole = measure.edge_weights(m, Q), measure.quality(m, Q), measure.report(m, Q)
+    monkeypatch.setattr(triangles, "CHUNK", 37)
+    blocks = measure.edge_weights(m, Q), measure.quality(m, Q), measure.report(m, Q)
+    assert all(np.array_equal(a, b) for a, b in zip(whole[0], blocks[0]))
+    assert np.array_equal(whole[1], blocks[1])
+    assert whole[2] == blocks[2]
