@@ -117,7 +117,7 @@ def file_names(tags, names: dict[int, str], kind: str) -> dict[int, str]:
     """{tag: identifier} for every tag in `tags`: the user's name made an identifier, or
     `kind`_tag; a name that two tags would share gets its tag appended."""
     out, seen = {}, set()
-    for t in sorted(set(int(t) for t in np.ravel(tags))):
+    for t in np.unique(np.asarray(tags, dtype=np.int64)).tolist():       # sorted, distinct
         name = identifier(names[t], f"{kind}_{t}") if t in names else f"{kind}_{t}"
         if name in seen:
             name = f"{name}_{t}"
