@@ -299,11 +299,11 @@ def restore(P: np.ndarray, T: np.ndarray, twin: np.ndarray, anisotropy,
             return T, twin, flips
         rank = np.empty(len(bad))
         rank[np.argsort(viol[viol > FLIP_TOL], kind="stable")] = np.arange(1, len(bad) + 1)
-        best = np.zeros(3 * len(T))
-        best[bad] = rank
-        best[twin[bad]] = rank
-        tri_best = best.reshape(-1, 3).max(axis=1)
-        sel = (tri_best[bad // 3] == rank) & (tri_best[twin[bad] // 3] == rank)
+        # the best rank in each triangle that holds a bad edge (only those: a round touches few)
+        tris, at = np.unique(np.concatenate([bad // 3, twin[bad] // 3]), return_inverse=True)
+        tri_best = np.zeros(len(tris))
+        np.maximum.at(tri_best, at, np.concatenate([rank, rank]))
+        sel = (tri_best[at[:len(bad)]] == rank) & (tri_best[at[len(bad):]] == rank)
         h = bad[sel]
         tri = np.concatenate([h // 3, twin[h] // 3])
         T, twin = topology.flip(T, twin, h)
