@@ -110,7 +110,7 @@ def browser_latency(mode: str, n: int, repeat: int) -> list:
     vb = VB_FOR.get(n, max(8, min(512, n // 20)))
     rows = []
     with b.qmesh_view_server("--views", mode, "--vb", str(vb), "--target-vertices", str(n)) as url, \
-            b.chromium_page(url) as page:
+            b.chromium_page(url, (1600, 900)) as page:
         t0 = time.monotonic()
         b.wait_drawn(page, timeout=300)
         b.wait_idle(page, timeout=300)
