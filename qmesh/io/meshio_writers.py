@@ -80,10 +80,12 @@ def _add_field_data(path: Path, groups: dict) -> None:
     arrays = "".join(f'<DataArray type="Int32" Name={quoteattr(name)} NumberOfTuples="2" '
                      f'format="ascii">{v[0]} {v[1]}</DataArray>'
                      for name, v in groups.items())
-    data = path.read_bytes()
-    start = data.index(b"<UnstructuredGrid")
-    end = data.index(b">", start) + 1
-    path.write_bytes(data[:end] + f"<FieldData>{arrays}</FieldData>".encode("ascii") + data[end:])
+
+    def insert(data: bytes) -> bytes:
+        start = data.index(b"<UnstructuredGrid")
+        end = data.index(b">", start) + 1
+        return data[:end] + f"<FieldData>{arrays}</FieldData>".encode("ascii") + data[end:]
+    metadata.edit_head(path, insert)
 
 
 def medit(tmp: Path, final: Path, p):

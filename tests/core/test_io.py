@@ -152,6 +152,22 @@ def test_large_vtu_is_written_uncompressed_and_reads_back_the_same(tmp_path, del
     assert np.array_equal(cells, delaunay_mesh.triangles)
 
 
+@pytest.mark.parametrize("head", [8, 600, 1 << 16])
+@pytest.mark.parametrize("ext", [".vtu", ".vtk", ".msh", ".mesh"])
+def test_metadata_lands_the_same_whatever_the_head_read(tmp_path, delaunay_mesh, chapter_anisotropy,
+                                                        monkeypatch, head, ext):
+    """The metadata and the vtu's FieldData are put into the file's head without reading the
+    whole file (metadata.edit_head); a mark beyond the head falls back to the whole file."""
+    from qmesh.io import metadata
+    whole = tmp_path / f"whole{ext}"
+    io.write(whole, delaunay_mesh, anisotropy=chapter_anisotropy)
+    monkeypatch.setattr(metadata, "HEAD", head)
+    part = tmp_path / f"part{ext}"
+    io.write(part, delaunay_mesh, anisotropy=chapter_anisotropy)
+    assert part.read_bytes() == whole.read_bytes()
+    np.testing.assert_array_equal(io.read_anisotropy(part).H, chapter_anisotropy.H)
+
+
 def test_write_errors_leave_no_file(tmp_path, delaunay_mesh):
     cases = [
         (tmp_path / "m.stl", {}, "unknown mesh file extension"),
