@@ -126,12 +126,14 @@ def retriangulate(plan: Plan, st: State, it: int) -> Step:
                 moved=pushed, added=c.added)
 
 
-def converged(adjusted: Step, inserted: Step, triangulated: Step) -> bool:
-    """Until converged: nothing added, (almost) nothing flipped, and vertices that barely move."""
-    n_edges = 3 * triangulated.stats.n_triangles // 2
-    return (inserted.stats.added == 0 and triangulated.stats.added == 0
-            and triangulated.stats.flips <= max(2, 1e-3 * n_edges)
-            and adjusted.stats.rms_move < MOVE_TOL)
+def converged(rms_move: float, inserted: int, triangulated) -> bool:
+    """Until converged: nothing added (`inserted` points by the insert stage, none by the
+    triangulate stage whose Stats are `triangulated`), (almost) nothing flipped, and vertices
+    that barely move (`rms_move` of the adjust stage, in h)."""
+    n_edges = 3 * triangulated.n_triangles // 2
+    return (inserted == 0 and triangulated.added == 0
+            and triangulated.flips <= max(2, 1e-3 * n_edges)
+            and rms_move < MOVE_TOL)
 
 
 # ---------------------------------------------------------------------- helpers of the stages
