@@ -222,11 +222,19 @@ def edge_weights(mesh: Mesh, anisotropy) -> tuple[np.ndarray, np.ndarray, np.nda
         for k, (a, b) in enumerate(_EDGE_CORNERS):
             q_part[k, c] = -Ke[:, a, b]
     q_part = q_part.ravel()
+    pairs = _edge_pairs(T, mesh.n_vertices)
+    # summed per (i, j) by a sparse matrix (a counting sort), in the order of sorted (i, j)
+    edges, (q, count) = _sum_per_edge(pairs, mesh.n_vertices, q_part, np.ones(len(q_part), np.int8))
+    return edges, q, count == 2                                       # q_ij = −K_ij (2.67)
+
+
+def _edge_pairs(T: np.ndarray, n: int) -> np.ndarray:
+    """(3M, 2) sorted vertex pairs of every triangle's edges, corner pair by corner pair
+    (_EDGE_CORNERS); int32 where the indices fit (half the memory at 1e6 vertices)."""
+    T = T.astype(np.int32) if n < 2**31 - 1 else T
     pairs = np.concatenate([T[:, [a, b]] for a, b in _EDGE_CORNERS])
     pairs.sort(axis=1)
-    # summed per (i, j) by a sparse matrix (a counting sort), in the order of sorted (i, j)
-    edges, (q, count) = _sum_per_edge(pairs, mesh.n_vertices, q_part, np.ones(len(q_part)))
-    return edges, q, count == 2                                       # q_ij = −K_ij (2.67)
+    return pairs
 
 
 def _sum_per_edge(pairs: np.ndarray, n: int, *values: np.ndarray):
@@ -234,7 +242,7 @@ def _sum_per_edge(pairs: np.ndarray, n: int, *values: np.ndarray):
     shape = (n, n)
     sums = [sp.csr_matrix((v, (pairs[:, 0], pairs[:, 1])), shape=shape) for v in values]
     first = sums[0]
-    rows = np.repeat(np.arange(n), np.diff(first.indptr))
+    rows = np.repeat(np.arange(n, dtype=np.int64), np.diff(first.indptr))
     return np.stack([rows, first.indices.astype(np.int64)], axis=1), [m.data for m in sums]
 
 
@@ -242,8 +250,7 @@ def interface_edges(mesh: Mesh) -> tuple[np.ndarray, np.ndarray]:
     """Every edge (k, 2) (i < j, as `edge_weights`) and whether its two triangles lie in
     different regions (an interface edge)."""
     T = mesh.triangles
-    pairs = np.concatenate([T[:, [a, b]] for a, b in _EDGE_CORNERS])
-    pairs.sort(axis=1)
+    pairs = _edge_pairs(T, mesh.n_vertices)
     rank = np.unique(mesh.region_tags, return_inverse=True)[1].ravel().astype(float)   # 0, 1, …
     r = np.tile(rank, 3)
     # two triangles' regions a, b differ iff 2(a² + b²) > (a + b)² (exact: small integers)
