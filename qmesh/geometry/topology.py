@@ -40,7 +40,10 @@ def left_of(T: np.ndarray, twin: np.ndarray, h_in: np.ndarray) -> np.ndarray:
     tw = twin[h_in]
     cut[tw[tw >= 0]] = True
     h = np.flatnonzero((twin >= 0) & ~cut)
-    g = sp.coo_matrix((np.ones(len(h)), (h // 3, twin[h] // 3)), shape=(M, M))
+    index = np.int32 if M < 2**31 - 1 else np.int64          # a quarter of the bytes at 1e6 vertices
+    g = sp.coo_matrix((np.ones(len(h), np.int8), ((h // 3).astype(index), (twin[h] // 3).astype(index))),
+                      shape=(M, M))
+    del h
     _, comp = connected_components(g, directed=False)
     label = np.zeros(comp.max() + 1 if M else 0, np.int8)
     np.maximum.at(label, comp[h_in // 3], 1)
@@ -52,7 +55,10 @@ def left_of(T: np.ndarray, twin: np.ndarray, h_in: np.ndarray) -> np.ndarray:
 def edge_keys(a: np.ndarray, b: np.ndarray, n: int) -> np.ndarray:
     """One int64 key per undirected edge a–b of a mesh of n vertices: min·n + max."""
     a, b = np.asarray(a, np.int64), np.asarray(b, np.int64)
-    return np.minimum(a, b) * np.int64(max(n, 1)) + np.maximum(a, b)
+    key = np.minimum(a, b)
+    key *= np.int64(max(n, 1))
+    key += np.maximum(a, b)
+    return key
 
 
 def twins(T: np.ndarray) -> np.ndarray:
@@ -63,12 +69,13 @@ def twins(T: np.ndarray) -> np.ndarray:
     """
     M = len(T)
     a = T.ravel()
-    b = T[:, NXT].ravel()
     n = int(T.max()) + 1 if M else 0
-    key = edge_keys(a, b, n)
+    key = edge_keys(a, T[:, NXT].ravel(), n)
     order = np.argsort(key, kind="stable")
     k = key[order]
+    del key                                 # (each of these is 48 MB at 1e6 vertices)
     same = k[1:] == k[:-1]
+    del k
     if np.any(same[1:] & same[:-1]):
         raise ValueError("an edge is shared by more than two triangles")
     twin = np.full(3 * M, -1, dtype=np.int64)
