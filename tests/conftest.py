@@ -3,6 +3,8 @@ mesher) and the order the suite runs in: tests marked `slow(seconds)` (each star
 browser or a kernel) go first, longest first, so that the workers of `pytest -n` share them out
 and the many quick tests fill in behind (see the README's test command)."""
 
+import sys
+
 import numpy as np
 import pytest
 from scipy.spatial import Delaunay
@@ -38,3 +40,22 @@ def pytest_collection_modifyitems(items):
         mark = item.get_closest_marker("slow")
         return mark.args[0] if mark else 0
     items.sort(key=lambda item: -seconds(item))
+
+
+def pytest_runtest_setup(item):
+    """The browser tests (marked `browser`) share one Chromium per worker
+    (headless_browser.shared_browser). Playwright's sync API leaves its asyncio loop set as the
+    thread's running loop while it is started, which breaks any later test that runs a loop
+    (the widget's, nbclient's): the browser is closed before any other test."""
+    if item.get_closest_marker("browser") is None:
+        _close_the_shared_browser()
+
+
+def pytest_sessionfinish(session):
+    _close_the_shared_browser()
+
+
+def _close_the_shared_browser():
+    browsers = sys.modules.get("headless_browser")       # imported by the browser tests only
+    if browsers is not None:
+        browsers.close_shared_browser()

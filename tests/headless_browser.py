@@ -1,19 +1,19 @@
 """Debian's Chromium driven by Playwright, for the viewer's and the widget's browser tests.
 
 HEADLESS.md: never `playwright install`; the browser is /usr/bin/chromium, started with the
-flags that work as root with no network, and a fresh profile each time. Every wait is bounded.
+flags that work as root with no network, and a fresh browser context for each page. Every
+wait is bounded.
 """
 
 from __future__ import annotations
 
+import atexit
 import contextlib
 import io
 import os
-import shutil
 import signal
 import socket
 import subprocess
-import tempfile
 import time
 
 import numpy as np
@@ -44,29 +44,50 @@ def until(predicate, timeout: float, what: str, interval: float = 0.25):
         time.sleep(interval)
 
 
+_shared: dict = {}
+
+
+def shared_browser():
+    """One headless Chromium per process, launched on first use and kept for the next page.
+
+    Launching is cheap, but a browser's first page costs ~4 s of CPU (renderer start-up, the
+    app's scripts compiled) and a later page ~1 s: on two cores the browser tests are CPU-bound,
+    so they share the process and each gets its own fresh context (no cookies, storage or
+    cache from an earlier page). `close_shared_browser` ends it (the tests' session end, or exit)."""
+    if "browser" not in _shared:
+        if not os.path.exists(CHROMIUM):
+            raise RuntimeError(f"{CHROMIUM} is missing: apt-get install chromium")
+        playwright = sync_playwright().start()
+        _shared["playwright"] = playwright
+        _shared["browser"] = playwright.chromium.launch(
+            executable_path=CHROMIUM, headless=True, args=CHROMIUM_FLAGS)
+        atexit.register(close_shared_browser)
+    return _shared["browser"]
+
+
+def close_shared_browser() -> None:
+    """Close the shared Chromium and Playwright's driver, if they were started."""
+    browser, playwright = _shared.pop("browser", None), _shared.pop("playwright", None)
+    if browser is not None:
+        browser.close()
+    if playwright is not None:
+        playwright.stop()
+
+
 @contextlib.contextmanager
 def chromium_page(url: str, viewport=(1280, 720)):
-    """A Playwright page in headless Debian Chromium with a fresh profile, opened at `url`.
+    """A Playwright page in headless Debian Chromium, in a fresh browser context, opened at `url`.
 
     The default 1280×720, a laptop's screen, renders the views' pixels in software about 10%
     faster than 1600×900 (the baselines and bench_view.py ask for 1600×900)."""
-    if not os.path.exists(CHROMIUM):
-        raise RuntimeError(f"{CHROMIUM} is missing: apt-get install chromium")
-    profile = tempfile.mkdtemp(prefix="qmesh-chromium-")
+    ctx = shared_browser().new_context(viewport={"width": viewport[0], "height": viewport[1]})
     try:
-        with sync_playwright() as p:
-            ctx = p.chromium.launch_persistent_context(
-                profile, executable_path=CHROMIUM, headless=True, args=CHROMIUM_FLAGS,
-                viewport={"width": viewport[0], "height": viewport[1]})
-            try:
-                page = ctx.new_page()
-                page.set_default_timeout(30_000)
-                page.goto(url)
-                yield page
-            finally:
-                ctx.close()
+        page = ctx.new_page()
+        page.set_default_timeout(30_000)
+        page.goto(url)
+        yield page
     finally:
-        shutil.rmtree(profile, ignore_errors=True)
+        ctx.close()
 
 
 def screenshot(locator) -> np.ndarray:

@@ -13,6 +13,8 @@ import pytest
 import view_browser as b
 from headless_browser import drawn
 
+pytestmark = pytest.mark.browser      # shares the worker's Chromium (tests/conftest.py)
+
 
 def _iteration_stage(line):
     m = re.match(r"iteration (\d+) · (\w+) · N = (\d+)", line)

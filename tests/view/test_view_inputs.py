@@ -9,6 +9,8 @@ import pytest
 
 import view_browser as b
 
+pytestmark = pytest.mark.browser      # shares the worker's Chromium (tests/conftest.py)
+
 SETTLE = 600      # ms without a change that counts as settled
 
 

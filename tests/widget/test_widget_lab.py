@@ -15,6 +15,8 @@ import pytest
 from lab_browser import (ARTIFACTS, drawn, jupyter_lab, lab_page, mean_diff, screenshot,
                          until)
 
+pytestmark = pytest.mark.browser      # shares the worker's Chromium (tests/conftest.py)
+
 NOTEBOOK = Path(__file__).resolve().parents[2] / "examples" / "quickstart.ipynb"
 HEADLESS_ENV = ("PYVISTA_OFF_SCREEN", "VTK_DEFAULT_OPENGL_WINDOW", "VTK_WASM_DIR_OVERRIDE")
 VIEWS = ("lifted", "mesh", "quality")

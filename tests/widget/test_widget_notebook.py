@@ -3,12 +3,13 @@
 No cell may fail; an extra cell, appended here, moves a slider and presses a button of the
 widget the notebook opened and asserts on its state. nbclient's kernel has no Jupyter server
 behind it, so the widget's "auto" backend is the static one.
+
+nbformat and nbclient are imported by the tests that use them, not at collection: they load
+jsonschema, whose format checker compiles a grammar on import (~2 s of CPU in every worker).
 """
 
 from pathlib import Path
 
-import nbclient
-import nbformat
 import pytest
 
 NOTEBOOK = Path(__file__).resolve().parents[2] / "examples" / "quickstart.ipynb"
@@ -30,6 +31,7 @@ print("widget ok", c.current.stats.n_vertices)
 
 
 def test_the_notebook_is_stored_without_outputs():
+    import nbformat
     nb = nbformat.read(NOTEBOOK, as_version=4)
     nbformat.validate(nb)
     code = [c for c in nb.cells if c.cell_type == "code"]
@@ -38,6 +40,8 @@ def test_the_notebook_is_stored_without_outputs():
 
 @pytest.mark.slow(5)
 def test_the_notebook_runs_headless_and_its_widget_answers(tmp_path):
+    import nbclient
+    import nbformat
     nb = nbformat.read(NOTEBOOK, as_version=4)
     nb.cells.append(nbformat.v4.new_code_cell(EXTRA_CELL))
     client = nbclient.NotebookClient(nb, kernel_name="python3", timeout=120,
