@@ -165,6 +165,6 @@ def test_a_warning_is_shown_and_the_mesh_view_is_readable_at_10000():
         # not a uniform disk: the inside of the view varies (colour by element size)
         h, w = mesh.shape[:2]
         inner = mesh[h // 4: 3 * h // 4, w // 4: 3 * w // 4]
-        assert len(np.unique(inner.reshape(-1, 3), axis=0)) > 50
+        assert b.colour_count(inner) > 50
         assert inner.std(axis=(0, 1)).max() > 8.0, inner.std(axis=(0, 1))
         assert os.path.exists(b.ARTIFACTS / "browser-inputs-10000.png")

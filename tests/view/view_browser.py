@@ -1,7 +1,7 @@
 """Start `qmesh-view --server` and drive Debian's Chromium with Playwright (HEADLESS.md).
 
-Every wait is bounded; the server started here is always stopped, and Chromium gets a fresh
-profile directory. Never `playwright install`: the browser is /usr/bin/chromium.
+Every wait is bounded; the server started here is always stopped, and each page gets a fresh
+browser context. Never `playwright install`: the browser is /usr/bin/chromium.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from headless_browser import chromium_page, drawn, free_port, screenshot, stop_process, until  # noqa: F401
+from headless_browser import chromium_page, colour_count, drawn, free_port, screenshot, stop_process, until  # noqa: F401
 from view_cases import ARTIFACTS
 
 VIEWS = ("lifted", "mesh", "quality")
