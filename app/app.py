@@ -86,12 +86,17 @@ class QmeshView(TrameApp):
     """The web GUI: parameter drawer, Step/Iterate/Run/Reset, history slider, three views."""
 
     def __init__(self, server=None, view_mode: str = "remote", memory_budget: int | None = None,
-                 **params):
-        super().__init__(server, client_type="vue3")
+                 session: Session | None = None, **params):
+        """Either the parameters of a new Session (`memory_budget`, `**params`) or a `session`
+        made beforehand (the command line checks its arguments that way, before VTK loads)."""
+        if session is not None and (params or memory_budget is not None):
+            raise QmeshError("give either a session or the parameters of a new one, not both")
         if view_mode not in VIEW_MODES:
             raise QmeshError(f"view_mode must be one of {VIEW_MODES}, got {view_mode!r}")
+        super().__init__(server, client_type="vue3")
         self.view_mode = view_mode
-        self.session = Session(memory_budget=memory_budget, **params)
+        self.session = session if session is not None else Session(memory_budget=memory_budget,
+                                                                    **params)
         self.views = ViewSet(scalar_bar=False)
         for name in ("mesh", "quality"):
             self.views.plotters[name].enable_2d_style()

@@ -61,10 +61,12 @@ def main(argv: list[str] | None = None) -> int:
     headless_environment()
     try:
         require_rendering()                 # one clear line, not a segfault inside VTK
-        from .app import QmeshView          # after the environment: imports VTK
+        from .session import Session        # no VTK, no trame: a bad argument is refused fast
         extra = {} if args.s_text is None else {"q_mode": "expression", "s_text": args.s_text}
-        view = QmeshView(view_mode=args.views, vb=args.vb, target_vertices=args.target_vertices,
-                         domain=args.domain, memory_budget=args.memory_budget, **extra)
+        session = Session(vb=args.vb, target_vertices=args.target_vertices, domain=args.domain,
+                          memory_budget=args.memory_budget, **extra)
+        from .app import QmeshView          # after the environment: imports VTK
+        view = QmeshView(view_mode=args.views, session=session)
     except QmeshError as e:
         print(f"qmesh-view: error: {e}", file=sys.stderr)
         return 2

@@ -81,9 +81,11 @@ def check(n_vertices, *, varying: bool, budget: int | None = None) -> int:
         whose = "the memory budget"
     if need > budget:
         kind = "a varying" if varying else "a constant"
+        most = max_vertices(budget, varying=varying)
+        advice = (f"ask for fewer vertices (at most about {most:.3g})" if most >= 3 else
+                  f"any run needs about {_gib(FIXED_BYTES)}, so give a larger budget")
         raise QmeshError(f"{float(n_vertices):.3g} vertices with {kind} s need about {_gib(need)} "
-                         f"of memory, more than {whose} ({_gib(budget)}); ask for fewer "
-                         f"vertices (at most about {max_vertices(budget, varying=varying):.3g})")
+                         f"of memory, more than {whose} ({_gib(budget)}); {advice}")
     return need
 
 

@@ -43,6 +43,16 @@ def test_a_2e7_target_is_refused_naming_the_estimate_and_the_budget():
     assert "about 24 GiB" in text and "8.00 GiB" in text and "memory budget" in text
 
 
+@pytest.mark.parametrize("varying", [False, True])
+def test_a_budget_below_any_run_asks_for_a_larger_budget_not_for_zero_vertices(varying):
+    tiny = budget.FIXED_BYTES // 2
+    with pytest.raises(qmesh.QmeshError, match="give a larger budget") as e:
+        budget.check(1000, varying=varying, budget=tiny)
+    assert "at most about" not in str(e.value)
+    with pytest.raises(qmesh.QmeshError, match="at most about"):    # a budget that fits some
+        budget.check(10**7, varying=varying, budget=2**30)
+
+
 def test_available_memory_is_read_and_the_default_budget_is_half_of_it():
     avail = budget.available_bytes()
     assert 2**20 < avail < 2**50

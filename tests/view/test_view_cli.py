@@ -1,5 +1,6 @@
 """qmesh-view's command line, and the split between the trame app and the reusable parts."""
 
+import json
 import shutil
 import subprocess
 import sys
@@ -61,15 +62,46 @@ def test_domain_and_s_options():
     assert parser().parse_args([]).s_text is None
 
 
-@pytest.mark.slow(4)
-def test_bad_parameters_give_one_error_line_and_exit_2():
-    exe = shutil.which("qmesh-view")
-    for bad, named in ((["--vb", "2"], "3"), (["--domain", "torus"], "torus"),
-                       (["--s", "__import__('os')"], "__import__"),
-                       (["--target-vertices", "1000", "--memory-budget", "10M"], "budget")):
-        out = subprocess.run([exe, "--server", "--port", "0", *bad], capture_output=True,
-                             text=True, timeout=120)
-        assert out.returncode == 2, bad
-        lines = out.stderr.strip().splitlines()
-        assert len(lines) == 1 and lines[0].startswith("qmesh-view: error: "), out.stderr
-        assert named in lines[0], lines[0]
+BAD = ((["--vb", "2"], "3"), (["--domain", "torus"], "torus"),
+       (["--s", "__import__('os')"], "__import__"),
+       (["--target-vertices", "1000", "--memory-budget", "10M"], "budget"))
+
+REFUSE_ALL = """
+import contextlib, io, json, sys
+from qmesh_view.cli import main
+out = []
+for bad in json.loads(sys.argv[1]):
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err):
+        code = main(["--server", "--port", "0", *bad])
+    out.append([code, err.getvalue()])
+loaded = sorted({m.split(".")[0] for m in sys.modules} & {"vtkmodules", "pyvista", "trame"})
+from qmesh.errors import QmeshError
+from qmesh_view.app import QmeshView
+from qmesh_view.session import Session
+try:
+    QmeshView(session=Session(), vb=12)                  # a session or its parameters, not both
+    both = "accepted"
+except QmeshError as e:
+    both = str(e)
+print(json.dumps([out, loaded, both]))
+"""
+
+
+@pytest.mark.slow(2)
+def test_bad_parameters_give_one_error_line_and_exit_2_before_vtk_or_trame_load():
+    """The console script exits 2 with one line; every bad kind is refused by the session's
+    checks before the viewer imports VTK and trame (so in well under a second)."""
+    out = subprocess.run([shutil.which("qmesh-view"), "--server", "--port", "0", *BAD[0][0]],
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 2 and out.stderr.startswith("qmesh-view: error: "), out.stderr
+    run = subprocess.run([sys.executable, "-c", REFUSE_ALL, json.dumps([b for b, _ in BAD])],
+                         capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr
+    results, loaded, both = json.loads(run.stdout)
+    for (bad, named), (code, err) in zip(BAD, results):
+        lines = err.strip().splitlines()
+        assert code == 2 and len(lines) == 1, (bad, err)
+        assert lines[0].startswith("qmesh-view: error: ") and named in lines[0], lines[0]
+    assert loaded == [], f"refusing bad arguments imported {loaded}"
+    assert "either a session or the parameters" in both
