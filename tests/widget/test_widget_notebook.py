@@ -30,6 +30,7 @@ print("widget ok", c.current.stats.n_vertices)
 """
 
 
+@pytest.mark.slow(3)                      # importing nbformat (jsonschema) takes ~2.5 s
 def test_the_notebook_is_stored_without_outputs():
     import nbformat
     nb = nbformat.read(NOTEBOOK, as_version=4)
