@@ -25,7 +25,6 @@ import warnings
 
 from qmesh import CHAPTER_Q, __version__, io, measure
 from qmesh.conductivity.anisotropy import Anisotropy
-from qmesh.mesher.diagnose import thin_domain
 from qmesh.domain.domain import Disk
 from qmesh.errors import QmeshError, QmeshWarning
 from qmesh.geometry.folds import folded_triangles
@@ -90,9 +89,9 @@ def cmd_mesh(args) -> int:
             _progress(step, sys.stderr)
 
     # the API's mesh(): the same checks of the options and of the vertex count it lands on;
-    # its thin-domain warning is printed below as one line instead
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", QmeshWarning)
+    # its thin-domain warning is kept and printed below as one line (not measured again)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", QmeshWarning)
         mesh = run_mesher(domain, anisotropy, target_vertices=args.target_vertices, size=args.size,
                           alpha=args.alpha, max_iterations=args.max_iterations, seed=args.seed,
                           progress=on_step)
@@ -126,9 +125,11 @@ def cmd_mesh(args) -> int:
               f"boundary {_percent(summary['q_nonnegative_fraction_boundary'])}"
               + (f" interface {_percent(summary['q_nonnegative_fraction_interface'])}"
                  if "q_nonnegative_fraction_interface" in summary else "") + f" time={seconds:.2f}s")
-    warning = None if args.quiet or isinstance(anisotropy, dict) else thin_domain(mesh, anisotropy)
-    if warning is not None:
-        print(f"qmesh: warning: {warning}", file=sys.stderr)
+    for w in caught:
+        if not issubclass(w.category, QmeshWarning):          # not ours: shown as it would be
+            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+        elif not (args.quiet or isinstance(anisotropy, dict)):
+            print(f"qmesh: warning: {w.message}", file=sys.stderr)   # the thin-domain one
     return 0
 
 
