@@ -63,9 +63,9 @@ def vtk_family(fmt: str):
             meshio.vtu.write(tmp, m, compression="zlib" if len(p.points) <= ZLIB_MAX else None)
         else:
             meshio.vtk.write(tmp, m)
-        if fmt == "vtu":
-            _add_field_data(tmp, p.field_data())
-        metadata.add(tmp, "root" if fmt == "vtu" else "title", p.meta)
+        # the field data and the metadata in one pass over the file (155 MB at 1e6 vertices)
+        metadata.add(tmp, "root" if fmt == "vtu" else "title", p.meta,
+                     _field_data_edit(p.field_data()) if fmt == "vtu" else None)
         return [(tmp, final)]
     return write
 
@@ -75,8 +75,9 @@ def _compact(cells: np.ndarray) -> np.ndarray:
     return cells.astype(np.int32) if cells.size == 0 or cells.max() < 2**31 - 1 else cells
 
 
-def _add_field_data(path: Path, groups: dict) -> None:
-    """A VTK `<FieldData>` block {name: [tag, dim]} as the UnstructuredGrid's first child."""
+def _field_data_edit(groups: dict):
+    """The edit (bytes → bytes) that puts a VTK `<FieldData>` block {name: [tag, dim]} as the
+    UnstructuredGrid's first child."""
     arrays = "".join(f'<DataArray type="Int32" Name={quoteattr(name)} NumberOfTuples="2" '
                      f'format="ascii">{v[0]} {v[1]}</DataArray>'
                      for name, v in groups.items())
@@ -85,7 +86,7 @@ def _add_field_data(path: Path, groups: dict) -> None:
         start = data.index(b"<UnstructuredGrid")
         end = data.index(b">", start) + 1
         return data[:end] + f"<FieldData>{arrays}</FieldData>".encode("ascii") + data[end:]
-    metadata.edit_head(path, insert)
+    return insert
 
 
 def medit(tmp: Path, final: Path, p):

@@ -17,6 +17,7 @@ file's cell tag (`region_offset`, gmsh and the "gmsh:physical" arrays) and the c
 
 from __future__ import annotations
 
+import functools
 import json
 import os
 import shutil
@@ -145,14 +146,17 @@ PLACES = {  # place → (add to a written file's bytes, or None: the writer puts
 }
 
 
-def add(path: Path, place: str, text: str) -> None:
-    """Put the metadata line into a file a meshio writer has just written."""
+def add(path: Path, place: str, text: str, head_edit=None) -> None:
+    """Put the metadata line into a file a meshio writer has just written; `head_edit` (bytes →
+    bytes), another change to the file's head, is made in the same pass over the file."""
     put = PLACES[place][0]
     if put is _add_section:
         with open(path, "ab") as f:                            # at the end: append
             f.write(section(text).encode("ascii"))
-    elif put is not None:
-        edit_head(path, lambda head: put(head, text))
+    edits = [e for e in (head_edit, None if put in (_add_section, None) else
+                         lambda head: put(head, text)) if e is not None]
+    if edits:
+        edit_head(path, lambda head: functools.reduce(lambda data, edit: edit(data), edits, head))
 
 
 HEAD = 1 << 16      # bytes read to edit a file's head (its root element, title or first line)
