@@ -112,35 +112,38 @@ def iterate(domain, conductivity, *, target_vertices: int | None = None, size: f
                     **{k: options[k] for k in _PASSED if k in options})
     part = partition_of(domain)
     cond = conductivities(domain, conductivity, part)
-    passes = lambda ask: _faces_in_turn(_Plan(domain, part, cond, ask, size), options, _every)  # noqa: E731
-    return _corrected(passes, target_vertices)
+    plan = lambda ask: _Plan(domain, part, cond, ask, size)                    # noqa: E731
+    return _corrected(plan, lambda p: _faces_in_turn(p, options, _every), target_vertices)
 
 
-def _corrected(passes, target: int | None) -> Iterator[Step]:
+def _corrected(plan, run, target: int | None) -> Iterator[Step]:
     """The steps of the first pass; with a target, a result more than 5% off is redone (at most
     CORRECTIONS times) with the request scaled by the ratio missed (the interface cuts make the
-    first estimate high). The closest pass's mesh is the last Step, so `mesh` returns it; a
+    first estimate high). The closest pass's mesh is the last Step, so `mesh` returns it; its
+    faces' warnings are given at the end (not those of the passes left behind), and a
     QmeshWarning says when it is still more than 10% off."""
-    for step in passes(target):
+    kept = plan(target)
+    for step in run(kept):
         yield step
     best = step
-    if target is None:
-        return
     ask = target
-    for _ in range(CORRECTIONS):
+    for _ in range(CORRECTIONS if target is not None else 0):
         if abs(best.mesh.n_vertices - target) <= 0.05 * target:
             break
         ask = int(round(ask * target / best.mesh.n_vertices))
         try:
-            for step in passes(ask):
+            again = plan(ask)
+            for step in run(again):
                 yield step
         except QmeshError:
             break
         if abs(step.mesh.n_vertices - target) < abs(best.mesh.n_vertices - target):
-            best = step
+            best, kept = step, again
     if step is not best:
         yield best                                   # the closest pass ends the run
-    if abs(best.mesh.n_vertices - target) > 0.1 * target:
+    for message, category in kept.notes:    # a face's own warning (a thin face, say)
+        warnings.warn(message, category, stacklevel=3)
+    if target is not None and abs(best.mesh.n_vertices - target) > 0.1 * target:
         warnings.warn(f"target_vertices = {target}: the mesh has {best.mesh.n_vertices} vertices "
                       "(the interfaces and q_ij >= 0 on them need these)", QmeshWarning, stacklevel=3)
 
@@ -171,6 +174,7 @@ class _Plan:
             _msizing.check_vertex_count(n, f"size = {self.h:.3g}")
         self.target = target_vertices
         self.extra = self._cuts(pieces(self.h))
+        self.notes: list = []       # (message, category) the faces' meshers warned in this pass
 
     def face_name(self, i: int) -> str:
         r = self.faces[i].region
@@ -204,8 +208,8 @@ def _mesh_face(plan, i, extra, options):
             except QmeshError as e:
                 if k == FINER or "too large" not in str(e):
                     raise QmeshError(f"{plan.face_name(i)}: {e}") from None
-    for w in said:       # a face's own warning (a thin face, say) names the region it is in
-        warnings.warn(f"{plan.face_name(i)}: {w.message}", w.category, stacklevel=4)
+    # a face's own warning (a thin face, say), naming its region, for the end of the run
+    plan.notes += [(f"{plan.face_name(i)}: {w.message}", w.category) for w in said]
     return m, len(dom.seeds)
 
 

@@ -92,6 +92,22 @@ def test_thin_face_warnings_name_their_region():
     assert all(str(w.message).startswith("region") for w in said if w.category is qmesh.QmeshWarning)
 
 
+def test_only_the_kept_passs_face_warnings_are_given():
+    """A target the interfaces overshoot is met by meshing again with a smaller request; the
+    faces' warnings of the pass left behind (their N no longer true) are not given, so each
+    region is warned about at most once, and the final N is the last warning's."""
+    d = qmesh.Domain(SQUARE, regions=[[(0.5, 0), (1, 0), (1, 1), (0.5, 1)],
+                                      [(0.1, 0.1), (0.3, 0.1), (0.2, 0.3)]])
+    cond = {0: Anisotropy.constant(qmesh.CHAPTER_Q), 1: Anisotropy.principal(100, 1, 30),
+            2: Anisotropy.constant([[0.01, 0], [0, 0.01]])}
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        m = qmesh.mesh(d, cond, target_vertices=40)
+    faces = [str(w.message).split(":")[0] for w in said if str(w.message).startswith("region")]
+    assert faces and len(faces) == len(set(faces)), faces
+    assert str(said[-1].message).startswith(f"target_vertices = 40: the mesh has {m.n_vertices}")
+
+
 def test_nested_regions_holes_and_a_varying_s():
     from tests.media.cases import check_mesh
     ring = qmesh.Domain([(1, 0.2), (1.8, 0.2), (1.8, 0.8), (1, 0.8)], [[(1.2, 0.4), (1.4, 0.4), (1.3, 0.6)]])
