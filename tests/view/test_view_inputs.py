@@ -34,18 +34,20 @@ def _rss_mb(pid: int) -> float:
 
 
 def _wait_settled(page, timeout=60.0):
-    """Idle, with nothing more arriving: the status line and the Q readout unchanged over
-    SETTLE ms, seen twice."""
-    last = [None]
+    """Idle, with nothing more arriving: the status line and the Q readout read when the busy
+    bar hides and again SETTLE ms later, the same."""
+    def read():
+        b.wait_idle(page, timeout)
+        return b.status(page), b.page_text(page, "#q-readout")
+    last = [read()]
 
     def same():
-        b.wait_idle(page, timeout)
         page.wait_for_timeout(SETTLE)
-        now = (b.status(page), b.page_text(page, "#q-readout"))
+        now = read()
         ok = now == last[0]
         last[0] = now
         return now if ok else None
-    return b.until(same, timeout, "the page to settle")
+    return b.until(same, timeout, "the page to settle", interval=0)
 
 
 @pytest.mark.slow(37)
