@@ -88,25 +88,36 @@ def twins(T: np.ndarray) -> np.ndarray:
     return twin
 
 
-def _moved(twin: np.ndarray, src: np.ndarray, dst: np.ndarray, size: int) -> np.ndarray:
-    """Twin array after half-edges `src` moved to slots `dst`; cost O(len(src)) beyond a copy.
+def _moved(twin: np.ndarray, src: np.ndarray, dst: np.ndarray, size: int,
+           copy: bool = True) -> np.ndarray:
+    """Twin array after half-edges `src` (distinct) moved to slots `dst`; cost O(len(src)) beyond
+    the copy (none with copy=False where the size stays: `twin` itself is rewritten).
 
     Slots vacated and not refilled must be set by the caller (they hold stale values).
     """
-    new = np.full(size, -1, dtype=np.int64)
-    new[:min(size, len(twin))] = twin[:size]
-    reloc = np.arange(len(twin), dtype=np.int64)
-    reloc[src] = dst
+    if copy or size != len(twin):
+        new = np.full(size, -1, dtype=np.int64)
+        new[:min(size, len(twin))] = twin[:size]
+    else:
+        new = twin
     tw = twin[src]
-    tw_new = np.where(tw >= 0, reloc[np.maximum(tw, 0)], -1)
+    # where a twin moved too, its new slot: src looked up by a sort of the k moved half-edges
+    order = np.argsort(src)
+    pos = np.minimum(np.searchsorted(src[order], tw), max(len(src) - 1, 0))
+    tw_new = tw.copy()
+    if len(src):
+        hit = (tw >= 0) & (src[order[pos]] == tw)
+        tw_new[hit] = dst[order[pos[hit]]]
     new[dst] = tw_new
     ok = tw_new >= 0
     new[tw_new[ok]] = dst[ok]
     return new
 
 
-def flip(T: np.ndarray, twin: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Flip the edges of half-edges `h` (no two in the same triangle); returns new (T, twin).
+def flip(T: np.ndarray, twin: np.ndarray, h: np.ndarray,
+         copy: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """Flip the edges of half-edges `h` (no two in the same triangle); returns new (T, twin),
+    or T and twin themselves rewritten with copy=False (for arrays nobody else holds).
 
     Triangles t1 = (u, v, a) ∋ h and t2 = (v, u, b) ∋ twin[h] become (u, b, a) and (b, v, a);
     both keep their row numbers.
@@ -120,10 +131,11 @@ def flip(T: np.ndarray, twin: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, np
     b = T[t2, PRV[e2]]
     src = np.concatenate([3 * t1 + NXT[e1], 3 * t1 + PRV[e1], 3 * t2 + NXT[e2], 3 * t2 + PRV[e2]])
     dst = np.concatenate([3 * t2 + 1, 3 * t1 + 2, 3 * t1, 3 * t2])   # v→a, a→u, u→b, b→v
-    T = T.copy()
+    if copy:
+        T = T.copy()
     T[t1] = np.column_stack([u, b, a])
     T[t2] = np.column_stack([b, v, a])
-    new = _moved(twin, src, dst, 3 * len(T))
+    new = _moved(twin, src, dst, 3 * len(T), copy=copy)
     new[3 * t1 + 1] = 3 * t2 + 2              # b→a ↔ a→b
     new[3 * t2 + 2] = 3 * t1 + 1
     return T, new

@@ -301,6 +301,13 @@ def _push_out(P, a, b, c, anisotropy):
     return M + (PUSH * R)[:, None] * D
 
 
+def _stars(T, v, n):
+    """The triangles that have a vertex among v (n vertices in all), in order."""
+    mark = np.zeros(n, bool)
+    mark[v] = True
+    return np.flatnonzero(mark[T].any(axis=1))
+
+
 def restore_conformity(P, T, twin, edge_id, fixed, pinned, anisotropy,
                        max_points: int | None = None) -> Conformed:
     """Make no boundary half-edge of a constrained Q-Delaunay triangulation of Ω encroached.
@@ -335,7 +342,7 @@ def restore_conformity(P, T, twin, edge_id, fixed, pinned, anisotropy,
             k = k[first]
             Pn = P.copy()
             Pn[c[k]] = _push_out(P, a[k], b[k], c[k], anisotropy)
-            star = np.flatnonzero(np.isin(T, c[k]).any(axis=1))
+            star = _stars(T, c[k], len(P))
             ok_t = signed_areas(Pn, T[star]) > MIN_KEPT * signed_areas(P, T[star])
             bad_v = np.zeros(len(P), bool)
             bad_v[T[star[~ok_t]].ravel()] = True
@@ -345,7 +352,7 @@ def restore_conformity(P, T, twin, edge_id, fixed, pinned, anisotropy,
                 P[c[k]] = Pn[c[k]]
                 moved[k] = True
                 moved |= np.isin(c, c[k])
-                stars = np.flatnonzero(np.isin(T, c[k]).any(axis=1))
+                stars = _stars(T, c[k], len(P))
                 cand = (3 * stars[:, None] + np.arange(3)).ravel()
                 T, twin, f = restore(P, T, twin, anisotropy, candidates=cand)
                 flips += f

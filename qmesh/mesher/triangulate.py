@@ -268,13 +268,14 @@ def _violation_chunk(P, T, twin, h, anisotropy, s, g):
     return np.where(convex, rel, -1.0)
 
 
-def _canonical(twin: np.ndarray, h: np.ndarray) -> np.ndarray:
-    """One half-edge per interior edge among h (the smaller id of each pair), sorted, unique."""
+def _canonical(twin: np.ndarray, h: np.ndarray | None = None) -> np.ndarray:
+    """One half-edge per interior edge among h (default: all), the smaller id of each pair,
+    sorted and unique; O(len(h) log len(h)), no pass over the whole mesh for a few edges."""
+    if h is None:
+        return np.flatnonzero(twin > np.arange(len(twin)))
     tw = twin[h]
-    h = np.where(tw >= 0, np.minimum(h, tw), -1)
-    mark = np.zeros(len(twin), bool)
-    mark[h[h >= 0]] = True
-    return np.flatnonzero(mark)
+    h = np.minimum(h, tw)[tw >= 0]
+    return np.unique(h)
 
 
 def restore(P: np.ndarray, T: np.ndarray, twin: np.ndarray, anisotropy,
@@ -288,8 +289,8 @@ def restore(P: np.ndarray, T: np.ndarray, twin: np.ndarray, anisotropy,
     if not anisotropy.is_constant:
         s = np.asarray(anisotropy.s(P), dtype=float)
         g = np.asarray(anisotropy.grad(P), dtype=float)
-    cand = _canonical(twin, np.arange(3 * len(T)) if candidates is None else candidates)
-    flips = 0
+    cand = _canonical(twin, candidates)
+    flips, owned = 0, False       # after the first round T and twin are restore's own arrays
     for _ in range(max_rounds):
         if len(cand) == 0:
             return T, twin, flips
@@ -306,8 +307,8 @@ def restore(P: np.ndarray, T: np.ndarray, twin: np.ndarray, anisotropy,
         sel = (tri_best[at[:len(bad)]] == rank) & (tri_best[at[len(bad):]] == rank)
         h = bad[sel]
         tri = np.concatenate([h // 3, twin[h] // 3])
-        T, twin = topology.flip(T, twin, h)
-        flips += len(h)
+        T, twin = topology.flip(T, twin, h, copy=not owned)
+        flips, owned = flips + len(h), True
         touched = (3 * tri[:, None] + np.arange(3)).ravel()
         cand = _canonical(twin, np.concatenate([bad[~sel], touched]))
     raise QmeshError("edge flipping did not converge; please report this mesh")
