@@ -127,12 +127,22 @@ def _subsegments(domain, n_seeds, edge_id, t):
     return idx[:-1][same], idx[1:][same]
 
 
-def _canonical_order(T: np.ndarray) -> np.ndarray:
-    """Triangles rotated to start at their smallest vertex and sorted: Qhull lists them in an
-    order that depends on the coordinates' round-off, the mesher's later choices on the order."""
+def _canonical_order(T: np.ndarray, twin: np.ndarray, rows: np.ndarray):
+    """Triangles `rows` of T rotated to start at their smallest vertex and sorted, with their
+    twins (edges to the other triangles become boundary edges): Qhull lists the triangles in an
+    order that depends on the coordinates' round-off, the mesher's later choices on the order.
+    The twins are carried over from `twin`, not found again by a sort."""
+    T = T[rows]
     r = np.argmin(T, axis=1)
-    T = np.take_along_axis(T, (r[:, None] + np.arange(3)) % 3, axis=1)
-    return T[np.lexsort((T[:, 2], T[:, 1], T[:, 0]))]
+    turn = (r[:, None] + np.arange(3)) % 3
+    T = np.take_along_axis(T, turn, axis=1)
+    order = np.lexsort((T[:, 2], T[:, 1], T[:, 0]))
+    # new half-edge 3i + j runs from the new corner j: the old half-edge (r + j) % 3 of rows[i]
+    old = (3 * rows[order][:, None] + turn[order]).ravel()
+    new_id = np.full(len(twin), -1, np.int64)
+    new_id[old] = np.arange(len(old))
+    tw = twin[old]
+    return T[order], np.where(tw >= 0, new_id[np.maximum(tw, 0)], -1)
 
 
 def inside_triangles(T: np.ndarray, twin: np.ndarray, h_in: np.ndarray) -> np.ndarray:
@@ -248,15 +258,14 @@ def _conforming(domain, P, edge_id, anisotropy, size, max_points, pinned, place,
         split = missing | (enc & ~free)
         split &= L2 > SHORTEST ** 2
         if not len(drop) and not split.any():
-            keep = inside_triangles(T, twin, h)
-            T = T[keep]
+            rows = np.flatnonzero(inside_triangles(T, twin, h))
             used = np.zeros(n, bool)
-            used[T.ravel()] = True
+            used[T[rows].ravel()] = True
             if not used.all():
                 raise QmeshError(f"{int((~used).sum())} points lie outside the domain; "
                                  "please report this domain")
-            T = _canonical_order(T)
-            return Conforming(P, T, topology.twins(T), edge_id, pinned), place
+            T, twin = _canonical_order(T, twin, rows)
+            return Conforming(P, T, twin, edge_id, pinned), place
         crowd = ~missing[split] & ~free[split]              # split for another boundary point
         a, b = a[split], b[split]
         if max_points is not None and n + len(a) > max_points:

@@ -139,6 +139,21 @@ def test_after_every_triangulate_stage_no_subsegment_is_encroached():
         assert not conform.encroached(m.points[a], m.points[b], m.points[third], ROTATED).any()
 
 
+@pytest.mark.parametrize("name", ["square with hole", "plate with holes", "annulus"])
+def test_the_first_triangulation_carries_its_twins_through_the_canonical_order(name):
+    """The conforming build's twins are renumbered with its triangles, not found again by a
+    sort: they must be what a sort finds, on holed domains (edges to removed triangles become
+    boundary edges), below and past the closed-form lattice's size."""
+    from qmesh.geometry import topology
+    from qmesh.mesher.options import Options
+    from qmesh.mesher.plan import plan
+    from qmesh.mesher.stages import initial_triangulation
+    for target in (600, 8000):
+        p = plan(domains.NAMED[name](), ROTATED, Options.checked(target_vertices=target))
+        _, st, _ = initial_triangulation(p, np.random.default_rng(0))
+        np.testing.assert_array_equal(st.twin, topology.twins(st.T))
+
+
 def _apex(T, a, b):
     """The vertex opposite each directed edge a→b in its triangle."""
     lookup = {}
