@@ -239,15 +239,9 @@ def _independent(T, twin, h, prio):
 
 
 def _local_max(T, twin, prio):
-    """Triangles whose priority is finite and at least that of each edge-neighbour (only the
-    finite ones are compared: a few of the mesh's triangles after the first iteration)."""
-    out = np.zeros(len(T), bool)
-    t = np.flatnonzero(np.isfinite(prio))
-    nb = twin.reshape(-1, 3)[t]
-    nb = np.where(nb >= 0, nb // 3, -1)
-    other = np.where(nb >= 0, prio[np.maximum(nb, 0)], -np.inf)
-    out[t] = np.all(prio[t, None] >= other, axis=1)
-    return out
+    """Triangles whose priority is finite and at least that of each edge-neighbour."""
+    ext = np.append(prio, -np.inf)              # the -1 of a boundary half-edge reads -inf
+    return np.all(prio[:, None] >= ext[twin.reshape(-1, 3) // 3], axis=1) & np.isfinite(prio)
 
 
 def relocate_degree3(P, T, twin, anisotropy, on_boundary):
