@@ -166,13 +166,15 @@ def _too_many(n: int, limit: int):
         "requested element size; ask for more vertices (a smaller size), or simplify the domain")
 
 
-def _encroaching_free(domain, P, edge_id, anisotropy, h) -> np.ndarray:
+def _encroaching_free(domain, P, edge_id, anisotropy, h, far=None) -> np.ndarray:
     """Mask of the points to keep: interior points inside the diametral ellipse of a subsegment
     are dropped before the first Qhull run (constant Q: discs in metric coordinates, found with
-    a k-d tree), so that run is usually the only one."""
+    a k-d tree), so that run is usually the only one. `far`: points known to lie farther from
+    the boundary than any disc reaches (the deep lattice points), left out of the tree."""
     from scipy.spatial import cKDTree
     n_seeds = len(domain.seeds)
-    free = np.flatnonzero((np.arange(len(P)) >= n_seeds) & (edge_id < 0))
+    maybe = (np.arange(len(P)) >= n_seeds) & (edge_id < 0)
+    free = np.flatnonzero(maybe if far is None else maybe & ~far)
     if not len(free):
         return np.ones(len(P), bool)
     A, B = domain.segment_ends
@@ -235,7 +237,11 @@ def _conforming(domain, P, edge_id, anisotropy, size, max_points, pinned, place,
     is_seed_pt = lambda i: i < n_seeds                                     # noqa: E731
     pinned = np.zeros(len(P), bool) if pinned is None else pinned
     if anisotropy.is_constant:
-        keep = _encroaching_free(domain, P, edge_id, anisotropy, size)
+        # a disc (radius ≤ LONG·h/2, centred on the boundary) cannot reach a deep lattice point
+        far = None
+        if lattice is not None and lattice_delaunay.DEEP * lattice[0].h >= 0.5 * LONG * size:
+            far = (place >= 0) & lattice[1][np.maximum(place, 0)]
+        keep = _encroaching_free(domain, P, edge_id, anisotropy, size, far)
         P, edge_id, pinned, place = P[keep], edge_id[keep], pinned[keep], place[keep]
     for _ in range(MAX_ROUNDS):
         n = len(P)

@@ -33,6 +33,7 @@ from qmesh.errors import QmeshError
 from qmesh.geometry import rings, topology
 
 DEEP = 3.0     # metric edge lengths between a vertex of D and the boundary (≥ 1.5 + 2/√3)
+TABLE_FILL = 8     # the deep points are looked up in a table of their places up to this many per point
 
 
 def deep_points(domain, lattice) -> np.ndarray:
@@ -75,13 +76,21 @@ def _deep_triangles(lattice, place: np.ndarray, deep: np.ndarray) -> np.ndarray:
         return np.empty((0, 3), np.int64)
     u0, width = u.min() - 4, int(u.max() - u.min()) + 8
     key = (row - row.min() + 1) * width + (u - u0)
-    order = np.argsort(key)
-    sorted_key = key[order]
+    size = int(key.max()) + 2 * width + 4
+    if size <= TABLE_FILL * len(key):               # a table of every place: one gather each
+        table = np.full(size, -1, np.int64)
+        table[key] = on
 
-    def find(du, dr):
-        want = key + dr * width + du
-        pos = np.minimum(np.searchsorted(sorted_key, want), len(sorted_key) - 1)
-        return np.where(sorted_key[pos] == want, on[order[pos]], -1)
+        def find(du, dr):
+            return table[key + (dr * width + du)]
+    else:                                           # a long thin lattice: by a sort
+        order = np.argsort(key)
+        sorted_key = key[order]
+
+        def find(du, dr):
+            want = key + dr * width + du
+            pos = np.minimum(np.searchsorted(sorted_key, want), len(sorted_key) - 1)
+            return np.where(sorted_key[pos] == want, on[order[pos]], -1)
 
     right, above, above_right = find(2, 0), find(1, 1), find(3, 1)
     up = np.column_stack([on, right, above])
