@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from qmesh.geometry.topology import NXT, PRV
+from qmesh.geometry.topology import NXT, PRV, touching
 from qmesh.geometry.triangles import (Frame, area_gradients, chunks, metric_hessians, quadratic_form,
                        quadratic_form_xy, signed_areas)
 
@@ -33,7 +33,7 @@ def _corner_brackets(T, anisotropy, F: Frame, s_at, grad_at):
     `s_at`, `grad_at`: s and ∇s at every vertex (None for a constant Q)."""
     if anisotropy.is_constant:
         w = 0.5 * quadratic_form_xy(F.ex, F.ey, anisotropy.H)              # s(x_k − x_i) of (2.91)
-        return w.sum(axis=1, keepdims=True) - w                # the two edges at the corner
+        return (w[:, 0] + w[:, 1] + w[:, 2])[:, None] - w       # the two edges at the corner
     X = np.stack([F.x, F.y], axis=-1)
     s, g = s_at[T], grad_at[T]
     out = np.zeros(T.shape)
@@ -102,7 +102,7 @@ def newton_step(P, T, anisotropy, *, fixed, tangent, alpha=0.5):
     else:
         Hv = np.asarray(anisotropy.hessian(P), dtype=float)
         d = np.linalg.solve(Hv, b[..., None])[..., 0]
-    sliding = np.any(tangent != 0, axis=1)
+    sliding = (tangent[:, 0] != 0) | (tangent[:, 1] != 0)
     tb = np.einsum("ni,ni->n", tangent[sliding], b[sliding])
     tHt = np.einsum("ni,nij,nj->n", tangent[sliding], Hv[sliding], tangent[sliding])
     d[sliding] = tangent[sliding] * (tb / tHt)[:, None]
@@ -121,7 +121,7 @@ def shape_step(P, T, anisotropy, movable, on_boundary=None):
     with two corners in `on_boundary` adds only its short boundary edge to that trace, so it
     weighs FAN_WEIGHT (its shape still counts, for the minimum quality).
     """
-    T = T[movable[T].any(axis=1)]                             # the stars of the movable vertices
+    T = T[touching(T, movable)]                               # the stars of the movable vertices
     if not len(T):
         return np.zeros((len(P), 2))
     F = Frame(P, T)
@@ -179,7 +179,7 @@ def boundary_layer(T, on_boundary, rings):
     near = on_boundary.copy()
     for _ in range(int(rings)):
         near = near.copy()
-        near[T[near[T].any(axis=1)].ravel()] = True
+        near[T[touching(T, near)].ravel()] = True
     return near & ~on_boundary
 
 

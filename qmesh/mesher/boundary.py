@@ -112,7 +112,7 @@ def snap_to_boundary(P, T, twin, d, on_boundary, corner_edge, anisotropy) -> Sna
     # no other triangle of a projected vertex may be squashed (all projections together)
     moving = np.zeros(len(P), bool)
     moving[v[idx]] = True
-    near = np.flatnonzero(moving[T].any(axis=1))
+    near = np.flatnonzero(topology.touching(T, moving))
     near = near[~np.isin(near, t[idx])]
     Pn = P.copy()
     Pn[v[idx]] = pos

@@ -320,7 +320,7 @@ def _stars(T, v, n):
     """The triangles that have a vertex among v (n vertices in all), in order."""
     mark = np.zeros(n, bool)
     mark[v] = True
-    return np.flatnonzero(mark[T].any(axis=1))
+    return np.flatnonzero(topology.touching(T, mark))
 
 
 def restore_conformity(P, T, twin, edge_id, fixed, pinned, anisotropy,

@@ -241,7 +241,9 @@ def _independent(T, twin, h, prio):
 def _local_max(T, twin, prio):
     """Triangles whose priority is finite and at least that of each edge-neighbour."""
     ext = np.append(prio, -np.inf)              # the -1 of a boundary half-edge reads -inf
-    return np.all(prio[:, None] >= ext[twin.reshape(-1, 3) // 3], axis=1) & np.isfinite(prio)
+    nb = twin.reshape(-1, 3) // 3
+    return ((prio >= ext[nb[:, 0]]) & (prio >= ext[nb[:, 1]]) & (prio >= ext[nb[:, 2]])
+            & np.isfinite(prio))
 
 
 def relocate_degree3(P, T, twin, anisotropy, on_boundary):

@@ -96,7 +96,7 @@ def _deep_triangles(lattice, place: np.ndarray, deep: np.ndarray) -> np.ndarray:
     up = np.column_stack([on, right, above])
     down = np.column_stack([right, above_right, above])
     T = np.concatenate([up, down])
-    T = T[(T >= 0).all(axis=1)]
+    T = T[(T[:, 0] >= 0) & (T[:, 1] >= 0) & (T[:, 2] >= 0)]
     if np.linalg.det(lattice.frame) < 0:       # the frame maps the domain reversed
         T = T[:, [0, 2, 1]]
     return T

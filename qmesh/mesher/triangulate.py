@@ -168,7 +168,7 @@ def first_triangulation(P: np.ndarray, anisotropy, boundary: np.ndarray | None =
         if T is None:
             T = _perturbed_hull(P, L, perturbed)
         if anisotropy.is_constant:      # the rest is exact: only the perturbed points' stars
-            near = perturbed[T].any(axis=1)
+            near = topology.touching(T, perturbed)
             candidates = (3 * np.flatnonzero(near)[:, None] + np.arange(3)).ravel()
     # from a start this far off, the flips may run along a needle of the metric for many rounds
     # (660 for exp(20x) + exp(20y)); later rounds touch only the last round's triangles
