@@ -136,7 +136,11 @@ def _canonical_order(T: np.ndarray, twin: np.ndarray, rows: np.ndarray):
     r = np.argmin(T, axis=1)
     turn = (r[:, None] + np.arange(3)) % 3
     T = np.take_along_axis(T, turn, axis=1)
-    order = np.lexsort((T[:, 2], T[:, 1], T[:, 0]))
+    n = int(T.max()) + 1 if len(T) else 0
+    if n ** 3 < 2 ** 63:        # one int64 key per triangle: a third of lexsort's time, same order
+        order = np.argsort((T[:, 0] * n + T[:, 1]) * n + T[:, 2], kind="stable")
+    else:
+        order = np.lexsort((T[:, 2], T[:, 1], T[:, 0]))
     # new half-edge 3i + j runs from the new corner j: the old half-edge (r + j) % 3 of rows[i]
     old = (3 * rows[order][:, None] + turn[order]).ravel()
     new_id = np.full(len(twin), -1, np.int64)

@@ -154,6 +154,22 @@ def test_the_first_triangulation_carries_its_twins_through_the_canonical_order(n
         np.testing.assert_array_equal(st.twin, topology.twins(st.T))
 
 
+@pytest.mark.parametrize("offset", [0, 3_000_000], ids=["one key", "lexsort"])
+def test_canonical_order_is_the_sorted_rotated_triangles_with_their_twins(delaunay_mesh, offset):
+    """Both ways of sorting (one int64 key per triangle below 2.09e6 vertices, lexsort above)
+    give the rows rotated to their smallest vertex in lexicographic order, and the twins a sort
+    of the new half-edges finds; triangles left out turn their neighbours' edges to boundary."""
+    from qmesh.geometry import topology
+    T = np.asarray(delaunay_mesh.triangles)[::-1] + offset
+    T = np.roll(T, 1, axis=1)
+    twin = topology.twins(T)
+    rows = np.arange(0, len(T), 2) if offset else np.arange(len(T))
+    got, got_twin = conform._canonical_order(T, twin, rows)
+    want = sorted(tuple(np.roll(t, -int(np.argmin(t)))) for t in T[rows].tolist())
+    assert [tuple(t) for t in got.tolist()] == want
+    np.testing.assert_array_equal(got_twin, topology.twins(got))
+
+
 def _apex(T, a, b):
     """The vertex opposite each directed edge a→b in its triangle."""
     lookup = {}
