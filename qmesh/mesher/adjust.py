@@ -20,8 +20,8 @@ from __future__ import annotations
 import numpy as np
 
 from qmesh.geometry.topology import NXT, PRV, touching
-from qmesh.geometry.triangles import (Frame, area_gradients, chunks, metric_hessians, quadratic_form,
-                       quadratic_form_xy, signed_areas)
+from qmesh.geometry.triangles import (Frame, area_gradients, chunks, columns, metric_hessians,
+                                      quadratic_form, quadratic_form_xy, signed_areas)
 
 STAR_SHRINK = 0.5      # largest fraction of a triangle's area one vertex's move may remove
 FAN_WEIGHT = 0.15     # shape_step's weight of triangles with two boundary corners (see there)
@@ -65,8 +65,9 @@ def newton_rhs(P, T, anisotropy):
     if not anisotropy.is_constant:
         s_at = np.asarray(anisotropy.s(P), dtype=float)
         grad_at = np.asarray(anisotropy.grad(P), dtype=float)
+    xy = columns(P)
     for c in chunks(len(T)):
-        F = Frame(P, T[c])
+        F = Frame(xy, T[c])
         S = _corner_brackets(T[c], anisotropy, F, s_at, grad_at)
         area[c] = F.A
         np.multiply(F.gx, S, out=wx[c])
@@ -190,10 +191,11 @@ def limit_moves(P, T, d, keep=None):
     """
     cap = np.ones(len(d))
     area = np.empty(len(T))
+    xy, dxy = columns(P), columns(d)
     for c in chunks(len(T)):              # by chunks: see newton_rhs (a minimum is exact anyway)
-        F = Frame(P, T[c])
+        F = Frame(xy, T[c])
         area[c] = F.A
-        _star_cap(T[c], F, d, cap)
+        _star_cap(T[c], F, dxy, cap)
     if keep is not None:
         cap[keep] = 1.0
     return _no_inversion(P, T, area, d * cap[:, None], keep)
@@ -205,10 +207,10 @@ def vertex_step(P, T, anisotropy, *, fixed, tangent, alpha=0.5):
                                          alpha=alpha))
 
 
-def _star_cap(T, F: Frame, d, cap):
-    """Lower `cap` (per vertex, ≤ 1) so each vertex's move alone keeps every triangle of T."""
-    rate = (F.gx * np.take(np.ascontiguousarray(d[:, 0]), T)
-            + F.gy * np.take(np.ascontiguousarray(d[:, 1]), T))   # dA/dt for each corner's move
+def _star_cap(T, F: Frame, dxy, cap):
+    """Lower `cap` (per vertex, ≤ 1) so each vertex's move alone keeps every triangle of T;
+    `dxy` the moves' `columns`."""
+    rate = F.gx * np.take(dxy[0], T) + F.gy * np.take(dxy[1], T)   # dA/dt for each corner's move
     shrink = rate < -STAR_SHRINK * F.A[:, None]                # would lose over half the area
     np.minimum.at(cap, T[shrink], -STAR_SHRINK * F.A[:, None].repeat(3, 1)[shrink] / rate[shrink])
 
@@ -217,7 +219,7 @@ def _no_inversion(P, T, A0, d, keep=None, max_halvings=30):
     """Halve the moves of vertices whose triangles would lose too much area."""
     d = d.copy()
     for i in range(max_halvings + 1):
-        Pd = P + d
+        Pd = columns(P + d)
         bad = np.concatenate([signed_areas(Pd, T[c]) < MIN_AREA_KEPT * A0[c] for c in chunks(len(T))])
         if not bad.any():
             return P + d, d
