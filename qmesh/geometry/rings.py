@@ -67,28 +67,59 @@ def inside(P: np.ndarray, A: np.ndarray, B: np.ndarray) -> np.ndarray:
 def distance(P: np.ndarray, A: np.ndarray, B: np.ndarray, reach: float) -> np.ndarray:
     """Distance from each point to the nearest segment A→B, or inf where none is within `reach`.
 
-    Many points: a grid first rules out the points far from every segment (`_far`), so only
-    the band along the boundary is paired with segments."""
+    Many points: a grid first rules out the points far from every segment (`_grid`), and pairs
+    each point of the band along the boundary with the segments that pass near its cell only
+    (or, where that list would be long, with the segments of its y-band)."""
     P = np.asarray(P, dtype=float)
-    far = _far(P, A, B, reach) if len(P) >= GRID_MIN else None
-    if far is not None:
-        out = np.full(len(P), np.inf)
-        near = np.flatnonzero(~far)
+    grid = _grid(P, A, B, reach) if len(P) >= GRID_MIN else None
+    if grid is None:
+        return _distance(P, A, B, reach)
+    far, cell, reg_cell, reg_seg = grid
+    out = np.full(len(P), np.inf)
+    near = np.flatnonzero(~far)
+    if reg_cell is None:
         out[near] = _distance(P[near], A, B, reach)
         return out
-    return _distance(P, A, B, reach)
+    best = np.full(len(near), np.inf)
+    c = cell[near]
+    start = np.searchsorted(reg_cell, c, side="left")
+    count = np.searchsorted(reg_cell, c, side="right") - start
+    for pt, at in _runs(start, count):
+        np.minimum.at(best, pt, point_segment_distance(P[near[pt]], A[reg_seg[at]], B[reg_seg[at]]))
+    out[near] = np.where(best <= reach, best, np.inf)
+    return out
 
 
 GRID_MIN = 20_000       # points from which `distance` sorts out the far ones on a grid first
+REGISTER_MAX = 4        # cell registrations (25 per boundary sample) per point, at most
 
 
-def _far(P: np.ndarray, A: np.ndarray, B: np.ndarray, reach: float) -> np.ndarray | None:
-    """Mask of points certainly farther than `reach` from every segment, or None where the grid
-    would not pay or not be exact.
+def _runs(start: np.ndarray, count: np.ndarray):
+    """(owner, index) pairs for the runs start[i] … start[i] + count[i] − 1, in chunks of
+    about MAX_PAIRS pairs."""
+    csum = np.cumsum(count)
+    i0 = 0
+    while i0 < len(count):
+        base = int(csum[i0 - 1]) if i0 else 0
+        i1 = max(i0 + 1, int(np.searchsorted(csum, base + MAX_PAIRS, side="right")))
+        c = count[i0:i1]
+        n = int(c.sum())
+        if n:
+            owner = np.repeat(np.arange(i0, i1), c)
+            yield owner, np.repeat(start[i0:i1], c) + np.arange(n) - np.repeat(np.cumsum(c) - c, c)
+        i0 = i1
 
-    Cells of side c ≥ reach/1.5; points every c/2 along the segments mark their cell and the two
-    rings of cells around it. A point in an unmarked cell is more than 2c from every such
-    point, so more than 2c − c/4 ≥ 1.17·reach from every segment."""
+
+def _grid(P: np.ndarray, A: np.ndarray, B: np.ndarray, reach: float):
+    """(far, cell, reg_cell, reg_seg), or None where the grid would not pay or not be exact.
+
+    far: mask of the points certainly farther than `reach` from every segment. Cells of side
+    c ≥ reach/1.5; points every c/2 along the segments mark their cell and the two rings of
+    cells around it. A point in an unmarked cell is more than 2c from every such point, so more
+    than 2c − c/4 ≥ 1.17·reach from every segment. The same marks register each segment in
+    those cells (reg_cell sorted, reg_seg: the segment): a segment within `reach` of a point
+    has a sample within 1.5c + c/4 of it, at most two cells away, so it is registered in the
+    point's cell `cell`. reg_cell is None where the registrations would be too many."""
     lo = np.minimum(P.min(axis=0), np.minimum(A.min(axis=0), B.min(axis=0)))
     hi = np.maximum(P.max(axis=0), np.maximum(A.max(axis=0), B.max(axis=0)))
     ext = hi - lo
@@ -105,15 +136,22 @@ def _far(P: np.ndarray, A: np.ndarray, B: np.ndarray, reach: float) -> np.ndarra
     seg = np.repeat(np.arange(len(A)), k)
     t = (np.arange(k.sum()) - np.repeat(np.cumsum(k) - k, k)) / np.repeat(k - 1, k)
     S = A[seg] + t[:, None] * (B[seg] - A[seg])
+    width = nx + 4
     sx = np.clip(((S[:, 0] - lo[0]) / c).astype(np.int64), 0, nx - 1) + 2
     sy = np.clip(((S[:, 1] - lo[1]) / c).astype(np.int64), 0, ny - 1) + 2
-    marked = np.zeros((ny + 4, nx + 4), bool)
-    for dy in range(-2, 3):
-        for dx in range(-2, 3):
-            marked[sy + dy, sx + dx] = True
     px = np.clip(((P[:, 0] - lo[0]) / c).astype(np.int64), 0, nx - 1) + 2
     py = np.clip(((P[:, 1] - lo[1]) / c).astype(np.int64), 0, ny - 1) + 2
-    return ~marked[py, px]
+    cell = py * width + px
+    around = (np.arange(-2, 3)[:, None] * width + np.arange(-2, 3)).ravel()   # the 5×5 block
+    marked = np.zeros((ny + 4) * width, bool)
+    if 25 * len(S) > REGISTER_MAX * n:
+        for d in around:
+            marked[sy * width + sx + d] = True
+        return ~marked[cell], cell, None, None
+    key = np.unique((((sy * width + sx)[:, None] + around) * len(A) + seg[:, None]).ravel())
+    reg_cell, reg_seg = np.divmod(key, len(A))
+    marked[reg_cell] = True
+    return ~marked[cell], cell, reg_cell, reg_seg
 
 
 def _distance(P: np.ndarray, A: np.ndarray, B: np.ndarray, reach: float) -> np.ndarray:

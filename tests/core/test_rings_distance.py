@@ -1,8 +1,10 @@
-"""rings.distance: the grid that rules out far points first (`_far`) changes nothing: every
-point gets the distance a brute force over all (point, segment) pairs gives, or inf beyond
-`reach`, for rings of any size and position and any reach."""
+"""rings.distance: the grid that rules out far points first and pairs the others with the
+segments registered in their cell (`_grid`) changes nothing: every point gets the distance a
+brute force over all (point, segment) pairs gives, or inf beyond `reach`, and exactly (bit for
+bit) what pairing by y-bands alone gives, for rings of any size and position and any reach."""
 
 import numpy as np
+import pytest
 from hypothesis import given, settings, strategies as st
 
 from qmesh.geometry import rings
@@ -33,6 +35,7 @@ def test_grid_prefilter_gives_the_brute_force_distances(seed, n_seg, log_size, l
     reach = reach_share * size
     got = rings.distance(P, A, B, reach)
     want = _brute(P, A, B, reach)
+    np.testing.assert_array_equal(got, rings._distance(P, A, B, reach))   # the y-band route
     assert np.array_equal(np.isfinite(got), np.isfinite(want))
     np.testing.assert_allclose(got[np.isfinite(got)], want[np.isfinite(want)], rtol=1e-9,
                                atol=1e-12 * (size + np.abs(shift).max()))
@@ -43,5 +46,21 @@ def test_the_grid_is_used_and_rules_out_most_points_of_a_large_cloud():
     t = np.linspace(0, 2 * np.pi, 65)[:-1]
     ring = np.column_stack([np.cos(t), np.sin(t)])
     P = rng.uniform(-1, 1, (rings.GRID_MIN * 5, 2))
-    far = rings._far(P, ring, np.roll(ring, -1, axis=0), 0.01)
-    assert far is not None and far.mean() > 0.5
+    grid = rings._grid(P, ring, np.roll(ring, -1, axis=0), 0.01)
+    assert grid is not None and grid[0].mean() > 0.5 and grid[2] is not None
+
+
+@pytest.mark.parametrize("register_max", [0, 10**9], ids=["y-bands", "cells"])
+def test_both_pairings_of_the_band_give_the_y_band_distances(monkeypatch, register_max):
+    """Past REGISTER_MAX registrations per point the band's points are paired by y-bands, else
+    by cells; a flat ring of 1024 segments, a cloud around it, reaches of a fifth and of two and a half
+    spacings."""
+    monkeypatch.setattr(rings, "REGISTER_MAX", register_max)
+    rng = np.random.default_rng(3)
+    t = np.sort(rng.uniform(0, 2 * np.pi, 1024))
+    ring = np.column_stack([3 * np.cos(t), 0.2 * np.sin(t)])        # flat: long y-bands
+    A, B = ring, np.roll(ring, -1, axis=0)
+    P = rng.uniform([-3.3, -0.5], [3.3, 0.5], (rings.GRID_MIN + 100, 2))
+    for reach in (4e-3, 5e-2):
+        assert (rings._grid(P, A, B, reach)[2] is None) == (register_max == 0)
+        np.testing.assert_array_equal(rings.distance(P, A, B, reach), rings._distance(P, A, B, reach))
