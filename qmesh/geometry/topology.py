@@ -108,8 +108,10 @@ def _moved(twin: np.ndarray, src: np.ndarray, dst: np.ndarray, size: int,
     Slots vacated and not refilled must be set by the caller (they hold stale values).
     """
     if copy or size != len(twin):
-        new = np.full(size, -1, dtype=np.int64)
-        new[:min(size, len(twin))] = twin[:size]
+        k = min(size, len(twin))
+        new = np.empty(size, dtype=np.int64)
+        new[:k] = twin[:k]
+        new[k:] = -1
     else:
         new = twin
     tw = twin[src]

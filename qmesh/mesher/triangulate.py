@@ -25,7 +25,7 @@ from scipy.spatial import ConvexHull, Delaunay, QhullError
 
 from qmesh.geometry import topology
 from qmesh.errors import QmeshError
-from qmesh.geometry.triangles import signed_areas
+from qmesh.geometry.triangles import columns, signed_areas
 
 FLIP_TOL = 1e-10   # relative violation below which an edge counts as regular (ties stay put)
 VERTICAL = 1e-6   # |n_z| of a lifted facet below this: vertical (collinear points on the hull), not lower
@@ -231,14 +231,16 @@ def _perturbed_hull(P: np.ndarray, L: np.ndarray, perturbed: np.ndarray,
 def _violation(P, T, twin, h, anisotropy, s, g):
     """`_violation_chunk` over h in chunks of VIOLATION_CHUNK (its ~25 temporaries per edge
     took 660 bytes per vertex at once: the mesher's peak memory at 1e6)."""
+    xy = columns(P)                                     # once, not for every chunk
     if len(h) <= VIOLATION_CHUNK:
-        return _violation_chunk(P, T, twin, h, anisotropy, s, g)
-    return np.concatenate([_violation_chunk(P, T, twin, h[k:k + VIOLATION_CHUNK], anisotropy, s, g)
+        return _violation_chunk(xy, T, twin, h, anisotropy, s, g)
+    return np.concatenate([_violation_chunk(xy, T, twin, h[k:k + VIOLATION_CHUNK], anisotropy, s, g)
                            for k in range(0, len(h), VIOLATION_CHUNK)])
 
 
-def _violation_chunk(P, T, twin, h, anisotropy, s, g):
-    """Relative lifted in-circle test of half-edges h: > 0 means locally non-regular.
+def _violation_chunk(xy, T, twin, h, anisotropy, s, g):
+    """Relative lifted in-circle test of half-edges h: > 0 means locally non-regular; `xy` the
+    points' `columns`.
 
     For the edge u→v of triangle (u, v, a) with b opposite across it, the sign of
     det[[x_r − x_b, y_r − y_b, z_r]]_{r = u, v, a}, with z the lifted height minus b's tangent
@@ -249,7 +251,7 @@ def _violation_chunk(P, T, twin, h, anisotropy, s, g):
     base1, base2 = h - h % 3, g2 - g2 % 3
     b = Tf[base2 + topology.PRV[g2 - base2]]
     cols = (Tf[h], Tf[base1 + topology.NXT[h - base1]], Tf[base1 + topology.PRV[h - base1]])
-    Px, Py = np.ascontiguousarray(P[:, 0]), np.ascontiguousarray(P[:, 1])
+    Px, Py = xy
     xb, yb = Px[b], Py[b]
     dx = [Px[c] - xb for c in cols]                                       # u, v, a
     dy = [Py[c] - yb for c in cols]
