@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from qmesh.geometry.topology import sorted_unique
+
 MAX_PAIRS = 262_144     # candidate pairs handled at once (~150 bytes each: bounds the temporary memory)
 
 
@@ -71,7 +73,7 @@ def distance(P: np.ndarray, A: np.ndarray, B: np.ndarray, reach: float) -> np.nd
     each point of the band along the boundary with the segments that pass near its cell only
     (or, where that list would be long, with the segments of its y-band)."""
     P = np.asarray(P, dtype=float)
-    grid = _grid(P, A, B, reach) if len(P) >= GRID_MIN else None
+    grid = _grid(P, A, B, reach) if len(P) + len(A) >= GRID_MIN else None
     if grid is None:
         return _distance(P, A, B, reach)
     far, cell, reg_cell, reg_seg = grid
@@ -90,8 +92,9 @@ def distance(P: np.ndarray, A: np.ndarray, B: np.ndarray, reach: float) -> np.nd
     return out
 
 
-GRID_MIN = 20_000       # points from which `distance` sorts out the far ones on a grid first
-REGISTER_MAX = 4        # cell registrations (25 per boundary sample) per point, at most
+GRID_MIN = 20_000       # points and segments from which `distance` uses the grid
+REGISTER_MAX = 4        # cell registrations (25 per cell a segment passes) per point and segment,
+REGISTER_FLOOR = 4_000_000   # at most, or this many (32 MB) whatever the count
 
 
 def _runs(start: np.ndarray, count: np.ndarray):
@@ -123,7 +126,7 @@ def _grid(P: np.ndarray, A: np.ndarray, B: np.ndarray, reach: float):
     lo = np.minimum(P.min(axis=0), np.minimum(A.min(axis=0), B.min(axis=0)))
     hi = np.maximum(P.max(axis=0), np.maximum(A.max(axis=0), B.max(axis=0)))
     ext = hi - lo
-    n = len(P)
+    n = len(P) + len(A)          # the grid's budget: cells, samples, registrations per item
     c = max(reach / 1.5, float(np.sqrt(ext[0] * ext[1] / (2 * n))), float(ext.max()) / (4 * n))
     scale = float(np.abs(np.concatenate([lo, hi])).max())
     if not (np.isfinite(c) and np.isfinite(ext).all() and c > 1e-12 * scale and c > 0):
@@ -144,11 +147,12 @@ def _grid(P: np.ndarray, A: np.ndarray, B: np.ndarray, reach: float):
     cell = py * width + px
     around = (np.arange(-2, 3)[:, None] * width + np.arange(-2, 3)).ravel()   # the 5×5 block
     marked = np.zeros((ny + 4) * width, bool)
-    if 25 * len(S) > REGISTER_MAX * n:
+    own = sorted_unique((sy * width + sx) * len(A) + seg)       # (cell, segment) of the samples
+    if 25 * len(own) > max(REGISTER_MAX * n, REGISTER_FLOOR):
         for d in around:
             marked[sy * width + sx + d] = True
         return ~marked[cell], cell, None, None
-    key = np.unique((((sy * width + sx)[:, None] + around) * len(A) + seg[:, None]).ravel())
+    key = sorted_unique((own[:, None] + around * len(A)).ravel())
     reg_cell, reg_seg = np.divmod(key, len(A))
     marked[reg_cell] = True
     return ~marked[cell], cell, reg_cell, reg_seg

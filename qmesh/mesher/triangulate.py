@@ -277,7 +277,7 @@ def _canonical(twin: np.ndarray, h: np.ndarray | None = None) -> np.ndarray:
         return np.flatnonzero(twin > np.arange(len(twin)))
     tw = twin[h]
     h = np.minimum(h, tw)[tw >= 0]
-    return np.unique(h)
+    return topology.sorted_unique(h)
 
 
 def restore(P: np.ndarray, T: np.ndarray, twin: np.ndarray, anisotropy,

@@ -56,6 +56,7 @@ def test_both_pairings_of_the_band_give_the_y_band_distances(monkeypatch, regist
     by cells; a flat ring of 1024 segments, a cloud around it, reaches of a fifth and of two and a half
     spacings."""
     monkeypatch.setattr(rings, "REGISTER_MAX", register_max)
+    monkeypatch.setattr(rings, "REGISTER_FLOOR", register_max)
     rng = np.random.default_rng(3)
     t = np.sort(rng.uniform(0, 2 * np.pi, 1024))
     ring = np.column_stack([3 * np.cos(t), 0.2 * np.sin(t)])        # flat: long y-bands
