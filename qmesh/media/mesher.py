@@ -248,7 +248,7 @@ def _faces_in_turn(plan, options, every: bool = True) -> Iterator[Step]:
 
 
 MAX_HANDOVERS = 1000
-FINER = 4              # halvings of the size a face that is too thin for it may take
+FINER = 6              # halvings of the size a face that is too thin for it may take
 
 
 def _share(plan, meshes, done, face_edges, new, extra) -> None:

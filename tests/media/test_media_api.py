@@ -92,6 +92,22 @@ def test_thin_face_warnings_name_their_region():
     assert all(str(w.message).startswith("region") for w in said if w.category is qmesh.QmeshWarning)
 
 
+def test_a_sharp_notch_under_strong_anisotropy_is_meshed_finer_not_refused():
+    """Found by the random media property test: a triangular notch on the bottom side whose
+    corners are very sharp in its metric (anisotropy 1000 at 162°) needed one more halving of
+    the shared size than the face mesher allowed, and the whole run was refused."""
+    w = 0.8125
+    notch = [(0.28533550700689586, 0.0), (0.36658550700689585, 0.0),
+             (0.3259605070068959, 0.19504636963259353)]
+    d = qmesh.Domain([(0, 0), (w, 0), (w, 1), (0, 1)], regions=[notch])
+    cond = {0: Anisotropy.principal(1, 1, 0), 1: Anisotropy.principal(1000, 1, 162)}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", qmesh.QmeshWarning)
+        m = qmesh.mesh(d, cond, target_vertices=300)
+    assert set(np.unique(m.region_tags)) == {0, 1}
+    assert all(v == 1.0 for v in measure.q_nonnegative_fractions(m, cond).values())
+
+
 def test_only_the_kept_passs_face_warnings_are_given():
     """A target the interfaces overshoot is met by meshing again with a smaller request; the
     faces' warnings of the pass left behind (their N no longer true) are not given, so each
