@@ -26,29 +26,14 @@ def signed_area(ring: np.ndarray) -> float:
 def _pairs(py: np.ndarray, ylo: np.ndarray, yhi: np.ndarray, order: np.ndarray | None = None):
     """All (point, segment) index pairs with ylo[seg] ≤ py[point] ≤ yhi[seg], chunked.
 
-    Yields arrays (pt, seg) of at most about MAX_PAIRS pairs each.
+    Yields arrays (pt, seg) of at most about MAX_PAIRS pairs each (at least one segment's).
     """
     order = np.argsort(py, kind="stable") if order is None else order
     ys = py[order]
     start = np.searchsorted(ys, ylo, side="left")
-    stop = np.searchsorted(ys, yhi, side="right")
-    cnt = np.maximum(stop - start, 0)
-    csum = np.cumsum(cnt)
-    total = int(csum[-1]) if len(csum) else 0
-    s0 = 0
-    while s0 < len(cnt):
-        # segments s0..s1-1 hold at most MAX_PAIRS pairs (at least one segment per chunk)
-        base = int(csum[s0 - 1]) if s0 else 0
-        s1 = max(s0 + 1, int(np.searchsorted(csum, base + MAX_PAIRS, side="right")))
-        c = cnt[s0:s1]
-        n = int(c.sum())
-        if n:
-            seg = np.repeat(np.arange(s0, s1), c)
-            offs = np.arange(n) - np.repeat(np.cumsum(c) - c, c)
-            yield order[np.repeat(start[s0:s1], c) + offs], seg
-        s0 = s1
-    if total == 0:
-        return
+    count = np.maximum(np.searchsorted(ys, yhi, side="right") - start, 0)
+    for seg, at in _runs(start, count):
+        yield order[at], seg
 
 
 def inside(P: np.ndarray, A: np.ndarray, B: np.ndarray) -> np.ndarray:
@@ -99,7 +84,7 @@ REGISTER_FLOOR = 4_000_000   # at most, or this many (32 MB) whatever the count
 
 def _runs(start: np.ndarray, count: np.ndarray):
     """(owner, index) pairs for the runs start[i] … start[i] + count[i] − 1, in chunks of
-    about MAX_PAIRS pairs."""
+    about MAX_PAIRS pairs (at least one run a chunk)."""
     csum = np.cumsum(count)
     i0 = 0
     while i0 < len(count):
