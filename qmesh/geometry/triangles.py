@@ -35,7 +35,10 @@ def corners(P, T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def signed_areas(P, T: np.ndarray) -> np.ndarray:
     """Signed area of every triangle (> 0 when counter-clockwise)."""
-    x, y = corners(P, T)
+    return _signed_areas(*corners(P, T))
+
+
+def _signed_areas(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     return 0.5 * ((x[:, 1] - x[:, 0]) * (y[:, 2] - y[:, 0]) - (y[:, 1] - y[:, 0]) * (x[:, 2] - x[:, 0]))
 
 
@@ -100,7 +103,10 @@ def quadratic_form(E: np.ndarray, H: np.ndarray) -> np.ndarray:
 
 def metric_edge_lengths2(P: np.ndarray, T: np.ndarray, H: np.ndarray) -> np.ndarray:
     """Squared metric lengths eᵀHe of the three edges opposite each corner: (M, 3)."""
-    F = Frame(P, T)
+    return _edge_lengths2(Frame(P, T), H)
+
+
+def _edge_lengths2(F: Frame, H: np.ndarray) -> np.ndarray:
     if H.ndim == 2 or H.strides[0] == 0:
         return quadratic_form_xy(F.ex, F.ey, H if H.ndim == 2 else H[0])
     return quadratic_form(F.E, H)
@@ -112,11 +118,15 @@ def metric_areas(P: np.ndarray, T: np.ndarray, H: np.ndarray) -> np.ndarray:
     That happens only at tentative positions outside Ω, where a user's s need not be convex
     (boundary.py tries moves before accepting them): NaN says so without a NumPy warning.
     """
+    return _metric_areas(signed_areas(P, T), H)
+
+
+def _metric_areas(areas: np.ndarray, H: np.ndarray) -> np.ndarray:
     if H.strides[0] == 0:
         H = H[:1]
     det = H[:, 0, 0] * H[:, 1, 1] - H[:, 0, 1] * H[:, 1, 0]
     with np.errstate(invalid="ignore"):
-        return np.sqrt(det) * signed_areas(P, T)
+        return np.sqrt(det) * areas
 
 
 def metric_quality(P: np.ndarray, T: np.ndarray, H: np.ndarray) -> np.ndarray:
@@ -131,9 +141,12 @@ def metric_quality(P: np.ndarray, T: np.ndarray, H: np.ndarray) -> np.ndarray:
 
 
 def _metric_quality(P: np.ndarray, T: np.ndarray, H: np.ndarray) -> np.ndarray:
-    L2 = metric_edge_lengths2(P, T, H)
-    l2 = L2[:, 0] + L2[:, 1] + L2[:, 2]                     # = sum(axis=1), without its overhead
-    return 4.0 * np.sqrt(3.0) * metric_areas(P, T, H) / l2
+    return _quality(metric_areas(P, T, H), metric_edge_lengths2(P, T, H))
+
+
+def _quality(area: np.ndarray, L2: np.ndarray) -> np.ndarray:
+    """4√3 Ã / Σ l̃² (2.94); the sum written out (= sum(axis=1), without its overhead)."""
+    return 4.0 * np.sqrt(3.0) * area / (L2[:, 0] + L2[:, 1] + L2[:, 2])
 
 
 def rounded(x: np.ndarray, bits: int = 32) -> np.ndarray:
@@ -154,17 +167,8 @@ def metric_measures(P: np.ndarray, T: np.ndarray, H: np.ndarray):
     area, quality, L2 = np.empty(len(T)), np.empty(len(T)), np.empty(T.shape)
     xy = columns(P)
     for c in chunks(len(T)):
-        F, Hc = Frame(xy, T[c]), H[c]
-        x, y = F.x, F.y
-        sa = 0.5 * ((x[:, 1] - x[:, 0]) * (y[:, 2] - y[:, 0]) - (y[:, 1] - y[:, 0]) * (x[:, 2] - x[:, 0]))
-        if Hc.ndim == 2 or Hc.strides[0] == 0:
-            L2[c] = quadratic_form_xy(F.ex, F.ey, Hc if Hc.ndim == 2 else Hc[0])
-        else:
-            L2[c] = quadratic_form(F.E, Hc)
-        Hd = Hc[:1] if Hc.strides[0] == 0 else Hc
-        det = Hd[:, 0, 0] * Hd[:, 1, 1] - Hd[:, 0, 1] * Hd[:, 1, 0]
-        with np.errstate(invalid="ignore"):
-            area[c] = np.sqrt(det) * sa
-        l2 = L2[c]
-        quality[c] = 4.0 * np.sqrt(3.0) * area[c] / (l2[:, 0] + l2[:, 1] + l2[:, 2])
+        F = Frame(xy, T[c])
+        area[c] = _metric_areas(_signed_areas(F.x, F.y), H[c])
+        L2[c] = _edge_lengths2(F, H[c])
+        quality[c] = _quality(area[c], L2[c])
     return area, quality, L2
