@@ -78,8 +78,8 @@ def distance(P: np.ndarray, A: np.ndarray, B: np.ndarray, reach: float) -> np.nd
 
 
 GRID_MIN = 20_000       # points and segments from which `distance` uses the grid
-REGISTER_MAX = 4        # cell registrations (25 per cell a segment passes) per point and segment,
-REGISTER_FLOOR = 4_000_000   # at most, or this many (32 MB) whatever the count
+REGISTER_MAX = 4        # cell registrations (25 per cell a segment passes) per point and segment
+REGISTER_FLOOR = 4_000_000   # registrations allowed whatever the counts (32 MB of keys)
 
 
 def _runs(start: np.ndarray, count: np.ndarray):
