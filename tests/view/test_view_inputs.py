@@ -50,7 +50,7 @@ def _wait_settled(page, timeout=60.0):
     return b.until(same, timeout, "the page to settle", interval=0)
 
 
-@pytest.mark.slow(37)
+@pytest.mark.slow(22)
 def test_typed_target_fast_slider_keys_and_a_refused_huge_target():
     with b.qmesh_view_server() as url, b.chromium_page(url) as page:
         b.wait_drawn(page)
