@@ -11,7 +11,7 @@ point insertion of the thesis chapter "Q-adapted meshes" (Section 2.3, Algorithm
 from qmesh.conductivity.anisotropy import Anisotropy
 from qmesh.domain.domain import Disk, Domain, Polygon
 from qmesh.errors import QmeshError, QmeshWarning
-from qmesh.mesh import Mesh
+from qmesh.triangle_mesh import Mesh
 from qmesh.meshing import iterate, mesh
 from qmesh.mesher.step import Stats, Step
 from qmesh import io, measure  # io imports meshio only when a file is read or written

@@ -194,7 +194,7 @@ def anisotropy_or_none(value, name: str = "anisotropy"):
 
 def mesh(value, name: str = "mesh"):
     """`value` when it is a qmesh.Mesh (whose constructor refused non-finite coordinates)."""
-    if not _is(value, "qmesh.mesh.Mesh"):
+    if not _is(value, "qmesh.triangle_mesh.Mesh"):
         raise QmeshError(f"{name} must be a qmesh.Mesh, got {describe(value)}")
     return value
 

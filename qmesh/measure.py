@@ -29,7 +29,7 @@ from qmesh.geometry import quadrature
 from qmesh.errors import QmeshError
 from qmesh.geometry.topology import edge_keys
 from qmesh.geometry.triangles import Frame, chunks, corners, metric_hessians, metric_quality, signed_areas
-from qmesh.mesh import Mesh
+from qmesh.triangle_mesh import Mesh
 
 DENSE_LIMIT = 300
 """Up to this many unknowns condition_number uses a dense eigvalsh; above it, sparse eigsh.

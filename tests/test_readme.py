@@ -9,7 +9,7 @@
   order. Skipped for cost, with the reason (nothing else is skipped):
     * `python3 -m venv .venv`, `. .venv/bin/activate`: make and enter the virtual environment
       these tests already run in;
-    * `pip install -e ".[all,peers]"`: minutes of downloads; the tests run in its result;
+    * `pip install -e ".[all,peers,test]"`: minutes of downloads; the tests run in its result;
     * `python -m pytest -q -n auto --maxschedchunk 2`: this test suite itself.
   `qmesh setup` runs as `qmesh setup --check` (a test must not install system packages; a
   missing package fails it just the same).
@@ -32,7 +32,7 @@ import qmesh
 ROOT = Path(__file__).resolve().parents[1]
 README = (ROOT / "README.md").read_text()
 BIN = Path(sys.executable).parent
-SKIPPED_FOR_COST = ("python3 -m venv .venv", ". .venv/bin/activate", 'pip install -e ".[all,peers]"',
+SKIPPED_FOR_COST = ("python3 -m venv .venv", ". .venv/bin/activate", 'pip install -e ".[all,peers,test]"',
                     "python -m pytest -q -n auto --maxschedchunk 2")
 HEADLESS = {"PYVISTA_OFF_SCREEN": "true", "VTK_DEFAULT_OPENGL_WINDOW": "vtkEGLRenderWindow"}
 NUMBER = re.compile(r"-?\d+(?:\.\d+)?(?:e[-+]?\d+)?")

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from qmesh.domain.domain import Disk, Polygon
-from qmesh.mesh import Mesh
+from qmesh.triangle_mesh import Mesh
 from qmesh.compare import chapter, require
 
 

@@ -23,7 +23,7 @@ from qmesh.geometry import rings as _rings
 from qmesh.media import faces as _faces
 from qmesh.media import sizing as _sizing
 from qmesh.media.mesher import partition_of
-from qmesh.mesh import Mesh
+from qmesh.triangle_mesh import Mesh
 
 
 def _face_domains(domain):

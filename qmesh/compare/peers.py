@@ -25,7 +25,7 @@ from scipy.spatial import cKDTree
 from qmesh.errors import QmeshError
 from qmesh.mesher import sizing
 from qmesh.geometry.triangles import signed_areas
-from qmesh.mesh import Mesh
+from qmesh.triangle_mesh import Mesh
 from qmesh.compare import require
 
 PEERS = ("bamg", "mmg2d")

@@ -32,7 +32,7 @@ from qmesh import measure
 from qmesh.geometry import quadrature
 from qmesh.errors import QmeshError
 from qmesh.geometry.triangles import signed_areas
-from qmesh.mesh import Mesh
+from qmesh.triangle_mesh import Mesh
 
 RTOL = 1e-8
 """CG stops when ‖b − Ax‖ ≤ RTOL ‖b‖."""

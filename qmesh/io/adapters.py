@@ -13,7 +13,7 @@ import numpy as np
 
 from qmesh.errors import QmeshError
 from qmesh.io import boundary
-from qmesh.mesh import Mesh
+from qmesh.triangle_mesh import Mesh
 
 
 def _import(module: str, extra: str):

@@ -31,7 +31,7 @@ from qmesh.io import boundary, conductivity, metadata
 from qmesh.io.meshio_writers import _meshio, restore_order
 from qmesh.io.payload import payload
 from qmesh.io.registry import FORMATS, REGISTRY, Format
-from qmesh.mesh import Mesh
+from qmesh.triangle_mesh import Mesh
 
 # errors a parser or a conversion raises on a malformed or hostile file: reported, not raised
 _FILE_ERRORS = (ValueError, TypeError, IndexError, KeyError, AttributeError, OverflowError, RecursionError,

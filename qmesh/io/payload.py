@@ -15,7 +15,7 @@ import numpy as np
 from qmesh.errors import QmeshError
 from qmesh.io import boundary, conductivity, metadata
 from qmesh.measure import quality
-from qmesh.mesh import Mesh
+from qmesh.triangle_mesh import Mesh
 
 RESERVED = {"fixed", "quality", "boundary_tag", "region", "medit:ref", "gmsh:physical", "gmsh:geometrical",
             "gmsh:dim_tags", "qmesh:vertex"}

@@ -17,7 +17,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from qmesh.geometry import topology
-from qmesh.mesh import Mesh
+from qmesh.triangle_mesh import Mesh
 from qmesh.mesher.triangulate import restore
 
 

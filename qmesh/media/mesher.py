@@ -41,7 +41,7 @@ from qmesh.domain.partition import Ring, partition
 from qmesh.media.stitch import stitch
 from qmesh.mesher.loop import mesh as mesh_one       # the single-region mesher, untouched
 from qmesh.mesher.options import Options
-from qmesh.mesh import Mesh
+from qmesh.triangle_mesh import Mesh
 from qmesh.mesher import sizing as _msizing
 from qmesh.mesher.step import Stats, Step
 

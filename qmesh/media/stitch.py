@@ -12,7 +12,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from qmesh.errors import QmeshError
-from qmesh.mesh import Mesh
+from qmesh.triangle_mesh import Mesh
 
 
 def stitch(part, meshes: list, face_regions: list, domain) -> Mesh:

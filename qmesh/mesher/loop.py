@@ -30,7 +30,7 @@ import numpy as np
 from qmesh.conductivity.anisotropy import Anisotropy
 from qmesh.domain.domain import as_domain
 from qmesh.errors import QmeshError
-from qmesh.mesh import Mesh
+from qmesh.triangle_mesh import Mesh
 from qmesh.mesher import conform
 from qmesh.mesher.diagnose import warn_if_thin
 from qmesh.mesher.options import Options, check_keywords

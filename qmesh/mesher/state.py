@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from qmesh.geometry import topology
-from qmesh.mesh import Mesh, frozen
+from qmesh.triangle_mesh import Mesh, frozen
 from qmesh.mesher.step import Stats
 
 

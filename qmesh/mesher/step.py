@@ -13,7 +13,7 @@ import numpy as np
 
 from qmesh.geometry.triangles import metric_hessians, metric_quality
 from qmesh.measure import triangle_energy
-from qmesh.mesh import Mesh
+from qmesh.triangle_mesh import Mesh
 
 
 class Stats:
