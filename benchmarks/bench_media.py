@@ -1,4 +1,4 @@
-"""Heterogeneous media (issue 17 item 8): qmesh vs MMG2D vs Triangle at equal N.
+"""Heterogeneous media: qmesh vs MMG2D vs Triangle at equal N.
 
 Cases (`qmesh.media.cases`): FVCA5 tests 4 (vertical fault), 6 (oblique drain), 7 (oblique
 barrier), a layered box and an inclusion. For each target N:
@@ -13,16 +13,19 @@ the discrete maximum principle on −div(Q∇u) = 0, u = g on ∂Ω (g the case'
 outside [min g, max g] (beyond 1e-10 of the range) and the worst excess relative to the range;
 κ2 of the Dirichlet matrix; min metric quality (2.94) in each triangle's own metric; seconds
 (qmesh: the whole run; peers: their final calibrated run). Then the geometric mean of
-κ2(qmesh) / κ2(MMG2D).
+κ2(qmesh) / κ2(MMG2D). The page (docs/benchmarks/bench_media.md) also shows the inclusion
+case's three meshes at N = 2000 (with MMG2D).
 
-    python benchmarks/bench_media.py [--n 2000 8000] [--cases fvca4 ...] [--no-mmg]
-    python benchmarks/bench_media.py --figure screenshots/media_inclusion.png
-    python benchmarks/bench_media.py --timing 100000     (layered box with and without regions)
+    python benchmarks/bench_media.py [--n 2000 8000] [--cases fvca4 ...] [--no-mmg] [--no-page]
+    python benchmarks/bench_media.py --figure screenshots/media_inclusion.png   (that PNG only)
+    python benchmarks/bench_media.py --timing 100000     (layered box with and without regions;
+                                                          page bench_media-timing.md)
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 import warnings
 
@@ -33,6 +36,8 @@ import qmesh
 from qmesh import measure
 from qmesh.media import cases as media_cases
 from qmesh.compare import media_peers as peers
+
+import report_page
 
 SHORT = {"fvca4": media_cases.fvca4, "fvca6": media_cases.fvca6, "fvca7": media_cases.fvca7,
          "layered": media_cases.layered, "inclusion": media_cases.inclusion}
@@ -85,14 +90,20 @@ def _pct(x):
     return "n/a" if x is None else f"{100 * x:.1f}"
 
 
+def _cells(r) -> list[str]:
+    return [r["case"], r["mesher"], str(r["N"]),
+            f"{_pct(r['q_int'])} / {_pct(r['q_if'])} / {_pct(r['q_bnd'])}",
+            f"{r['mp']} ({r['mp_worst']:.1e})", f"{r['kappa2']:.3g}", f"{r['min_q']:.3f}",
+            f"{r['seconds']:.2f}"]
+
+
 def _line(r) -> str:
-    return (f"| {r['case']} | {r['mesher']} | {r['N']} | {_pct(r['q_int'])} / {_pct(r['q_if'])} / "
-            f"{_pct(r['q_bnd'])} | {r['mp']} ({r['mp_worst']:.1e}) | {r['kappa2']:.3g} | "
-            f"{r['min_q']:.3f} | {r['seconds']:.2f} |")
+    return "| " + " | ".join(_cells(r)) + " |"
 
 
-HEADER = ("| case | mesher | N | q_ij ≥ 0 % interior / interface / boundary | max-principle "
-          "violations (worst) | κ2 | min quality | s |\n|---|---|---|---|---|---|---|---|")
+HEADERS = ["case", "mesher", "N", "q_ij ≥ 0 % interior / interface / boundary",
+           "max-principle violations (worst)", "κ2", "min quality", "s"]
+HEADER = "| " + " | ".join(HEADERS) + " |\n" + "|" + "---|" * len(HEADERS)
 
 
 def figure(path, case="inclusion", n=2000) -> None:
@@ -126,7 +137,7 @@ def figure(path, case="inclusion", n=2000) -> None:
     fig.savefig(path, dpi=90)
 
 
-def timing(n: int) -> None:
+def timing(n: int) -> str:
     """Seconds for the layered box with its regions, and for the same box with one Q."""
     domain, cond, _ = media_cases.layered()
     with warnings.catch_warnings():
@@ -137,8 +148,10 @@ def timing(n: int) -> None:
         t0 = time.perf_counter()
         m2 = qmesh.mesh(qmesh.Polygon(domain.rings[0]), cond[1], target_vertices=n)
         t2 = time.perf_counter() - t0
-    print(f"layered, 5 regions: N = {m.n_vertices}, {t1:.1f} s; same box, one Q: "
-          f"N = {m2.n_vertices}, {t2:.1f} s; ratio {t1 / t2:.2f}")
+    line = (f"layered, 5 regions: N = {m.n_vertices}, {t1:.1f} s; same box, one Q: "
+            f"N = {m2.n_vertices}, {t2:.1f} s; ratio {t1 / t2:.2f}")
+    print(line)
+    return line
 
 
 def main(argv=None) -> None:
@@ -148,12 +161,19 @@ def main(argv=None) -> None:
     ap.add_argument("--n", type=int, nargs="+", default=[2000, 8000])
     ap.add_argument("--cases", nargs="+", choices=sorted(SHORT), default=list(SHORT))
     ap.add_argument("--no-mmg", action="store_true")
+    report_page.add_option(ap)
     args = ap.parse_args(argv)
     if args.figure:
         figure(args.figure)
         return
     if args.timing:
-        timing(args.timing)
+        line = timing(args.timing)
+        if not args.no_page:
+            report_page.write_page(
+                __file__, sys.argv, "Heterogeneous media: the cost of regions",
+                f"Seconds of `qmesh.mesh` for the layered box (`qmesh.media.cases.layered`, five "
+                f"regions) at target N = {args.timing}, and for the same box with one Q (the "
+                f"second region's) and no interfaces.", notes=[line + "."], suffix="timing")
         return
     print(HEADER)
     rows = run([SHORT[c] for c in args.cases], args.n, mmg=not args.no_mmg)
@@ -162,10 +182,36 @@ def main(argv=None) -> None:
     if mm:
         ratio = np.exp(np.mean([np.log(a["kappa2"] / b["kappa2"]) for a, b in zip(q, mm)]))
         print(f"\ngeometric mean of κ2(qmesh) / κ2(MMG2D): {ratio:.3f}")
-    print(f"qmesh: {sum(r['mp'] for r in q)} maximum-principle violations in {len(q)} meshes; "
-          f"min quality {min(r['min_q'] for r in q):.3f}; N within "
-          f"{max(abs(r['N'] - n) / n for r, n in zip(q, [n for _ in args.cases for n in args.n])):.1%} "
-          "of the target")
+    notes = [f"geometric mean of κ2(qmesh) / κ2(MMG2D): {ratio:.3f}"] if mm else []
+    notes.append(f"qmesh: {sum(r['mp'] for r in q)} maximum-principle violations in {len(q)} meshes; "
+                 f"min quality {min(r['min_q'] for r in q):.3f}; N within "
+                 f"{max(abs(r['N'] - n) / n for r, n in zip(q, [n for _ in args.cases for n in args.n])):.1%} "
+                 "of the target")
+    print(notes[-1])
+    if not args.no_page:
+        figures = []
+        if "inclusion" in args.cases and not args.no_mmg:
+            path = report_page.figure_path(__file__, "inclusion.png")
+            figure(path)
+            figures.append(report_page.Figure(
+                path, "inclusion, N = 2000: qmesh, MMG2D and Triangle; regions coloured, q_ij < 0 "
+                      "in red"))
+        report_page.write_page(
+            __file__, sys.argv, "Heterogeneous media against MMG2D and Triangle",
+            "Cases of `qmesh.media.cases`: FVCA5 tests 4 (vertical fault), 6 (oblique drain), 7 "
+            "(oblique barrier), a layered box and an inclusion. For each target N, qmesh "
+            "(`qmesh.mesh(domain, {tag: Anisotropy}, target_vertices=N)`); MMG2D (mmgpy) from the "
+            "constrained triangulation of every region edge, triangle references = regions, the "
+            "per-vertex metric ∇²s_r / k_r of the vertex's region (the mean of its regions' on an "
+            "interface), scaled to qmesh's N; Triangle, isotropic, regions as segments (`pq30a`, "
+            "area calibrated to N). Columns: N; share of q_ij ≥ 0 on interior / interface / "
+            "boundary edges (each triangle's own Q); the discrete maximum principle on "
+            "−div(Q∇u) = 0, u = g on ∂Ω (g the case's data): vertices outside [min g, max g] "
+            "(beyond 1e-10 of the range) and the worst excess relative to the range; κ2 of the "
+            "Dirichlet matrix; min metric quality (2.94) in each triangle's own metric; seconds "
+            "(qmesh: the whole run; peers: their final calibrated run).",
+            tables=[report_page.Table(HEADERS, [_cells(r) for r in rows])],
+            notes=[n + "." for n in notes], figures=figures)
 
 
 if __name__ == "__main__":

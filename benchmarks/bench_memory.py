@@ -5,7 +5,7 @@ Each case runs in a fresh Python process: after the imports and a tiny warm-up m
 memory is the baseline; after `qmesh.mesh` its peak resident memory (getrusage ru_maxrss); the
 difference over the vertices made is the figure printed.
 
-    python benchmarks/bench_memory.py [--sizes 10000 100000 400000] [--vb 256]
+    python benchmarks/bench_memory.py [--sizes 10000 100000 400000] [--vb 256] [--no-page]
 """
 
 from __future__ import annotations
@@ -15,6 +15,8 @@ import json
 import subprocess
 import sys
 import time
+
+import report_page
 
 CHILD = r"""
 import json, resource, sys, time
@@ -49,7 +51,9 @@ def main() -> None:
     p.add_argument("--vb", type=int, default=256)
     p.add_argument("--kinds", nargs="+", default=["constant", "varying"],
                    choices=["constant", "varying"])
+    report_page.add_option(p)
     a = p.parse_args()
+    rows = []
     print(f"{'s':<10}{'target':>9}{'N':>9}{'base MB':>9}{'peak MB':>9}{'B/vertex':>10}"
           f"{'mesh s':>8}")
     for kind in a.kinds:
@@ -60,6 +64,20 @@ def main() -> None:
             print(f"{kind:<10}{n:>9}{r['n']:>9}{r['base'] / 1e6:>9.0f}{r['peak'] / 1e6:>9.0f}"
                   f"{per:>10.0f}{r['seconds']:>8.1f}   ({time.perf_counter() - t:.0f} s in all)",
                   flush=True)
+            rows.append([kind, n, r["n"], f"{r['base'] / 1e6:.0f}", f"{r['peak'] / 1e6:.0f}",
+                         f"{per:.0f}", f"{r['seconds']:.1f}"])
+    if not a.no_page:
+        report_page.write_page(
+            __file__, sys.argv, "Peak memory per vertex",
+            f"Peak memory of `qmesh.mesh` on Disk({a.vb}) for a constant Q (the chapter's "
+            "diag(0.1, 10)) and a varying s (`exp(x) + y**2`): the figures behind "
+            "`qmesh.mesher.budget.BYTES_PER_VERTEX`. Each case runs in a fresh Python process; "
+            "after the imports and a tiny warm-up mesh its resident memory is the baseline, after "
+            "`qmesh.mesh` its peak resident memory (getrusage ru_maxrss); bytes per vertex = "
+            "(peak − baseline) / N. MB are 10^6 bytes; the last column is the seconds inside "
+            "`qmesh.mesh`.",
+            tables=[report_page.Table(["s", "target", "N", "base MB", "peak MB", "B/vertex",
+                                       "mesh s"], rows)])
 
 
 if __name__ == "__main__":

@@ -4,6 +4,7 @@
     python benchmarks/bench_mesher.py --big           # ~1e5 and ~1e6 vertices
     python benchmarks/bench_mesher.py --sizes 2e5 --vb 1024
     python benchmarks/bench_mesher.py --domains --no-mmg  # holed domains against the disk
+    python benchmarks/bench_mesher.py --no-page       # print only (no docs/benchmarks/ page)
 
 Every case runs in its own subprocess, so peak memory (ru_maxrss) does not mix between cases;
 the baseline (interpreter + imports) is printed beside the peak. qmesh is timed over the whole
@@ -11,7 +12,7 @@ the baseline (interpreter + imports) is printed beside the peak. qmesh is timed 
 MMG2D gets the constant metric ∇²s/h² with h calibrated to the same N (qmesh.compare.peers),
 and its time is that of the final, calibrated run (calibration runs are counted and timed
 separately); Shewchuk's Triangle meshes the same disk isotropically (pq30a, its maximum area
-calibrated to the same N by one probe run), the C limit of issue 20. The case:
+calibrated to the same N by one probe run), the C limit. The case:
 Q = diag(0.1, 10) on Disk(VB); the mesher adds boundary points between the VB seeds, so one VB
 (default 512) serves every size. The whole `qmesh mesh … -o x.vtu` command (meshing, the
 summary's measures, writing the file) is timed too, from its own process. Prints figures only:
@@ -27,6 +28,8 @@ import subprocess
 import sys
 import time
 from collections import defaultdict
+
+import report_page
 
 CHAPTER_Q = [[0.1, 0.0], [0.0, 10.0]]
 
@@ -179,6 +182,7 @@ def main(argv=None) -> int:
                    help="also time qmesh on holed and non-convex domains at the same N")
     p.add_argument("--timeout", type=float, default=3600.0, help="seconds per case")
     p.add_argument("--child", nargs=3, metavar=("KIND", "N", "VB"), help=argparse.SUPPRESS)
+    report_page.add_option(p)
     args = p.parse_args(argv)
     if args.child:
         kind, n, vb = args.child[0], int(args.child[1]), args.child[2]
@@ -190,6 +194,45 @@ def main(argv=None) -> int:
     sizes = args.sizes or ([1e5, 1e6] if args.big else [1e5])
     if args.big and args.sizes:
         sizes = sorted(set(sizes) | {1e6})
+    with report_page.capture() as printed:
+        rows = run(sizes, args)
+    if not args.no_page:
+        report_page.write_page(
+            __file__, sys.argv, "Speed and memory against MMG2D and Triangle",
+            f"The chapter's case, Q = diag(0.1, 10) on Disk({args.vb}) (the mesher adds boundary "
+            "points between the seeds), at each target N. Every case runs in its own process, so "
+            "peak memory (ru_maxrss) does not mix between cases; the baseline is the interpreter "
+            "and its imports. qmesh is timed over the whole `qmesh.iterate` run to convergence "
+            "(per-stage seconds from `step.stats.seconds` in the output below); MMG2D (mmgpy) "
+            "gets the constant metric ∇²s/h² with h calibrated to the same N, timed on its final "
+            "calibrated run; Shewchuk's Triangle meshes the same disk isotropically (`pq30a`, the "
+            "maximum area calibrated by one probe run). The whole `qmesh mesh … -o x.vtu` command "
+            "(meshing, the summary's measures, writing the file) is timed from its own process.",
+            tables=[report_page.Table(["target N", "mesher", "s", "N", "vertices/s", "peak MB",
+                                       "baseline MB", "detail"], rows)],
+            output=printed())
+    return 0
+
+
+def _row(n: int, r: dict) -> list:
+    """One row of the page's table for one case's result."""
+    name = r["mesher"]
+    if "seconds" not in r:
+        return [f"{n:,}", name, "", "", "", "", "",
+                ("skipped: " + str(r["skipped"])) if "skipped" in r else f"FAILED: {r.get('failed')}"]
+    nv = r.get("n_vertices")
+    detail = (f"{r['iterations']} iterations, converged={r['converged']}" if name == "qmesh"
+              else f"final of {r['runs']} calibration runs ({r['calibration_seconds']:.1f} s in all)"
+              if name == "mmg2d" else "pq30a, area calibrated by one probe run" if name == "triangle"
+              else f"whole command, meshing {r['meshing_seconds']:.2f} s" if name == "command" else "")
+    return [f"{n:,}", name, f"{r['seconds']:.2f}", "" if nv is None else f"{nv:,}",
+            "" if nv is None else f"{nv / r['seconds']:,.0f}", f"{r['peak_mb']:,.0f}",
+            f"{r['baseline_mb']:,.0f}" if "baseline_mb" in r else "", detail]
+
+
+def run(sizes, args) -> list[list]:
+    """Every case of every size, printed as it comes; the page's table rows."""
+    rows = []
     print(f"python {sys.version.split()[0]}; each case in its own process; VB = {args.vb}")
     for n in (int(s) for s in sizes):
         q = run_case("qmesh", n, args.vb, args.timeout)
@@ -198,6 +241,7 @@ def main(argv=None) -> int:
         t = run_case("triangle", n, args.vb, args.timeout)
         report(n, args.vb, q, m, t)
         c = run_case("command", n, args.vb, args.timeout)
+        rows += [_row(n, r) for r in (q, m, t, c)]
         if "seconds" in c:
             print(f"  the whole `qmesh mesh … -o x.vtu` command: {c['seconds']:.2f} s (meshing "
                   f"{c['meshing_seconds']:.2f} s), peak {c['peak_mb']:,.0f} MB"
@@ -213,7 +257,9 @@ def main(argv=None) -> int:
                 ratio = r["seconds"] / q["seconds"] if "seconds" in q else float("nan")
                 print(f"  qmesh on {name}: {r['seconds']:.2f} s, N = {r['n_vertices']:,}, "
                       f"{ratio:.2f}x the disk's time, peak {r['peak_mb']:,.0f} MB")
-    return 0
+                rows.append(_row(n, r))
+                rows[-1][1] = f"qmesh on {name}"
+    return rows
 
 
 if __name__ == "__main__":

@@ -1,8 +1,8 @@
-"""Inputs whose cost once did not follow N (issue 20), each timed in its own process with its
+"""Inputs whose cost once did not follow N, each timed in its own process with its
 peak memory: the co-circular isotropic disk beside the same disk under Q = diag(0.1, 10), the
 steep varying s on Disk(32), and the extreme scales.
 
-    python benchmarks/bench_scale_cases.py [--quick]
+    python benchmarks/bench_scale_cases.py [--quick] [--no-page]
 
 Prints a Markdown table: case, outcome (N, or the QmeshError's first words), seconds inside
 qmesh.mesh, peak RSS of the process (MB).
@@ -16,6 +16,8 @@ import resource
 import subprocess
 import sys
 import time
+
+import report_page
 
 SQUARE = [[0, 0], [1, 0], [1, 1], [0, 1]]
 
@@ -68,19 +70,30 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--child", help=argparse.SUPPRESS)
     ap.add_argument("--quick", action="store_true", help="leave out the two Disk(30000) cases")
+    report_page.add_option(ap)
     args = ap.parse_args(argv)
     if args.child:
         print(json.dumps(child(args.child)))
         return
     print("| case | outcome | s | peak MB |")
     print("|---|---|---|---|")
+    rows = []
     for name in NAMES:
         if args.quick and "30000" in name:
             continue
         out = subprocess.run([sys.executable, __file__, "--child", name], capture_output=True,
                              text=True, timeout=1800)
         r = json.loads(out.stdout.strip().splitlines()[-1])
-        print(f"| {name} | {r['outcome']} | {r['seconds']:.2f} | {r['rss']:.0f} |", flush=True)
+        rows.append([name, r["outcome"], f"{r['seconds']:.2f}", f"{r['rss']:.0f}"])
+        print("| " + " | ".join(rows[-1]) + " |", flush=True)
+    if not args.no_page:
+        report_page.write_page(
+            __file__, sys.argv, "Inputs whose cost once did not follow N",
+            "Each case runs in its own process: the co-circular isotropic Disk(30000) beside the "
+            "same disk under Q = diag(0.1, 10), steep varying s on Disk(32), and extreme scales. "
+            "Columns: the case, its outcome (N, or the QmeshError's first words), seconds inside "
+            "`qmesh.mesh`, and the process's peak resident memory (MB, ru_maxrss, imports "
+            "included).", tables=[report_page.Table(["case", "outcome", "s", "peak MB"], rows)])
 
 
 if __name__ == "__main__":

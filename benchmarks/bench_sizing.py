@@ -1,6 +1,6 @@
-"""How the run's sizing lands on the target (issue 16): random cases from the property suite.
+"""How the run's sizing lands on the target: random cases from the property suite.
 
-    python benchmarks/bench_sizing.py [--cases 300] [--seed 0] [--max-target 3000]
+    python benchmarks/bench_sizing.py [--cases 300] [--seed 0] [--max-target 3000] [--no-page]
 
 For each case, runs `qmesh.mesh` (watching its Steps through `progress`) and counts the runs
 that needed a second, smaller-sized run (a second Step of iteration 0), the refusals
@@ -23,12 +23,15 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "properti
 import qmesh  # noqa: E402
 import strategies  # noqa: E402
 
+import report_page  # noqa: E402
+
 
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cases", type=int, default=300)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--max-target", type=int, default=3000)
+    report_page.add_option(ap)
     args = ap.parse_args(argv)
     rows = []
 
@@ -55,9 +58,23 @@ def main(argv=None) -> None:
     dev = np.array([abs(n - t) / t for t, _, n in rows if n is not None])
     print(f"cases {len(rows)}: meshed {len(dev)}, refused {refused} (QmeshError), "
           f"second run {second}")
+    table = [["cases", len(rows)], ["meshed", len(dev)], ["refused (QmeshError)", refused],
+             ["needed a second, smaller-sized run", second]]
     if len(dev):
         print(f"|N - target| / target: median {np.median(dev):.3f}, 95th percentile "
               f"{np.percentile(dev, 95):.3f}, max {dev.max():.3f}")
+        table += [["|N − target| / target, median", f"{np.median(dev):.3f}"],
+                  ["|N − target| / target, 95th percentile", f"{np.percentile(dev, 95):.3f}"],
+                  ["|N − target| / target, max", f"{dev.max():.3f}"]]
+    if not args.no_page:
+        report_page.write_page(
+            __file__, sys.argv, "How the sizing lands on the target",
+            f"{args.cases} random cases from the property suite's strategies (any domain, any "
+            f"conductivity, target N up to {args.max_target}, hypothesis seed {args.seed}): each "
+            "runs `qmesh.mesh`, watching its Steps through `progress`; counted are the runs that "
+            "needed a second, smaller-sized run (a second Step of iteration 0), the refusals "
+            "(QmeshError), and how far the final N is from the target.",
+            tables=[report_page.Table(["", "value"], table)])
 
 
 if __name__ == "__main__":

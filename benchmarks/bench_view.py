@@ -3,14 +3,16 @@
 1. Server side: one stage of Algorithm 2.1 plus the re-render of all three views at ~1e4 vertices.
 2. Server side: a Q slider change at VB = 64, the run restarted with the new Q and redrawn; also
    the whole re-mesh to convergence with the new Q and its redraw.
-3. In the browser (issue 12; targets 0.25 s at N ≤ 1,000, 0.6 s at N = 10,000): `qmesh-view
+3. In the browser (targets 0.25 s at N ≤ 1,000, 0.6 s at N = 10,000): `qmesh-view
    --server` driven by Debian's Chromium through Playwright; from the click on Step (or the key
    press on the k1 slider) to the first changed picture of each view, for remote (server-rendered
    images) and local (vtk.js in the browser) views. Measured in the page by
    `tests/view/view_browser.LATENCY_PROBE`, without a screen recorder.
 
-    python benchmarks/bench_view.py [--vertices 10000] [--window 520 480] [--repeat 6]
+    python benchmarks/bench_view.py [--vertices 10000] [--window 520 480] [--repeat 6] [--no-page]
     python benchmarks/bench_view.py --browser [--modes remote local] [--sizes 212 1000 10000]
+
+The page is docs/benchmarks/bench_view.md (1. and 2.), or bench_view-browser.md (3.).
 
 Off-screen rendering (Mesa llvmpipe here, SwiftShader WebGL in Chromium); the status line's κ2 is
 timed separately because the app computes it in its worker thread after the views are updated.
@@ -32,6 +34,8 @@ from qmesh_view.controller import Controller  # noqa: E402
 from qmesh_view.session import Session  # noqa: E402
 from qmesh_view.draw import ViewSet  # noqa: E402
 
+import report_page  # noqa: E402
+
 
 def timed(fn):
     t = time.perf_counter()
@@ -45,7 +49,7 @@ def redraw(views: ViewSet, c) -> None:
     views.images()
 
 
-def stage_at_size(n: int, window, repeat: int) -> None:
+def stage_at_size(n: int, window, repeat: int) -> report_page.Table:
     vb = 512
     c = Controller(vb=vb, target_vertices=n)
     while c.current.mesh.n_vertices < 0.5 * n and c.step():
@@ -76,9 +80,15 @@ def stage_at_size(n: int, window, repeat: int) -> None:
     totals = [a + b + r for _, _, a, b, r, _ in rows]
     print(f"   median total {statistics.median(totals):.3f} s, max {max(totals):.3f} s "
           f"(target ≤ 0.3 s)")
+    return report_page.Table(
+        ["stage", "N", "stage s", "scene s", "render s", "total s", "status (κ2) s"],
+        [[stage, nv, f"{a:.3f}", f"{b:.3f}", f"{r:.3f}", f"{a + b + r:.3f}", f"{s:.3f}"]
+         for stage, nv, a, b, r, s in rows],
+        f"1. One stage + re-render of the three views, VB = {vb}, target {n}, window "
+        f"{window[0]}x{window[1]} per view")
 
 
-def q_change(window, repeat: int) -> None:
+def q_change(window, repeat: int) -> report_page.Table:
     c = Session()
     views = ViewSet(window)
     redraw(views, c)
@@ -97,6 +107,13 @@ def q_change(window, repeat: int) -> None:
     ts = [t for t, _, _ in full]
     print(f"   re-mesh to convergence + redraw: median {statistics.median(ts):.3f} s, "
           f"max {max(ts):.3f} s ({full[0][1]} stages, N = {full[0][2]})")
+    return report_page.Table(
+        ["after a Q slider change", "median s", "max s", "runs"],
+        [["restart with the new Q + redraw (what the app does)", f"{statistics.median(restart):.3f}",
+          f"{max(restart):.3f}", len(restart)],
+         [f"re-mesh to convergence + redraw ({full[0][1]} stages, N = {full[0][2]})",
+          f"{statistics.median(ts):.3f}", f"{max(ts):.3f}", len(ts)]],
+        f"2. Q slider change at VB = 64 (target 212), window {window[0]}x{window[1]} per view")
 
 
 VB_FOR = {212: 64, 1000: 128, 10_000: 512, 100_000: 512}
@@ -136,11 +153,12 @@ def browser_latency(mode: str, n: int, repeat: int) -> list:
     return rows
 
 
-def browser(modes, sizes, repeat: int) -> None:
+def browser(modes, sizes, repeat: int) -> report_page.Table:
     print("3. in Chromium: from the input event to the first changed picture, seconds "
           "(all: the slowest view that changed; n/c: the view's picture did not change)")
     print(f"   {'views':<8}{'target':>7}  {'action':<7}{'N shown':>10}{'lifted':>8}{'mesh':>8}"
           f"{'quality':>9}{'all':>7}")
+    table = []
     for n in sizes:
         for mode in modes:
             worst = {}
@@ -162,6 +180,12 @@ def browser(modes, sizes, repeat: int) -> None:
                 print(f"   {mode:<8}{n:>7}  {action:<7} median of the slowest view {med} s, max "
                       f"{max(ok) if ok else float('nan'):.3f} s over {len(ok)} clicks "
                       f"(target {target} s; no view changed: {len(xs) - len(ok)})")
+                table.append([mode, n, action, med, f"{max(ok) if ok else float('nan'):.3f}",
+                              len(ok), len(xs) - len(ok), target])
+    return report_page.Table(
+        ["views", "target N", "action", "median s (slowest view)", "max s", "inputs",
+         "inputs with no view changed", "target s"], table,
+        "3. In Chromium: from the input event to the first changed picture")
 
 
 def main() -> None:
@@ -172,14 +196,37 @@ def main() -> None:
     p.add_argument("--browser", action="store_true", help="only the in-browser latencies (3.)")
     p.add_argument("--modes", nargs="+", default=["remote", "local"], choices=["remote", "local"])
     p.add_argument("--sizes", nargs="+", type=int, default=[212, 1000, 10_000])
+    report_page.add_option(p)
     a = p.parse_args()
-    print(f"load average before: {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
+    with report_page.capture() as printed:
+        print(f"load average before: {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
+        if a.browser:
+            tables = [browser(a.modes, a.sizes, a.repeat)]
+        else:
+            tables = [stage_at_size(a.vertices, tuple(a.window), a.repeat),
+                      q_change(tuple(a.window), a.repeat)]
+        print(f"load average after: {os.getloadavg()[0]:.2f}")
+    if a.no_page:
+        return
     if a.browser:
-        browser(a.modes, a.sizes, a.repeat)
+        report_page.write_page(
+            __file__, sys.argv, "Viewer latency in the browser",
+            "`qmesh-view --server` driven by Debian's Chromium through Playwright: from the click "
+            "on Step (or the key press on the k1 slider) to the first changed picture of each "
+            "view, for remote (server-rendered images) and local (vtk.js in the browser) views, "
+            "measured in the page by `tests/view/view_browser.LATENCY_PROBE`; SwiftShader WebGL "
+            "in Chromium. Targets: 0.25 s at N ≤ 1,000, 0.6 s at N = 10,000.",
+            tables=tables, output=printed(), suffix="browser")
     else:
-        stage_at_size(a.vertices, tuple(a.window), a.repeat)
-        q_change(tuple(a.window), a.repeat)
-    print(f"load average after: {os.getloadavg()[0]:.2f}")
+        report_page.write_page(
+            __file__, sys.argv, "Viewer timings on the server side",
+            "Two paths, timed on the server: (1) one stage of Algorithm 2.1 plus the scene "
+            "functions and the render and read-back of all three views, at stages near the target "
+            "N (target ≤ 0.3 s); the status line's κ2 is timed separately because the app "
+            "computes it in its worker thread after the views are updated; (2) a Q slider change "
+            "at VB = 64: the run restarted with the new Q and redrawn (target ≤ 1 s), and the "
+            "whole re-mesh to convergence with its redraw. Off-screen rendering (Mesa llvmpipe).",
+            tables=tables, output=printed())
 
 
 if __name__ == "__main__":

@@ -1,7 +1,7 @@
-"""Stress the mesher with random cases and print a summary of the defects found (issue 10).
+"""Stress the mesher with random cases and print a summary of the defects found.
 
     python benchmarks/stress.py --cases 2000 [--seed 1] [--kinds regular,convex,thin,holed]
-                                [--conductivity any] [--max-target 3000] [--show 2]
+                                [--conductivity any] [--max-target 3000] [--show 2] [--no-page]
 
 Draws cases from the property suite's strategies (tests/properties/strategies.py), meshes each,
 checks it with the independent evaluator (tests/properties/invariants.py), meshes every tenth
@@ -31,6 +31,7 @@ import invariants  # noqa: E402
 import strategies  # noqa: E402
 
 import qmesh  # noqa: E402
+import report_page  # noqa: E402
 
 KINDS = {
     "regular": strategies.regular_domains,
@@ -52,6 +53,7 @@ def parse_args(argv=None):
     p.add_argument("--max-target", type=int, default=strategies.MAX_TARGET)
     p.add_argument("--show", type=int, default=1, help="reproducers to print per category")
     p.add_argument("--no-bad-calls", action="store_true", help="skip the invalid calls")
+    report_page.add_option(p)
     return p.parse_args(argv)
 
 
@@ -145,10 +147,31 @@ def main(argv=None) -> int:
     args = parse_args(argv)
     t0 = time.perf_counter()
     found = run_cases(args)
-    report(found, args)
-    if not args.no_bad_calls:
-        run_bad_calls()
-    print(f"wall time {time.perf_counter() - t0:.0f} s")
+    with report_page.capture() as printed:
+        report(found, args)
+        if not args.no_bad_calls:
+            run_bad_calls()
+        print(f"wall time {time.perf_counter() - t0:.0f} s")
+    if not args.no_page:
+        n, sec = found["n"], np.array(found["seconds"]) if found["seconds"] else np.zeros(1)
+        rows = [["random cases", n],
+                ["with a defect", f"{found['bad']} ({100 * found['bad'] / max(n, 1):.1f}%)"],
+                ["with a defect other than boundary q_ij < 0",
+                 f"{found['bad_not_boundary_q']} ({100 * found['bad_not_boundary_q'] / max(n, 1):.1f}%)"],
+                ["refused with a QmeshError naming the option", len(found["refused"])],
+                ["time per case: median, max (s)", f"{np.median(sec):.3f}, {sec.max():.2f}"]]
+        rows += [[f"defects in category {cat}", count] for cat, count in found["categories"].most_common()]
+        report_page.write_page(
+            __file__, sys.argv, "Stress: random cases and their defects",
+            f"{n} cases drawn from the property suite's strategies "
+            f"(`tests/properties/strategies.py`; domain kinds {args.kinds}, conductivity "
+            f"{args.conductivity}, target N up to {args.max_target}, hypothesis seed {args.seed}), "
+            "each meshed and checked by the independent evaluator "
+            "(`tests/properties/invariants.py`); every tenth case is meshed a second time (same "
+            "seed ⇒ same mesh), and every invalid call of `tests/properties/bad_calls.py` is run "
+            "once" + (" (not in this run)" if args.no_bad_calls else "") + ". The console output "
+            "lists the shortest reproducer of each defect category.",
+            tables=[report_page.Table(["", "value"], rows)], output=printed())
     return 0
 
 
