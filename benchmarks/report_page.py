@@ -166,8 +166,8 @@ def _commit() -> str:
     head = _git("rev-parse", "--short=10", "HEAD")
     if not head:
         return "unknown (not a git checkout)"
-    dirty = _git("status", "--porcelain", "--", "qmesh", "app", "benchmarks")
-    return head + (" (with uncommitted changes in qmesh/, app/ or benchmarks/)" if dirty else "")
+    dirty = _git("status", "--porcelain", "--", "qmesh", "app")
+    return head + (" (with uncommitted changes in qmesh/ or app/)" if dirty else "")
 
 
 def _version(module: str) -> str:
