@@ -1,7 +1,5 @@
 """s(x, y) typed as text: exact derivatives, a strict whitelist, bounded work (qmesh.expression)."""
 
-import time
-
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -171,17 +169,14 @@ HOSTILE = {  # text → a part of the message that points at the offending part
 }
 
 
+@pytest.mark.timeout(30)      # hang guard: a refusal must not wait on unbounded work
 @pytest.mark.parametrize("text", list(HOSTILE), ids=lambda t: repr(t[:30]))
 def test_hostile_text_is_refused_quickly_and_without_side_effect(text, tmp_path, monkeypatch):
     marker = tmp_path / "X"
     monkeypatch.chdir(tmp_path)
-    qmesh.Anisotropy.from_expression("exp(x) + y**2")   # SymPy imported before the clock starts
-    start = time.perf_counter()
     with pytest.raises(qmesh.QmeshError) as err:
         qmesh.Anisotropy.from_expression(text.replace("{marker}", str(marker)))
-    elapsed = time.perf_counter() - start
     assert HOSTILE[text] in str(err.value)
-    assert elapsed < 2.0, "hang guard: a refusal must not wait on unbounded work"
     assert not marker.exists() and list(tmp_path.iterdir()) == []
     assert len(str(err.value)) < 400                          # the text is not echoed whole
 

@@ -1,10 +1,9 @@
 """Cost follows N for inputs that once did not (issue 20): ties in the lifting, steep s.
 
-Each case once took tens of seconds or gigabytes; the time limits here are loose (a slow
-shared machine) but far below the old cost.
+Each case once took tens of seconds or gigabytes. A hang or a return to that cost fails the
+test by its pytest-timeout, set loose for a slow shared machine; how fast each case is today
+is benchmarks/bench_scale_cases.py's figure, not a test's.
 """
-
-import time
 
 import numpy as np
 import pytest
@@ -19,6 +18,7 @@ from qmesh.mesher.triangulate import first_triangulation, lower_hull
 from cases import locally_regular
 
 
+@pytest.mark.timeout(60)
 def test_co_circular_isotropic_disk_beyond_the_exact_hull_is_fast_and_q_delaunay():
     """6000 points on one circle: Qhull's exact 3-D hull merges facets quadratically there."""
     n = 6000
@@ -26,9 +26,7 @@ def test_co_circular_isotropic_disk_beyond_the_exact_hull_is_fast_and_q_delaunay
     inner = np.random.default_rng(1).uniform(-0.6, 0.6, (3000, 2))
     P = np.concatenate([np.column_stack([np.cos(t), np.sin(t)]), inner])
     A = qmesh.Anisotropy.constant(np.eye(2))
-    t0 = time.perf_counter()
     T, twin = first_triangulation(P, A)
-    assert time.perf_counter() - t0 < 10.0
     used = np.zeros(len(P), bool)
     used[T.ravel()] = True
     assert used.all()
@@ -58,20 +56,18 @@ def test_first_triangulation_equals_the_lower_hull_on_generic_points():
     assert key(T) == key(lower_hull(P, A))
 
 
+@pytest.mark.timeout(120)
 def test_steep_radial_s_meshes_within_bounded_time():
-    t0 = time.perf_counter()
     m = qmesh.mesh(qmesh.Disk(32), qmesh.Anisotropy.from_expression("(x**2+y**2+1)**20"),
                    target_vertices=600)
-    assert time.perf_counter() - t0 < 30.0
     assert abs(m.n_vertices - 600) <= 30
 
 
+@pytest.mark.timeout(30)
 def test_an_s_steeper_than_the_mesh_is_refused_quickly_and_not_called_non_convex():
-    t0 = time.perf_counter()
     with pytest.raises(QmeshError) as e:
         qmesh.mesh(qmesh.Disk(32), qmesh.Anisotropy.from_expression("exp(20*x)+exp(20*y)"),
                    target_vertices=3000)
-    assert time.perf_counter() - t0 < 5.0
     assert "varies faster than a mesh" in str(e.value)
     assert "convex" not in str(e.value)
 
