@@ -34,6 +34,8 @@ def test_rerun_skips_finished_jobs_and_retries_the_rest(tmp_path, capsys):
     assert code == 1, err
     assert "4 jobs: 3 run, 1 already done, 2 failed" in out
     assert "1 job already in the table, skipped" in err and "2 of 3 jobs failed" in err
+    progress = [line for line in err.splitlines() if line.startswith("sweep: ") and "/3 [" in line]
+    assert len(progress) == 3 and "3/3" in progress[-1] and "2 failed" in progress[-1]   # a line per job
     rows = read_rows(table)
     # the study's order, then the other study's row
     assert [(r["domain"], r["target_vertices"], r["seed"]) for r in rows] == [
