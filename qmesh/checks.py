@@ -2,22 +2,27 @@
 
 Each one checks one argument where it is given and raises `QmeshError` whose message names the
 argument and shows the value received, so a NaN, an infinity, a huge number, a string, a bool or
-a None is refused with the same kind of error wherever it enters (issue 10 item 4). Each returns
+a None is refused with the same kind of error wherever it enters. Each returns
 the value in the form the caller computes with (a float, an int, a float array…).
 """
 
 from __future__ import annotations
 
 import numbers
+from collections.abc import Iterable, Mapping
+from typing import Any, Literal, TypeVar, overload
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from qmesh.errors import QmeshError
+
+_F = TypeVar("_F")
 
 _EPS = np.finfo(float).eps
 
 
-def describe(value) -> str:
+def describe(value: object) -> str:
     """A short text of `value` for an error message: its repr (cut at 60 characters) and type."""
     if isinstance(value, np.ndarray) and value.size > 4:
         return f"an array of shape {value.shape} and dtype {value.dtype}"
@@ -29,7 +34,7 @@ def describe(value) -> str:
     return f"{text} ({type(value).__name__})"
 
 
-def _bounds_text(low, high, low_open: bool, high_open: bool) -> str:
+def _bounds_text(low: float | None, high: float | None, low_open: bool, high_open: bool) -> str:
     if low is not None and high is not None:
         return f"in {'(' if low_open else '['}{low:g}, {high:g}{')' if high_open else ']'}"
     if low is not None:
@@ -39,7 +44,7 @@ def _bounds_text(low, high, low_open: bool, high_open: bool) -> str:
     return "a finite number"
 
 
-def _scalar(value, name: str, wanted: str, kinds, none: bool):
+def _scalar(value: Any, name: str, wanted: str, kinds: type | tuple[type, ...], none: bool) -> Any:
     """`value` unwrapped from a 0-d array; None passes when `none`; a bool or anything not of
     `kinds` is refused."""
     if value is None:
@@ -53,7 +58,15 @@ def _scalar(value, name: str, wanted: str, kinds, none: bool):
     return value
 
 
-def real(value, name: str, *, low: float | None = None, high: float | None = None,
+@overload
+def real(value: object, name: str, *, low: float | None = ..., high: float | None = ...,
+         low_open: bool = ..., high_open: bool = ..., none: Literal[False] = ...) -> float: ...
+@overload
+def real(value: object, name: str, *, low: float | None = ..., high: float | None = ...,
+         low_open: bool = ..., high_open: bool = ..., none: bool) -> float | None: ...
+
+
+def real(value: Any, name: str, *, low: float | None = None, high: float | None = None,
          low_open: bool = False, high_open: bool = False, none: bool = False) -> float | None:
     """`value` as a finite float within the bounds (open or closed); None passes when `none`.
 
@@ -77,7 +90,15 @@ def real(value, name: str, *, low: float | None = None, high: float | None = Non
     return x
 
 
-def integer(value, name: str, *, low: int | None = None, high: int | None = None,
+@overload
+def integer(value: object, name: str, *, low: int | None = ..., high: int | None = ...,
+            none: Literal[False] = ...) -> int: ...
+@overload
+def integer(value: object, name: str, *, low: int | None = ..., high: int | None = ...,
+            none: bool) -> int | None: ...
+
+
+def integer(value: Any, name: str, *, low: int | None = None, high: int | None = None,
             none: bool = False) -> int | None:
     """`value` as a Python int within [low, high]; None passes when `none`.
 
@@ -96,28 +117,28 @@ def integer(value, name: str, *, low: int | None = None, high: int | None = None
     return n
 
 
-def boolean(value, name: str) -> bool:
+def boolean(value: object, name: str) -> bool:
     """`value` as a bool; only True, False and NumPy bools are accepted (not 0, 1 or "yes")."""
     if not isinstance(value, (bool, np.bool_)):
         raise QmeshError(f"{name} must be True or False, got {describe(value)}")
     return bool(value)
 
 
-def function(value, name: str):
+def function(value: _F, name: str) -> _F:
     """`value` itself when it is callable."""
     if not callable(value):
         raise QmeshError(f"{name} must be a callable, got {describe(value)}")
     return value
 
 
-def text(value, name: str) -> str:
+def text(value: object, name: str) -> str:
     """`value` when it is a str."""
     if not isinstance(value, str):
         raise QmeshError(f"{name} must be a string, got {describe(value)}")
     return value
 
 
-def choice(value, name: str, options) -> str:
+def choice(value: object, name: str, options: Iterable[str]) -> str:
     """`value` when it is one of the strings `options`."""
     if not isinstance(value, str) or value not in options:
         listed = ", ".join(repr(o) for o in options)
@@ -125,7 +146,7 @@ def choice(value, name: str, options) -> str:
     return value
 
 
-def real_array(value, name: str, shape: tuple) -> np.ndarray:
+def real_array(value: ArrayLike, name: str, shape: tuple[int | None, ...]) -> NDArray[np.float64]:
     """`value` as a finite float array of `shape` (None in `shape` matches any length).
 
     Refused: strings, objects, complex and bool arrays, ragged lists, wrong shapes, NaN and ±inf
@@ -150,7 +171,7 @@ def real_array(value, name: str, shape: tuple) -> np.ndarray:
     return A
 
 
-def spd_matrix(value, name: str) -> np.ndarray:
+def spd_matrix(value: ArrayLike, name: str) -> NDArray[np.float64]:
     """`value` as a symmetric positive definite 2x2 float matrix (symmetrised).
 
     The test does not depend on the matrix's size: it is made on Q / max|Q_ij|, so 1e-200·I and
@@ -172,13 +193,13 @@ def spd_matrix(value, name: str) -> np.ndarray:
     return 0.5 * Q + 0.5 * Q.T
 
 
-def _is(value, qualified: str) -> bool:
+def _is(value: object, qualified: str) -> bool:
     """`value` is an instance of the class named `qualified` (module.Class), found by name so
     that checks imports none of the types it checks (they import checks)."""
     return any(f"{c.__module__}.{c.__qualname__}" == qualified for c in type(value).__mro__)
 
 
-def anisotropy(value, name: str = "anisotropy"):
+def anisotropy(value: Any, name: str = "anisotropy") -> Any:
     """`value` when it is a qmesh.Anisotropy (an array or a list is not: it says how to make one)."""
     if _is(value, "qmesh.conductivity.anisotropy.Anisotropy"):
         return value
@@ -187,22 +208,22 @@ def anisotropy(value, name: str = "anisotropy"):
     raise QmeshError(f"{name} must be a qmesh.Anisotropy, got {describe(value)}{hint}")
 
 
-def anisotropy_or_none(value, name: str = "anisotropy"):
+def anisotropy_or_none(value: Any, name: str = "anisotropy") -> Any:
     """`value` when it is a qmesh.Anisotropy or None (None: the Laplacian, Q = I)."""
     return None if value is None else anisotropy(value, name)
 
 
-def mesh(value, name: str = "mesh"):
+def mesh(value: Any, name: str = "mesh") -> Any:
     """`value` when it is a qmesh.Mesh (whose constructor refused non-finite coordinates)."""
     if not _is(value, "qmesh.triangle_mesh.Mesh"):
         raise QmeshError(f"{name} must be a qmesh.Mesh, got {describe(value)}")
     return value
 
 
-def tag_names(value: dict, name: str, tags: range | None = None) -> dict[int, str]:
+def tag_names(value: Mapping[Any, Any], name: str, tags: range | None = None) -> dict[int, str]:
     """A mapping integer tag → name (boundary tags, regions), or QmeshError naming the entry;
     with `tags`, every key must be one of them."""
-    out = {}
+    out: dict[int, str] = {}
     for k, v in value.items():
         if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not isinstance(v, str):
             raise QmeshError(f"{name} must map integer tags to strings, got {k!r}: {v!r}")
@@ -212,7 +233,7 @@ def tag_names(value: dict, name: str, tags: range | None = None) -> dict[int, st
     return out
 
 
-def polygon_list(value, name: str) -> list:
+def polygon_list(value: Any, name: str) -> list[Any]:
     """`value` as a list of polygons (holes, regions): a sequence, not an array or a string."""
     if value is None or isinstance(value, (str, bytes, np.ndarray)):
         raise QmeshError(f"{name} must be a list of polygons, got {type(value).__name__}")

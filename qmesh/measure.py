@@ -18,9 +18,11 @@ triangles of different regions) apart from the interior and boundary ones.
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any, Literal, Union
 
 import numpy as np
 import scipy.linalg
+from numpy.typing import ArrayLike, NDArray
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
@@ -30,6 +32,14 @@ from qmesh.errors import QmeshError
 from qmesh.geometry.topology import edge_keys
 from qmesh.geometry.triangles import Frame, chunks, corners, metric_hessians, metric_quality, signed_areas
 from qmesh.triangle_mesh import Mesh
+
+if TYPE_CHECKING:
+    from qmesh.conductivity.anisotropy import Anisotropy, Conductivity
+
+PerTriangle = Union[float, NDArray[np.float64]]
+"""A value per triangle (M,), or one float for all of them (a constant Q)."""
+Report = dict[str, Union[int, float, None]]
+"""`report`'s measurements by name: ints, floats, and None where a figure is undefined."""
 
 DENSE_LIMIT = 300
 """Up to this many unknowns condition_number uses a dense eigvalsh; above it, sparse eigsh.
@@ -44,7 +54,7 @@ _EDGE_PAIRS = (np.array([0, 1, 2]), np.array([1, 2, 0]))        # _EDGE_CORNERS 
 
 # --------------------------------------------------------------------------- energy
 
-def triangle_energy(P: np.ndarray, T: np.ndarray, anisotropy) -> np.ndarray:
+def triangle_energy(P: ArrayLike, T: ArrayLike, anisotropy: Anisotropy) -> NDArray[np.float64]:
     """∫_T (s_h − s) for every triangle, shape (M,); its sum is E = ‖s_h − s‖_L1 (2.77).
 
     Signed with the triangle's orientation, so E stays the smooth function of the vertex
@@ -62,7 +72,7 @@ def triangle_energy(P: np.ndarray, T: np.ndarray, anisotropy) -> np.ndarray:
     y0, y1, y2 = y.T
     ax, ay, bx, by, cx, cy = x1 - x0, y1 - y0, x2 - x1, y2 - y1, x0 - x2, y0 - y2
     area = 0.5 * (ay * cx - ax * cy)
-    if not anisotropy.is_constant:
+    if anisotropy.H is None:                          # s varies: no constant Hessian
         err = _interpolation_error_at_points(P, T, x, y, anisotropy)
         return area * (err @ quadrature.DUNAVANT4_WEIGHTS)   # (2.77)
     (h00, h01), (_, h11) = anisotropy.H
@@ -71,7 +81,7 @@ def triangle_energy(P: np.ndarray, T: np.ndarray, anisotropy) -> np.ndarray:
     return area * edges2 / 24.0                       # (2.77), closed form
 
 
-def energy(mesh: Mesh, anisotropy) -> float:
+def energy(mesh: Mesh, anisotropy: Conductivity) -> float:
     """E = ∫_Ω (s_h − s) = ‖s_h − s‖_L1 (2.77) (MATH.md "Vertex adjustment"); with one s per
     region, the sum of each region's own."""
     checks.mesh(mesh)
@@ -81,7 +91,8 @@ def energy(mesh: Mesh, anisotropy) -> float:
 
 # --------------------------------------------------------------------------- regions
 
-def _check(anisotropy, mesh: Mesh | None = None, allow_none: bool = False):
+def _check(anisotropy: Conductivity | None, mesh: Mesh | None = None,
+           allow_none: bool = False) -> Conductivity | None:
     """An Anisotropy (or None when allowed), or a mapping {tag: Anisotropy} that covers every
     region of `mesh`."""
     if not isinstance(anisotropy, Mapping):
@@ -98,7 +109,7 @@ def _check(anisotropy, mesh: Mesh | None = None, allow_none: bool = False):
     return anisotropy
 
 
-def _by_region(mesh: Mesh, anisotropy):
+def _by_region(mesh: Mesh, anisotropy: Conductivity) -> list[tuple[slice | NDArray[np.bool_], Anisotropy]]:
     """[(triangle selector, Anisotropy)]: everything for one Anisotropy, one pair per region
     present in the mesh for a mapping."""
     _check(anisotropy, mesh)
@@ -110,7 +121,7 @@ def _by_region(mesh: Mesh, anisotropy):
 
 # --------------------------------------------------------------------------- quality
 
-def quality(mesh: Mesh, anisotropy) -> np.ndarray:
+def quality(mesh: Mesh, anisotropy: Conductivity) -> NDArray[np.float64]:
     """Metric quality (2.94) of every triangle: 1 = equilateral in metric space, ≤ 0 = degenerate/inverted."""
     checks.mesh(mesh)
     P, T = mesh.points, mesh.triangles
@@ -125,10 +136,12 @@ def quality(mesh: Mesh, anisotropy) -> np.ndarray:
 
 # --------------------------------------------------------------------------- stiffness
 
-def _conductivity(x: np.ndarray, y: np.ndarray, anisotropy, regions=None):
+def _conductivity(x: NDArray[np.float64], y: NDArray[np.float64], anisotropy: Conductivity | None,
+                  regions: NDArray[np.int64] | None = None) -> tuple[PerTriangle, PerTriangle, PerTriangle]:
     """Q11, Q12, Q22 per triangle at its centroid (scalars when Q is constant; None → Q = I;
     a mapping: each triangle its region's, by `regions`)."""
     if isinstance(anisotropy, Mapping):
+        assert regions is not None, "a conductivity per region needs the triangles' regions"
         out = np.empty((3, len(x)))
         for r in np.unique(regions).tolist():
             sel = regions == r
@@ -137,14 +150,16 @@ def _conductivity(x: np.ndarray, y: np.ndarray, anisotropy, regions=None):
         return out[0], out[1], out[2]
     if anisotropy is None:
         return 1.0, 0.0, 1.0
-    if anisotropy.is_constant:
+    if anisotropy.H is not None:                            # a constant Q
         (h00, h01), (_, h11) = anisotropy.H
         return h11, -h01, h00                                  # Q = adj H
     Q = np.asarray(anisotropy.Q(np.stack([x.mean(axis=1), y.mean(axis=1)], axis=1)), dtype=float)
     return Q[:, 0, 0], 0.5 * (Q[:, 0, 1] + Q[:, 1, 0]), Q[:, 1, 1]
 
 
-def _element_entries(P: np.ndarray, T: np.ndarray, anisotropy, regions, a, b):
+def _element_entries(P: NDArray[np.float64], T: NDArray[np.int64], anisotropy: Conductivity | None,
+                     regions: NDArray[np.int64] | None, a: NDArray[np.intp],
+                     b: NDArray[np.intp]) -> tuple[NDArray[np.float64], int]:
     """K_T[a_k, b_k] = |T| ∇φ_aᵀ Q(x_T) ∇φ_b for every triangle and corner pair k: (M, len(a)),
     and how many of the triangles have zero area (their entries are not finite).
 
@@ -171,14 +186,15 @@ def _refuse_zero_areas(zero: int) -> None:
 _ALL_PAIRS = (np.repeat(np.arange(3), 3), np.tile(np.arange(3), 3))
 
 
-def _element_matrices(P: np.ndarray, T: np.ndarray, anisotropy, regions=None) -> np.ndarray:
+def _element_matrices(P: NDArray[np.float64], T: NDArray[np.int64], anisotropy: Conductivity | None,
+                      regions: NDArray[np.int64] | None = None) -> NDArray[np.float64]:
     """The element matrices K_T, shape (M, 3, 3) (`_element_entries` for all nine pairs)."""
     K, zero = _element_entries(P, T, anisotropy, regions, *_ALL_PAIRS)
     _refuse_zero_areas(zero)
     return K.reshape(-1, 3, 3)
 
 
-def _assemble(mesh: Mesh, anisotropy, index: np.ndarray, n: int) -> sp.csr_matrix:
+def _assemble(mesh: Mesh, anisotropy: Conductivity | None, index: NDArray[np.int64], n: int) -> sp.csr_matrix:
     """Sum the element matrices into an n×n csr matrix; vertex v goes to row index[v] (< 0: dropped)."""
     T = mesh.triangles
     Ke = _element_matrices(mesh.points, T, anisotropy, mesh.region_tags)
@@ -192,7 +208,7 @@ def _assemble(mesh: Mesh, anisotropy, index: np.ndarray, n: int) -> sp.csr_matri
     return sp.coo_matrix((data, (rows, cols)), shape=(n, n)).tocsr()
 
 
-def stiffness(mesh: Mesh, anisotropy) -> sp.csr_matrix:
+def stiffness(mesh: Mesh, anisotropy: Conductivity | None) -> sp.csr_matrix:
     """The N×N P1 stiffness matrix for Q (Neumann: all vertices), Q at each triangle's centroid."""
     checks.mesh(mesh)
     _check(anisotropy, mesh, allow_none=True)
@@ -200,7 +216,7 @@ def stiffness(mesh: Mesh, anisotropy) -> sp.csr_matrix:
     return _assemble(mesh, anisotropy, np.arange(n), n)
 
 
-def free_vertices(mesh: Mesh) -> np.ndarray:
+def free_vertices(mesh: Mesh) -> NDArray[np.int64]:
     """Indices of the Dirichlet unknowns: vertices of some triangle that are not on the boundary."""
     checks.mesh(mesh)
     used = np.zeros(mesh.n_vertices, bool)
@@ -208,7 +224,7 @@ def free_vertices(mesh: Mesh) -> np.ndarray:
     return np.flatnonzero(used & ~mesh.boundary)
 
 
-def stiffness_interior(mesh: Mesh, anisotropy) -> sp.csr_matrix:
+def stiffness_interior(mesh: Mesh, anisotropy: Conductivity | None) -> sp.csr_matrix:
     """The stiffness matrix restricted to `free_vertices(mesh)`, in that order (homogeneous Dirichlet)."""
     _check(anisotropy, mesh, allow_none=True)
     idx = free_vertices(mesh)
@@ -217,7 +233,8 @@ def stiffness_interior(mesh: Mesh, anisotropy) -> sp.csr_matrix:
     return _assemble(mesh, anisotropy, index, len(idx))
 
 
-def edge_weights(mesh: Mesh, anisotropy) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def edge_weights(mesh: Mesh, anisotropy: Conductivity | None
+                 ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.bool_]]:
     """Every edge (k, 2) (i < j), its weight q_ij = −K_ij (k,), and whether it is interior (k,).
 
     For constant Q, q_ij = (√det Q / 2)(cot θ'_k + cot θ'_l) (MATH.md, Glickenstein 2007).
@@ -229,7 +246,7 @@ def edge_weights(mesh: Mesh, anisotropy) -> tuple[np.ndarray, np.ndarray, np.nda
     T = mesh.triangles
     # −K_T[a, b] for the three corner pairs only, CHUNK triangles at a time (the (M, 3, 3)
     # element matrices of a whole mesh were the largest array of `qmesh mesh`'s summary at 1e6)
-    q_part = np.empty((len(_EDGE_CORNERS), len(T)))
+    q_part: NDArray[np.float64] = np.empty((len(_EDGE_CORNERS), len(T)))
     regions = mesh.region_tags
     zero = 0                                                   # counted over all blocks
     for c in chunks(len(T)):
@@ -244,7 +261,7 @@ def edge_weights(mesh: Mesh, anisotropy) -> tuple[np.ndarray, np.ndarray, np.nda
     return edges, q, count == 2                                       # q_ij = −K_ij (2.67)
 
 
-def _edge_pairs(T: np.ndarray, n: int) -> np.ndarray:
+def _edge_pairs(T: NDArray[np.int64], n: int) -> NDArray[np.signedinteger]:
     """(3M, 2) sorted vertex pairs of every triangle's edges, corner pair by corner pair
     (_EDGE_CORNERS); int32 where the indices fit (half the memory at 1e6 vertices)."""
     T = T.astype(np.int32) if n < 2**31 - 1 else T
@@ -253,7 +270,8 @@ def _edge_pairs(T: np.ndarray, n: int) -> np.ndarray:
     return np.stack([np.minimum(a, b).ravel(), np.maximum(a, b).ravel()], axis=1)
 
 
-def _sum_per_edge(pairs: np.ndarray, n: int, *values: np.ndarray):
+def _sum_per_edge(pairs: NDArray[np.signedinteger], n: int,
+                  *values: NDArray[Any]) -> tuple[NDArray[np.int64], list[NDArray[Any]]]:
     """The distinct rows (i, j) of `pairs`, sorted, and each of `values` summed over them."""
     shape = (n, n)
     sums = [sp.csr_matrix((v, (pairs[:, 0], pairs[:, 1])), shape=shape) for v in values]
@@ -262,7 +280,7 @@ def _sum_per_edge(pairs: np.ndarray, n: int, *values: np.ndarray):
     return np.stack([rows, first.indices.astype(np.int64)], axis=1), [m.data for m in sums]
 
 
-def interface_edges(mesh: Mesh) -> tuple[np.ndarray, np.ndarray]:
+def interface_edges(mesh: Mesh) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
     """Every edge (k, 2) (i < j, as `edge_weights`) and whether its two triangles lie in
     different regions (an interface edge)."""
     T = mesh.triangles
@@ -274,7 +292,8 @@ def interface_edges(mesh: Mesh) -> tuple[np.ndarray, np.ndarray]:
     return edges, (count == 2) & (2.0 * squares > total * total)
 
 
-def _relative_q(mesh: Mesh, anisotropy, split: bool = False):
+def _relative_q(mesh: Mesh, anisotropy: Conductivity | None,
+                split: bool = False) -> tuple[NDArray[np.float64], ...]:
     """Interior and boundary q_ij, each divided by max |q| over all edges; with `split`, the
     interior ones apart from the interface ones: (interior, boundary, interface)."""
     _, q, interior = edge_weights(mesh, anisotropy)
@@ -288,7 +307,8 @@ def _relative_q(mesh: Mesh, anisotropy, split: bool = False):
     return r[interior & ~inter], r[~interior], r[interior & inter]
 
 
-def q_nonnegative_fractions(mesh: Mesh, anisotropy, rtol: float = 1e-9) -> dict:
+def q_nonnegative_fractions(mesh: Mesh, anisotropy: Conductivity | None,
+                            rtol: float = 1e-9) -> dict[str, float | None]:
     """The shares of q_ij ≥ −rtol·max|q| as `report` gives them, from one assembly:
     "q_nonnegative_fraction" (interior edges; None also with no interior vertex: no Dirichlet
     matrix), "q_nonnegative_fraction_boundary", and "q_nonnegative_fraction_interface" when
@@ -298,7 +318,8 @@ def q_nonnegative_fractions(mesh: Mesh, anisotropy, rtol: float = 1e-9) -> dict:
                    isinstance(anisotropy, Mapping), rtol)
 
 
-def _shares(relative, has_interior: bool, per_region: bool, rtol: float) -> dict:
+def _shares(relative: tuple[NDArray[np.float64], ...], has_interior: bool, per_region: bool,
+            rtol: float) -> dict[str, float | None]:
     r_in, r_b, r_if = relative
     out = {"q_nonnegative_fraction": _fraction_nonnegative(r_in, rtol) if has_interior else None,
            "q_nonnegative_fraction_boundary": _fraction_nonnegative(r_b, rtol)}
@@ -307,7 +328,7 @@ def _shares(relative, has_interior: bool, per_region: bool, rtol: float) -> dict
     return out
 
 
-def q_nonnegative_fraction(mesh: Mesh, anisotropy, rtol: float = 1e-9) -> float | None:
+def q_nonnegative_fraction(mesh: Mesh, anisotropy: Conductivity | None, rtol: float = 1e-9) -> float | None:
     """Fraction of interior edges with q_ij ≥ −rtol·max|q| (None when there is no interior edge).
 
     ≥ 0 on every interior edge makes the Dirichlet stiffness matrix an M-matrix.
@@ -316,14 +337,16 @@ def q_nonnegative_fraction(mesh: Mesh, anisotropy, rtol: float = 1e-9) -> float 
     return _fraction_nonnegative(_relative_q(mesh, anisotropy, split=True)[0], rtol)
 
 
-def q_nonnegative_fraction_interface(mesh: Mesh, anisotropy, rtol: float = 1e-9) -> float | None:
+def q_nonnegative_fraction_interface(mesh: Mesh, anisotropy: Conductivity | None,
+                                     rtol: float = 1e-9) -> float | None:
     """Fraction of interface edges (two triangles of different regions, each with its own Q)
     with q_ij ≥ −rtol·max|q| (None when there is none). MEDIA.md §2."""
     rtol = checks.real(rtol, "rtol", low=0.0, high=1.0)
     return _fraction_nonnegative(_relative_q(mesh, anisotropy, split=True)[2], rtol)
 
 
-def q_nonnegative_fraction_boundary(mesh: Mesh, anisotropy, rtol: float = 1e-9) -> float | None:
+def q_nonnegative_fraction_boundary(mesh: Mesh, anisotropy: Conductivity | None,
+                                    rtol: float = 1e-9) -> float | None:
     """Fraction of boundary edges with q_ij ≥ −rtol·max|q| (None when there is no boundary edge).
 
     A boundary edge's q_ij is the off-diagonal of its one triangle's element matrix; ≥ 0 there
@@ -333,14 +356,14 @@ def q_nonnegative_fraction_boundary(mesh: Mesh, anisotropy, rtol: float = 1e-9) 
     return _fraction_nonnegative(_relative_q(mesh, anisotropy)[1], rtol)
 
 
-def _fraction_nonnegative(r: np.ndarray, rtol: float) -> float | None:
+def _fraction_nonnegative(r: NDArray[np.float64], rtol: float) -> float | None:
     return float(np.mean(r >= -rtol)) if len(r) else None
 
 
 # --------------------------------------------------------------------------- conditioning
 
-def condition_number(mesh: Mesh, anisotropy=None, *, method: str = "auto",
-                     tol: float = 1e-10) -> float:
+def condition_number(mesh: Mesh, anisotropy: Conductivity | None = None, *,
+                     method: Literal["auto", "dense", "sparse"] = "auto", tol: float = 1e-10) -> float:
     """κ2 = λ_max / λ_min of the Dirichlet-reduced stiffness matrix (MATH.md "conditioning").
 
     `anisotropy=None` is the Laplacian (Q = I). `method`: "dense" (eigvalsh), "sparse"
@@ -368,13 +391,15 @@ def condition_number(mesh: Mesh, anisotropy=None, *, method: str = "auto",
 
 # --------------------------------------------------------------------------- interpolation
 
-def _quadrature_points(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+def _quadrature_points(x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
     """The degree-4 rule's points of every triangle, flattened to (M·q, 2)."""
     bary = quadrature.DUNAVANT4_POINTS
     return np.stack([(x @ bary.T).ravel(), (y @ bary.T).ravel()], axis=1)
 
 
-def _interpolation_error_at_points(P, T, x, y, anisotropy, s_vertex=None) -> np.ndarray:
+def _interpolation_error_at_points(P: NDArray[np.float64], T: NDArray[np.int64], x: NDArray[np.float64],
+                                   y: NDArray[np.float64], anisotropy: Anisotropy,
+                                   s_vertex: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
     """s_h − s at the degree-4 quadrature points of every triangle, shape (M, q)."""
     if s_vertex is None:
         s_vertex = np.asarray(anisotropy.s(P), dtype=float)[T]            # (M, 3)
@@ -382,7 +407,7 @@ def _interpolation_error_at_points(P, T, x, y, anisotropy, s_vertex=None) -> np.
     return s_vertex @ quadrature.DUNAVANT4_POINTS.T - s_q.reshape(len(T), -1)
 
 
-def interpolation_errors(mesh: Mesh, anisotropy) -> tuple[float, float]:
+def interpolation_errors(mesh: Mesh, anisotropy: Conductivity) -> tuple[float, float]:
     """(‖s_h − s‖_L2 (2.96), |s_h − s|_h1 = ‖∇s_h − ∇s‖_L2 (2.97)), exact for quadratic s.
 
     Both integrands are integrated with the degree-4 Dunavant rule: (s_h − s)² has degree 4 and
@@ -396,7 +421,8 @@ def interpolation_errors(mesh: Mesh, anisotropy) -> tuple[float, float]:
     return float(np.sqrt(l2)), float(np.sqrt(h1))
 
 
-def _interpolation_errors2(P, T, anisotropy) -> tuple[float, float]:
+def _interpolation_errors2(P: NDArray[np.float64], T: NDArray[np.int64],
+                           anisotropy: Anisotropy) -> tuple[float, float]:
     """The squares of (2.96) and (2.97) over the triangles T."""
     F = Frame(P, T)
     x, y, gx, gy, area = F.x, F.y, F.gx, F.gy, F.A
@@ -415,7 +441,7 @@ def _interpolation_errors2(P, T, anisotropy) -> tuple[float, float]:
 
 # --------------------------------------------------------------------------- report
 
-def report(mesh: Mesh, anisotropy) -> dict:
+def report(mesh: Mesh, anisotropy: Conductivity) -> Report:
     """All measurements of one mesh as plain Python numbers (JSON-serialisable).
 
     Entries that need a stiffness matrix or ∇s_h are None when the mesh has a zero-area
@@ -433,11 +459,12 @@ def report(mesh: Mesh, anisotropy) -> dict:
     P, T = mesh.points, mesh.triangles
     area = signed_areas(P, T)
     qual = quality(mesh, anisotropy)
-    out = {
+    n_interior = int(len(free_vertices(mesh)))
+    out: Report = {
         "n_vertices": int(mesh.n_vertices),
         "n_triangles": int(mesh.n_triangles),
         "n_boundary": int(mesh.boundary.sum()),
-        "n_interior": int(len(free_vertices(mesh))),
+        "n_interior": n_interior,
         "inverted_triangles": int(np.sum(area <= 0.0)),
         "energy": energy(mesh, anisotropy),
         "min_quality": float(qual.min()) if len(qual) else None,
@@ -450,18 +477,18 @@ def report(mesh: Mesh, anisotropy) -> dict:
         return out
     out["l2_error"], out["h1_error"] = interpolation_errors(mesh, anisotropy)
     r_in, r_b, r_if = relative = _relative_q(mesh, anisotropy, split=True)
-    out.update(_shares(relative, out["n_interior"] > 0, isinstance(anisotropy, Mapping), 1e-9))
+    out.update(_shares(relative, n_interior > 0, isinstance(anisotropy, Mapping), 1e-9))
     if len(r_if) or isinstance(anisotropy, Mapping):
         out["min_q_ij_relative_interface"] = float(r_if.min()) if len(r_if) else None
     out["min_q_ij_relative"] = float(r_in.min()) if len(r_in) else None
     out["min_q_ij_relative_boundary"] = float(r_b.min()) if len(r_b) else None
-    if out["n_interior"] > 0:
+    if n_interior > 0:
         out["kappa2"] = condition_number(mesh, anisotropy)
         out["kappa2_laplacian"] = condition_number(mesh, None)
     return out
 
 
-def sh_convex_fraction(mesh: Mesh, anisotropy, rtol: float = 1e-9) -> float:
+def sh_convex_fraction(mesh: Mesh, anisotropy: Anisotropy, rtol: float = 1e-9) -> float:
     """Share of interior edges across which s_h (the P1 interpolant of s) is convex.
 
     ∇²s_h is a measure on the edges, [∂s_h/∂n]·δ_e, so q_ij ≥ 0 for s_h (MATH.md) means a

@@ -6,23 +6,30 @@ them.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike, DTypeLike, NDArray
 
 from qmesh.checks import real_array
 from qmesh.errors import QmeshError
 from qmesh.geometry.topology import edge_keys
 
 
-def frozen(a: np.ndarray, dtype) -> np.ndarray:
+def frozen(a: ArrayLike, dtype: DTypeLike) -> NDArray[Any]:
     """`a` as a read-only array of `dtype` (no copy when it already is one)."""
-    a = np.asarray(a, dtype=dtype)
-    if a.flags.writeable:
-        a = a.copy() if a.base is not None else a
-        a.setflags(write=False)
-    return a
+    out = np.asarray(a, dtype=dtype)
+    if out.flags.writeable:
+        out = out.copy() if out.base is not None else out
+        out.setflags(write=False)
+    return out
+
+
+_FILLED: Any = None
+"""The default of Mesh's optional fields: `__post_init__` puts the array or dict in its place."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -35,16 +42,22 @@ class Mesh:
     `region_names` names them.
     """
 
-    points: np.ndarray = field(repr=False)
-    triangles: np.ndarray = field(repr=False)
-    fixed: np.ndarray = field(default=None, repr=False)
-    boundary_edges: np.ndarray = field(default=None, repr=False)
-    boundary_tags: np.ndarray = field(default=None, repr=False)
-    tag_names: dict = field(default=None, repr=False)
-    region_tags: np.ndarray = field(default=None, repr=False)
-    region_names: dict = field(default=None, repr=False)
+    points: NDArray[np.float64] = field(repr=False)
+    triangles: NDArray[np.int64] = field(repr=False)
+    fixed: NDArray[np.bool_] = field(default=_FILLED, repr=False)
+    boundary_edges: NDArray[np.int64] = field(default=_FILLED, repr=False)
+    boundary_tags: NDArray[np.int64] = field(default=_FILLED, repr=False)
+    tag_names: dict[int, str] = field(default=_FILLED, repr=False)
+    region_tags: NDArray[np.int64] = field(default=_FILLED, repr=False)
+    region_names: dict[int, str] = field(default=_FILLED, repr=False)
 
-    def __post_init__(self):
+    if TYPE_CHECKING:   # what the constructor takes; the fields above are what it keeps
+        def __init__(self, points: ArrayLike, triangles: ArrayLike, fixed: ArrayLike | None = None,
+                     boundary_edges: ArrayLike | None = None, boundary_tags: ArrayLike | None = None,
+                     tag_names: Mapping[int, str] | None = None, region_tags: ArrayLike | None = None,
+                     region_names: Mapping[int, str] | None = None) -> None: ...
+
+    def __post_init__(self) -> None:
         P = self.points if _is_float_array(self.points) else real_array(self.points, "points",
                                                                            (None, 2))
         P = frozen(P, np.float64)
@@ -80,7 +93,7 @@ class Mesh:
                             ("region_names", region_names)):
             object.__setattr__(self, name, value)
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return f"Mesh(N={self.n_vertices}, triangles={self.n_triangles}, fixed={int(self.fixed.sum())})"
 
     @property
@@ -92,20 +105,20 @@ class Mesh:
         return len(self.triangles)
 
     @cached_property
-    def boundary(self) -> np.ndarray:
+    def boundary(self) -> NDArray[np.bool_]:
         """Boolean mask of vertices on the mesh boundary."""
         m = np.zeros(self.n_vertices, bool)
         m[self.boundary_edges.ravel()] = True
         return m
 
 
-def _is_float_array(a) -> bool:
+def _is_float_array(a: object) -> bool:
     """A finite, read-only float64 array (the mesher's own, shared between Steps: not copied)."""
     return (isinstance(a, np.ndarray) and a.dtype == np.float64 and not a.flags.writeable
             and bool(np.isfinite(a).all()))
 
 
-def _indices(value, name: str, width: int | None) -> np.ndarray:
+def _indices(value: ArrayLike, name: str, width: int | None) -> NDArray[np.int64]:
     """An integer array of shape (k, width) (or (k,)), or QmeshError naming the argument."""
     if isinstance(value, np.ndarray) and value.dtype.kind in "iu":
         a = value
@@ -127,7 +140,7 @@ def _indices(value, name: str, width: int | None) -> np.ndarray:
     return a.astype(np.int64, copy=False)
 
 
-def _boundary_of(T: np.ndarray, n: int) -> np.ndarray:
+def _boundary_of(T: NDArray[np.int64], n: int) -> NDArray[np.int64]:
     """Half-edges a→b (in triangle order, so Ω is on their left) whose edge has one triangle."""
     a, b = T.ravel(), T[:, [1, 2, 0]].ravel()
     key = edge_keys(a, b, n)

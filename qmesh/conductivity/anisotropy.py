@@ -7,19 +7,25 @@ All callables are vectorised over (n, 2) arrays of points.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Callable
+from typing import Union
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from qmesh import checks
 from qmesh.conductivity.expression import parse_s
 from qmesh.errors import QmeshError
 
-Field = Callable[[np.ndarray], np.ndarray]
+Field = Callable[[NDArray[np.float64]], NDArray[np.float64]]
+"""s, ∇s or ∇²s as the mesher calls it: points (n, 2) → values (n,), (n, 2) or (n, 2, 2)."""
+
+UserField = Callable[[NDArray[np.float64]], ArrayLike]
+"""A user's s, ∇s or ∇²s (`Anisotropy.from_s`): any array-like result of the right shape."""
 
 
-def adj2(M: np.ndarray) -> np.ndarray:
+def adj2(M: NDArray[np.float64]) -> NDArray[np.float64]:
     """Adjugate of 2×2 matrices (…, 2, 2): [[d, -b], [-c, a]]."""
     out = np.empty_like(M)
     out[..., 0, 0] = M[..., 1, 1]
@@ -33,11 +39,11 @@ class _UserField:
     """A user's s, ∇s or ∇²s as the mesher calls it: NumPy warnings raised inside it stay quiet,
     an exception inside it becomes a QmeshError naming it, and its result is checked for shape."""
 
-    def __init__(self, f: Field, name: str, tail: tuple):
+    def __init__(self, f: UserField, name: str, tail: tuple[int, ...]):
         self.f, self.name, self.tail = f, name, tail
         self.__doc__ = getattr(f, "__doc__", None)
 
-    def __call__(self, P) -> np.ndarray:
+    def __call__(self, P: ArrayLike) -> NDArray[np.float64]:
         P = np.asarray(P, dtype=float)
         want = (len(P),) + self.tail
         try:
@@ -63,7 +69,7 @@ class _UserField:
         return out
 
 
-def principal_matrix(k1: float, k2: float, angle_deg: float) -> np.ndarray:
+def principal_matrix(k1: float, k2: float, angle_deg: float) -> NDArray[np.float64]:
     """Q = R diag(k1, k2) Rᵀ, R the rotation by angle_deg: k1 along the direction at that angle."""
     t = np.deg2rad(angle_deg)
     R = np.array([[np.cos(t), -np.sin(t)], [np.sin(t), np.cos(t)]])
@@ -82,11 +88,11 @@ class Anisotropy:
     s: Field
     grad: Field
     hessian: Field
-    H: np.ndarray | None = None
+    H: NDArray[np.float64] | None = None
     label: str = ""
     expression: str | None = None
 
-    def Q(self, P: np.ndarray) -> np.ndarray:
+    def Q(self, P: NDArray[np.float64]) -> NDArray[np.float64]:
         """Conductivity at points P (n, 2) → (n, 2, 2): Q = adj ∇²s."""
         return adj2(self.hessian(P))
 
@@ -95,7 +101,7 @@ class Anisotropy:
         return self.H is not None
 
     @property
-    def matrix(self) -> np.ndarray:
+    def matrix(self) -> NDArray[np.float64]:
         """The constant conductivity Q as a plain 2×2 float array (for a FEM code's assembly);
         QmeshError for a varying Q, which has no single matrix (use `Q(P)`)."""
         if self.H is None:
@@ -104,27 +110,27 @@ class Anisotropy:
         return adj2(np.asarray(self.H, dtype=float))
 
     @classmethod
-    def constant(cls, Q) -> "Anisotropy":
+    def constant(cls, Q: ArrayLike) -> Anisotropy:
         """A constant SPD conductivity Q; s(x) = ½ xᵀ adj(Q) x, so ∇²s = adj Q and adj ∇²s = Q."""
         Q = checks.spd_matrix(Q, "Q")
         H = adj2(Q)
         H.setflags(write=False)
 
-        def s(P):
+        def s(P: NDArray[np.float64]) -> NDArray[np.float64]:
             P = np.asarray(P, dtype=float)
             return 0.5 * np.einsum("ni,ij,nj->n", P, H, P)
 
-        def grad(P):
+        def grad(P: NDArray[np.float64]) -> NDArray[np.float64]:
             return np.asarray(P, dtype=float) @ H  # H symmetric
 
-        def hessian(P):
+        def hessian(P: NDArray[np.float64]) -> NDArray[np.float64]:
             return np.broadcast_to(H, (len(P), 2, 2))
 
         label = f"Q = [[{Q[0, 0]:.4g}, {Q[0, 1]:.4g}], [{Q[1, 0]:.4g}, {Q[1, 1]:.4g}]]"
         return cls(s, grad, hessian, H, label)
 
     @classmethod
-    def principal(cls, k1: float, k2: float, angle_deg: float = 0.0) -> "Anisotropy":
+    def principal(cls, k1: float, k2: float, angle_deg: float = 0.0) -> Anisotropy:
         """Principal conductivities k1, k2 > 0, with k1's axis at angle_deg from the x axis."""
         k1 = checks.real(k1, "k1", low=0.0, low_open=True)
         k2 = checks.real(k2, "k2", low=0.0, low_open=True)
@@ -135,7 +141,8 @@ class Anisotropy:
         return cls.constant(principal_matrix(k1, k2, angle_deg))
 
     @classmethod
-    def from_s(cls, s: Field, grad: Field, hessian: Field, label: str = "s(x)") -> "Anisotropy":
+    def from_s(cls, s: UserField, grad: UserField, hessian: UserField,
+               label: str = "s(x)") -> Anisotropy:
         """A varying convex s given as vectorised callables: s (n,)→, grad (n,2), hessian (n,2,2).
 
         Convexity is checked where the mesher evaluates s (`check_convex`), not here: the
@@ -144,12 +151,11 @@ class Anisotropy:
         for f, name in ((s, "s"), (grad, "grad"), (hessian, "hessian")):
             checks.function(f, name)
         checks.text(label, "label")
-        s, grad, hessian = (_UserField(s, "s", ()), _UserField(grad, "grad", (2,)),
-                            _UserField(hessian, "hessian", (2, 2)))
-        return cls(s, grad, hessian, None, label)
+        return cls(_UserField(s, "s", ()), _UserField(grad, "grad", (2,)),
+                   _UserField(hessian, "hessian", (2, 2)), None, label)
 
     @classmethod
-    def from_expression(cls, text: str) -> "Anisotropy":
+    def from_expression(cls, text: str) -> Anisotropy:
         """s(x, y) typed as text, e.g. "exp(x) + y**2": exact s, ∇s, ∇²s (qmesh.expression).
 
         The text is parsed against a whitelist, never run; QmeshError points at what is refused.
@@ -160,7 +166,7 @@ class Anisotropy:
         e = parse_s(text)
         return cls(e.s, e.grad, e.hessian, e.H, label=text, expression=text)
 
-    def check_convex(self, P: np.ndarray) -> None:
+    def check_convex(self, P: ArrayLike) -> None:
         """Raise QmeshError unless ∇²s is finite, symmetric and positive definite at every point of P.
 
         The message names the first point where it fails and how. The SPD test is made on each
@@ -192,3 +198,7 @@ class Anisotropy:
                 i = int(np.flatnonzero(mask)[0])
                 raise QmeshError(f"the Hessian of s is {what} at {mask.sum()} of {len(P)} points; "
                                  f"the first: {P[i].tolist()} where it is {Hs[i].tolist()}")
+
+
+Conductivity = Union[Anisotropy, Mapping[int, Anisotropy]]
+"""One conductivity for the whole domain, or one per region {region tag: Anisotropy} (MEDIA.md)."""

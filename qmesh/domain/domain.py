@@ -10,7 +10,11 @@ mesh's boundary edges inherit, so users can put boundary conditions on them by n
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Sequence
+from typing import TYPE_CHECKING, Union
+
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from qmesh.geometry import rings as _rings
 from qmesh import checks
@@ -22,12 +26,20 @@ from qmesh.errors import QmeshError
 MAX_POINTS = 10_000_000
 TOUCH = 1e-9    # a point this close (× the domain's size) to a segment not its own touches it
 
+Ring = Union[ArrayLike, "Domain"]
+"""A ring of points: an (n, 2) array-like, or a `Polygon` / one-ring `Domain` standing for its outline."""
+Names = Union[dict[int, str], Sequence[str]]
+"""Names of tags: a dict tag → name, or one name per ring (per region)."""
+
+if TYPE_CHECKING:
+    from qmesh.domain.partition import Partition
+
 
 def _ring_name(k: int) -> str:
     return "the outline" if k == 0 else f"hole {k}"
 
 
-def _as_points(ring, name: str) -> np.ndarray:
+def _as_points(ring: Ring, name: str) -> NDArray[np.float64]:
     """An (n, 2) float array of a ring's points, or QmeshError naming the ring."""
     if isinstance(ring, Domain):
         if len(ring.rings) != 1:
@@ -50,7 +62,7 @@ def _as_points(ring, name: str) -> np.ndarray:
     return P
 
 
-def _check_points(P: np.ndarray, name: str) -> None:
+def _check_points(P: NDArray[np.float64], name: str) -> None:
     """Repeated consecutive points are refused (they would be one vertex)."""
     E = np.roll(P, -1, axis=0) - P
     length = np.hypot(E[:, 0], E[:, 1])
@@ -62,7 +74,7 @@ def _check_points(P: np.ndarray, name: str) -> None:
                          f"coincide at {P[i].tolist()}")
 
 
-def _check_ring_area(P: np.ndarray, name: str) -> float:
+def _check_ring_area(P: NDArray[np.float64], name: str) -> float:
     """The signed area of a simple ring, refused when zero; taken on the ring divided by its
     extent, so its sign survives coordinates whose squares overflow or underflow (1e±300)."""
     d = float(np.abs(P - P[0]).max())
@@ -72,7 +84,7 @@ def _check_ring_area(P: np.ndarray, name: str) -> float:
     return area * d * d if abs(area * d * d) > 0 else np.copysign(np.finfo(float).tiny, area)
 
 
-def _ring_tags(tag, n: int, default: int, name: str) -> np.ndarray:
+def _ring_tags(tag: ArrayLike | None, n: int, default: int, name: str) -> NDArray[np.int64]:
     """Per-segment tags of one ring from an int or a sequence of n ints."""
     if tag is None:
         return np.full(n, default, np.int64)
@@ -102,7 +114,9 @@ class Domain:
     `region_names`: a dict tag → name, or one name per region.
     """
 
-    def __init__(self, outer, holes=(), tags=None, names=None, regions=(), region_names=None):
+    def __init__(self, outer: Ring, holes: Iterable[Ring] = (), tags: Iterable[ArrayLike] | None = None,
+                 names: Names | None = None, regions: Iterable[Ring] | None = (),
+                 region_names: Names | None = None) -> None:
         holes = checks.polygon_list(holes, "holes")
         raw = [_as_points(outer, "the outline")]
         raw += [_as_points(h, _ring_name(k + 1)) for k, h in enumerate(holes)]
@@ -145,12 +159,15 @@ class Domain:
         self._ring_of_seed = np.repeat(np.arange(len(oriented)), np.diff(offsets))
         self._tag_names = _tag_names(names, ring_tags)
         self._area = abs(areas[0]) - sum(abs(a) for a in areas[1:])
-        self._regions, self._region_names, self._partition = (), {}, None
+        self._regions: tuple[Domain, ...] = ()
+        self._region_names: dict[int, str] = {}
+        self._partition: Partition | None = None
         if regions is not None and not (isinstance(regions, (list, tuple)) and not regions):
             attach(self, regions, region_names, ring_tags, Domain)
 
     @classmethod
-    def from_cells(cls, x, y, k1, k2, angle=0.0):
+    def from_cells(cls, x: ArrayLike, y: ArrayLike, k1: ArrayLike, k2: ArrayLike,
+                   angle: ArrayLike = 0.0) -> tuple[Domain, dict[int, Anisotropy]]:
         """(Domain, {region tag: Anisotropy}) of a structured grid with per-cell k1, k2, angle
         (MODFLOW's convention), cells of equal conductivity merged into regions (`cells.zones`)."""
         outline, regions, params = cells.zones(x, y, k1, k2, angle)
@@ -159,7 +176,7 @@ class Domain:
         return domain, {tag: Anisotropy.principal(*p) for tag, p in enumerate(params)}
 
     @property
-    def regions(self) -> tuple:
+    def regions(self) -> tuple[Domain, ...]:
         """The regions as given, each a `Domain` (outline and holes); region k is regions[k-1]."""
         return self._regions
 
@@ -169,26 +186,26 @@ class Domain:
 
     # ------------------------------------------------------------------ what the mesher reads
     @property
-    def rings(self) -> tuple[np.ndarray, ...]:
+    def rings(self) -> tuple[NDArray[np.float64], ...]:
         """The rings, outline first (counter-clockwise), then the holes (clockwise)."""
         return self._rings
 
     @property
-    def holes(self) -> tuple[np.ndarray, ...]:
+    def holes(self) -> tuple[NDArray[np.float64], ...]:
         return self._rings[1:]
 
     @property
-    def seeds(self) -> np.ndarray:
+    def seeds(self) -> NDArray[np.float64]:
         """Every input point, ring after ring: the fixed vertices of the mesh."""
         return self._seeds
 
     @property
-    def segments(self) -> np.ndarray:
+    def segments(self) -> NDArray[np.int64]:
         """(S, 2) seed indices: segment k runs from seed k to the next seed of its ring."""
         return self._segments
 
     @property
-    def segment_tags(self) -> np.ndarray:
+    def segment_tags(self) -> NDArray[np.int64]:
         return self._segment_tags
 
     @property
@@ -196,16 +213,16 @@ class Domain:
         return dict(self._tag_names)
 
     @property
-    def ring_of_seed(self) -> np.ndarray:
+    def ring_of_seed(self) -> NDArray[np.int64]:
         return self._ring_of_seed
 
     @property
-    def segment_ends(self) -> tuple[np.ndarray, np.ndarray]:
+    def segment_ends(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Start and end points (S, 2) of every segment."""
         return self._seeds[self._segments[:, 0]], self._seeds[self._segments[:, 1]]
 
     @property
-    def edges(self) -> tuple[np.ndarray, np.ndarray]:
+    def edges(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Segment start points and unit tangents."""
         A, B = self.segment_ends
         E = B - A
@@ -216,7 +233,7 @@ class Domain:
         return self._area
 
     @property
-    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+    def bounds(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         return self._rings[0].min(axis=0), self._rings[0].max(axis=0)
 
     @property
@@ -225,7 +242,7 @@ class Domain:
         lo, hi = self.bounds
         return float((hi - lo).max())
 
-    def contains(self, P, tol: float = 1e-9) -> np.ndarray:
+    def contains(self, P: ArrayLike, tol: float = 1e-9) -> NDArray[np.bool_]:
         """Boolean mask of points inside Ω or within tol × diameter of its boundary."""
         P = np.asarray(P, dtype=float).reshape(-1, 2)
         A, B = self.segment_ends
@@ -234,7 +251,7 @@ class Domain:
             ins |= np.isfinite(_rings.distance(P, A, B, tol * self.diameter))
         return ins
 
-    def scaled(self, center, scale: float) -> "Domain":
+    def scaled(self, center: ArrayLike, scale: float) -> Domain:
         """The same domain in coordinates (x − center) / scale (tags kept, no re-validation)."""
         new = object.__new__(Domain)
         new.__dict__.update(self.__dict__)
@@ -252,19 +269,19 @@ class Domain:
                                                              for R in rings[1:])
         return new
 
-    def edge_of(self, P, tol: float = 1e-9) -> np.ndarray:
+    def edge_of(self, P: ArrayLike, tol: float = 1e-9) -> NDArray[np.int64]:
         """Segment each point lies on (within tol × diameter), or -1; input points report the
         segment they start."""
         A, B = self.segment_ends
         return _rings.segment_of(np.asarray(P, dtype=float).reshape(-1, 2), A, B,
                                  tol * self.diameter)
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return (f"Domain({len(self._rings[0])} outline points, {len(self._rings) - 1} holes, "
                 f"area={self._area:.6g})")
 
 
-def _tag_names(names, ring_tags) -> dict[int, str]:
+def _tag_names(names: Names | None, ring_tags: list[NDArray[np.int64]]) -> dict[int, str]:
     if names is None:
         return {}
     if isinstance(names, dict):
@@ -284,7 +301,7 @@ def _tag_names(names, ring_tags) -> dict[int, str]:
     return out
 
 
-def _normalised(raw: list[np.ndarray]) -> list[np.ndarray]:
+def _normalised(raw: list[NDArray[np.float64]]) -> list[NDArray[np.float64]]:
     """The rings moved and scaled to about [-½, ½]², for the checks that multiply coordinates
     (their test is relative to the domain's size): 1e300 overflows a product, 1e-300 underflows."""
     pts = np.concatenate(raw)
@@ -298,7 +315,7 @@ def _normalised(raw: list[np.ndarray]) -> list[np.ndarray]:
     return [(P - c) / d for P in raw]
 
 
-def _check_simple(raw: list[np.ndarray]) -> None:
+def _check_simple(raw: list[NDArray[np.float64]]) -> None:
     """No ring crosses itself or another; holes lie inside the outline and outside each other."""
     sizes = [len(P) for P in raw]
     offsets = np.cumsum([0] + sizes)
@@ -311,7 +328,7 @@ def _check_simple(raw: list[np.ndarray]) -> None:
         ri, rj = (int(np.searchsorted(offsets, v, side="right")) - 1 for v in (i, j))
         si, sj = i - offsets[ri], j - offsets[rj]
 
-        def seg(r, s):
+        def seg(r: int, s: int) -> str:
             return f"segment {s} (point {s} → {(s + 1) % sizes[r]})"
         if ri == rj:
             raise QmeshError(f"{_ring_name(ri)} intersects itself: {seg(ri, si)} meets {seg(rj, sj)}")
@@ -339,20 +356,20 @@ def _check_simple(raw: list[np.ndarray]) -> None:
 class Polygon(Domain):
     """A simple polygon (either orientation, convex or not) whose points are the fixed seeds."""
 
-    def __init__(self, points, tags=None, names=None):
+    def __init__(self, points: Ring, tags: ArrayLike | None = None, names: Names | None = None) -> None:
         super().__init__(points, (), tags=None if tags is None else [tags],
                          names=None if names is None else names)
 
     @property
-    def points(self) -> np.ndarray:
+    def points(self) -> NDArray[np.float64]:
         """The corners, counter-clockwise."""
         return self._rings[0]
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return f"Polygon({len(self.points)} points, area={self.area:.6g})"
 
 
-def Disk(vb: int, radius: float = 1.0, center=(0.0, 0.0)) -> Polygon:
+def Disk(vb: int, radius: float = 1.0, center: ArrayLike = (0.0, 0.0)) -> Polygon:
     """The regular `vb`-gon inscribed in the circle: the chapter's unit-disk domain (Section 2.3.3)."""
     if isinstance(vb, bool) or not isinstance(vb, (int, np.integer)):
         raise QmeshError(f"VB must be an integer, got {vb!r}")
@@ -371,7 +388,7 @@ def Disk(vb: int, radius: float = 1.0, center=(0.0, 0.0)) -> Polygon:
     return Polygon(c + radius * np.column_stack([np.cos(t), np.sin(t)]))
 
 
-def as_domain(obj, name: str = "domain") -> Domain:
+def as_domain(obj: object, name: str = "domain") -> Domain:
     """`obj` if it is a Domain (Polygon and Disk are), else QmeshError naming the argument."""
     if isinstance(obj, Domain):
         return obj

@@ -7,11 +7,12 @@ Each returns a `Domain` of diameter about 2 centred near the origin, with the de
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from qmesh.domain.domain import Disk, Domain
 
 
-def _circle(n: int, radius: float, center=(0.0, 0.0)) -> np.ndarray:
+def _circle(n: int, radius: float, center: ArrayLike = (0.0, 0.0)) -> NDArray[np.float64]:
     t = 2 * np.pi * np.arange(n) / n
     return np.asarray(center, dtype=float) + radius * np.column_stack([np.cos(t), np.sin(t)])
 
@@ -48,8 +49,8 @@ def plate_with_holes(hole_points: int = 16) -> Domain:
 
 def notched_square() -> Domain:
     """[-1, 1]² with a thin slot cut in from the right edge (two reflex corners)."""
-    return Domain([[-1, -1], [1, -1], [1, -0.05], [-0.2, -0.05], [-0.2, 0.05], [1, 0.05],
-                   [1, 1], [-1, 1]], names={1: "outline"})
+    return Domain([[-1.0, -1.0], [1.0, -1.0], [1.0, -0.05], [-0.2, -0.05], [-0.2, 0.05], [1.0, 0.05],
+                   [1.0, 1.0], [-1.0, 1.0]], names={1: "outline"})
 
 
 NAMED = {

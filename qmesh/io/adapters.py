@@ -7,28 +7,31 @@ same names a `.msh` or `.vtu` gives the code's own reader).
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from types import ModuleType
+from typing import Any, NamedTuple
 
 import numpy as np
+from numpy.typing import NDArray
 
 from qmesh.errors import QmeshError
 from qmesh.io import boundary
 from qmesh.triangle_mesh import Mesh
 
 
-def _import(module: str, extra: str):
+def _import(module: str, extra: str) -> ModuleType:
     try:
         return __import__(module, fromlist=["_"])
     except ImportError as e:
         raise QmeshError(f"{module} is not installed: pip install qmesh[{extra}] ({e})") from e
 
 
-def _check(mesh):
+def _check(mesh: object) -> None:
     if not isinstance(mesh, Mesh):
         raise QmeshError(f"mesh must be a qmesh.Mesh, got {type(mesh).__name__}")
 
 
-def _groups(mesh):
+def _groups(mesh: Mesh) -> tuple[NDArray[np.int64], NDArray[np.int64], dict[int, str],
+                                  NDArray[np.int64], dict[int, str]]:
     """(edges, tags, {tag: name}, regions, {region: name} or {} when the mesh has no regions)."""
     E, tags, tag_names = boundary.boundary_of(mesh)
     regions, region_names = boundary.regions_of(mesh)
@@ -37,8 +40,8 @@ def _groups(mesh):
             boundary.file_names(regions, region_names, "region") if has_regions else {})
 
 
-def to_skfem(mesh):
-    """A `skfem.MeshTri` with `boundaries` {name: facet indices} and, with regions,
+def to_skfem(mesh: Mesh) -> Any:
+    """A `skfem.MeshTri` (typed Any: scikit-fem is optional) with `boundaries` {name: facet indices} and, with regions,
     `subdomains` {name: triangle indices}."""
     _check(mesh)
     skfem = _import("skfem", "fem")
@@ -57,10 +60,10 @@ class DolfinxMesh(NamedTuple):
     mesh: object            # dolfinx.mesh.Mesh
     facet_tags: object      # dolfinx.mesh.MeshTags of the boundary edges: the boundary tags
     cell_tags: object       # dolfinx.mesh.MeshTags of the triangles: the region tags
-    names: dict             # {"facets": {tag: name}, "cells": {region: name}}
+    names: dict[str, dict[int, str]]   # {"facets": {tag: name}, "cells": {region: name}}
 
 
-def to_dolfinx(mesh, comm) -> DolfinxMesh:
+def to_dolfinx(mesh: Mesh, comm: Any) -> DolfinxMesh:
     """A DOLFINx mesh (2-D geometry) on MPI communicator `comm` with its facet tags (the
     boundary tags) and cell tags (the region tags); rank 0 gives the data, DOLFINx distributes it."""
     _check(mesh)
@@ -86,8 +89,8 @@ def to_dolfinx(mesh, comm) -> DolfinxMesh:
     return DolfinxMesh(msh, tagged[0], tagged[1], {"facets": names, "cells": region_names})
 
 
-def to_ngsolve(mesh):
-    """An `ngsolve.Mesh` whose boundaries carry the boundary names (bc index = tag order) and
+def to_ngsolve(mesh: Mesh) -> Any:
+    """An `ngsolve.Mesh` (typed Any: NGSolve is optional) whose boundaries carry the boundary names (bc index = tag order) and
     whose materials are the region names ("domain" without regions)."""
     _check(mesh)
     meshing = _import("netgen.meshing", "fem-ngsolve")

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 
@@ -26,7 +27,7 @@ PREFIX = "qmesh conductivity: "
 """What `record_of` puts before the text (the CLI's report strips it)."""
 
 
-def _one(anisotropy) -> dict | None:
+def _one(anisotropy: Anisotropy) -> dict[str, Any] | None:
     expression = getattr(anisotropy, "expression", None)
     if expression is not None:
         return {"s": " ".join(str(expression).split())}
@@ -35,13 +36,13 @@ def _one(anisotropy) -> dict | None:
     return None
 
 
-def to_json(anisotropy) -> dict | None:
+def to_json(anisotropy: object) -> dict[str, Any] | None:
     """The JSON value for an Anisotropy or a {region tag: Anisotropy} mapping; None when it has
     no stored form (a callable s). QmeshError for anything else."""
     if isinstance(anisotropy, Anisotropy):
         return _one(anisotropy)
     if isinstance(anisotropy, Mapping):
-        regions = {}
+        regions: dict[str, Any] = {}
         for tag, a in anisotropy.items():
             if isinstance(tag, bool) or not isinstance(tag, (int, np.integer)) or tag < 0:
                 raise QmeshError(f"anisotropy: region tags must be integers >= 0, got {tag!r}")
@@ -58,10 +59,10 @@ def to_json(anisotropy) -> dict | None:
                      f"got {type(anisotropy).__name__}")
 
 
-def from_json(value, source: str):
+def from_json(value: Any, source: str) -> Anisotropy | dict[int, Anisotropy]:
     """The Anisotropy (or {region tag: Anisotropy}) a stored JSON value describes."""
     if isinstance(value, dict) and set(value) == {"regions"} and isinstance(value["regions"], dict):
-        out = {}
+        out: dict[int, Anisotropy] = {}
         for key, item in value["regions"].items():
             try:
                 tag = int(key)
@@ -72,7 +73,7 @@ def from_json(value, source: str):
     return _anisotropy(value, source)
 
 
-def _anisotropy(value, source: str) -> Anisotropy:
+def _anisotropy(value: Any, source: str) -> Anisotropy:
     if isinstance(value, dict) and set(value) == {"Q"}:
         Q = value["Q"]
         ok = (isinstance(Q, list) and len(Q) == 2 and all(isinstance(r, list) and len(r) == 2 for r in Q)
@@ -95,7 +96,7 @@ def _anisotropy(value, source: str) -> Anisotropy:
     raise QmeshError(f"{source}: unreadable conductivity record {str(value)[:80]!r}")
 
 
-def record_of(anisotropy) -> str | None:
+def record_of(anisotropy: Anisotropy) -> str | None:
     """One line of text naming `anisotropy` exactly (`qmesh report` prints it), or None for a callable s."""
     value = _one(anisotropy)
     if value is None:

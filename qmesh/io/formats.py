@@ -20,9 +20,12 @@ import contextlib
 import io as _io
 import os
 import uuid
+from collections.abc import Mapping
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, Union
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from qmesh.errors import QmeshError
 from qmesh.domain.polygon_file import MAX_COORDINATE
@@ -33,12 +36,18 @@ from qmesh.io.payload import payload
 from qmesh.io.registry import FORMATS, REGISTRY, Format
 from qmesh.triangle_mesh import Mesh
 
+if TYPE_CHECKING:
+    from qmesh.conductivity.anisotropy import Anisotropy, Conductivity
+
+PathLike = Union[str, bytes, "os.PathLike[str]"]
+"""A file name: a str, bytes (decoded by os.fsdecode) or a path object."""
+
 # errors a parser or a conversion raises on a malformed or hostile file: reported, not raised
 _FILE_ERRORS = (ValueError, TypeError, IndexError, KeyError, AttributeError, OverflowError, RecursionError,
                 EOFError, UnicodeDecodeError, AssertionError)
 
 
-def _path(path, what: str = "path") -> Path:
+def _path(path: object, what: str = "path") -> Path:
     """`path` as a Path, or QmeshError naming the argument when it is not a file name."""
     if isinstance(path, bytes):
         path = os.fsdecode(path)
@@ -58,7 +67,7 @@ def _format(path: Path) -> Format:
     return fmt
 
 
-def check_writable(path) -> Path:
+def check_writable(path: PathLike) -> Path:
     """`path` as a Path, or QmeshError unless its extension is known and its folder exists.
 
     The CLI calls it before meshing, so a bad output name fails at once, not after the run.
@@ -72,7 +81,9 @@ def check_writable(path) -> Path:
     return path
 
 
-def write(path, mesh: Mesh, *, anisotropy=None, point_data=None, cell_data=None, version=None) -> None:
+def write(path: PathLike, mesh: Mesh, *, anisotropy: Conductivity | None = None,
+          point_data: Mapping[str, ArrayLike] | None = None,
+          cell_data: Mapping[str, ArrayLike] | None = None, version: str | None = None) -> None:
     """Write `mesh` to `path` in the format of its extension.
 
     `anisotropy` (an Anisotropy, or a mapping {region tag: Anisotropy}) is stored so that
@@ -106,7 +117,7 @@ def write(path, mesh: Mesh, *, anisotropy=None, point_data=None, cell_data=None,
 
 # --------------------------------------------------------------------------- reading
 
-def _existing(path) -> tuple[Path, Format]:
+def _existing(path: PathLike) -> tuple[Path, Format]:
     path = _path(path)
     fmt = _format(path)
     if not path.is_file():
@@ -114,17 +125,17 @@ def _existing(path) -> tuple[Path, Format]:
     return path, fmt
 
 
-def _metadata(path: Path, fmt: Format) -> dict | None:
+def _metadata(path: Path, fmt: Format) -> dict[str, Any] | None:
     try:
         return metadata.read(path, fmt.metadata, repr(str(path)))
     except OSError as e:
         raise QmeshError(f"cannot read {str(path)!r}: {e}") from e
 
 
-def _load(path: Path, fmt: Format):
+def _load(path: Path, fmt: Format) -> Any:
     """The meshio mesh of a file, read by qmesh's own reader for its own layout, else by meshio."""
     try:
-        if fmt.reader is not None and fmt.own_layout(path):
+        if fmt.reader is not None and fmt.own_layout is not None and fmt.own_layout(path):
             return fmt.reader(path)
         with contextlib.redirect_stderr(_io.StringIO()):  # meshio prints its own warnings there
             m = getattr(_meshio(), fmt.meshio_name).read(path)  # meshio.read() calls sys.exit on a bad file
@@ -136,7 +147,7 @@ def _load(path: Path, fmt: Format):
         raise QmeshError(f"cannot read {str(path)!r} as {fmt.meshio_name}: {str(e)[:200] or type(e).__name__}") from e
 
 
-def read_anisotropy(path):
+def read_anisotropy(path: PathLike) -> Anisotropy | dict[int, Anisotropy] | None:
     """The conductivity stored in a mesh file by `write`: an Anisotropy, a {region tag:
     Anisotropy} mapping, or None when the file has none.
 
@@ -150,7 +161,7 @@ def read_anisotropy(path):
     return conductivity.from_json(doc["conductivity"], repr(str(path)))
 
 
-def read_names(path) -> tuple[dict[int, str], dict[int, str]]:
+def read_names(path: PathLike) -> tuple[dict[int, str], dict[int, str]]:
     """(boundary tag names, region names) of a mesh file: from qmesh's metadata alone when the
     file has it (no mesh reader, no h5py: for a DOLFINx script), else as `read` finds them."""
     path, fmt = _existing(path)
@@ -161,7 +172,7 @@ def read_names(path) -> tuple[dict[int, str], dict[int, str]]:
     return _names(None, doc, 0, repr(str(path)))
 
 
-def read(path) -> Mesh:
+def read(path: PathLike) -> Mesh:
     """Read the triangles of a mesh file (written by qmesh or by any other program).
 
     Only triangle cells are kept (an error if there are none); points that no triangle uses
@@ -184,7 +195,7 @@ def read(path) -> Mesh:
         raise QmeshError(f"cannot read {str(path)!r}: {str(e)[:200] or type(e).__name__}") from e
 
 
-def _mesh_of(m, fmt: Format, doc: dict | None, path: Path) -> Mesh:
+def _mesh_of(m: Any, fmt: Format, doc: dict[str, Any] | None, path: Path) -> Mesh:
     source = repr(str(path))
     P = np.asarray(m.points, dtype=float)
     if P.ndim != 2 or P.shape[1] not in (2, 3) or not np.all(np.isfinite(P)):
@@ -224,7 +235,8 @@ def _mesh_of(m, fmt: Format, doc: dict | None, path: Path) -> Mesh:
 
     line_blocks = [i for i, c in enumerate(m.cells) if c.type == "line"]
     tag_key = "boundary_tag" if "boundary_tag" in m.cell_data else fmt.tag_key
-    E = tags = None
+    E: NDArray[np.int64] | None = None
+    tags: NDArray[np.int64] | None = None
     if line_blocks and tag_key in m.cell_data:
         E = np.concatenate([np.asarray(m.cells[i].data, dtype=np.int64).reshape(-1, 2) for i in line_blocks])
         tags = _cell_values(m, tag_key, line_blocks, len(E), source)
@@ -238,21 +250,21 @@ def _mesh_of(m, fmt: Format, doc: dict | None, path: Path) -> Mesh:
     if not used.all():
         renumber = np.cumsum(used) - 1
         P, fixed, T = P[used], fixed[used], renumber[T]
-        if E is not None:
+        if E is not None and tags is not None:
             keep = used[E].all(axis=1)
             E, tags = renumber[E[keep]], tags[keep]
 
     if turns_clockwise(P, T):  # a file that turns clockwise as a whole: its convention, not a fold
         T = T[:, [0, 2, 1]]
     mesh = Mesh(P, T, fixed, region_tags=regions, region_names=region_names)
-    if E is None:
+    if E is None or tags is None:
         return mesh
     edges, on = boundary.tags_on(mesh, E, tags)
     return Mesh(P, T, fixed, boundary_edges=edges, boundary_tags=on, tag_names=tag_names,
                 region_tags=regions, region_names=region_names)
 
 
-def _cell_values(m, key, blocks, n, source) -> np.ndarray | None:
+def _cell_values(m: Any, key: str | None, blocks: list[int], n: int, source: str) -> NDArray[np.int64] | None:
     """Integer cell data `key` of the cell blocks `blocks`, one value per cell, or None."""
     data = m.cell_data.get(key) if key else None
     if data is None:
@@ -263,11 +275,12 @@ def _cell_values(m, key, blocks, n, source) -> np.ndarray | None:
     return values.astype(np.int64)
 
 
-def _names(m, doc, offset, source) -> tuple[dict, dict]:
+def _names(m: Any, doc: dict[str, Any] | None, offset: int, source: str) -> tuple[dict[int, str], dict[int, str]]:
     """(tag names, region names): exact from qmesh's metadata, else the file's named groups."""
     if doc is not None:
         return (metadata.names(doc, "tag_names", source) or {}, metadata.names(doc, "region_names", source) or {})
-    tag_names, region_names = {}, {}
+    tag_names: dict[int, str] = {}
+    region_names: dict[int, str] = {}
     for name, value in (m.field_data or {}).items():
         v = np.ravel(value)
         if len(v) == 2 and np.all(np.isfinite(v)):

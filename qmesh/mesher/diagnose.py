@@ -11,14 +11,20 @@ two elements across; `mesher.mesh` warns with it (`QmeshWarning`), the CLI print
 from __future__ import annotations
 
 import warnings
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import NDArray
 from scipy.spatial import ConvexHull, QhullError
 
 from qmesh.errors import QmeshWarning
 from qmesh.geometry.rings import convex_width
 from qmesh.geometry.triangles import metric_areas, metric_hessians, metric_quality
 from qmesh.mesher.sizing import equilateral_area, vertices_from_counts
+
+if TYPE_CHECKING:
+    from qmesh.conductivity.anisotropy import Anisotropy
+    from qmesh.triangle_mesh import Mesh
 
 ROWS = 2.0               # elements across the domain that a usable mesh needs
 ROW_HEIGHT = np.sqrt(3.0) / 2.0   # height of an equilateral triangle of metric edge length 1
@@ -30,7 +36,7 @@ def element_size(metric_area: float, n_triangles: int) -> float:
     return float(np.sqrt(metric_area / (equilateral_area(1.0) * max(n_triangles, 1))))
 
 
-def metric_width(points: np.ndarray, H: np.ndarray, metric_area: float,
+def metric_width(points: NDArray[np.float64], H: NDArray[np.float64], metric_area: float,
                  metric_perimeter: float, holes: int = 0) -> float:
     """An estimate of the domain's width in the metric H: the smaller of the minimum width of
     the convex hull of the mapped points (exact for convex domains) and, for what the hull does
@@ -52,7 +58,7 @@ def vertices_for(metric_area: float, metric_perimeter: float, h: float) -> int:
     return int(np.ceil(vertices_from_counts(metric_area, h, metric_perimeter / h)))
 
 
-def thin_domain(mesh, anisotropy) -> str | None:
+def thin_domain(mesh: Mesh, anisotropy: Anisotropy) -> str | None:
     """A message when the domain is too thin for the mesh's size, else None."""
     X, T = mesh.points, mesh.triangles
     if len(T) == 0:
@@ -82,13 +88,13 @@ def thin_domain(mesh, anisotropy) -> str | None:
     thin = width < ROWS * ROW_HEIGHT * h
     # the quality pass is half this function's time at 1e6 vertices: only for a thin domain
     min_q = float(metric_quality(P, T, Hs).min()) if thin and n_interior else None
-    if not (n_interior == 0 or (thin and min_q < SLIVER)):
+    if not (n_interior == 0 or (thin and min_q is not None and min_q < SLIVER)):
         return None
     if not thin:
         # wide enough, yet every vertex is on the boundary: the input points (and the boundary's
         # splits) took the whole target; the N whose interior matches the boundary's spacing
         n_b = int(mesh.boundary.sum())
-        need = max(vertices_for(area_m, perimeter, perimeter / max(n_b, 1)), mesh.n_vertices + 1)
+        need: int | None = max(vertices_for(area_m, perimeter, perimeter / max(n_b, 1)), mesh.n_vertices + 1)
         return (f"every one of the N = {mesh.n_vertices} vertices lies on the boundary (no interior "
                 f"vertex), although the domain is {width / (ROW_HEIGHT * h):.2g} elements wide in "
                 f"the metric: the boundary's points take the whole target; about {need} vertices "
@@ -108,7 +114,7 @@ def thin_domain(mesh, anisotropy) -> str | None:
             f"size (N = {mesh.n_vertices}, {symptom}); {advice}")
 
 
-def warn_if_thin(mesh, anisotropy, stacklevel: int = 3) -> None:
+def warn_if_thin(mesh: Mesh, anisotropy: Anisotropy, stacklevel: int = 3) -> None:
     """warnings.warn(thin_domain(...), QmeshWarning) when there is something to say."""
     message = thin_domain(mesh, anisotropy)
     if message is not None:

@@ -8,12 +8,17 @@ run therefore costs little more than the final mesh per stage (the GUI scrubs th
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import NDArray
 
 from qmesh.geometry.triangles import metric_hessians, metric_quality
 from qmesh.measure import triangle_energy
 from qmesh.triangle_mesh import Mesh
+
+if TYPE_CHECKING:
+    from qmesh.conductivity.anisotropy import Anisotropy
 
 
 class Stats:
@@ -30,7 +35,7 @@ class Stats:
     def __init__(self, n_vertices: int, n_triangles: int, energy: float | None = None,
                  min_quality: float | None = None, mean_quality: float | None = None, *,
                  max_move: float = 0.0, rms_move: float = 0.0, flips: int = 0, added: int = 0,
-                 seconds: float = 0.0, source=None):
+                 seconds: float = 0.0, source: tuple[Mesh, Anisotropy] | None = None) -> None:
         self.n_vertices, self.n_triangles = int(n_vertices), int(n_triangles)
         self.max_move = max_move    # largest metric displacement / h in this stage (adjust)
         self.rms_move = rms_move    # root-mean-square metric displacement / h (adjust)
@@ -40,34 +45,33 @@ class Stats:
         self._energy, self._min_quality, self._mean_quality = energy, min_quality, mean_quality
         self._source = source
 
-    def _fill(self):
+    def _fill(self) -> tuple[float, float, float]:
+        """Computes (and keeps) the energy, minimum and mean quality from `source`."""
+        if self._source is None:
+            raise TypeError("these Stats were given neither the figures nor a source to compute them from")
         mesh, anisotropy = self._source
         P, T = mesh.points, mesh.triangles
         q = metric_quality(P, T, metric_hessians(anisotropy, P, T))
         self._energy = float(triangle_energy(P, T, anisotropy).sum())
         self._min_quality, self._mean_quality = float(q.min()), float(q.mean())
+        return self._energy, self._min_quality, self._mean_quality
 
     @property
     def energy(self) -> float:
         """E = ‖s_h − s‖_L1 (MATH.md "Vertex adjustment")."""
-        if self._energy is None:
-            self._fill()
-        return self._energy
+        return self._fill()[0] if self._energy is None else self._energy
 
     @property
     def min_quality(self) -> float:
         """Smallest metric quality (2.94); 1 = equilateral in metric space."""
-        if self._min_quality is None:
-            self._fill()
-        return self._min_quality
+        return self._fill()[1] if self._min_quality is None else self._min_quality
 
     @property
     def mean_quality(self) -> float:
-        if self._mean_quality is None:
-            self._fill()
-        return self._mean_quality
+        """Mean metric quality (2.94) over the triangles."""
+        return self._fill()[2] if self._mean_quality is None else self._mean_quality
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return (f"Stats(N={self.n_vertices}, triangles={self.n_triangles}, E={self.energy:.4g}, "
                 f"min_q={self.min_quality:.3f}, added={self.added}, flips={self.flips})")
 
@@ -85,11 +89,11 @@ class Step:
     iteration: int
     mesh: Mesh
     stats: Stats
-    moved: np.ndarray | None = field(default=None, repr=False)
-    added: np.ndarray | None = field(default=None, repr=False)
+    moved: NDArray[np.float64] | None = field(default=None, repr=False)
+    added: NDArray[np.int64] | None = field(default=None, repr=False)
     converged: bool = False
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         s = self.stats
         return (f"Step({self.stage!r}, iteration={self.iteration}, N={s.n_vertices}, "
                 f"E={s.energy:.4g}, min_q={s.min_quality:.3f})")
