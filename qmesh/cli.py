@@ -32,7 +32,7 @@ from qmesh.io.conductivity import PREFIX as RECORD_PREFIX, record_of
 from qmesh.meshing import iterate
 from qmesh.meshing import mesh as run_mesher
 from qmesh.domain.polygon_file import read_domain
-from qmesh.media.region_file import conductivity_per_region, read_regions
+from qmesh.domain.region_file import conductivity_per_region, read_regions
 from qmesh.sweep.cli import add_dask_options, add_parser as add_sweep_parser
 
 _MESHER_DEFAULTS = {k: v.default for k, v in inspect.signature(iterate).parameters.items()}

@@ -4,7 +4,7 @@
   triangulation of every partition edge (outline, holes, interfaces), the partition's vertices
   required and marked as corners, every partition edge given as an edge so MMG keeps the
   interfaces; the tensor at a vertex is its region's metric ∇²s_r / k_r (the same size-free
-  metric qmesh meshes, sizing.py) scaled by 1/h²; a vertex on an interface (in the closure of
+  metric qmesh meshes, media/plan.py) scaled by 1/h²; a vertex on an interface (in the closure of
   several regions) gets the mean of its regions' tensors; h calibrated to the target N.
 - `triangle`: Shewchuk's Triangle, isotropic (`pq30a`), every partition edge a segment, the
   maximum area calibrated to the target N.
@@ -21,13 +21,12 @@ from qmesh.compare.peers import MMG_PASSES, PeerMesh, calibrate
 from qmesh.errors import QmeshError
 from qmesh.geometry import rings as _rings
 from qmesh.media import faces as _faces
-from qmesh.media import sizing as _sizing
-from qmesh.media.mesher import partition_of
+from qmesh.mesher.normalise import hessian_scale
 from qmesh.triangle_mesh import Mesh
 
 
 def _face_domains(domain):
-    part = partition_of(domain)
+    part = domain.partition
     return part, [_faces.face_domain(part, f, {}, f"face {i}") for i, f in enumerate(part.faces)]
 
 
@@ -42,7 +41,7 @@ def region_of(domain, X) -> np.ndarray:
 
 
 def _pslg(domain):
-    part = partition_of(domain)
+    part = domain.partition
     pslg = {"vertices": np.array(part.points, dtype=float),
             "segments": np.array(part.edges, dtype=np.int32)}
     holes = hole_points(domain) if len(domain.rings) > 1 else []
@@ -91,7 +90,7 @@ def mmg2d(domain, conductivities, target_vertices: int, *, rtol: float = 0.03) -
     _, doms = _face_domains(domain)
     ref0 = region_of(domain, P0[T0].mean(axis=1)) + 1         # MMG keeps interfaces between refs
     anis = [conductivities[f.region] for f in part.faces]
-    ks = [_sizing.region_scale(a, d.seeds) for a, d in zip(anis, doms)]
+    ks = [hessian_scale(a, d.seeds) for a, d in zip(anis, doms)]
     reach = 1e-9 * domain.diameter
 
     def metric(V):

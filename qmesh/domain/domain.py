@@ -20,7 +20,7 @@ from qmesh.geometry import rings as _rings
 from qmesh import checks
 from qmesh.conductivity.anisotropy import Anisotropy
 from qmesh.domain import cells
-from qmesh.domain.regions import attach
+from qmesh.domain.regions import attach, faces_of
 from qmesh.errors import QmeshError
 
 MAX_POINTS = 10_000_000
@@ -183,6 +183,14 @@ class Domain:
     @property
     def region_names(self) -> dict[int, str]:
         return dict(self._region_names)
+
+    @property
+    def partition(self) -> Partition:
+        """The planar partition of Ω by its regions (`partition.Partition`): the faces a medium
+        is meshed by, one face per connected piece of Ω when there are no regions."""
+        if self._partition is None:
+            self._partition = faces_of(self)
+        return self._partition
 
     # ------------------------------------------------------------------ what the mesher reads
     @property

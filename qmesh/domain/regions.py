@@ -48,14 +48,20 @@ def attach(domain, regions, region_names, ring_tags, Domain) -> None:
     if len(regions) > MAX_REGIONS:
         raise QmeshError(f"{len(regions)} regions; the limit is {MAX_REGIONS}")
     regs = tuple(as_region(r, k + 1, Domain) for k, r in enumerate(regions))
+    domain._regions = regs
+    domain._region_names = _names(region_names, len(regs))
+    domain._partition = faces_of(domain, regs)
+
+
+def faces_of(domain, regions=()):
+    """The planar partition of Ω's rings and the regions' rings (partition.py): one face per
+    connected piece of a region, or of Ω when there are no regions."""
     rings = [Ring(np.asarray(R), 0, "the outline" if j == 0 else f"hole {j}")
              for j, R in enumerate(domain.rings)]
     # Ω's rings keep the user's segment order for their tags: domain.segment_tags follows rings
     tags = [domain.segment_tags[o:o + len(R)] for o, R in
             zip(np.cumsum([0] + [len(R) for R in domain.rings]), domain.rings)]
-    for k, reg in enumerate(regs, start=1):
+    for k, reg in enumerate(regions, start=1):
         for j, R in enumerate(reg.rings):
             rings.append(Ring(np.asarray(R), k, f"region {k}" if j == 0 else f"region {k} hole {j}"))
-    domain._regions = regs
-    domain._region_names = _names(region_names, len(regs))
-    domain._partition = partition(rings, tags, domain.diameter)
+    return partition(rings, tags, domain.diameter)

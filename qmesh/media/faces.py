@@ -54,7 +54,7 @@ def points_on_edges(mesh, part, n_seeds: int) -> dict:
     res = {}
     for e, v in out.items():
         X = mesh.points[np.unique(np.concatenate(v))]
-        far = np.array([not tree.query_ball_point(x, tol) for x in X], bool)
+        far = tree.query(X)[0] > tol
         if far.any():
             res[e] = X[far]
     return res

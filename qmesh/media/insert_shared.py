@@ -2,149 +2,118 @@
 
 MEDIA.md §2: an interface edge needs the same vertices on both sides. When a face mesher splits
 an interface subsegment (to keep q_ij ≥ 0 in its own metric), the face on the other side,
-already meshed, gets the point by splitting its boundary edge there (topology.split_boundary_edges)
-and restoring the Q-Delaunay property by flips in its own metric (triangulate.restore). No
-point is added, so the exchange ends after one pass; and q_ij ≥ 0 is kept: interior edges are
-locally Q-Delaunay again after the flips, and a piece a–p of a boundary edge a–b that no vertex
-encroached is not encroached either (its diametral ellipse lies inside a–b's, GEOMETRY.md §1),
-so the apex of each piece lies outside its ellipse and its q_ij ≥ 0.
+already meshed, gets the point by splitting its boundary edge there
+(`topology.split_boundary_edges`) and restoring the Q-Delaunay property by flips in its own
+metric (`triangulate.restore`). A boundary edge a point then encroaches in this face's metric
+(a small metric angle at a corner) is split as the mesher splits its own
+(`conform.encroached`, `conform.split_points`: concentric shells next to an input point), and
+the points that land on an interface go on to that neighbour in turn. Interior edges are
+locally Q-Delaunay after the flips and no boundary edge is encroached, so every share of q_ij
+in this face stays ≥ 0.
 """
 
 from __future__ import annotations
 
 import numpy as np
-
 from scipy.spatial import cKDTree
 
+from qmesh.errors import QmeshError
 from qmesh.geometry import topology
-from qmesh.triangle_mesh import Mesh
+from qmesh.mesher.conform import encroached, split_points
 from qmesh.mesher.triangulate import restore
+from qmesh.triangle_mesh import Mesh
+
+MAX_SPLITS = 200     # rounds of splits of encroached boundary edges after one insertion
 
 
-MAX_SPLITS = 200     # shell splits of encroached boundary edges after one insertion
-
-
-def insert_on_boundary(mesh: Mesh, anisotropy, points: dict, part):
-    """`mesh` with `points` {partition edge: (k, 2)} inserted on its boundary edges of that
-    edge (boundary tag = partition edge + 1; points it already has are skipped), and the points
-    it then had to add on interface edges of the partition `part`, {edge: (k, 2)}, for the
-    neighbours.
-
-    A point put next to a corner may encroach the boundary edge on the corner's other side
-    (a small angle in this face's metric); that edge is split at the encroaching vertex's metric
-    distance from the corner (the end of its partition edge nearer the vertex): a concentric
-    shell (Ruppert 1995), so the two pieces at the corner are alike and neither is encroached.
-    """
+def insert_on_boundary(mesh: Mesh, anisotropy, points: dict, part) -> tuple[Mesh, dict]:
+    """`mesh` (a face mesh, boundary tag = partition edge + 1) with `points` {partition edge:
+    (k, 2)} inserted on its boundary edges of that edge (points it has already are skipped),
+    and the points it then had to add on interface edges of `part`, {edge: (k, 2)}."""
+    edge = np.concatenate([np.full(len(X), e, np.int64) for e, X in points.items()] or [[]])
+    X = np.concatenate([np.asarray(X, float).reshape(-1, 2) for X in points.values()] or
+                       [np.zeros((0, 2))])
     tol = 1e-12 * float(np.ptp(mesh.points, axis=0).max())
-    tree = cKDTree(mesh.points)
-    todo = [(int(e), x) for e, X in points.items() for x in np.asarray(X)
-            if not tree.query_ball_point(x, tol)]
-    if not todo:
+    new = cKDTree(mesh.points).query(X)[0] > tol if len(X) else np.zeros(0, bool)
+    if not new.any():
         return mesh, {}
-    st = _State(mesh)
-    while todo:
-        todo = st.split(todo)
-    st.restore(anisotropy)
-    added = {}
+    P, T = np.array(mesh.points), np.array(mesh.triangles)
+    twin = topology.twins(T)
+    out = np.full(len(P), -1, np.int64)       # partition edge of each vertex's outgoing boundary edge
+    out[mesh.boundary_edges[:, 0]] = mesh.boundary_tags - 1
+    fixed = np.array(mesh.fixed)
+    X, edge = X[new], edge[new]
+    while len(X):                             # at most one split per triangle at a time
+        hb = _holding(P, T, twin, out, part, X, edge)
+        _, first = np.unique(hb // 3, return_index=True)
+        P, T, twin, out, fixed = _split(P, T, twin, out, fixed, hb[first], X[first])
+        rest = np.ones(len(X), bool)
+        rest[first] = False
+        X, edge = X[rest], edge[rest]
+    T, twin, _ = restore(P, T, twin, anisotropy)                  # its own metric
+    added = []
     for _ in range(MAX_SPLITS):
-        splits = st.encroached(anisotropy, part)
-        if not splits:
-            break
-        st.split(splits)
-        st.restore(anisotropy)
-        for e, x in splits:
-            if part.interface[e]:
-                added.setdefault(e, []).append(x)
-    else:
-        raise ValueError("boundary edges stay encroached after "
-                         f"{MAX_SPLITS} splits next to an inserted interface point")
-    return st.mesh(mesh), {e: np.array(X) for e, X in added.items()}
-
-
-class _State:
-    """P, T, twin and the partition edge of every boundary half-edge, edited in place."""
-
-    def __init__(self, mesh):
-        self.P = np.array(mesh.points)
-        self.T = np.array(mesh.triangles)
-        self.twin = topology.twins(self.T)
-        self.tag = {(int(a), int(b)): int(t) for (a, b), t in zip(mesh.boundary_edges,
-                                                                   mesh.boundary_tags)}
-
-    def boundary(self):
-        hb = np.flatnonzero(self.twin < 0)
+        hb = np.flatnonzero(twin < 0)
         t, k = np.divmod(hb, 3)
-        return hb, t, self.T[t, k], self.T[t, topology.NXT[k]], self.T[t, topology.PRV[k]]
+        u, v, w = T[t, k], T[t, topology.NXT[k]], T[t, topology.PRV[k]]
+        bad = encroached(P[u], P[v], P[w], anisotropy)
+        if not bad.any():
+            break
+        hb, u, v = hb[bad], u[bad], v[bad]
+        _, first = np.unique(hb // 3, return_index=True)
+        hb, u, v = hb[first], u[first], v[first]
+        x = split_points(P[u], P[v], fixed[u], fixed[v], anisotropy)
+        added.append((out[u], x))
+        P, T, twin, out, fixed = _split(P, T, twin, out, fixed, hb, x)
+        T, twin, _ = restore(P, T, twin, anisotropy)
+    else:
+        raise QmeshError("boundary edges stay encroached after "
+                         f"{MAX_SPLITS} splits next to an inserted interface point")
+    hb = np.flatnonzero(twin < 0)
+    t, k = np.divmod(hb, 3)
+    E = np.column_stack([T[t, k], T[t, topology.NXT[k]]])
+    face = Mesh(P, T, fixed, E, out[E[:, 0]] + 1, mesh.tag_names)
+    return face, _on_interfaces(added, part)
 
-    def split(self, todo):
-        """Split boundary edges at the points (edge, x) given, one per triangle; the rest is
-        returned for the next batch."""
-        hb, t, u, v, _ = self.boundary()
-        hb_tag = np.array([self.tag[(int(a), int(b))] for a, b in zip(u, v)])
-        chosen, rest, used = [], [], set()
-        scale = float(np.ptp(self.P, axis=0).max())
-        for e, x in todo:
-            if np.min(np.hypot(*(self.P - x).T)) <= 1e-12 * scale:
-                continue                      # already a vertex (given twice, or a corner)
-            on = np.flatnonzero(hb_tag == e + 1)
-            a, b = self.P[u[on]], self.P[v[on]]
-            ab = b - a
-            s = np.einsum("ij,ij->i", x - a, ab) / np.einsum("ij,ij->i", ab, ab)
-            inside = (s > 0) & (s < 1)
-            if not inside.any():
-                raise ValueError(f"no boundary edge of the face holds {np.asarray(x).tolist()}")
-            i = int(on[inside][np.argmin(np.abs(s[inside] - 0.5))])
-            if t[i] in used:
-                rest.append((e, x))
-                continue
-            used.add(t[i])
-            chosen.append((i, x))
-        p = len(self.P) + np.arange(len(chosen))
-        for (i, _), q in zip(chosen, p):
-            a, b = int(u[i]), int(v[i])
-            e1 = self.tag.pop((a, b))
-            self.tag[(a, int(q))] = self.tag[(int(q), b)] = e1
-        self.P = np.concatenate([self.P, np.array([x for _, x in chosen]).reshape(-1, 2)])
-        self.T, self.twin = topology.split_boundary_edges(
-            self.T, self.twin, np.array([hb[i] for i, _ in chosen], np.int64), p)
-        return rest
 
-    def restore(self, anisotropy):
-        self.T, self.twin, _ = restore(self.P, self.T, self.twin, anisotropy)   # own metric
+def _holding(P, T, twin, out, part, X, edge) -> np.ndarray:
+    """For each point X[i] on partition edge edge[i], the boundary half-edge that holds it."""
+    hb = np.flatnonzero(twin < 0)
+    t, k = np.divmod(hb, 3)
+    u, v = T[t, k], T[t, topology.NXT[k]]
+    found = np.full(len(X), -1, np.int64)
+    for e in np.unique(edge):                  # one pass per partition edge touched
+        a, b = part.points[part.edges[e]]
+        d = (b - a) / float((b - a) @ (b - a))
+        on = np.flatnonzero(out[u] == e)
+        lo = np.minimum((P[u[on]] - a) @ d, (P[v[on]] - a) @ d)
+        hi = np.maximum((P[u[on]] - a) @ d, (P[v[on]] - a) @ d)
+        order = np.argsort(lo)
+        mine = np.flatnonzero(edge == e)
+        s = (X[mine] - a) @ d
+        j = np.searchsorted(lo[order], s) - 1
+        ok = (j >= 0) & (s < hi[order][np.maximum(j, 0)])
+        if not ok.all():
+            x = X[mine[~ok][0]].tolist()
+            raise QmeshError(f"no boundary edge of the face holds the interface point {x}")
+        found[mine] = hb[on[order[j]]]
+    return found
 
-    def encroached(self, anisotropy, part, tol=1e-12):
-        """(edge, split point) for every boundary edge whose apex sees it at more than 90° in
-        the metric (q_ij < 0): on the partition edge, at the apex's metric distance from the
-        edge's end nearer the apex when that falls inside the piece, else its midpoint."""
-        _, t, u, v, w = self.boundary()
-        a, b, c = self.P[u], self.P[v], self.P[w]
-        H = (np.broadcast_to(anisotropy.H, (len(t), 2, 2)) if anisotropy.is_constant else
-             np.asarray(anisotropy.hessian((a + b + c) / 3), dtype=float))
-        ca, cb = a - c, b - c
 
-        def norm(x, Hx):
-            return float(np.sqrt(x @ Hx @ x))
-        dot = np.einsum("ni,nij,nj->n", ca, H, cb)
-        lens = np.sqrt(np.einsum("ni,nij,nj->n", ca, H, ca) * np.einsum("ni,nij,nj->n", cb, H, cb))
-        out = []
-        for i in np.flatnonzero(dot < -tol * lens):
-            e = self.tag[(int(u[i]), int(v[i]))] - 1
-            p0, p1 = part.points[part.edges[e]]
-            d0, d1 = norm(c[i] - p0, H[i]), norm(c[i] - p1, H[i])
-            corner, far, r = (p0, p1, d0) if d0 <= d1 else (p1, p0, d1)
-            L = norm(far - corner, H[i])
-            x = corner + (r / L) * (far - corner)
-            ta = norm(a[i] - corner, H[i]) / L
-            tb = norm(b[i] - corner, H[i]) / L
-            lo, hi = min(ta, tb), max(ta, tb)
-            if not lo + 1e-9 < r / L < hi - 1e-9:
-                x = 0.5 * (a[i] + b[i])
-            out.append((e, x))
-        return out
+def _split(P, T, twin, out, fixed, hb, x):
+    """Boundary half-edges hb (one per triangle) split at points x; the new vertices continue
+    the partition edge of the half-edge they split."""
+    n, u = len(P), T[hb // 3, hb % 3]
+    T, twin = topology.split_boundary_edges(T, twin, hb, n + np.arange(len(hb)))
+    return (np.concatenate([P, x]), T, twin, np.concatenate([out, out[u]]),
+            np.concatenate([fixed, np.zeros(len(hb), bool)]))
 
-    def mesh(self, old: Mesh) -> Mesh:
-        hb, t, u, v, _ = self.boundary()
-        E = np.column_stack([u, v])
-        tags = np.array([self.tag[(int(a), int(b))] for a, b in E], np.int64)
-        fixed = np.concatenate([old.fixed, np.zeros(len(self.P) - old.n_vertices, bool)])
-        return Mesh(self.P, self.T, fixed, E, tags, old.tag_names)
+
+def _on_interfaces(added: list, part) -> dict:
+    """{interface edge: points} of the split points that landed on an interface."""
+    if not added:
+        return {}
+    e = np.concatenate([a for a, _ in added])
+    x = np.concatenate([b for _, b in added])
+    keep = part.interface[e]
+    return {int(k): x[keep & (e == k)] for k in np.unique(e[keep])}

@@ -19,7 +19,7 @@ CANCELLATION = 1e6   # |s(c)| + d|∇s(c)| over d²·|∇²s| beyond which s −
 GAUSS = 6            # Gauss–Legendre points of that quadrature
 
 
-def _hessian_scale(anisotropy, X: np.ndarray) -> float:
+def hessian_scale(anisotropy, X: np.ndarray) -> float:
     """A typical spectral norm of ∇²s: exact for constant Q, the median over X otherwise."""
     H = anisotropy.H if anisotropy.is_constant else np.asarray(anisotropy.hessian(X), dtype=float)
     H = np.asarray(H, dtype=float).reshape(-1, 2, 2)
@@ -41,7 +41,7 @@ class Normalisation:
         lo, hi = domain.bounds
         self.center = 0.5 * (lo + hi)
         self.scale = float((hi - lo).max())
-        self.k = _hessian_scale(anisotropy, domain.seeds)
+        self.k = hessian_scale(anisotropy, domain.seeds)
         self.user_domain, self.user_anisotropy = domain, anisotropy
         self.domain = domain.scaled(self.center, self.scale)
         self.anisotropy = self._anisotropy(anisotropy)

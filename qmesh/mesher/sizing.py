@@ -55,15 +55,21 @@ def domain_triangulation(domain) -> tuple[np.ndarray, np.ndarray]:
     return cached
 
 
-def metric_edge_lengths(domain, anisotropy) -> np.ndarray:
-    """Metric length ∫ √(τᵀHτ) of each boundary segment."""
-    A, B = domain.segment_ends
+def metric_edge_lengths(domain, anisotropy, scale: float = 1.0) -> np.ndarray:
+    """Metric length ∫ √(τᵀHτ) of each boundary segment, H = ∇²s / scale."""
+    return segment_lengths(*domain.segment_ends, anisotropy, scale)
+
+
+def segment_lengths(A: np.ndarray, B: np.ndarray, anisotropy, scale: float = 1.0) -> np.ndarray:
+    """Metric length of the segments A→B in H = ∇²s / scale (exact for a constant Q, 8-point
+    Gauss–Legendre for a varying s). A region of a medium passes its own scale k_r, so every
+    region is sized in its metric with its magnitude divided out (MEDIA.md §3)."""
     E = B - A
     X = A[:, None, :] + _GL_X[None, :, None] * E[:, None, :]
     Hs = (np.broadcast_to(anisotropy.H, (X.shape[0] * X.shape[1], 2, 2)) if anisotropy.is_constant
           else np.asarray(anisotropy.hessian(X.reshape(-1, 2)), dtype=float))
     Ek = np.repeat(E, len(_GL_X), axis=0)
-    dens = np.sqrt(np.einsum("ni,nij,nj->n", Ek, Hs, Ek)).reshape(len(A), -1)
+    dens = np.sqrt(np.einsum("ni,nij,nj->n", Ek, Hs, Ek) / scale).reshape(len(A), -1)
     return dens @ _GL_W
 
 
@@ -99,10 +105,17 @@ def vertices_from_counts(area_m: float, h: float, n_boundary: float) -> float:
 def size_for_vertices(area_m: float, edge_lengths: np.ndarray, n: int,
                       boundary_factor: float | None) -> float:
     """The metric edge length h whose expected vertex count is n (bisection in log h)."""
-    lo, hi = 1e-9 * np.sqrt(area_m), 10.0 * (np.sqrt(area_m) + edge_lengths.sum())
-    for _ in range(200):
+    return size_for_count(lambda h: vertices_for_size(area_m, edge_lengths, h, boundary_factor),
+                          n, area_m, float(edge_lengths.sum()))
+
+
+def size_for_count(count, n: float, area_m: float, length_m: float, steps: int = 200) -> float:
+    """The h at which the decreasing function count(h) crosses n: bisection in log h between
+    sizes far below and far above any mesh of metric area area_m and boundary length length_m."""
+    lo, hi = 1e-9 * np.sqrt(area_m), 10.0 * (np.sqrt(area_m) + length_m)
+    for _ in range(steps):
         mid = np.sqrt(lo * hi)
-        if vertices_for_size(area_m, edge_lengths, mid, boundary_factor) > n:
+        if count(mid) > n:
             lo = mid
         else:
             hi = mid

@@ -7,6 +7,7 @@ run therefore costs little more than the final mesh per stage (the GUI scrubs th
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -14,6 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from qmesh.geometry.triangles import metric_hessians, metric_quality
+from qmesh import measure
 from qmesh.measure import triangle_energy
 from qmesh.triangle_mesh import Mesh
 
@@ -35,7 +37,7 @@ class Stats:
     def __init__(self, n_vertices: int, n_triangles: int, energy: float | None = None,
                  min_quality: float | None = None, mean_quality: float | None = None, *,
                  max_move: float = 0.0, rms_move: float = 0.0, flips: int = 0, added: int = 0,
-                 seconds: float = 0.0, source: tuple[Mesh, Anisotropy] | None = None) -> None:
+                 seconds: float = 0.0, source: tuple[Mesh, Anisotropy | Mapping[int, Anisotropy]] | None = None) -> None:
         self.n_vertices, self.n_triangles = int(n_vertices), int(n_triangles)
         self.max_move = max_move    # largest metric displacement / h in this stage (adjust)
         self.rms_move = rms_move    # root-mean-square metric displacement / h (adjust)
@@ -50,9 +52,13 @@ class Stats:
         if self._source is None:
             raise TypeError("these Stats were given neither the figures nor a source to compute them from")
         mesh, anisotropy = self._source
-        P, T = mesh.points, mesh.triangles
-        q = metric_quality(P, T, metric_hessians(anisotropy, P, T))
-        self._energy = float(triangle_energy(P, T, anisotropy).sum())
+        if isinstance(anisotropy, Mapping):        # a medium: each triangle in its region's s
+            q = measure.quality(mesh, anisotropy)
+            self._energy = measure.energy(mesh, anisotropy)
+        else:
+            P, T = mesh.points, mesh.triangles
+            q = metric_quality(P, T, metric_hessians(anisotropy, P, T))
+            self._energy = float(triangle_energy(P, T, anisotropy).sum())
         self._min_quality, self._mean_quality = float(q.min()), float(q.mean())
         return self._energy, self._min_quality, self._mean_quality
 

@@ -86,7 +86,7 @@ def check_mesh(domain, cond, m, tol=1e-9):
     for reg in (domain,) + domain.regions:
         assert all(tuple(x) in pts for x in reg.seeds)
     # no edge crosses an interface: a mesh edge meets an interface segment only at a vertex
-    part = domain._partition
+    part = domain.partition
     inter = part.edges[part.interface]
     if len(inter):
         a, b = part.points[inter[:, 0]], part.points[inter[:, 1]]

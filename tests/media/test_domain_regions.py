@@ -13,13 +13,13 @@ def test_regions_and_names_are_kept():
     d = qmesh.Domain(SQUARE, regions=[[(1, 0), (2, 0), (2, 1), (1, 1)]], region_names=["right"])
     assert len(d.regions) == 1 and d.region_names == {1: "right"}
     assert d.regions[0].area == pytest.approx(1.0)
-    assert sorted(f.region for f in d._partition.faces) == [0, 1]
+    assert sorted(f.region for f in d.partition.faces) == [0, 1]
 
 
 def test_a_region_with_a_hole_filled_by_another_region():
     ring = qmesh.Domain([(1, 0.2), (1.8, 0.2), (1.8, 0.8), (1, 0.8)], [[(1.2, 0.4), (1.4, 0.4), (1.3, 0.6)]])
     d = qmesh.Domain(SQUARE, [HOLE], regions=[ring, [(1.2, 0.4), (1.4, 0.4), (1.3, 0.6)]])
-    faces = d._partition.faces
+    faces = d.partition.faces
     assert sorted(f.region for f in faces) == [0, 1, 2]
     assert [len(f.cycles) for f in faces if f.region == 1] == [2]      # region 1 keeps its hole
 
@@ -28,7 +28,7 @@ def test_a_corner_on_another_regions_edge_splits_it():
     # region 2's corners (1, 0.3) and (1, 0.6) lie on region 1's left edge
     d = qmesh.Domain(SQUARE, regions=[[(1, 0), (2, 0), (2, 1), (1, 1)],
                                       [(0.5, 0.3), (1, 0.3), (1, 0.6), (0.5, 0.6)]])
-    part = d._partition
+    part = d.partition
     x1 = np.isclose(part.points[part.edges[:, 0], 0], 1) & np.isclose(part.points[part.edges[:, 1], 0], 1)
     assert x1.sum() == 3                          # x = 1 cut into three edges
     assert part.interface[x1].all()

@@ -7,7 +7,7 @@ import pytest
 
 import qmesh
 from qmesh.cli import main
-from qmesh.media.region_file import read_regions, regions_from_text
+from qmesh.domain.region_file import read_regions, regions_from_text
 
 
 def feature(region, ring, **props):

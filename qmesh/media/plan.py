@@ -1,0 +1,180 @@
+"""Everything a medium's run decides before and between its faces: one sizing for all of them.
+
+MEDIA.md §3: each region r is meshed in its metric ∇²s_r with its magnitude k_r divided out
+(`normalise.hessian_scale`), so one metric edge length h serves every face. N is shared
+between the faces by metric area through the single-region mesher's own relation h ↔ N
+(`mesher.sizing.vertices_for_size`), less the interface vertices that two faces count twice.
+Interfaces are cut beforehand into pieces ≤ h in the metric of both sides, so the neighbours
+start from the same points.
+
+A face thin or sharp in its own metric needs more vertices than its area says. The faces are
+meshed smallest metric area first, and before each face the h of the faces still to come is
+sized again for what the target leaves (`size_rest`); the largest face, last, is given the
+exact vertex count that remains (`last_face_target`), so the run lands on N without being run
+twice.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from qmesh.conductivity.anisotropy import Anisotropy
+from qmesh.errors import QmeshError
+from qmesh.media.faces import face_domain
+from qmesh.mesher import sizing
+from qmesh.mesher.normalise import hessian_scale
+from qmesh.mesher.plan import BOUNDARY_FACTOR
+
+RESIZE = 2.0     # the faces still to come are sized at most this factor away from the first h
+SLACK = 0.03     # ... and only when the faces done so far put the run this share off its target
+
+
+def conductivities(domain, conductivity, part) -> dict:
+    """{region tag: Anisotropy} for every region that has a face; QmeshError for a missing
+    region, an unknown tag or a value that is not an Anisotropy."""
+    present = sorted({f.region for f in part.faces})
+    if isinstance(conductivity, Anisotropy):
+        return {r: conductivity for r in present}
+    if not isinstance(conductivity, Mapping):
+        raise QmeshError("the conductivity must be a qmesh.Anisotropy or a mapping {region tag: "
+                         f"Anisotropy}}, got {type(conductivity).__name__}")
+    out = {}
+    for k, v in conductivity.items():
+        if isinstance(k, bool) or not isinstance(k, (int, np.integer)):
+            raise QmeshError(f"conductivity keys must be region tags (integers), got {k!r}")
+        if not isinstance(v, Anisotropy):
+            raise QmeshError(f"the conductivity of region {k} must be a qmesh.Anisotropy, "
+                             f"got {type(v).__name__}")
+        if not 0 <= int(k) <= len(domain.regions):
+            raise QmeshError(f"the conductivity names region {k}, but the domain has regions "
+                             f"0 to {len(domain.regions)}")
+        out[int(k)] = v
+    missing = [r for r in present if r not in out]
+    if missing:
+        names = domain.region_names
+        what = ", ".join(f"{r}" + (f" ({names[r]})" if r in names else "") for r in missing)
+        raise QmeshError(f"no conductivity for region {what}: give one Anisotropy per region "
+                         f"(tags {present})")
+    return out
+
+
+class MediaPlan:
+    """Per face: its anisotropy, scale k, metric area and segment lengths; the shared h; the
+    interface cuts; and the order the faces are meshed in."""
+
+    def __init__(self, domain, conductivity, target_vertices: int | None, size: float | None):
+        self.domain = domain
+        self.part = part = domain.partition
+        self.faces = part.faces
+        cond = conductivities(domain, conductivity, part)
+        self.anis = [cond[f.region] for f in self.faces]
+        bare = [face_domain(part, f, {}, self.face_name(i)) for i, f in enumerate(self.faces)]
+        self.k = [hessian_scale(a, d.seeds) for a, d in zip(self.anis, bare)]
+        self.area = [sizing.metric_area(d, a) / k for d, a, k in zip(bare, self.anis, self.k)]
+        self.lengths = [sizing.metric_edge_lengths(d, a, k) for d, a, k in zip(bare, self.anis, self.k)]
+        self.longest = self._interface_lengths()
+        self.target = target_vertices
+        self.order = sorted(range(len(self.faces)), key=lambda i: self.area[i])   # largest last
+        everything = list(range(len(self.faces)))
+        if target_vertices is not None:
+            if target_vertices <= len(part.points):
+                raise QmeshError(f"target_vertices = {target_vertices} must exceed the "
+                                 f"{len(part.points)} input points of the domain and its regions")
+            self.h = self._size_for(everything, target_vertices)
+        else:
+            self.h = float(size) if size is not None else float(np.mean(np.concatenate(self.lengths)))
+            sizing.check_vertex_count(self.count(self.h, everything), f"size = {self.h:.3g}")
+        self.h_rest = self.h
+        self.extra = self._cuts(self.pieces(self.h))
+
+    def face_name(self, i: int) -> str:
+        r = self.faces[i].region
+        names = self.domain.region_names
+        return f"region {r}" + (f" ({names[r]})" if r in names else "")
+
+    def _interface_lengths(self) -> np.ndarray:
+        """Metric length of every interface edge in the longer of its two sides' metrics."""
+        E, V, part = self.part.edges, self.part.points, self.part
+        inter = np.flatnonzero(part.interface)
+        longest = np.zeros(len(inter))
+        for side in (0, 1):
+            f = part.edge_faces[inter, side]
+            for face in np.unique(f):
+                on = f == face
+                L = sizing.segment_lengths(V[E[inter[on], 0]], V[E[inter[on], 1]],
+                                           self.anis[face], self.k[face])
+                longest[on] = np.maximum(longest[on], L)
+        return longest
+
+    def pieces(self, h: float) -> np.ndarray:
+        """Into how many pieces each partition edge is cut before meshing: interface edges so
+        that each piece is ≤ h in both sides' metrics; others 1 (their face mesher splits them)."""
+        pieces = np.ones(len(self.part.edges), np.int64)
+        pieces[self.part.interface] = np.maximum(
+            1, np.ceil(self.longest / (BOUNDARY_FACTOR * h))).astype(np.int64)
+        return pieces
+
+    def count(self, h: float, faces: list) -> float:
+        """Expected vertices the faces `faces` add at metric edge length h: Euler's estimate
+        per face (mesher.sizing), less one count of every interface vertex they share with
+        another face (counted on both sides, or already there)."""
+        n = sum(sizing.vertices_for_size(self.area[i], self.lengths[i], h, BOUNDARY_FACTOR)
+                for i in faces)
+        mine = np.zeros(len(self.faces), bool)
+        mine[faces] = True
+        ef = self.part.edge_faces
+        shared = self.part.interface & (mine[ef[:, 0]] | mine[ef[:, 1]])
+        return n - float(self.pieces(h)[shared].sum())
+
+    def _size_for(self, faces: list, n: float) -> float:
+        return sizing.size_for_count(lambda h: self.count(h, faces), n, sum(self.area),
+                                     sum(float(L.sum()) for L in self.lengths), steps=100)
+
+    def size_rest(self, rest: list, n_done: int) -> None:
+        """Size the faces `rest` still to mesh for what the target leaves after `n_done`
+        vertices (within RESIZE of the first h) when the run is more than SLACK off course;
+        without a target the size stays."""
+        if self.target is None or not rest:
+            return
+        if abs(n_done + self.count(self.h_rest, rest) - self.target) <= SLACK * self.target:
+            return         # on course: a new h would only make the interfaces disagree
+        h = self._size_for(rest, self.target - n_done)
+        self.h_rest = float(np.clip(h, self.h / RESIZE, self.h * RESIZE))
+
+    def last_face_target(self, i: int, dom, meshes: dict) -> int | None:
+        """For the last face, the vertex count that lands the run on target_vertices (its own
+        run then budgets the splits its boundary needs, `mesher.plan`); None for the others,
+        which are sized by h, or when the target leaves it no room."""
+        if self.target is None or i != self.order[-1] or not meshes:
+            return None
+        known = np.concatenate([m.points[np.unique(m.boundary_edges)] for m in meshes.values()])
+        shared = int((cKDTree(known).query(dom.seeds)[0] == 0).sum())
+        n = self.target - vertex_count(meshes.values()) + shared
+        return n if n > len(dom.seeds) else None
+
+    def _cuts(self, pieces) -> dict:
+        """Evenly spaced points on every interface edge cut into more than one piece."""
+        V, E = self.part.points, self.part.edges
+        out = {}
+        for e in np.flatnonzero(pieces > 1):
+            t = (np.arange(1, pieces[e]) / pieces[e])[:, None]
+            out[int(e)] = V[E[e, 0]] + t * (V[E[e, 1]] - V[E[e, 0]])
+        return out
+
+    def size_of(self, i: int) -> float:
+        """The face mesher's `size`: h in the user's metric ∇²s_r (= h·√k_r)."""
+        return self.h_rest * np.sqrt(self.k[i])
+
+
+def vertex_count(meshes) -> int:
+    """Vertices of the face meshes stitched together: the interior ones of each, and their
+    boundary vertices once (neighbours share them bit for bit)."""
+    inner, bounds = 0, [np.zeros((0, 2))]
+    for m in meshes:
+        b = np.unique(m.boundary_edges)
+        inner += m.n_vertices - len(b)
+        bounds.append(m.points[b])
+    return inner + len(np.unique(np.concatenate(bounds), axis=0))
