@@ -2,7 +2,7 @@
 
 The session asks here for the `qmesh.Domain` (the VB-gon, a named shape or an uploaded polygon
 file) and the `qmesh.Anisotropy` (constant Q from k1, k2, angle, or s(x, y) typed as text) of a
-parameter set. The media presets (`MEDIA`: "layered", "inclusion", from `qmesh.media.cases`)
+parameter set. The media presets (`MEDIA`: "layered", "inclusion", from `qmesh.domain.media_cases`)
 bring their own regions and a conductivity per region, `{region tag: Anisotropy}`: for them
 k1, k2, angle and s(x, y) do not apply.
 """
@@ -18,12 +18,12 @@ from qmesh import domains
 from qmesh.conductivity.anisotropy import principal_matrix
 from qmesh.domain import polygon_file
 from qmesh.errors import QmeshError
-from qmesh.media import cases
+from qmesh.domain import media_cases as cases
 
 MEDIA = {"layered": (cases.layered, {0: "layer 1 (bottom)", 1: "layer 2", 2: "layer 3",
                                      3: "layer 4", 4: "layer 5 (top)"}),
          "inclusion": (cases.inclusion, {0: "background", 1: "star", 2: "lens"})}
-"""Media presets: the `qmesh.media.cases` builder and the names the viewer gives their regions
+"""Media presets: the `qmesh.domain.media_cases` builder and the names the viewer gives their regions
 (the case's own `region_names` win where it has them)."""
 
 DISK = "disk"

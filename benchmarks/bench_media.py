@@ -1,6 +1,6 @@
 """Heterogeneous media: qmesh vs MMG2D vs Triangle at equal N.
 
-Cases (`qmesh.media.cases`): FVCA5 tests 4 (vertical fault), 6 (oblique drain), 7 (oblique
+Cases (`qmesh.domain.media_cases`): FVCA5 tests 4 (vertical fault), 6 (oblique drain), 7 (oblique
 barrier), a layered box and an inclusion. For each target N:
 - qmesh: `qmesh.mesh(domain, {tag: Anisotropy}, target_vertices=N)`;
 - MMG2D (mmgpy) from the constrained triangulation of every region edge, triangle references =
@@ -34,7 +34,7 @@ import scipy.sparse.linalg as spla
 
 import qmesh
 from qmesh import measure
-from qmesh.media import cases as media_cases
+from qmesh.domain import media_cases
 from qmesh.compare import media_peers as peers
 
 import report_page
@@ -171,7 +171,7 @@ def main(argv=None) -> None:
         if not args.no_page:
             report_page.write_page(
                 __file__, sys.argv, "Heterogeneous media: the cost of regions",
-                f"Seconds of `qmesh.mesh` for the layered box (`qmesh.media.cases.layered`, five "
+                f"Seconds of `qmesh.mesh` for the layered box (`qmesh.domain.media_cases.layered`, five "
                 f"regions) at target N = {args.timing}, and for the same box with one Q (the "
                 f"second region's) and no interfaces.", notes=[line + "."], suffix="timing")
         return
@@ -198,7 +198,7 @@ def main(argv=None) -> None:
                       "in red"))
         report_page.write_page(
             __file__, sys.argv, "Heterogeneous media against MMG2D and Triangle",
-            "Cases of `qmesh.media.cases`: FVCA5 tests 4 (vertical fault), 6 (oblique drain), 7 "
+            "Cases of `qmesh.domain.media_cases`: FVCA5 tests 4 (vertical fault), 6 (oblique drain), 7 "
             "(oblique barrier), a layered box and an inclusion. For each target N, qmesh "
             "(`qmesh.mesh(domain, {tag: Anisotropy}, target_vertices=N)`); MMG2D (mmgpy) from the "
             "constrained triangulation of every region edge, triangle references = regions, the "

@@ -1,7 +1,7 @@
 """FVCA5 test 4, the vertical fault, solved with scikit-fem on a qmesh mesh with regions.
 
 The unit square in layers of K1 = diag(1e-2, 1e-3) and K2 = diag(1e2, 1e1), offset across the
-fault x = 0.5 (our reading of Herbin & Hubert 2008, test 4: `qmesh.media.cases.fvca4`). The
+fault x = 0.5 (our reading of Herbin & Hubert 2008, test 4: `qmesh.domain.media_cases.fvca4`). The
 problem −div(K∇u) = 0 with u = 1 on the left side and 0 on the rest of the boundary satisfies
 the maximum principle, 0 ≤ u ≤ 1; the P1 solution keeps it when the stiffness matrix is an
 M-matrix, i.e. every q_ij ≥ 0 — interface edges included, each side in its own region's K.
@@ -20,7 +20,7 @@ from skfem import BilinearForm, ElementTriP1
 
 import qmesh
 from qmesh.compare import media_peers as peers
-from qmesh.media import cases
+from qmesh.domain import media_cases as cases
 
 
 @BilinearForm

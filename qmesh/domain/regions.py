@@ -4,9 +4,12 @@ all of them cut against Ω (partition.py), so a bad region is refused when the d
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 
 from qmesh import checks
+from qmesh.conductivity.anisotropy import Anisotropy
 from qmesh.errors import QmeshError
 from qmesh.domain.partition import Ring, partition
 
@@ -65,3 +68,32 @@ def faces_of(domain, regions=()):
         for j, R in enumerate(reg.rings):
             rings.append(Ring(np.asarray(R), k, f"region {k}" if j == 0 else f"region {k} hole {j}"))
     return partition(rings, tags, domain.diameter)
+
+
+def conductivity_of_regions(domain, conductivity) -> dict:
+    """{region tag: Anisotropy} for every region that has a face; QmeshError for a missing
+    region, an unknown tag or a value that is not an Anisotropy."""
+    present = sorted({f.region for f in domain.partition.faces})
+    if isinstance(conductivity, Anisotropy):
+        return {r: conductivity for r in present}
+    if not isinstance(conductivity, Mapping):
+        raise QmeshError("the conductivity must be a qmesh.Anisotropy or a mapping {region tag: "
+                         f"Anisotropy}}, got {type(conductivity).__name__}")
+    out = {}
+    for k, v in conductivity.items():
+        if isinstance(k, bool) or not isinstance(k, (int, np.integer)):
+            raise QmeshError(f"conductivity keys must be region tags (integers), got {k!r}")
+        if not isinstance(v, Anisotropy):
+            raise QmeshError(f"the conductivity of region {k} must be a qmesh.Anisotropy, "
+                             f"got {type(v).__name__}")
+        if not 0 <= int(k) <= len(domain.regions):
+            raise QmeshError(f"the conductivity names region {k}, but the domain has regions "
+                             f"0 to {len(domain.regions)}")
+        out[int(k)] = v
+    missing = [r for r in present if r not in out]
+    if missing:
+        names = domain.region_names
+        what = ", ".join(f"{r}" + (f" ({names[r]})" if r in names else "") for r in missing)
+        raise QmeshError(f"no conductivity for region {what}: give one Anisotropy per region "
+                         f"(tags {present})")
+    return out

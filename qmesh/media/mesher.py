@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Callable, Iterator
+from typing import Any
 
 import numpy as np
 
@@ -44,8 +45,8 @@ TOLERANCE = 0.1        # a mesh further than this share from target_vertices is 
 _PASSED = ("alpha", "quality_threshold", "max_iterations", "seed", "boundary_refinement")
 
 
-def iterate(domain, conductivity, *, target_vertices: int | None = None, size: float | None = None,
-            min_area: float | None = None, **options) -> Iterator[Step]:
+def iterate(domain: Any, conductivity: Any, *, target_vertices: int | None = None, size: float | None = None,
+            min_area: float | None = None, **options: Any) -> Iterator[Step]:
     """Mesh a domain with regions, yielding a `Step` after every stage of every face's run of
     Algorithm 2.1 (its mesh: the faces done so far and this face, stitched) and a last Step,
     the whole domain, the only one `converged`.
@@ -59,9 +60,9 @@ def iterate(domain, conductivity, *, target_vertices: int | None = None, size: f
     return _run(_plan(domain, conductivity, target_vertices, size, min_area, options), options, True)
 
 
-def mesh(domain, conductivity, *, target_vertices: int | None = None, size: float | None = None,
+def mesh(domain: Any, conductivity: Any, *, target_vertices: int | None = None, size: float | None = None,
          min_area: float | None = None, progress: Callable[[Step], object] | None = None,
-         **options) -> Mesh:
+         **options: Any) -> Mesh:
     """Mesh a domain with regions to the end: the mesh of the last Step of `iterate` with the
     same arguments; `progress`, when given, is called with every Step."""
     if progress is not None and not callable(progress):
@@ -71,10 +72,12 @@ def mesh(domain, conductivity, *, target_vertices: int | None = None, size: floa
                      options, progress is not None):
         if progress is not None:
             progress(last)
+    assert last is not None          # a run yields at least its last Step
     return last.mesh
 
 
-def _plan(domain, conductivity, target_vertices, size, min_area, options) -> MediaPlan:
+def _plan(domain: Any, conductivity: Any, target_vertices: int | None, size: float | None,
+          min_area: float | None, options: dict) -> MediaPlan:
     if min_area is not None:
         raise QmeshError("min_area is a metric area in one metric; with regions each face uses "
                          "its own, so it cannot be given (leave it out)")
@@ -90,7 +93,7 @@ def _plan(domain, conductivity, target_vertices, size, min_area, options) -> Med
 def _run(plan: MediaPlan, options: dict, every: bool) -> Iterator[Step]:
     """The faces in the plan's order, each run to its end and shared with the finished ones;
     with `every`, a Step per stage of each face's run; the stitched whole last."""
-    part, done = plan.part, []
+    part, done = plan.part, list[int]()
     extra = dict(plan.extra)                 # interface points shared so far, per edge
     meshes: dict[int, Mesh] = {}
     notes: list = []                         # (message, category) the faces' runs warned
@@ -120,7 +123,8 @@ def _run(plan: MediaPlan, options: dict, every: bool) -> Iterator[Step]:
                       "(the interfaces and q_ij >= 0 on them need these)", QmeshWarning, stacklevel=3)
 
 
-def _face_steps(plan, i, extra, options, notes, meshes) -> Iterator[Step]:
+def _face_steps(plan: MediaPlan, i: int, extra: dict, options: dict, notes: list,
+                meshes: dict[int, Mesh]) -> Iterator[Step]:
     """Algorithm 2.1 on face i, its Steps as they come. A face thinner (or sharper) in its metric
     than the shared size needs a finer one: its run says "too large", and the size is halved
     for this face, a few times. Its warnings go to `notes`, naming its region."""
@@ -138,6 +142,7 @@ def _face_steps(plan, i, extra, options, notes, meshes) -> Iterator[Step]:
         except QmeshError as e:
             if k == FINER or ("too large" not in str(e) and "target_vertices" not in str(e)):
                 raise QmeshError(f"{plan.face_name(i)}: {e}") from None
+    assert last is not None
     thin = thin_domain(last.mesh, plan.anis[i])
     notes += [(f"{plan.face_name(i)}: {w.message}", w.category) for w in said]
     if thin is not None:
@@ -156,13 +161,14 @@ def _recording(steps: Iterator[Step], said: list) -> Iterator[Step]:
         yield step
 
 
-def _stitched(plan, meshes, done, current: int | None = None, mesh: Mesh | None = None) -> Mesh:
+def _stitched(plan: MediaPlan, meshes: dict[int, Mesh], done: list[int], current: int | None = None,
+              mesh: Mesh | None = None) -> Mesh:
     faces = list(done) + ([] if current is None else [current])
     parts = [meshes[k] for k in done] + ([] if mesh is None else [mesh])
     return stitch(plan.part, parts, [plan.faces[k].region for k in faces], plan.domain)
 
 
-def _share(plan, meshes, done, new, extra) -> None:
+def _share(plan: MediaPlan, meshes: dict[int, Mesh], done: list[int], new: dict, extra: dict) -> None:
     """Hand the interface points `new` {edge: points} to the finished faces beside them; the
     points those must add in turn (a split on an interface) are handed on likewise."""
     part = plan.part

@@ -16,60 +16,34 @@ twice.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterable
+from typing import Any
 
 import numpy as np
 from scipy.spatial import cKDTree
 
-from qmesh.conductivity.anisotropy import Anisotropy
+from qmesh.domain.regions import conductivity_of_regions
 from qmesh.errors import QmeshError
 from qmesh.media.faces import face_domain
 from qmesh.mesher import sizing
 from qmesh.mesher.normalise import hessian_scale
 from qmesh.mesher.plan import BOUNDARY_FACTOR
+from qmesh.triangle_mesh import Mesh
 
 RESIZE = 2.0     # the faces still to come are sized at most this factor away from the first h
 SLACK = 0.03     # ... and only when the faces done so far put the run this share off its target
-
-
-def conductivities(domain, conductivity, part) -> dict:
-    """{region tag: Anisotropy} for every region that has a face; QmeshError for a missing
-    region, an unknown tag or a value that is not an Anisotropy."""
-    present = sorted({f.region for f in part.faces})
-    if isinstance(conductivity, Anisotropy):
-        return {r: conductivity for r in present}
-    if not isinstance(conductivity, Mapping):
-        raise QmeshError("the conductivity must be a qmesh.Anisotropy or a mapping {region tag: "
-                         f"Anisotropy}}, got {type(conductivity).__name__}")
-    out = {}
-    for k, v in conductivity.items():
-        if isinstance(k, bool) or not isinstance(k, (int, np.integer)):
-            raise QmeshError(f"conductivity keys must be region tags (integers), got {k!r}")
-        if not isinstance(v, Anisotropy):
-            raise QmeshError(f"the conductivity of region {k} must be a qmesh.Anisotropy, "
-                             f"got {type(v).__name__}")
-        if not 0 <= int(k) <= len(domain.regions):
-            raise QmeshError(f"the conductivity names region {k}, but the domain has regions "
-                             f"0 to {len(domain.regions)}")
-        out[int(k)] = v
-    missing = [r for r in present if r not in out]
-    if missing:
-        names = domain.region_names
-        what = ", ".join(f"{r}" + (f" ({names[r]})" if r in names else "") for r in missing)
-        raise QmeshError(f"no conductivity for region {what}: give one Anisotropy per region "
-                         f"(tags {present})")
-    return out
 
 
 class MediaPlan:
     """Per face: its anisotropy, scale k, metric area and segment lengths; the shared h; the
     interface cuts; and the order the faces are meshed in."""
 
-    def __init__(self, domain, conductivity, target_vertices: int | None, size: float | None):
+    def __init__(self, domain: Any, conductivity: Any, target_vertices: int | None,
+                 size: float | None) -> None:
         self.domain = domain
         self.part = part = domain.partition
         self.faces = part.faces
-        cond = conductivities(domain, conductivity, part)
+        cond = conductivity_of_regions(domain, conductivity)
         self.anis = [cond[f.region] for f in self.faces]
         bare = [face_domain(part, f, {}, self.face_name(i)) for i, f in enumerate(self.faces)]
         self.k = [hessian_scale(a, d.seeds) for a, d in zip(self.anis, bare)]
@@ -144,7 +118,7 @@ class MediaPlan:
         h = self._size_for(rest, self.target - n_done)
         self.h_rest = float(np.clip(h, self.h / RESIZE, self.h * RESIZE))
 
-    def last_face_target(self, i: int, dom, meshes: dict) -> int | None:
+    def last_face_target(self, i: int, dom: Any, meshes: dict) -> int | None:
         """For the last face, the vertex count that lands the run on target_vertices (its own
         run then budgets the splits its boundary needs, `mesher.plan`); None for the others,
         which are sized by h, or when the target leaves it no room."""
@@ -155,7 +129,7 @@ class MediaPlan:
         n = self.target - vertex_count(meshes.values()) + shared
         return n if n > len(dom.seeds) else None
 
-    def _cuts(self, pieces) -> dict:
+    def _cuts(self, pieces: np.ndarray) -> dict[int, np.ndarray]:
         """Evenly spaced points on every interface edge cut into more than one piece."""
         V, E = self.part.points, self.part.edges
         out = {}
@@ -169,7 +143,7 @@ class MediaPlan:
         return self.h_rest * np.sqrt(self.k[i])
 
 
-def vertex_count(meshes) -> int:
+def vertex_count(meshes: Iterable[Mesh]) -> int:
     """Vertices of the face meshes stitched together: the interior ones of each, and their
     boundary vertices once (neighbours share them bit for bit)."""
     inner, bounds = 0, [np.zeros((0, 2))]

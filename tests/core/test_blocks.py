@@ -23,7 +23,7 @@ def test_the_mesh_does_not_depend_on_the_block_size(anisotropy, monkeypatch):
 
 def test_measures_do_not_depend_on_the_block_size(monkeypatch):
     from qmesh import measure
-    from qmesh.media import cases
+    from qmesh.domain import media_cases as cases
     domain, Q, _ = cases.layered()
     m = qmesh.mesh(domain, Q, target_vertices=600)
     whole = measure.edge_weights(m, Q), measure.quality(m, Q), measure.report(m, Q)

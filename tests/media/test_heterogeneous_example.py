@@ -10,7 +10,7 @@ import scipy.sparse.linalg as spla
 
 import qmesh
 from qmesh import measure
-from qmesh.media import cases
+from qmesh.domain import media_cases as cases
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "heterogeneous_fem.py"
 

@@ -156,7 +156,7 @@ def test_iterate_ends_on_the_mesh_of_mesh_for_a_medium(target):
     the same mesh. The last face is given what the target leaves, so N lands on it once the
     regions' own needs are met (5 thin anisotropic layers need about 240 vertices: at 212 the
     run says so with a warning)."""
-    from qmesh.media import cases
+    from qmesh.domain import media_cases as cases
     domain, cond, _ = cases.layered()
     with warnings.catch_warnings(record=True) as said:
         warnings.simplefilter("always", qmesh.QmeshWarning)
