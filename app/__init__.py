@@ -1,4 +1,4 @@
-"""qmesh_view — the PyVista/trame front end of qmesh (issue 4).
+"""qmesh_view — the PyVista/trame front end of qmesh.
 
 `session` is the one UI-neutral source of truth (parameters in force, the run, the outcome of
 every change, the memory budget, the messages) that `app` (the trame web GUI, `cli` its

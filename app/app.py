@@ -6,11 +6,11 @@ State names are the model's names (`k1`, `k2`, `angle`, `q11`, `q12`, `q22`, `vb
 (the scene functions on three plotters).
 
 Views render on the server (`remote`, the default) or in the browser (`local`, vtk.js).
-`benchmarks/bench_view.py --browser` measured both from the input to the changed picture in
-Chromium (the slowest view, median of 5 Step clicks, load 2.5–4.6 on 2 cores): remote 0.14 s at
-N = 212, 0.18 s at N = 1,000, 0.20 s at N = 10,000; local (vtk.js) 0.17, 0.27 and 0.49 s, and
-vtk.js draws the translucent s(x) over the facets of s_h wrongly. Remote got there once
-trame-vtk's 0.5 s wait for a frame still being encoded was cut to 10 ms (`qmesh_view.delivery`).
+Remote is the default because it reaches the screen sooner, the more so the larger the mesh
+(`benchmarks/bench_view.py --browser` measures both, from the input to the changed picture in
+Chromium), and because vtk.js draws the translucent s(x) over the facets of s_h wrongly. Remote
+frames are re-pushed every 10 ms while still being encoded, not after trame-vtk's 0.5 s wait
+(`qmesh_view.delivery`).
 
 Every control is bound to one `qmesh_view.session.Session` (the parameters in force, the run,
 the outcome of every change); this module only binds controls and draws. Slider moves are

@@ -2,8 +2,9 @@
 
 trame-vtk answers a push with the previous frame while the new one is still being JPEG-encoded
 in a thread, then waits `delta_stale_time_before_render` (0.5 s) before pushing again: that wait
-was most of the 0.6 s a click took to reach the screen (issue 12, `benchmarks/bench_view.py
---browser`). Its own retry also drops the frame when a short wait is not enough twice in a row.
+would be most of the time a click takes to reach the screen (`benchmarks/bench_view.py
+--browser` measures it). Its own retry also drops the frame when a short wait is not enough twice
+in a row.
 `fast_image_delivery` sets the wait to `STALE_RETRY` and replaces the retry with a plain one:
 push again every `STALE_RETRY` seconds until the frame is encoded (at most `RETRY_FOR`).
 Used by the trame app and by the widget's live (trame) views.

@@ -43,7 +43,7 @@ def _put(plotter: pv.Plotter, name: str, mesh: pv.PolyData | None, **kwargs) -> 
     """Show `mesh` under `name`; drop the actor of that name when mesh is empty.
 
     An actor drawn last time with the same options only gets the new data (its mapper's input):
-    `add_mesh` builds a new actor, mapper and lookup table, ~5 ms each, eleven times per frame.
+    `add_mesh` would build a new actor, mapper and lookup table eleven times per frame.
     """
     looks = plotter.__dict__.setdefault("_qmesh_looks", {})
     if mesh is None or mesh.n_points == 0:

@@ -44,9 +44,8 @@ Report = dict[str, Union[int, float, None]]
 DENSE_LIMIT = 300
 """Up to this many unknowns condition_number uses a dense eigvalsh; above it, sparse eigsh.
 
-Measured on the 2-core dev machine (constant Q, disk meshes): the sparse path agrees with the
-dense one to 1e-13 and is already faster at 500 unknowns (0.016 s vs 0.043 s); at 3000 it takes
-0.08 s against 6.8 s for eigvalsh (single-threaded BLAS), hence the low limit."""
+The sparse path agrees with the dense one to 1e-13 (constant Q, disk meshes) and is faster from
+a few hundred unknowns on, where eigvalsh's O(n³) cost takes over; hence the low limit."""
 
 _EDGE_CORNERS = ((0, 1), (1, 2), (2, 0))
 _EDGE_PAIRS = (np.array([0, 1, 2]), np.array([1, 2, 0]))        # _EDGE_CORNERS as index arrays
@@ -245,7 +244,7 @@ def edge_weights(mesh: Mesh, anisotropy: Conductivity | None
     _check(anisotropy, mesh, allow_none=True)
     T = mesh.triangles
     # −K_T[a, b] for the three corner pairs only, CHUNK triangles at a time (the (M, 3, 3)
-    # element matrices of a whole mesh were the largest array of `qmesh mesh`'s summary at 1e6)
+    # element matrices of a whole mesh would be the largest array of `qmesh mesh`'s summary at 1e6)
     q_part: NDArray[np.float64] = np.empty((len(_EDGE_CORNERS), len(T)))
     regions = mesh.region_tags
     zero = 0                                                   # counted over all blocks
@@ -350,7 +349,7 @@ def q_nonnegative_fraction_boundary(mesh: Mesh, anisotropy: Conductivity | None,
     """Fraction of boundary edges with q_ij ≥ −rtol·max|q| (None when there is no boundary edge).
 
     A boundary edge's q_ij is the off-diagonal of its one triangle's element matrix; ≥ 0 there
-    as well as inside makes the Neumann stiffness matrix an M-matrix too (issue 9).
+    as well as inside makes the Neumann stiffness matrix an M-matrix too.
     """
     rtol = checks.real(rtol, "rtol", low=0.0, high=1.0)
     return _fraction_nonnegative(_relative_q(mesh, anisotropy)[1], rtol)
@@ -383,7 +382,7 @@ def condition_number(mesh: Mesh, anisotropy: Conductivity | None = None, *,
         return float(w[-1] / w[0])
     v0 = np.random.default_rng(0).random(n)                   # fixed start: same mesh ⇒ same κ2
     lmax = spla.eigsh(K, k=1, which="LA", tol=tol, v0=v0, return_eigenvectors=False)[0]
-    lu = spla.splu(K.tocsc())        # COLAMD: MMD_AT_PLUS_A fills less but orders 30× slower
+    lu = spla.splu(K.tocsc())        # COLAMD: MMD_AT_PLUS_A fills less but orders far slower
     K_inv = spla.LinearOperator((n, n), matvec=lu.solve, dtype=float)
     mu = spla.eigsh(K_inv, k=1, which="LA", tol=tol, v0=v0, return_eigenvectors=False)[0]
     return float(lmax * mu)

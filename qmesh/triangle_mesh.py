@@ -98,10 +98,12 @@ class Mesh:
 
     @property
     def n_vertices(self) -> int:
+        """N, the number of points."""
         return len(self.points)
 
     @property
     def n_triangles(self) -> int:
+        """M, the number of triangles."""
         return len(self.triangles)
 
     @cached_property

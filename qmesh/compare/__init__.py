@@ -1,6 +1,6 @@
 """Reproduce the chapter's Tables 2.2/2.3 and Figures 2.15–2.18, beside other mesh generators.
 
-An optional layer on top of qmesh (issue 3): nothing else in `qmesh` imports it, and its
+An optional layer on top of qmesh: nothing else in `qmesh` imports it, and its
 third-party packages (`triangle`, `matplotlib`, and the peers `gmsh`, `mmgpy`) are imported
 inside the functions that need them, through `require`, so a missing one gives a clear message.
 

@@ -2,8 +2,8 @@
 
 Unit disk (the regular VB-gon), Q = diag(0.1, 10), s = 5x² + 0.05y² (Section 2.3.3). The
 isotropic meshes of the chapter come from Shewchuk's Triangle; `TRIANGLE_AREA` holds the
-maximum-area switch that reproduces their N (issue 3: within 2.5%). The chapter's L2 column
-appears low by a factor √2 against the exact integral (MATH.md, issue 3); it is kept as printed.
+maximum-area switch that reproduces their N (within 2.5%). The chapter's L2 column appears low
+by a factor √2 against the exact integral (MATH.md); it is kept as printed.
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ ADAPTED = {
 QUANTITIES = ("n_vertices", "l2_error", "h1_error", "kappa2")
 
 TRIANGLE_AREA = (0.04, 0.015, 0.007, 0.003, 0.0016, 0.001, 0.0005, 0.0003, 0.0001)
-"""Triangle's `a` switch (maximum triangle area) for each VB of the chapter (issue 3)."""
+"""Triangle's `a` switch (maximum triangle area) for each VB of the chapter."""
 
 L2_FACTOR = float(np.sqrt(2.0))
 """Our exact ‖e_s‖_L2 divided by the chapter's printed value on matched meshes (≈ √2)."""

@@ -8,7 +8,7 @@ added), as in the chapter's adapted meshes:
   post-processing view used as background field, every boundary line transfinite with 2 nodes;
 - MMG2D (Dapogny, Dobrzynski, Frey) via mmgpy: required boundary edges and vertices, a tensor
   metric, and `nosizreq` (without it MMG overwrites the metric at required vertices with an
-  isotropic size and the mesh is barely anisotropic; issue 3).
+  isotropic size and the mesh is barely anisotropic).
 Both are optional: `available()` says which import here, and why not. BAMG through gmsh is
 not deterministic here (the same input gave 209 or 213 vertices on repeated calls), so its rows
 vary slightly from run to run; MMG2D is deterministic.

@@ -1,6 +1,6 @@
 """The solver payoff: P1 FEM of −div(Q∇u) = f on a mesh, and what κ2 costs in CG iterations.
 
-Why a better κ2 matters (issue 3): conjugate gradients need O(√κ2) iterations. On every mesh we
+Why a better κ2 matters: conjugate gradients need O(√κ2) iterations. On every mesh we
 solve −div(Q∇u) = f with Dirichlet data from a manufactured solution, report the discretisation
 error against the exact u (nodal max and L2 by quadrature) and the CG iteration count and time
 to a fixed relative residual, plain and with two symmetric preconditioners: Jacobi (diagonal) and

@@ -98,6 +98,7 @@ class Anisotropy:
 
     @property
     def is_constant(self) -> bool:
+        """True when s is quadratic: ∇²s is the one matrix `H`, so Q = adj H is constant."""
         return self.H is not None
 
     @property

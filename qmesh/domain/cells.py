@@ -9,7 +9,7 @@ runs straight on; the corners where three zones meet come back as splits (partit
 
 Cost: every region is meshed on its own (a call of Algorithm 2.1 each), and every corner where
 zones meet is a fixed vertex. A model whose cells all differ is nx·ny regions: at least
-(nx+1)(ny+1) vertices and nx·ny mesher calls (about 20 ms each), so zone it first.
+(nx+1)(ny+1) vertices and nx·ny mesher calls, so zone it first.
 """
 
 from __future__ import annotations

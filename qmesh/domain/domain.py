@@ -182,6 +182,7 @@ class Domain:
 
     @property
     def region_names(self) -> dict[int, str]:
+        """Region tag → name, for the regions given names."""
         return dict(self._region_names)
 
     @property
@@ -200,6 +201,7 @@ class Domain:
 
     @property
     def holes(self) -> tuple[NDArray[np.float64], ...]:
+        """The holes' rings (clockwise), in the order given."""
         return self._rings[1:]
 
     @property
@@ -214,14 +216,17 @@ class Domain:
 
     @property
     def segment_tags(self) -> NDArray[np.int64]:
+        """(S,) the tag of every segment, which the mesh's boundary edges on it inherit."""
         return self._segment_tags
 
     @property
     def tag_names(self) -> dict[int, str]:
+        """Boundary tag → name, for the tags given names."""
         return dict(self._tag_names)
 
     @property
     def ring_of_seed(self) -> NDArray[np.int64]:
+        """The ring of every seed: 0 for the outline, k for hole k."""
         return self._ring_of_seed
 
     @property
@@ -238,10 +243,12 @@ class Domain:
 
     @property
     def area(self) -> float:
+        """|Ω|: the outline's area less the holes'."""
         return self._area
 
     @property
     def bounds(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The lower-left and upper-right corners of the outline's bounding box."""
         return self._rings[0].min(axis=0), self._rings[0].max(axis=0)
 
     @property

@@ -154,7 +154,7 @@ def rounded(x: np.ndarray, bits: int = 32) -> np.ndarray:
 
     Decisions made by comparing or ranking measured values (which triangle to refine first,
     which is larger than a threshold) then do not depend on round-off, so a domain moved far
-    away or scaled gives the same choices, ties included, as at the origin (issue 10).
+    away or scaled gives the same choices, ties included, as at the origin.
     """
     m, e = np.frexp(np.asarray(x, dtype=float))
     return np.ldexp(np.round(m * 2.0**bits) / 2.0**bits, e)

@@ -56,8 +56,8 @@ def newton_rhs(P, T, anisotropy):
     """b_i of (2.91)/(2.93) and the star areas |Ω_i|.
 
     The per-corner terms are computed CHUNK triangles at a time into three arrays, then summed
-    once: the temporaries of a whole-mesh Frame were the mesher's peak memory at 1e6 vertices,
-    and one sum keeps the result bit for bit what it was."""
+    once: the temporaries of a whole-mesh Frame would be the mesher's peak memory at 1e6
+    vertices, and one sum keeps the result bit for bit that of a whole-mesh pass."""
     n = len(P)
     area = np.empty(len(T))
     wx, wy = np.empty(T.shape), np.empty(T.shape)

@@ -1,8 +1,8 @@
 """How much memory a mesh of N vertices needs, and a refusal before it is allocated.
 
 `qmesh.mesh` and the viewer's session ask `check(n, varying=...)` before meshing, so a request
-that cannot fit (issue 18: a target of 2e7 raised MemoryError deep in the mesher) is refused
-with a message naming the estimate and the budget, while nothing has been allocated.
+that cannot fit (a target of 2e7 vertices would otherwise raise MemoryError deep in the mesher)
+is refused with a message naming the estimate and the budget, while nothing has been allocated.
 
 The figures are measured, not guessed: `benchmarks/bench_memory.py` runs `qmesh.mesh` in a
 fresh process at several N and reports its peak resident memory above the interpreter's
@@ -18,8 +18,8 @@ from qmesh.errors import QmeshError
 
 BYTES_PER_VERTEX = {False: 1300, True: 6600}
 """Peak bytes per vertex of `qmesh.mesh` (constant s: False, varying s: True), rounded up from
-the largest figure of `python benchmarks/bench_memory.py` (Disk(256), 2026-11-23): constant Q
-(2.95) 1135 / 1228 / 1258 B at N = 1e4 / 1e5 / 4e5; s = exp(x) + y² 6562 / 6513 / 5962 B."""
+the largest figure `python benchmarks/bench_memory.py` measures on Disk(256) at N = 1e4, 1e5 and
+4e5 for the constant Q (2.95) and for s = exp(x) + y² (the figures: its page in docs/benchmarks/)."""
 FIXED_BYTES = 64 * 2**20
 """Working memory of any run, whatever N (the first triangulation, caches, Qhull's buffers)."""
 DEFAULT_FRACTION = 0.5

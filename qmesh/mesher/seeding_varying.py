@@ -62,8 +62,8 @@ def _conflicts(X: np.ndarray, H: np.ndarray, r: float, Lbar: np.ndarray):
     pair finds it. Points are binned by reach (factors of 2); each bin searches, with √2 times
     its largest reach, only the points of its own or a sparser bin. Every ball then holds a
     bounded number of points, so the work and memory follow the number of points even where
-    the metric changes by orders of magnitude across Ω (a search with the sparser point's
-    reach took 24 s and 2.3 GB for exp(20x) + exp(20y) on Disk(32) at N = 3000).
+    the metric changes by orders of magnitude across Ω (searching with the sparser point's reach
+    does not: for exp(20x) + exp(20y) on Disk(32) its work and memory grow far faster than N).
     """
     if len(X) < 2:
         return np.empty(0, np.int64), np.empty(0, np.int64)

@@ -9,7 +9,7 @@ Three constructions:
 - `first_triangulation`, the mesher's initial one: beyond a few thousand points the lower hull
   of the points lifted by a metric (H for a constant Q, the mean Hessian for a varying s) with
   heights perturbed by 1e-9, so that its cost follows N whatever the input's ties (points on
-  one metric circle make Qhull's exact modes quadratic: Disk(30000) with Q = I took 117 s),
+  one metric circle, as on Disk(30000) with Q = I, make Qhull's exact modes quadratic),
   then `restore`;
 - `restore` repairs a valid triangulation whose vertices moved or were split in, by Lawson flips
   of locally non-regular edges (Lawson 1977; Edelsbrunner & Shah 1996 for the weighted case),
@@ -142,8 +142,8 @@ def first_triangulation(P: np.ndarray, anisotropy, boundary: np.ndarray | None =
     were). Beyond, or where that hull loses points, the lower hull of the points mapped by
     x ↦ x L (LLᵀ = H, or the mean shape of the Hessian over P for a varying s) lifted to
     ½|xL|², the heights of the `boundary` points (default: all) perturbed by 1e-9 of their
-    range: Qhull's exact modes are quadratic on ties (Disk(30000) with Q = I took 117 s: its
-    lifted boundary is one plane); the perturbation breaks them at random (points closer than
+    range: Qhull's exact modes are quadratic on ties (Disk(30000) with Q = I: its lifted
+    boundary is one plane); the perturbation breaks them at random (points closer than
     √1e-9 may then leave the hull: there, Qhull's exact 2-D Delaunay of the mapped points).
     `restore` then flips every edge left locally non-regular (for a constant Q only the
     perturbed points' stars can be), with the local tangent-plane test (2.74)–(2.75), which
