@@ -243,7 +243,7 @@ class Domain:
 
     @property
     def area(self) -> float:
-        """|Ω|: the outline's area less the holes'."""
+        """The area of Ω: the outline's area less the holes'."""
         return self._area
 
     @property
