@@ -39,7 +39,9 @@ class Mesh:
     `boundary_tags (k,)` (inherited from the domain's segments; 1 when not known) and
     `tag_names` (tag → name). Edges not given are found from the triangles. `region_tags (M,)`
     gives each triangle's region (0, the rest of Ω, when the domain has no regions) and
-    `region_names` names them.
+    `region_names` names them. `conductivity (M, 2, 2)`, when the mesh was made for a
+    `TensorField`, holds each triangle's element mean Q̄_T = (1/|T|)∫_T Q: exactly what the P1
+    stiffness matrix assembles (FIELDS.md §2); None otherwise.
     """
 
     points: NDArray[np.float64] = field(repr=False)
@@ -50,12 +52,14 @@ class Mesh:
     tag_names: dict[int, str] = field(default=_FILLED, repr=False)
     region_tags: NDArray[np.int64] = field(default=_FILLED, repr=False)
     region_names: dict[int, str] = field(default=_FILLED, repr=False)
+    conductivity: NDArray[np.float64] | None = field(default=None, repr=False)
 
     if TYPE_CHECKING:   # what the constructor takes; the fields above are what it keeps
         def __init__(self, points: ArrayLike, triangles: ArrayLike, fixed: ArrayLike | None = None,
                      boundary_edges: ArrayLike | None = None, boundary_tags: ArrayLike | None = None,
                      tag_names: Mapping[int, str] | None = None, region_tags: ArrayLike | None = None,
-                     region_names: Mapping[int, str] | None = None) -> None: ...
+                     region_names: Mapping[int, str] | None = None,
+                     conductivity: ArrayLike | None = None) -> None: ...
 
     def __post_init__(self) -> None:
         P = self.points if _is_float_array(self.points) else real_array(self.points, "points",
@@ -88,9 +92,14 @@ class Mesh:
             raise QmeshError(f"region_tags must have shape ({len(T)},), got {regions.shape}")
         region_names = ({} if self.region_names is None
                         else {int(k): str(v) for k, v in dict(self.region_names).items()})
+        Q = None
+        if self.conductivity is not None:
+            Q = frozen(real_array(self.conductivity, "conductivity", (None, 2, 2)), np.float64)
+            if Q.shape != (len(T), 2, 2):
+                raise QmeshError(f"conductivity must have shape ({len(T)}, 2, 2), got {Q.shape}")
         for name, value in (("points", P), ("triangles", T), ("fixed", F), ("boundary_edges", E),
                             ("boundary_tags", tags), ("tag_names", names), ("region_tags", regions),
-                            ("region_names", region_names)):
+                            ("region_names", region_names), ("conductivity", Q)):
             object.__setattr__(self, name, value)
 
     def __repr__(self) -> str:
