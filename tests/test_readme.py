@@ -1,20 +1,26 @@
-"""README.md matches the code: its snippets run, and the numbers its comments claim come out.
+"""README.md and the user's guide (docs/guide/*.md) match the code: their snippets run, and the
+outputs their comments claim come out.
 
-- Every ```python block runs as a script in a temporary folder. A top-level `print(...)` with a
-  comment is a claim: the printed line must match the comment, numbers to the digits the comment
-  gives, words exactly; text after the printed part must start with ";" (an explanation).
-  The widget block runs with the headless rendering variables of HEADLESS.md.
-- Every ```sh block is run line by line, each `&&` part on its own, in a temporary folder; a
-  comment after a command lists fragments (separated by " … ") that must appear in its output, in
-  order. Skipped for cost, with the reason (nothing else is skipped):
+- Each page's ```python and ```sh blocks run in the order the page gives them, in one temporary
+  folder per page (a file one block writes, the next may read), with `examples` linked there so
+  that commands run as from the repository's root.
+- A ```python block runs as a script. A top-level `print(...)` with a comment is a claim: the
+  printed line must match the comment, numbers to the digits the comment gives, words exactly;
+  text after the printed part must start with ";" (an explanation). The scripts run with the
+  headless rendering variables of HEADLESS.md (the widget's block).
+- A ```sh block runs line by line, each `&&` part on its own; a comment after a command lists
+  fragments (separated by " … ") that must appear in its output, in order. Skipped for cost,
+  with the reason (nothing else is skipped):
     * `python3 -m venv .venv`, `. .venv/bin/activate`: make and enter the virtual environment
       these tests already run in;
     * `pip install -e ".[all,peers,test]"`: minutes of downloads; the tests run in its result;
     * `python -m pytest -q -n auto --maxschedchunk 2`: this test suite itself.
   `qmesh setup` runs as `qmesh setup --check` (a test must not install system packages; a
   missing package fails it just the same).
-- `.ci/run` holds exactly the README's two Set-up commands; the files the commands write are
-  ignored by git; what the README and `qmesh mesh --help` say about `target_vertices` holds.
+- Claims are deterministic outputs only — vertex counts, tags, names, shares of q_ij ≥ 0 — never
+  a time; `.ci/run` holds exactly the README's two Set-up commands; the mesh files the commands
+  write are ignored by git; what the pages and `qmesh mesh --help` say about `target_vertices`
+  holds.
 """
 
 import os
@@ -30,16 +36,24 @@ from hypothesis import given, settings, strategies as st
 import qmesh
 
 ROOT = Path(__file__).resolve().parents[1]
-README = (ROOT / "README.md").read_text()
+PAGES = ["README.md"] + sorted(str(p.relative_to(ROOT)) for p in (ROOT / "docs" / "guide").glob("*.md"))
+TEXT = {page: (ROOT / page).read_text() for page in PAGES}
+README = TEXT["README.md"]
 BIN = Path(sys.executable).parent
 SKIPPED_FOR_COST = ("python3 -m venv .venv", ". .venv/bin/activate", 'pip install -e ".[all,peers,test]"',
                     "python -m pytest -q -n auto --maxschedchunk 2")
 HEADLESS = {"PYVISTA_OFF_SCREEN": "true", "VTK_DEFAULT_OPENGL_WINDOW": "vtkEGLRenderWindow"}
 NUMBER = re.compile(r"-?\d+(?:\.\d+)?(?:e[-+]?\d+)?")
+FENCE = re.compile(r"^```(\S*)\n(.*?)^```", flags=re.S | re.M)
 
 
-def blocks(language: str) -> list[str]:
-    return re.findall(rf"^```{language}\n(.*?)^```", README, flags=re.S | re.M)
+def fenced(page: str) -> list[tuple[str, str]]:
+    """(language, code) of every fenced block of a page, in order."""
+    return FENCE.findall(TEXT[page])
+
+
+def blocks(language: str, pages=PAGES) -> list[str]:
+    return [code for page in pages for lang, code in fenced(page) if lang == language]
 
 
 def setup_commands() -> list[str]:
@@ -83,9 +97,6 @@ def test_matches_rounds_to_the_claims_digits():
     assert not matches("114 0 extra words", "114 0")
 
 
-PYTHON_BLOCKS = blocks("python")
-
-
 def instrument(code: str) -> tuple[str, dict[int, str]]:
     """Tag each claimed print so its output line can be found; return the claims by tag."""
     claims, lines = {}, []
@@ -99,68 +110,98 @@ def instrument(code: str) -> tuple[str, dict[int, str]]:
     return "\n".join(lines) + "\n", claims
 
 
+def shell_lines(code: str):
+    """(the line's commands to run, the fragments its comment claims) for each line of a block."""
+    for line in code.strip().splitlines():
+        command, _, comment = line.partition("   # ")
+        parts = [p.strip() for p in command.split(" && ")]
+        run = [p + (" --check" if p == "qmesh setup" else "") for p in parts if p not in SKIPPED_FOR_COST]
+        yield line, run, [f.strip() for f in comment.split("…") if f.strip()]
+
+
+def claims_of(page: str) -> list[str]:
+    said = [c for lang, code in fenced(page) if lang == "python" for c in instrument(code)[1].values()]
+    said += [" … ".join(f) for lang, code in fenced(page) if lang == "sh" for _, _, f in shell_lines(code)]
+    return said
+
+
 def test_every_fenced_block_is_run_or_plain_text():
-    """A ```python or ```sh block is run by the tests below; ```text is shown only. Any other
-    language (bash, console, none…) would be neither run nor checked."""
-    languages = re.findall(r"^```(\S*)\n.*?^```", README, flags=re.S | re.M)
-    assert set(languages) <= {"python", "sh", "text"}, languages
+    """A ```python or ```sh block is run by the tests below; ```text is shown only; the guide may
+    use MyST directives (```{math}, ```{toctree}…). Any other language (bash, console, none…)
+    would be neither run nor checked."""
+    for page in PAGES:
+        languages = {lang for lang, _ in fenced(page)}
+        allowed = {"python", "sh", "text"}
+        assert {lang for lang in languages if not lang.startswith("{")} <= allowed, (page, languages)
+        assert page != "README.md" or all(not lang.startswith("{") for lang in languages)
 
 
-def test_readme_has_the_snippets_this_module_expects():
-    assert len(PYTHON_BLOCKS) >= 3 and len(blocks("sh")) >= 2
-    assert sum(len(instrument(b)[1]) for b in PYTHON_BLOCKS) >= 4
+def test_the_pages_have_the_snippets_this_module_expects():
+    assert len(blocks("python", ["README.md"])) >= 4 and len(blocks("sh", ["README.md"])) >= 2
+    assert sum(len(instrument(b)[1]) for b in blocks("python", ["README.md"])) >= 5
+    assert len(PAGES) >= 8 and sum(len(claims_of(p)) for p in PAGES) >= 25
 
 
-@pytest.mark.parametrize("index", range(len(PYTHON_BLOCKS)))
-def test_python_snippet_runs_and_prints_what_it_claims(index, tmp_path):
-    code, claims = instrument(PYTHON_BLOCKS[index])
-    script = tmp_path / "snippet.py"
-    script.write_text(code)
-    wasm = tmp_path / "wasm"            # an empty folder: trame-vtklocal downloads nothing
-    wasm.mkdir()
-    done = subprocess.run([sys.executable, str(script)], cwd=tmp_path, capture_output=True,
-                          text=True, timeout=300,
-                          env=environment(VTK_WASM_DIR_OVERRIDE=str(wasm), **HEADLESS))
-    assert done.returncode == 0, done.stderr[-3000:]
-    printed = {int(m.group(1)): m.group(2)
-               for m in re.finditer(r"^@@(\d+)@@ (.*)$", done.stdout, flags=re.M)}
+@pytest.mark.parametrize("page", PAGES)
+def test_claims_are_deterministic(page):
+    """No timing or other run-to-run number is claimed (those live in the benchmark pages)."""
+    for claim in claims_of(page):
+        assert not re.search(r"time=|seconds|\d s\b|\bs/it\b|load average", claim), (page, claim)
+
+
+def test_readme_is_a_users_guide():
+    assert len(README.splitlines()) <= 250
+
+
+def run_python(code: str, folder: Path) -> None:
+    script, claims = instrument(code)
+    (folder / "snippet.py").write_text(script)
+    wasm = folder / "wasm"              # an empty folder: trame-vtklocal downloads nothing
+    wasm.mkdir(exist_ok=True)
+    done = subprocess.run([sys.executable, "snippet.py"], cwd=folder, capture_output=True, text=True,
+                          timeout=300, env=environment(VTK_WASM_DIR_OVERRIDE=str(wasm), **HEADLESS))
+    first = code.strip().splitlines()[0]
+    assert done.returncode == 0, f"the block starting {first!r} failed:\n{done.stderr[-3000:]}"
+    printed = {int(m.group(1)): m.group(2) for m in re.finditer(r"^@@(\d+)@@ (.*)$", done.stdout, flags=re.M)}
     for i, claim in claims.items():
-        assert i in printed, f"line {i} printed nothing"
-        assert matches(claim, printed[i]), f"README claims {claim!r}, the code printed {printed[i]!r}"
+        assert i in printed, f"line {i} of the block starting {first!r} printed nothing"
+        assert matches(claim, printed[i]), f"the page claims {claim!r}, the code printed {printed[i]!r}"
 
 
-def shell_commands():
-    for block in blocks("sh"):
-        for line in block.strip().splitlines():
-            command, _, comment = line.partition("   # ")
-            for part in command.split(" && "):
-                part = part.strip()
-                if part not in SKIPPED_FOR_COST:
-                    yield part + (" --check" if part == "qmesh setup" else ""), comment.strip()
+def run_shell(code: str, folder: Path) -> None:
+    for line, commands, fragments in shell_lines(code):
+        output = ""
+        for command in commands:
+            done = subprocess.run(["bash", "-c", command], cwd=folder, capture_output=True, text=True,
+                                  timeout=300, env=environment())
+            assert done.returncode == 0, f"{command!r} failed:\n{done.stderr[-3000:]}"
+            output += done.stdout + done.stderr
+            for out in re.findall(r"-o (\S+)", command) if "||" not in command else []:
+                assert (folder / out).stat().st_size > 0, f"{command!r} wrote no {out}"
+        pos = 0
+        for fragment in fragments:
+            found = output.find(fragment, pos)
+            assert found >= 0, f"{fragment!r} not in the output of {line!r}:\n{output}"
+            pos = found + len(fragment)
 
 
-SHELL_COMMANDS = list(shell_commands())
+@pytest.mark.parametrize("page", [p for p in PAGES if any(lang in ("python", "sh") for lang, _ in fenced(p))])
+def test_page_snippets_run_and_print_what_they_claim(page, tmp_path):
+    (tmp_path / "examples").symlink_to(ROOT / "examples")
+    for lang, code in fenced(page):
+        if lang == "python":
+            run_python(code, tmp_path)
+        elif lang == "sh":
+            run_shell(code, tmp_path)
 
 
-def test_every_readme_command_is_run_or_skipped_for_a_stated_cost():
-    every = {p.strip() for b in blocks("sh") for line in b.strip().splitlines()
-             for p in line.partition("   # ")[0].split(" && ")}
-    assert every - set(SKIPPED_FOR_COST) == {c.removesuffix(" --check") for c, _ in SHELL_COMMANDS}
-    assert "qmesh setup --check" in {c for c, _ in SHELL_COMMANDS}
-
-
-@pytest.mark.parametrize("command, claim", SHELL_COMMANDS, ids=[c for c, _ in SHELL_COMMANDS])
-def test_shell_command_runs_and_prints_what_it_claims(command, claim, tmp_path):
-    done = subprocess.run(["bash", "-c", command], cwd=tmp_path, capture_output=True, text=True,
-                          timeout=300, env=environment())
-    assert done.returncode == 0, done.stderr[-3000:]
-    output, pos = done.stdout + done.stderr, 0
-    for fragment in filter(None, (f.strip() for f in claim.split("…"))):
-        found = output.find(fragment, pos)
-        assert found >= 0, f"{fragment!r} not in the output of {command!r}:\n{output}"
-        pos = found + len(fragment)
-    for out in re.findall(r"-o (\S+)", command):
-        assert (tmp_path / out).stat().st_size > 0
+def test_only_the_costly_commands_are_skipped():
+    parts = [p.strip() for b in blocks("sh") for line in b.strip().splitlines()
+             for p in line.partition("   # ")[0].split(" && ")]
+    commands = [c for b in blocks("sh") for _, cs, _ in shell_lines(b) for c in cs]
+    assert set(parts) & set(SKIPPED_FOR_COST) == set(SKIPPED_FOR_COST)
+    assert len(commands) == len([p for p in parts if p not in SKIPPED_FOR_COST])
+    assert "qmesh setup --check" in commands and "qmesh setup" not in commands
 
 
 def test_ci_runs_exactly_the_readme_commands():
@@ -179,8 +220,8 @@ def test_ci_runs_exactly_the_readme_commands():
 @given(vb=st.sampled_from([8, 16, 32, 64, 128]), extra=st.integers(1, 600),
        k1=st.floats(0.01, 100), k2=st.floats(0.01, 100), angle=st.floats(0, 180))
 def test_target_vertices_is_met_or_refused(vb, extra, k1, k2, angle):
-    """README and `qmesh mesh --help`: N ends on the target or a few percent above; a miss by
-    more than 10% is a QmeshError that names the target."""
+    """The guide and `qmesh mesh --help`: N ends on the target or a few percent above; a miss
+    by more than 10% is a QmeshError that names the target."""
     import warnings
     target = vb + extra
     with warnings.catch_warnings():
@@ -195,19 +236,20 @@ def test_target_vertices_is_met_or_refused(vb, extra, k1, k2, angle):
     assert np.all(m.fixed[:vb])
 
 
-def test_mesh_help_says_what_the_readme_says():
+def test_mesh_help_says_what_the_guide_says():
     done = subprocess.run([sys.executable, "-m", "qmesh", "mesh", "--help"], capture_output=True,
                           text=True, env=environment(COLUMNS="200"))
     text = " ".join(done.stdout.split())
     said = "the mesh ends on N, or near it where keeping q_ij >= 0 on the boundary needs more vertices"
     assert f"--target-vertices N aim for N vertices: {said}" in text
-    assert said.replace("q_ij >= 0", "`q_ij ≥ 0`") in " ".join(README.split())
+    assert said.replace("q_ij >= 0", "`q_ij ≥ 0`") in " ".join(TEXT["docs/guide/cli.md"].split())
 
 
-def test_files_the_readme_commands_write_are_ignored_by_git():
-    """Run from the repository root, the README's commands leave nothing for `git status`."""
+def test_files_the_commands_write_are_ignored_by_git():
+    """Run from the repository root, the pages' commands leave no mesh file for `git status`."""
     text = "".join(blocks("sh") + blocks("python"))
-    outputs = sorted(set(re.findall(r"-o (\S+)", text) + re.findall(r'io\.write\("([^"]+)"', text)))
-    assert "disk64.vtu" in outputs and "needle.vtu" in outputs
+    outputs = sorted(set(re.findall(r"-o (\S+\.(?:vtu|vtk|msh|xdmf|mesh|obj))\b", text)
+                         + re.findall(r'io\.write\("([^"]+)"', text)))
+    assert "disk64.vtu" in outputs and "chapter.msh" in outputs
     done = subprocess.run(["git", "check-ignore", *outputs], cwd=ROOT, capture_output=True, text=True)
     assert sorted(done.stdout.split()) == outputs
