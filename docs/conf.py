@@ -5,7 +5,7 @@ NumPy, SciPy, scikit-fem and PyVista — so the API reference comes from the doc
 ``autodoc`` and the theme is theirs (pydata-sphinx-theme). The pages are Markdown, read by MyST,
 with ``dollarmath`` and ``amsmath`` for the equations. The build needs no network.
 
-Build: ``python -m sphinx -W --keep-going -b html docs docs/_build/html`` (warnings are errors;
+Build: ``python -m sphinx -W --keep-going -b html docs build/docs`` (warnings are errors;
 ``tests/test_docs.py`` runs this). The benchmark pages ``benchmarks/*.md`` are written by the
 scripts in ``benchmarks/`` and included by a glob; the site builds with none of them.
 """
