@@ -68,18 +68,19 @@ def parse_s(text) -> Expression:
 
 # --------------------------------------------------------------------------- checking (no SymPy)
 
-def check(text) -> tuple:
+def check(text, name: str = "s(x, y)") -> tuple:
     """The checked form of `text`: nested tuples ("num", v) | ("var", name) | (op, a, b) |
-    ("neg", a) | ("call", name, a), numeric parts folded to floats. Raises QmeshError."""
+    ("neg", a) | ("call", name, a), numeric parts folded to floats. Raises QmeshError, whose
+    message starts with `name` (the function the text stands for, e.g. "q11(x, y)")."""
     if not isinstance(text, str):
-        raise QmeshError(f"s(x, y) must be text (a str), got {type(text).__name__}")
+        raise QmeshError(f"{name} must be text (a str), got {type(text).__name__}")
     if len(text) > MAX_LENGTH:
-        raise QmeshError(f"s(x, y) is {len(text)} characters long; at most {MAX_LENGTH} are allowed")
+        raise QmeshError(f"{name} is {len(text)} characters long; at most {MAX_LENGTH} are allowed")
     if not text.strip():
-        raise QmeshError("s(x, y) is empty; type an expression in x and y, e.g. exp(x) + y**2")
+        raise QmeshError(f"{name} is empty; type an expression in x and y, e.g. exp(x) + y**2")
     for i, ch in enumerate(text):
         if not (ch.isascii() and (ch.isprintable() or ch == "\t")):
-            raise QmeshError(f"s(x, y): column {i + 1}: character {ch!r} is not allowed "
+            raise QmeshError(f"{name}: column {i + 1}: character {ch!r} is not allowed "
                              "(one line of ASCII text)")
     body = text.strip()
     lead = len(text) - len(text.lstrip())  # columns are counted in the text as typed
@@ -88,27 +89,27 @@ def check(text) -> tuple:
     except SyntaxError as e:
         where = (f"column {e.offset + lead}: {body[e.offset - 1:e.offset + 9]!r}"
                  if e.offset and 1 <= e.offset <= len(body) else "at the end")
-        raise QmeshError(f"s(x, y): {where}: {e.msg}") from None
+        raise QmeshError(f"{name}: {where}: {e.msg}") from None
     except (ValueError, RecursionError, MemoryError) as e:
-        raise QmeshError(f"s(x, y) cannot be parsed: {e}") from None
+        raise QmeshError(f"{name} cannot be parsed: {e}") from None
     n_nodes = sum(1 for _ in ast.walk(tree))
     if n_nodes > MAX_NODES:
-        raise QmeshError(f"s(x, y) has {n_nodes} syntax nodes; at most {MAX_NODES} are allowed")
-    return _Checker(body, lead).walk(tree.body, 0)
+        raise QmeshError(f"{name} has {n_nodes} syntax nodes; at most {MAX_NODES} are allowed")
+    return _Checker(body, lead, name).walk(tree.body, 0)
 
 
 class _Checker:
     """The whitelist walk: one method, recursion bounded by MAX_DEPTH."""
 
-    def __init__(self, text: str, lead: int):
-        self.text, self.lead = text, lead
+    def __init__(self, text: str, lead: int, name: str = "s(x, y)"):
+        self.text, self.lead, self.name = text, lead, name
 
     def where(self, node) -> str:
         a, b = node.col_offset, getattr(node, "end_col_offset", None) or node.col_offset + 1
         token = self.text[a:b]
         if len(token) > 40:
             token = token[:37] + "..."
-        return f"s(x, y): column {a + 1 + self.lead}: {token!r}"
+        return f"{self.name}: column {a + 1 + self.lead}: {token!r}"
 
     def refuse(self, node, why: str):
         raise QmeshError(f"{self.where(node)}: {why}")
@@ -184,7 +185,8 @@ _FLOAT_OPS = {"+": lambda a, b: a + b, "-": lambda a, b: a - b, "*": lambda a, b
 
 # --------------------------------------------------------------------------- SymPy
 
-def _build(text: str, form: tuple) -> Expression:
+def _to_sympy(form: tuple):
+    """The checked form as a SymPy expression in the real symbols x, y: (expression, x, y)."""
     import sympy as sp  # lazily: `import qmesh` stays fast
 
     x, y = sp.Symbol("x", real=True), sp.Symbol("y", real=True)
@@ -206,7 +208,37 @@ def _build(text: str, form: tuple) -> Expression:
         return {"+": lambda: a + b, "-": lambda: a - b, "*": lambda: a * b,
                 "/": lambda: a / b, "**": lambda: a ** b}[kind]()
 
-    s = to_sympy(form)
+    return to_sympy(form), x, y
+
+
+def parse_function(text, name: str) -> Callable[[np.ndarray], np.ndarray]:
+    """Check `text` (e.g. "1 + x**2") like s(x, y), with every message naming `name` (e.g.
+    "q11(x, y)"), and return its value alone, vectorised: points (n, 2) → (n,). No derivatives
+    are formed; the value is not checked here (NaN or inf where the text is undefined — the
+    caller checks what it evaluates and names the point). QmeshError if the text is refused."""
+    import sympy as sp
+
+    form = check(text, name)
+    f, x, y = _to_sympy(form)
+    if f.has(sp.zoo, sp.oo, -sp.oo, sp.nan):
+        raise QmeshError(f"{name} = {_quote(text)} is not finite")
+    f_val = sp.lambdify((x, y), f, modules="numpy")
+
+    def value(P: np.ndarray) -> np.ndarray:
+        P = np.asarray(P, dtype=float)
+        if P.ndim != 2 or P.shape[1] != 2:
+            raise QmeshError(f"points must have shape (n, 2), got {P.shape}")
+        with np.errstate(all="ignore"):
+            v = f_val(P[:, 0], P[:, 1])
+        return np.array(np.broadcast_to(np.asarray(v, dtype=float), (len(P),)))
+
+    return value
+
+
+def _build(text: str, form: tuple) -> Expression:
+    import sympy as sp  # lazily: `import qmesh` stays fast
+
+    s, x, y = _to_sympy(form)
     grad = [sp.diff(s, v) for v in (x, y)]
     # the Hessian is used pointwise: a DiracDelta (from abs) is zero wherever it is defined
     hess = [sp.diff(grad[0], x), sp.diff(grad[0], y), sp.diff(grad[1], y)]
