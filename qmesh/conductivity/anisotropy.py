@@ -91,6 +91,9 @@ class Anisotropy:
     H: NDArray[np.float64] | None = None
     label: str = ""
     expression: str | None = None
+    potential: bool = True
+    """False for a metric without an s (a tensor field's, `metric_only`): the mesher then tests
+    flips and encroachment in the local metric and moves vertices by the shape step."""
 
     def Q(self, P: NDArray[np.float64]) -> NDArray[np.float64]:
         """Conductivity at points P (n, 2) → (n, 2, 2): Q = adj ∇²s."""
@@ -154,6 +157,14 @@ class Anisotropy:
         checks.text(label, "label")
         return cls(_UserField(s, "s", ()), _UserField(grad, "grad", (2,)),
                    _UserField(hessian, "hessian", (2, 2)), None, label)
+
+    @classmethod
+    def metric_only(cls, hessian: Field, label: str = "metric") -> Anisotropy:
+        """A varying metric H(x) with no s behind it (FIELDS.md §4): what the mesher meshes a
+        tensor field by. Its s and ∇s refuse to be called."""
+        def none(P: NDArray[np.float64]) -> NDArray[np.float64]:
+            raise QmeshError(f"{label} is a metric without a potential s: s and ∇s are not defined")
+        return cls(none, none, hessian, None, label, potential=False)
 
     @classmethod
     def from_expression(cls, text: str) -> Anisotropy:

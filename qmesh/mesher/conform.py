@@ -59,7 +59,7 @@ def encroached(A: np.ndarray, B: np.ndarray, C: np.ndarray, anisotropy) -> np.nd
     E = B - A
     Hm = _metric_at(anisotropy, M)
     L2 = np.einsum("ki,kij,kj->k", E, Hm, E)                 # (b − a)ᵀH(b − a)
-    if anisotropy.is_constant:
+    if anisotropy.is_constant or not anisotropy.potential:     # the ellipse in H at the midpoint
         D = C - M
         depth = 0.5 * np.einsum("ki,kij,kj->k", D, Hm, D) - 0.125 * L2
     else:

@@ -51,6 +51,9 @@ class Normalisation:
         if A.is_constant:
             H = np.asarray(A.H, dtype=float) / k
             return Anisotropy.constant([[H[1, 1], -H[0, 1]], [-H[1, 0], H[0, 0]]])   # Q = adj H
+        if not A.potential:
+            return Anisotropy.metric_only(lambda Y: np.asarray(A.hessian(c + d * np.asarray(Y, dtype=float)),
+                                                                dtype=float) / k, A.label)
         s0 = float(np.asarray(A.s(c[None]), dtype=float)[0])
         g0 = np.asarray(A.grad(c[None]), dtype=float)[0]
 

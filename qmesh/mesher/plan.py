@@ -71,7 +71,7 @@ def plan(domain, anisotropy, options: Options) -> Plan:
     options ask for an impossible vertex count."""
     norm = Normalisation(domain, anisotropy)
     dom, A = norm.domain, norm.anisotropy
-    if not A.is_constant:
+    if not A.is_constant and A.potential:
         with np.errstate(all="ignore"):
             probe = seeding.random_interior(dom, 256, np.random.default_rng(0))
         anisotropy.check_convex(norm.to_user(np.concatenate([dom.seeds, probe])))

@@ -157,8 +157,11 @@ def _displacements(st: State, alpha: float, boundary_refinement: bool):
     faces.
     """
     P0, T0, anisotropy, on_boundary = st.P, st.T, st.anisotropy, st.on_boundary()
-    d = newton_step(P0, T0, anisotropy, fixed=st.fixed | st.pinned, tangent=st.tangents(),
-                    alpha=alpha)
+    if anisotropy.potential:
+        d = newton_step(P0, T0, anisotropy, fixed=st.fixed | st.pinned, tangent=st.tangents(),
+                        alpha=alpha)
+    else:          # a metric without s has no ‖s − s_h‖ to descend: the shape step (FIELDS.md §4)
+        d = alpha * shape_step(P0, T0, anisotropy, ~on_boundary, on_boundary)
     keep = None
     if boundary_refinement:
         layer = boundary_layer(T0, on_boundary, SHAPE_RINGS)

@@ -58,7 +58,8 @@ class Stats:
         else:
             P, T = mesh.points, mesh.triangles
             q = metric_quality(P, T, metric_hessians(anisotropy, P, T))
-            self._energy = float(triangle_energy(P, T, anisotropy).sum())
+            self._energy = (float(triangle_energy(P, T, anisotropy).sum()) if anisotropy.potential
+                            else float("nan"))       # no s: no ‖s − s_h‖ (FIELDS.md §4)
         self._min_quality, self._mean_quality = float(q.min()), float(q.mean())
         return self._energy, self._min_quality, self._mean_quality
 

@@ -182,7 +182,9 @@ def first_triangulation(P: np.ndarray, anisotropy, boundary: np.ndarray | None =
 
 
 def _exact_lower_hull(P: np.ndarray, anisotropy) -> np.ndarray | None:
-    """`lower_hull`, or None where it fails."""
+    """`lower_hull`, or None where it fails (or there is no s to lift by)."""
+    if not anisotropy.potential:
+        return None
     try:
         return lower_hull(P, anisotropy)
     except QmeshError:
@@ -258,6 +260,14 @@ def _violation_chunk(xy, T, twin, h, anisotropy, s, g):
     if anisotropy.is_constant:
         (h00, h01), (_, h11) = anisotropy.H
         z = [0.5 * (h00 * x * x + 2.0 * h01 * x * y + h11 * y * y) for x, y in zip(dx, dy)]
+    elif not anisotropy.potential:
+        # a metric without s: the in-ellipse test in the metric at the quadrilateral's centre,
+        # the same for both of its diagonals, so a flip is never undone by its own test
+        cx = 0.25 * (Px[cols[0]] + Px[cols[1]] + Px[cols[2]] + xb)
+        cy = 0.25 * (Py[cols[0]] + Py[cols[1]] + Py[cols[2]] + yb)
+        Hq = np.asarray(anisotropy.hessian(np.column_stack([cx, cy])), dtype=float)
+        h00, h01, h11 = Hq[:, 0, 0], Hq[:, 0, 1], Hq[:, 1, 1]
+        z = [0.5 * (h00 * x * x + 2.0 * h01 * x * y + h11 * y * y) for x, y in zip(dx, dy)]
     else:
         gb = g[b]
         z = [s[c] - s[b] - gb[:, 0] * x - gb[:, 1] * y for c, x, y in zip(cols, dx, dy)]
@@ -288,7 +298,7 @@ def restore(P: np.ndarray, T: np.ndarray, twin: np.ndarray, anisotropy,
     in both of their triangles, so no triangle takes part in two flips of one round.
     """
     s = g = None
-    if not anisotropy.is_constant:
+    if not anisotropy.is_constant and anisotropy.potential:
         s = np.asarray(anisotropy.s(P), dtype=float)
         g = np.asarray(anisotropy.grad(P), dtype=float)
     cand = _canonical(twin, candidates)

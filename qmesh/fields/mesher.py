@@ -1,0 +1,70 @@
+"""A tensor field Q(x) meshed by Algorithm 2.1 itself, then certified on its element means.
+
+FIELDS.md §4. A field has no s, so it is meshed in its metric (metric.py: the shape of Q,
+smoothed at the target scale) by the same loop, plan and stages as a constant Q
+(`mesher.loop.iterate` with `Anisotropy.metric_only`: seeding in the local metric, flips and
+encroachment in the local metric, the shape step). Then the P1 stiffness matrix is assembled
+with the element means Q̄_T and every edge that fails q_ij ≥ 0 is flipped or split
+(certify.py): the last Step's mesh carries the means it was certified with.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Callable, Iterator
+from dataclasses import replace
+from typing import Any
+
+from qmesh.domain.domain import as_domain
+from qmesh.errors import QmeshError, QmeshWarning
+from qmesh.fields.certify import certify
+from qmesh.fields.metric import field_metric, smoothing_width
+from qmesh.mesher import loop
+from qmesh.mesher.diagnose import warn_if_thin
+from qmesh.mesher.step import Stats, Step
+from qmesh.triangle_mesh import Mesh
+
+
+def iterate(domain: Any, field: Any, *, target_vertices: int | None = None,
+            size: float | None = None, **options: Any) -> Iterator[Step]:
+    """Algorithm 2.1 on the field's metric, a Step after every stage, then a last Step whose
+    mesh passes q_ij ≥ 0 on every edge with the element means (`Mesh.conductivity`), the only
+    one `converged`. The options are those of a constant Q (`qmesh.iterate`)."""
+    domain = as_domain(domain)
+    metric = field_metric(field, smoothing_width(domain, target_vertices, size))
+    steps = loop.iterate(domain, metric, target_vertices=target_vertices, size=size, **options)
+    return _certified(steps, field, metric)
+
+
+def mesh(domain: Any, field: Any, *, progress: Callable[[Step], object] | None = None,
+         **options: Any) -> Mesh:
+    """The mesh of the last Step of `iterate` with the same arguments; `progress`, when given,
+    is called with every Step."""
+    if progress is not None and not callable(progress):
+        raise QmeshError(f"progress must be a function of one Step, got {type(progress).__name__}")
+    last = None
+    for last in iterate(domain, field, **options):
+        if progress is not None:
+            progress(last)
+    assert last is not None           # a run yields at least its last Step
+    return last.mesh
+
+
+def _certified(steps: Iterator[Step], field: Any, metric: Any) -> Iterator[Step]:
+    last = None
+    for last in steps:
+        yield replace(last, converged=False)
+    assert last is not None
+    warn_if_thin(last.mesh, metric, stacklevel=4)
+    m, cert = certify(last.mesh, field)
+    yield Step("triangulate", last.iteration, m,
+               Stats(m.n_vertices, m.n_triangles, flips=cert.flips, added=cert.added,
+                     source=(m, metric)), converged=True)
+    if cert.added:
+        warnings.warn(f"keeping every q_ij >= 0 with the element means of Q took {cert.added} more "
+                      f"vertices (N = {m.n_vertices}): Q changes faster across some triangles than "
+                      "the mesh resolves", QmeshWarning, stacklevel=3)
+    if cert.remaining:
+        warnings.warn(f"{cert.remaining} edges still have q_ij < 0 with the element means after "
+                      f"{cert.rounds} rounds of flips and splits (worst q_ij / sum|q_ij^T| = "
+                      f"{cert.worst:.2e}); ask for more vertices", QmeshWarning, stacklevel=3)
