@@ -22,6 +22,7 @@ import os
 import sys
 import time
 import warnings
+from contextlib import nullcontext
 
 from qmesh import CHAPTER_Q, __version__, io, measure
 from qmesh.conductivity.anisotropy import Anisotropy
@@ -71,6 +72,23 @@ def _progress(step, out) -> None:
           f"min q={s.min_quality:.3f}", file=out, flush=True)
 
 
+BAR = {"delay": 1.0, "disable": None}
+"""tqdm's options for `qmesh mesh`'s bar: shown once a run has taken a second, and only when
+stderr is a terminal (disable=None), so a log or a pipe gets nothing."""
+
+
+def _progress_bar(out):
+    """A tqdm bar on `out` that counts the stages; `_advance` moves it on by one Step."""
+    from tqdm import tqdm
+    return tqdm(file=out, desc="qmesh mesh", unit=" stages", leave=False, dynamic_ncols=True, **BAR)
+
+
+def _advance(bar, step) -> None:
+    # n_vertices only: the Step's energy and quality cost a pass over the triangles
+    bar.set_postfix_str(f"iteration {step.iteration} {step.stage} N={step.stats.n_vertices}", refresh=False)
+    bar.update(1)
+
+
 def cmd_mesh(args) -> int:
     out = io.check_writable(args.output)
     anisotropy = anisotropy_from(args)
@@ -78,19 +96,22 @@ def cmd_mesh(args) -> int:
     if args.regions or args.region_Q or args.region_principal:      # a conductivity per region
         domain, from_file = read_regions(args.regions) if args.regions else (domain, {})
         anisotropy = conductivity_per_region(domain, from_file, args.region_Q, args.region_principal, anisotropy)
-    show = not args.quiet and (args.progress or sys.stderr.isatty())
+    lines = args.progress and not args.quiet       # a line per stage; else tqdm's bar on a terminal
+    bar = None if args.quiet or lines else _progress_bar(sys.stderr)
 
     start = time.perf_counter()
     steps = []
 
     def on_step(step):
         steps[:] = [step]
-        if show:
+        if lines:
             _progress(step, sys.stderr)
+        elif bar is not None:
+            _advance(bar, step)
 
     # the API's mesh(): the same checks of the options and of the vertex count it lands on;
     # its thin-domain warning is kept and printed below as one line (not measured again)
-    with warnings.catch_warnings(record=True) as caught:
+    with warnings.catch_warnings(record=True) as caught, nullcontext() if bar is None else bar:
         warnings.simplefilter("always", QmeshWarning)
         mesh = run_mesher(domain, anisotropy, target_vertices=args.target_vertices, size=args.size,
                           alpha=args.alpha, max_iterations=args.max_iterations, seed=args.seed,
@@ -242,8 +263,9 @@ def build_parser() -> argparse.ArgumentParser:
         default = _MESHER_DEFAULTS[flag[2:].replace("-", "_")]
         p.add_argument(flag, type=kind, default=default, metavar=meta, help=f"{text} (default: {default})")
     p.add_argument("-o", "--output", required=True, metavar="OUT", help="output mesh file")
-    p.add_argument("--progress", action="store_true", help="print a line per stage on stderr even when it is not a terminal")
-    p.add_argument("--quiet", action="store_true", help="no progress lines and no warning")
+    p.add_argument("--progress", action="store_true", help="print a line per stage on stderr, also when it is not "
+                   "a terminal (without it, a terminal shows a progress bar once a run takes over a second)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar or lines and no warning")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     p.set_defaults(handler=cmd_mesh)
 
