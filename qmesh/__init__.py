@@ -9,6 +9,7 @@ point insertion of the thesis chapter "Q-adapted meshes" (Section 2.3, Algorithm
 """
 
 from qmesh.conductivity.anisotropy import Anisotropy
+from qmesh.conductivity.field import TensorField
 from qmesh.domain.domain import Disk, Domain, Polygon
 from qmesh.errors import QmeshError, QmeshWarning
 from qmesh.triangle_mesh import Mesh
@@ -19,7 +20,7 @@ from qmesh.domain import named as domains
 from qmesh.mesher import diagnose
 from qmesh import media   # heterogeneous media: a conductivity per region
 
-__all__ = ["Anisotropy", "Disk", "Domain", "Polygon", "domains", "Mesh", "Step", "Stats", "QmeshError",
+__all__ = ["Anisotropy", "TensorField", "Disk", "Domain", "Polygon", "domains", "Mesh", "Step", "Stats", "QmeshError",
            "QmeshWarning", "iterate", "mesh", "io", "measure", "diagnose", "media"]
 __version__ = "0.1.0"
 

@@ -1,0 +1,419 @@
+"""The conductivity as a field Q(x): a formula, a callable or a raster, and its element means.
+
+FIELDS.md §1–2: what users hold is a tensor that changes from point to point — a rotating
+anisotropy, a field-aligned conductivity, a raster of `k1, k2, angle` whose every cell differs —
+and only its element means Q̄_T = (1/|T|) ∫_T Q enter the P1 stiffness matrix. `TensorField` holds
+the field, checks it where it is evaluated (finite, symmetric, positive definite, naming the
+point), and computes the means (`means`, `means_with_error`; numerics in `means.py`) and the
+smoothed field the mesher sizes by (`box_means`).
+
+Texts go through the safe parser of s(x, y) (`expression.parse_function`): never eval'd.
+"""
+
+from __future__ import annotations
+
+import numbers
+from typing import Any, Callable
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from qmesh.conductivity import means as _m
+from qmesh.conductivity.expression import check, parse_function
+from qmesh.errors import QmeshError
+
+Array = NDArray[np.float64]
+
+SYMMETRY_RTOL = 1e-10
+"""A callable's Q(x) counts as symmetric when |q12 − q21| ≤ SYMMETRY_RTOL (|q11| + |q22|); the
+mean of the two is used."""
+
+RASTER_SLACK = 1e-12
+"""A point outside a raster by at most this fraction of its size (a vertex computed on its
+boundary) counts as on the boundary: it takes the boundary cell."""
+
+_Scalar = Callable[[Array, Array], Array]
+
+
+def _fmt(v: float) -> str:
+    return repr(float(v))
+
+
+def _point(X: Array, Y: Array, k: int) -> str:
+    return f"(x, y) = ({_fmt(X[k])}, {_fmt(Y[k])})"
+
+
+def _scalar(v: Any, name: str) -> tuple[float | None, _Scalar, str]:
+    """A number or a text in x, y → (the number or None, a vectorised g(X, Y) on 1-D arrays, its
+    text for labels). Texts are checked by the s(x, y) parser, messages naming `name`."""
+    if isinstance(v, str):
+        form = check(v, f"{name}(x, y)")
+        if form[0] == "num":
+            c = float(form[1])
+            return c, (lambda X, Y: np.full(X.shape, c)), v.strip()
+        f = parse_function(v, f"{name}(x, y)")
+        return None, (lambda X, Y: f(np.column_stack([X, Y]))), v.strip()
+    scalar = isinstance(v, numbers.Real) or (isinstance(v, np.ndarray) and v.ndim == 0 and v.dtype.kind in "iuf")
+    if isinstance(v, (bool, np.bool_)) or not scalar:
+        raise QmeshError(f"{name} must be a number or a text in x and y, got {v!r:.80}")
+    c = float(v)
+    if not np.isfinite(c):
+        raise QmeshError(f"{name} must be finite, got {c}")
+    return c, (lambda X, Y: np.full(X.shape, c)), f"{c:g}"
+
+
+def _value_checked(g: _Scalar, X: Array, Y: Array, name: str, text: str) -> Array:
+    """g at the points, refusing the first point where it is not finite."""
+    v = g(X, Y)
+    bad = ~np.isfinite(v)
+    if bad.any():
+        k = int(np.flatnonzero(bad)[0])
+        raise QmeshError(f"{name}(x, y) = {text!r} is {v[k]} at {_point(X, Y, k)}: not finite")
+    return v
+
+
+def _check_components(X: Array, Y: Array, q11: Array, q12: Array, q21: Array, q22: Array,
+                      label: str) -> Array:
+    """(n, 3) components of a checked Q: finite, symmetric (SYMMETRY_RTOL), positive definite;
+    else QmeshError naming the first point that fails and Q there."""
+    def refuse(bad: NDArray[np.bool_], why: str) -> None:
+        k = int(np.flatnonzero(bad)[0])
+        Q = [[float(q11[k]), float(q12[k])], [float(q21[k]), float(q22[k])]]
+        raise QmeshError(f"{label}: Q is {why} at {_point(X, Y, k)}: Q = {Q}")
+
+    finite = np.isfinite(q11) & np.isfinite(q12) & np.isfinite(q21) & np.isfinite(q22)
+    if not finite.all():
+        refuse(~finite, "not finite")
+    asym = np.abs(q12 - q21) > SYMMETRY_RTOL * (np.abs(q11) + np.abs(q22))
+    if asym.any():
+        refuse(asym, "not symmetric")
+    q = np.stack([q11, 0.5 * (q12 + q21), q22], axis=-1)
+    spd = (q[:, 0] > 0) & (q[:, 2] > 0) & (q[:, 0] * q[:, 2] - q[:, 1] ** 2 > 0)
+    if not spd.all():
+        refuse(~spd, "not positive definite")
+    return q
+
+
+def _points(P: ArrayLike, name: str = "points") -> Array:
+    try:
+        A = np.asarray(P, dtype=float)
+    except (TypeError, ValueError):
+        raise QmeshError(f"{name} must be an array of real numbers of shape (n, 2), got {P!r:.80}") from None
+    if A.ndim != 2 or A.shape[1] != 2:
+        raise QmeshError(f"{name} must have shape (n, 2), got {A.shape}")
+    if not np.all(np.isfinite(A)):
+        k = int(np.flatnonzero(~np.isfinite(A).all(axis=1))[0])
+        raise QmeshError(f"{name}[{k}] = {A[k].tolist()} is not finite")
+    return A
+
+
+def _triangles(triangles: ArrayLike, n_points: int) -> NDArray[np.intp]:
+    T = np.asarray(triangles)
+    if T.ndim != 2 or T.shape[1] != 3 or (T.size and T.dtype.kind not in "iu"):
+        raise QmeshError(f"triangles must be integer indices of shape (M, 3), got {T.dtype} {T.shape}")
+    T = T.astype(np.intp, copy=False)
+    if T.size and (T.min() < 0 or T.max() >= n_points):
+        raise QmeshError(f"triangles index points 0..{n_points - 1}, got indices from {T.min()} to {T.max()}")
+    return T
+
+
+def _raster_array(v: ArrayLike, shape: tuple[int, int], name: str, x: Array, y: Array,
+                  positive: bool) -> Array:
+    """One per-cell array (a number stands for every cell); QmeshError naming the first bad cell."""
+    try:
+        a = np.broadcast_to(np.asarray(v, dtype=float), shape)
+    except (TypeError, ValueError):
+        raise QmeshError(f"{name} must be a number or an array of real numbers of shape {shape} "
+                         f"(ny, nx) = (rows, columns), got {np.shape(v)}") from None
+    ok = np.isfinite(a) & (a > 0) if positive else np.isfinite(a)
+    if not ok.all():
+        j, i = (int(c) for c in np.argwhere(~ok)[0])
+        need = "a finite number > 0" if positive else "a finite number"
+        raise QmeshError(f"{name} is {a[j, i]} in cell (row {j}, column {i}) (x in [{x[i]:g}, "
+                         f"{x[i + 1]:g}], y in [{y[j]:g}, {y[j + 1]:g}]): every cell needs {need} "
+                         "(NaN cells are not holes: cut holes out of the domain instead)")
+    return a
+
+
+def _axis(v: ArrayLike, name: str) -> Array:
+    try:
+        a = np.asarray(v, dtype=float)
+    except (TypeError, ValueError):
+        raise QmeshError(f"{name} must be increasing finite cell edges, got {v!r:.80}") from None
+    if a.ndim != 1 or len(a) < 2 or not np.all(np.isfinite(a)) or not np.all(np.diff(a) > 0):
+        raise QmeshError(f"{name} must be at least two increasing finite cell edges, got {v!r:.80}")
+    return a
+
+
+class TensorField:
+    """Q(x): a symmetric positive definite 2×2 conductivity at every point.
+
+    Build it from a vectorised callable `TensorField(f)` (f(x, y) with x, y arrays of one shape
+    → (..., 2, 2)), from texts or numbers (`from_expressions`, `principal`) or from a raster of
+    cells (`from_raster`). The field is checked where it is evaluated: `field(P)`, `means` and
+    `box_means` raise QmeshError naming the first point (in the caller's coordinates) where Q is
+    not finite, not symmetric or not positive definite, or — for a raster — lies outside it.
+
+    `means(points, triangles)` gives the element means Q̄_T = (1/|T|) ∫_T Q, the only thing of Q
+    the P1 stiffness matrix sees (FIELDS.md §2): adaptive quadrature for formulas and callables,
+    the exact area-weighted mean of the cells for rasters (`qmesh.conductivity.means`).
+
+        >>> import qmesh
+        >>> Q = qmesh.TensorField.principal(1.0, 0.01, "30 * x")
+        >>> Q.means([[0, 0], [1, 0], [0, 1]], [[0, 1, 2]]).shape
+        (1, 2, 2)
+    """
+
+    label: str
+    """What the field is, for messages and reports: e.g. "Q = [[1, x], [x, 2]]" or "raster 512 × 512"."""
+    is_raster: bool
+    """True for a field of raster cells (`from_raster`)."""
+    bounds: tuple[Array, Array] | None
+    """A raster's (lo, hi) corners; None for formulas and callables (defined everywhere they
+    evaluate)."""
+
+    def __init__(self, f: Callable[..., ArrayLike], label: str | None = None):
+        if not callable(f):
+            raise QmeshError(f"TensorField takes a callable f(x, y) → (..., 2, 2), got {f!r:.80}")
+        if label is not None and not isinstance(label, str):
+            raise QmeshError(f"label must be text, got {label!r:.80}")
+        self._f = f
+        self.label = label if label is not None else f"Q = {getattr(f, '__name__', type(f).__name__)}(x, y)"
+        self.is_raster = False
+        self.bounds = None
+        self._components: Callable[[Array, Array], Array] = self._callable_components
+        self._constant: Array | None = None
+        self._raster: _m.Raster | None = None
+
+    def __repr__(self) -> str:
+        return f"TensorField({self.label!r})"
+
+    # ---------------------------------------------------------------- constructors
+
+    @classmethod
+    def from_expressions(cls, q11: Any, q12: Any, q22: Any) -> "TensorField":
+        """Q = [[q11, q12], [q12, q22]], each a number or a text in x and y (e.g. "1 + x**2"),
+        checked by the same whitelist parser as s(x, y) (messages name the component, e.g.
+        "q12(x, y): column 3: …"). Numbers are checked at once (a constant Q must be SPD); texts
+        where they are evaluated."""
+        parts = [_scalar(v, n) for v, n in ((q11, "q11"), (q12, "q12"), (q22, "q22"))]
+        texts = [p[2] for p in parts]
+        label = f"Q = [[{texts[0]}, {texts[1]}], [{texts[1]}, {texts[2]}]]"
+        for (c, _, _), n in ((parts[0], "q11"), (parts[2], "q22")):
+            if c is not None and c <= 0:
+                raise QmeshError(f"{n} = {c:g}: a diagonal entry of a positive definite Q must be > 0")
+        g = [p[1] for p in parts]
+
+        def components(X: Array, Y: Array) -> Array:
+            v = [_value_checked(gi, X, Y, n, t) for gi, n, t in zip(g, ("q11", "q12", "q22"), texts)]
+            return _check_components(X, Y, v[0], v[1], v[1], v[2], label)
+
+        constant = None
+        if parts[0][0] is not None and parts[1][0] is not None and parts[2][0] is not None:
+            constant = [parts[0][0], parts[1][0], parts[2][0]]
+        return cls._of_components(components, label, constant)
+
+    @classmethod
+    def principal(cls, k1: Any, k2: Any, angle_deg: Any) -> "TensorField":
+        """Q = R diag(k1, k2) Rᵀ, R the rotation by angle_deg counter-clockwise (k1 along the
+        direction at that angle, as `qmesh.conductivity.anisotropy.principal_matrix`); each a
+        number or a text in x and y. Numbers are checked at once (k1, k2 > 0); texts where they
+        are evaluated (k1, k2 finite and > 0, the angle finite, naming the point)."""
+        parts = [_scalar(v, n) for v, n in ((k1, "k1"), (k2, "k2"), (angle_deg, "angle"))]
+        for (c, _, _), n in ((parts[0], "k1"), (parts[1], "k2")):
+            if c is not None and c <= 0:
+                raise QmeshError(f"{n} = {c:g}: principal conductivities must be > 0")
+        texts = [p[2] for p in parts]
+        label = f"Q = principal(k1 = {texts[0]}, k2 = {texts[1]}, angle = {texts[2]} degrees)"
+        g = [p[1] for p in parts]
+
+        def components(X: Array, Y: Array) -> Array:
+            a, b, t = (_value_checked(gi, X, Y, n, s) for gi, n, s in zip(g, ("k1", "k2", "angle"), texts))
+            for v, n, s in ((a, "k1", texts[0]), (b, "k2", texts[1])):
+                bad = v <= 0
+                if bad.any():
+                    k = int(np.flatnonzero(bad)[0])
+                    raise QmeshError(f"{n}(x, y) = {s!r} is {v[k]} at {_point(X, Y, k)}: principal "
+                                     "conductivities must be > 0")
+            c, s_ = np.cos(np.deg2rad(t)), np.sin(np.deg2rad(t))
+            q11, q12, q22 = a * c * c + b * s_ * s_, (a - b) * c * s_, a * s_ * s_ + b * c * c
+            return _check_components(X, Y, q11, q12, q12, q22, label)
+
+        constant = None
+        if parts[0][0] is not None and parts[1][0] is not None and parts[2][0] is not None:
+            a, b, t = parts[0][0], parts[1][0], np.deg2rad(parts[2][0])
+            c, s_ = np.cos(t), np.sin(t)
+            constant = [a * c * c + b * s_ * s_, (a - b) * c * s_, a * s_ * s_ + b * c * c]
+        return cls._of_components(components, label, constant)
+
+    @classmethod
+    def from_raster(cls, x: ArrayLike, y: ArrayLike, k1: ArrayLike, k2: ArrayLike,
+                    angle: ArrayLike = 0.0) -> "TensorField":
+        """A raster of cells, each with a constant Q = R diag(k1, k2) Rᵀ: cell edges x (nx+1,) and
+        y (ny+1,) increasing; k1, k2, angle arrays (ny, nx) (row j between y[j] and y[j+1], column
+        i between x[i] and x[i+1]) or numbers standing for every cell. MODFLOW's K, K22 and ANGLEX
+        as `Domain.from_cells`: k1 along the direction at `angle` degrees counter-clockwise from
+        the x axis, k2 across it, K22 given as a conductivity, not a ratio.
+
+        Every cell must hold finite k1 > 0, k2 > 0 and a finite angle: a NaN or non-positive cell
+        is REFUSED with a QmeshError naming the cell (row, column) — it is not made a hole (holes
+        are the domain's: cut them out of it). The field is defined on the raster's rectangle
+        `bounds` only; a point outside it is refused."""
+        X, Y = _axis(x, "x"), _axis(y, "y")
+        shape = (len(Y) - 1, len(X) - 1)
+        a = _raster_array(k1, shape, "k1", X, Y, positive=True)
+        b = _raster_array(k2, shape, "k2", X, Y, positive=True)
+        t = np.deg2rad(_raster_array(angle, shape, "angle", X, Y, positive=False))
+        c, s = np.cos(t), np.sin(t)
+        q = np.stack([a * c * c + b * s * s, (a - b) * c * s, a * s * s + b * c * c], axis=-1)
+        R = _m.Raster.build(X, Y, q)
+        field = cls.__new__(cls)
+        field._f = field._raster_call
+        field.label = f"raster {shape[0]} × {shape[1]}"
+        field.is_raster = True
+        field.bounds = (np.array([X[0], Y[0]]), np.array([X[-1], Y[-1]]))
+        field._components = field._raster_components
+        field._constant = None
+        field._raster = R
+        return field
+
+    @classmethod
+    def _of_components(cls, components: Callable[[Array, Array], Array], label: str,
+                       constant: list[float] | None) -> "TensorField":
+        """A field from a checked components(X, Y) → (n, 3); a constant one (its components
+        q11, q12, q22 given) is checked now."""
+        if constant is not None:
+            q11, q12, q22 = constant
+            if not (q11 > 0 and q22 > 0 and q11 * q22 - q12 * q12 > 0):
+                raise QmeshError(f"{label} is not positive definite: Q = [[{q11:g}, {q12:g}], "
+                                 f"[{q12:g}, {q22:g}]], det Q = {q11 * q22 - q12 * q12:g}")
+        def f(x: ArrayLike, y: ArrayLike) -> Array:
+            X, Y = np.broadcast_arrays(np.asarray(x, dtype=float), np.asarray(y, dtype=float))
+            return _m.full_tensors(components(X.ravel(), Y.ravel())).reshape(X.shape + (2, 2))
+
+        field = cls(f, label)
+        field._components = components
+        if constant is not None:
+            field._constant = np.array(constant, dtype=float)
+        return field
+
+    # ---------------------------------------------------------------- evaluation
+
+    def _callable_components(self, X: Array, Y: Array) -> Array:
+        """A user's f(x, y) at 1-D points → checked components (n, 3)."""
+        try:
+            with np.errstate(all="ignore"):
+                raw = self._f(X, Y)
+            Q = np.asarray(raw, dtype=float)
+        except QmeshError:
+            raise
+        except Exception as e:
+            raise QmeshError(f"{self.label} raised {type(e).__name__} at {len(X)} points "
+                             f"(the first {_point(X, Y, 0) if len(X) else 'none'}): {e}") from e
+        try:
+            Q = np.broadcast_to(Q, (len(X), 2, 2))
+        except ValueError:
+            raise QmeshError(f"{self.label} must return shape (n, 2, 2) for x, y of shape (n,), "
+                             f"got {Q.shape} for n = {len(X)}") from None
+        return _check_components(X, Y, Q[:, 0, 0], Q[:, 0, 1], Q[:, 1, 0], Q[:, 1, 1], self.label)
+
+    def _inside(self, X: Array, Y: Array, what: str = "point") -> None:
+        """Refuse the first point outside the raster by more than RASTER_SLACK of its size."""
+        assert self.bounds is not None
+        lo, hi = self.bounds
+        tol = RASTER_SLACK * float(np.max(hi - lo))
+        out = (X < lo[0] - tol) | (X > hi[0] + tol) | (Y < lo[1] - tol) | (Y > hi[1] + tol)
+        if out.any():
+            k = int(np.flatnonzero(out)[0])
+            raise QmeshError(f"the {what} {_point(X, Y, k)} is outside the {self.label} "
+                             f"[{lo[0]:g}, {hi[0]:g}] × [{lo[1]:g}, {hi[1]:g}]")
+
+    def _raster_components(self, X: Array, Y: Array) -> Array:
+        assert self._raster is not None
+        self._inside(X, Y)
+        j, i = self._raster.cell_of(X, Y)
+        return self._raster.q[j, i]
+
+    def _raster_call(self, x: ArrayLike, y: ArrayLike) -> Array:
+        X, Y = np.broadcast_arrays(np.asarray(x, dtype=float), np.asarray(y, dtype=float))
+        return _m.full_tensors(self._raster_components(X.ravel(), Y.ravel())).reshape(X.shape + (2, 2))
+
+    def _evaluate(self, P: Array) -> Array:
+        """Checked components (n, 3) at points (n, 2): the quadratures' `Evaluate`."""
+        return self._components(P[:, 0], P[:, 1])
+
+    def __call__(self, P: ArrayLike) -> Array:
+        """Q at points P (n, 2) → (n, 2, 2), checked: QmeshError naming the first point where Q is
+        not finite, not symmetric or not positive definite, or (a raster) outside the raster. A
+        point on a cell line takes either cell."""
+        A = _points(P)
+        return _m.full_tensors(self._evaluate(A))
+
+    # ---------------------------------------------------------------- means
+
+    def means(self, points: ArrayLike, triangles: ArrayLike) -> Array:
+        """Element means Q̄_T = (1/|T|) ∫_T Q (FIELDS.md §2) of the triangles (M, 3) over points
+        (n, 2) → (M, 2, 2). See `means_with_error`."""
+        return self.means_with_error(points, triangles)[0]
+
+    def means_with_error(self, points: ArrayLike, triangles: ArrayLike) -> tuple[Array, Array]:
+        """Element means (M, 2, 2) and a bound of their error per triangle (M,) in the Frobenius
+        norm.
+
+        - constant fields: Q itself, error 0;
+        - formulas and callables: adaptive quadrature (`means.adaptive_means`: Dunavant's degree-5
+          rule against its 4 midpoint children, subdivided where they differ by more than
+          `means.RTOL` · ‖Q̄_T‖), exact to round-off for constant and linear fields; the bound is
+          the last difference;
+        - rasters: the exact area-weighted mean of the cells T overlaps (`means.raster_means`,
+          Green's theorem along the edges); the bound is the round-off's. A triangle reaching
+          outside the raster is refused.
+        Q is checked at every point it is evaluated (QmeshError naming the point)."""
+        P = _points(points)
+        T = _triangles(triangles, len(P))
+        M = len(T)
+        if self._constant is not None:
+            return _m.full_tensors(np.broadcast_to(self._constant, (M, 3))), np.zeros(M)
+        if M == 0:
+            return np.zeros((0, 2, 2)), np.zeros(0)
+        if self._raster is not None:
+            used = np.unique(T)
+            self._inside(P[used, 0], P[used, 1], "vertex")
+            assert self.bounds is not None
+            q, err = _m.raster_means(self._raster, np.clip(P, *self.bounds), T)
+            return _m.full_tensors(q), err
+        q, err = _m.adaptive_means(self._evaluate, P[T[:, 0]], P[T[:, 1]], P[T[:, 2]])
+        return _m.full_tensors(q), err
+
+    def box_means(self, P: ArrayLike, half_width: ArrayLike) -> Array:
+        """Mean of Q over the axis-aligned square of half-width h (a number or (n,), > 0) around
+        each point P (n, 2) → (n, 2, 2): the field smoothed at the mesher's target scale, so that a
+        raster's cell-to-cell noise does not drive the mesh. Rasters: the exact area-weighted mean
+        of the cells over the square clipped to the raster (`means.raster_box_means`, a
+        summed-area table); a square that misses the raster is refused. Formulas and callables: a
+        4 × 4 Gauss–Legendre rule over the square (`means.gauss_box_means`), Q checked at its
+        points."""
+        A = _points(P)
+        try:
+            h = np.broadcast_to(np.asarray(half_width, dtype=float), (len(A),))
+        except (TypeError, ValueError):
+            raise QmeshError(f"half_width must be a number or an array of shape ({len(A)},), "
+                             f"got {np.shape(half_width)}") from None
+        bad = ~(np.isfinite(h) & (h > 0))
+        if bad.any():
+            k = int(np.flatnonzero(bad)[0])
+            raise QmeshError(f"half_width must be finite and > 0, got {h[k]} at point {k}")
+        if self._constant is not None:
+            return _m.full_tensors(np.broadcast_to(self._constant, (len(A), 3)))
+        if self._raster is not None:
+            assert self.bounds is not None
+            lo, hi = self.bounds
+            miss = ((A[:, 0] + h <= lo[0]) | (A[:, 0] - h >= hi[0])
+                    | (A[:, 1] + h <= lo[1]) | (A[:, 1] - h >= hi[1]))
+            if miss.any():
+                k = int(np.flatnonzero(miss)[0])
+                raise QmeshError(f"the square of half-width {h[k]:g} around {_point(A[:, 0], A[:, 1], k)} "
+                                 f"does not meet the {self.label} [{lo[0]:g}, {hi[0]:g}] × "
+                                 f"[{lo[1]:g}, {hi[1]:g}]")
+            return _m.full_tensors(_m.raster_box_means(self._raster, A, np.array(h)))
+        return _m.full_tensors(_m.gauss_box_means(self._evaluate, A, np.array(h)))
