@@ -8,6 +8,9 @@ travels with the mesh, where the format keeps it (`KEEPS_*`):
   their names as plain identifiers in the file's own groups and exactly in qmesh's metadata;
 - the conductivity (`anisotropy=`: an Anisotropy or {region tag: Anisotropy}) as JSON numbers
   in qmesh's metadata (`qmesh.io.metadata`), and the metric quality (2.94) as cell data;
+- the element means Q̄_T of a mesh made for a tensor field (`Mesh.conductivity`) as three float
+  cell data arrays "Q11" "Q12" "Q22", one value per triangle (`KEEPS_MEANS`; the formats without
+  cell data drop them with a QmeshWarning);
 - any extra `point_data` / `cell_data` the caller passes.
 
 meshio (and h5py for .xdmf) is an optional dependency (`pip install qmesh[io]`), imported only
@@ -20,6 +23,7 @@ import contextlib
 import io as _io
 import os
 import uuid
+import warnings
 from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Union
@@ -27,12 +31,12 @@ from typing import TYPE_CHECKING, Any, Union
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from qmesh.errors import QmeshError
+from qmesh.errors import QmeshError, QmeshWarning
 from qmesh.domain.polygon_file import MAX_COORDINATE
 from qmesh.geometry.folds import turns_clockwise
 from qmesh.io import boundary, conductivity, metadata
 from qmesh.io.meshio_writers import _meshio, restore_order
-from qmesh.io.payload import payload
+from qmesh.io.payload import MEANS, payload
 from qmesh.io.registry import FORMATS, REGISTRY, Format
 from qmesh.triangle_mesh import Mesh
 
@@ -90,6 +94,10 @@ def write(path: PathLike, mesh: Mesh, *, anisotropy: Conductivity | None = None,
     `read_anisotropy` gives it back (a varying s given only as callables has no text and is
     not stored), and the metric quality (2.94) is written as cell data "quality": quality is
     measured in the metric of a particular Q, and writing it for a guessed Q would mislead.
+    The element means of a mesh made for a tensor field (`mesh.conductivity`) are written as
+    cell data "Q11" "Q12" "Q22" where the format keeps them (`KEEPS_MEANS`); the others (medit
+    `.mesh`, `.obj`) write the mesh without them and warn (QmeshWarning). `.xdmf` writes
+    `name.xdmf`, its facet tags in `name_facets.xdmf` and the arrays of both in `name.h5`.
     `version` chooses a format's variant: "2.2" (default) or "4.1" for .msh. Everything is
     validated before the file is touched, and the file is written under a temporary name and
     then renamed, so an error leaves no file (and no half-written one) at `path`.
@@ -100,6 +108,10 @@ def write(path: PathLike, mesh: Mesh, *, anisotropy: Conductivity | None = None,
     if version not in fmt.writers:
         raise QmeshError(f"version must be one of {sorted(fmt.writers)} for {fmt.extension}, got {version!r}")
     p = payload(mesh, anisotropy, point_data, cell_data)
+    if p.means and not fmt.keeps_means:
+        warnings.warn(QmeshWarning(f"{str(path)!r}: {fmt.extension} keeps no cell data, so the mesh's element "
+                                   "means (mesh.conductivity) are not written; write .vtu, .msh or .xdmf "
+                                   "to keep them"), stacklevel=2)
     tmp = path.with_name(f".{path.stem}.{uuid.uuid4().hex[:12]}.part{fmt.extension}")
     written = [(tmp, path)]
     try:
@@ -140,6 +152,8 @@ def _load(path: Path, fmt: Format) -> Any:
         with contextlib.redirect_stderr(_io.StringIO()):  # meshio prints its own warnings there
             m = getattr(_meshio(), fmt.meshio_name).read(path)  # meshio.read() calls sys.exit on a bad file
         restore_order(m)
+        if fmt.more_cell_data is not None:
+            fmt.more_cell_data(path, m)
         return m
     except QmeshError:
         raise
@@ -182,7 +196,8 @@ def read(path: PathLike) -> Mesh:
     `fixed` comes from the point data "fixed" (medit: the vertex reference ≠ 0). The boundary
     edges are those of the triangles; each takes the tag of the file's line cell on it (tag 1
     where there is none); the regions come from the triangles' tags; names where the format
-    keeps them.
+    keeps them. `conductivity`, the element means, comes from the triangles' float cell data
+    "Q11" "Q12" "Q22" (all three or none; None when the file has none).
     """
     path, fmt = _existing(path)
     doc = _metadata(path, fmt)
@@ -256,12 +271,37 @@ def _mesh_of(m: Any, fmt: Format, doc: dict[str, Any] | None, path: Path) -> Mes
 
     if turns_clockwise(P, T):  # a file that turns clockwise as a whole: its convention, not a fold
         T = T[:, [0, 2, 1]]
-    mesh = Mesh(P, T, fixed, region_tags=regions, region_names=region_names)
+    means = _means(m, triangle_blocks, len(T), source)
+    mesh = Mesh(P, T, fixed, region_tags=regions, region_names=region_names, conductivity=means)
     if E is None or tags is None:
         return mesh
     edges, on = boundary.tags_on(mesh, E, tags)
     return Mesh(P, T, fixed, boundary_edges=edges, boundary_tags=on, tag_names=tag_names,
-                region_tags=regions, region_names=region_names)
+                region_tags=regions, region_names=region_names, conductivity=means)
+
+
+def _means(m: Any, blocks: list[int], n: int, source: str) -> NDArray[np.float64] | None:
+    """The element means (n, 2, 2) from the triangles' cell data Q11 Q12 Q22, or None."""
+    found = [name for name in MEANS if name in m.cell_data]
+    if not found:
+        return None
+    if len(found) < len(MEANS):
+        raise QmeshError(f"{source}: the element means need cell data {', '.join(MEANS)}; "
+                         f"found only {', '.join(found)}")
+    columns = []
+    for name in MEANS:
+        data = m.cell_data[name]
+        if len(data) != len(m.cells):
+            raise QmeshError(f"{source}: cell data {name!r} does not cover every cell block")
+        a = [np.asarray(data[i]) for i in blocks]
+        if any(b.dtype.kind not in "fiu" or b.size != len(m.cells[i].data) for b, i in zip(a, blocks)):
+            raise QmeshError(f"{source}: cell data {name!r} is not one number per triangle")
+        values = np.concatenate([b.reshape(-1) for b in a]).astype(np.float64)
+        if len(values) != n or not np.all(np.isfinite(values)):
+            raise QmeshError(f"{source}: cell data {name!r} is not one finite number per triangle")
+        columns.append(values)
+    q11, q12, q22 = columns
+    return np.stack([np.stack([q11, q12], axis=-1), np.stack([q12, q22], axis=-1)], axis=-2)
 
 
 def _cell_values(m: Any, key: str | None, blocks: list[int], n: int, source: str) -> NDArray[np.int64] | None:

@@ -5,17 +5,25 @@ only) and meshio all read it. Layout: `$PhysicalNames` (the boundary tags, dimen
 regions, dimension 2, named by plain identifiers); `$Nodes` (x y 0: the format has three
 coordinates); `$Elements` (lines of boundary tag t: physical and elementary tag t; triangles of
 region r: tag r + region_offset); `$NodeData` "fixed" and any extra point data;
-no cell data (meshio 5.3 splits 2.2 `$ElementData` wrongly; the quality and extra cell data
-need `version="4.1"`); `$QmeshMetadata` (qmesh's JSON line,
+no cell data (meshio 5.3 splits a 2.2 `$ElementData` wrongly whenever a file has more than one
+cell block, and fails to read the file at all; the quality and extra cell data need
+`version="4.1"`); the element means (`Mesh.conductivity`), when the mesh has them, in a section
+`$QmeshElementMeans` (the number of triangles, then "Q11 Q12 Q22" per triangle in the order of
+`$Elements`), which gmsh, NGSolve and meshio skip and `read_means` gives back; `$QmeshMetadata` (qmesh's JSON line,
 which every other reader skips). Node i of the Mesh is node i + 1 of the file.
 """
 
 from __future__ import annotations
 
+import mmap
+from pathlib import Path
+
 import numpy as np
 
 from qmesh.errors import QmeshError
 from qmesh.io import metadata
+
+MEANS_SECTION = "QmeshElementMeans"
 
 _COMPONENTS = (1, 3, 9)  # what gmsh's data views hold: scalar, vector, tensor
 
@@ -56,8 +64,50 @@ def write(path, final, p) -> list:
 
         for name, a in {"fixed": p.fixed, **p.point_data}.items():
             _data(f, "NodeData", name, np.arange(1, n + 1), a)
+        if p.means:
+            f.write(f"${MEANS_SECTION}\n{m}\n")
+            _rows(f, np.column_stack([p.means["Q11"], p.means["Q12"], p.means["Q22"]]), "%.17g %.17g %.17g\n")
+            f.write(f"$End{MEANS_SECTION}\n")
         f.write(metadata.section(p.meta))
     return [(path, final)]
+
+
+def read_means(path: Path, m) -> None:
+    """Add the element means of a qmesh gmsh 2.2 file (its `$QmeshElementMeans`) to the meshio
+    mesh `m` as cell data "Q11" "Q12" "Q22" (lines 0). The declared count must be the number of
+    triangles before any row is read."""
+    with open(path, "rb") as f:
+        if not f.read(20).startswith(b"$MeshFormat\n2.2"):
+            return
+        f.seek(0)
+        try:
+            mm = mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ)
+        except (ValueError, OSError):  # an empty file
+            return
+        with mm:
+            start = mm.rfind(f"\n${MEANS_SECTION}\n".encode())
+            if start < 0:
+                return
+            start += len(MEANS_SECTION) + 3
+            end = mm.find(f"$End{MEANS_SECTION}".encode(), start)
+            line_end = mm.find(b"\n", start)
+            if end < 0 or line_end < 0 or line_end > end:
+                raise QmeshError(f"{str(path)!r}: ${MEANS_SECTION} has no end")
+            count = mm[start:line_end].strip()
+            blocks = [i for i, c in enumerate(m.cells) if c.type == "triangle"]
+            n = sum(len(m.cells[i].data) for i in blocks)
+            if not count.isdigit() or int(count) != n:
+                raise QmeshError(f"{str(path)!r}: ${MEANS_SECTION} declares {count[:20]!r} rows for {n} triangles")
+            values = np.array(mm[line_end + 1:end].split(), dtype=np.float64)
+    if values.size != 3 * n:
+        raise QmeshError(f"{str(path)!r}: ${MEANS_SECTION} holds {values.size} numbers, expected {3 * n}")
+    values = values.reshape(n, 3)
+    offsets = np.cumsum([0] + [len(m.cells[i].data) for i in blocks])
+    for j, name in enumerate(("Q11", "Q12", "Q22")):
+        data = [np.zeros(len(c.data)) for c in m.cells]
+        for b, i in enumerate(blocks):
+            data[i] = values[offsets[b]:offsets[b + 1], j]
+        m.cell_data[name] = data
 
 
 def _data(f, section: str, name: str, ids: np.ndarray, a: np.ndarray) -> None:

@@ -5,12 +5,14 @@
   tag, triangles 0), "region" (triangles: the region tag, lines 0) and "gmsh:physical" (both in
   gmsh numbering, `Payload.cell_tags`); `.vtu` also gets a `<FieldData>` block {identifier:
   [tag, dim]}, which meshio reads as `field_data`, so that scikit-fem's `MeshTri.load` names
-  `boundaries` and `subdomains` by it;
+  `boundaries` and `subdomains` by it; the element means (`Mesh.conductivity`), when the mesh has
+  them, as float cell data "Q11" "Q12" "Q22" (triangles: Q̄_T; lines 0);
 - medit `.mesh`: 2-D points; references: vertices the fixed flag, edges the boundary tag,
   triangles the region tag;
 - `.obj`: triangles only;
 - `.msh` in gmsh 4.1 (binary, on request): one curve entity per boundary tag, the triangles
-  one surface entity; regions as element data "region" (see `_gmsh41`).
+  one surface entity; regions as element data "region", the element means as element data
+  "Q11" "Q12" "Q22" (see `_gmsh41`).
 
 Each returns the (temporary, final) files written.
 """
@@ -53,7 +55,7 @@ def vtk_family(fmt: str):
     def write(tmp: Path, final: Path, p):
         meshio = _meshio()
         k = len(p.edges)
-        cell_data = {name: [a, filler(a, k)] for name, a in p.cell_data.items()}
+        cell_data = {name: [a, filler(a, k)] for name, a in {**p.cell_data, **p.means}.items()}
         cell_data["boundary_tag"] = [np.zeros(len(p.triangles), np.int32), p.tags.astype(np.int32)]
         cell_data["region"] = [p.regions.astype(np.int32), np.zeros(k, np.int32)]
         cell_data["gmsh:physical"] = [p.cell_tags, p.tags.astype(np.int32)]
@@ -121,7 +123,7 @@ def gmsh41(tmp: Path, final: Path, p):
     T, E = position[T], position[E]
     curve_tags = np.unique(tags)
     blocks = [E[tags == t] for t in curve_tags]
-    cdata = {**p.cell_data, "region": p.regions.astype(np.int32)}
+    cdata = {**p.cell_data, **p.means, "region": p.regions.astype(np.int32)}
     cell_data = {k: [v] + [filler(v, len(b)) for b in blocks] for k, v in cdata.items()}
     curves = [np.full(len(b), t, np.int32) for b, t in zip(blocks, curve_tags)]
     surface = int(p.cell_tags[0]) if len(T) else 1  # one surface entity: the regions travel as data

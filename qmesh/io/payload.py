@@ -17,8 +17,10 @@ from qmesh.io import boundary, conductivity, metadata
 from qmesh.measure import quality
 from qmesh.triangle_mesh import Mesh
 
+MEANS = ("Q11", "Q12", "Q22")
+"""The cell data names of the element means Q̄_T (`Mesh.conductivity`), one float per triangle each."""
 RESERVED = {"fixed", "quality", "boundary_tag", "region", "medit:ref", "gmsh:physical", "gmsh:geometrical",
-            "gmsh:dim_tags", "qmesh:vertex"}
+            "gmsh:dim_tags", "qmesh:vertex", "cell_tags", *MEANS}
 """Data names qmesh's own arrays use in files."""
 
 
@@ -37,6 +39,7 @@ class Payload:
     cell_data: dict             # {name: (M, …)} per triangle
     meta: str                   # qmesh's metadata line (JSON)
     has_conductivity: bool
+    means: dict                 # {"Q11": (M,), "Q12": (M,), "Q22": (M,)} float64, or {} without element means
 
     @property
     def cell_tags(self) -> np.ndarray:
@@ -76,7 +79,25 @@ def payload(mesh, anisotropy=None, point_data=None, cell_data=None) -> Payload:
                    tag_ids=boundary.file_names(tags, tag_names, "boundary"),
                    region_ids=boundary.file_names(regions, region_names, "region"),
                    point_data=pdata, cell_data=cdata, meta=metadata.dumps(doc),
-                   has_conductivity=stored is not None)
+                   has_conductivity=stored is not None, means=means_of(mesh))
+
+
+def means_of(mesh: Mesh) -> dict[str, np.ndarray]:
+    """The element means of `mesh` as {"Q11", "Q12", "Q22": (M,)}, or {} when it has none.
+
+    The means of an SPD field are symmetric; a mesh whose means are not (beyond round-off) is
+    refused rather than written as three numbers that would not give its matrices back.
+    """
+    Q = mesh.conductivity
+    if Q is None:
+        return {}
+    Q = np.asarray(Q, dtype=np.float64)
+    scale = np.abs(Q).max(axis=(1, 2)) if len(Q) else np.zeros(0)
+    bad = np.flatnonzero(np.abs(Q[:, 0, 1] - Q[:, 1, 0]) > 1e-12 * scale)
+    if len(bad):
+        raise QmeshError(f"mesh.conductivity[{bad[0]}] is not symmetric ({Q[bad[0]].tolist()}); "
+                         "files keep the element means as Q11 Q12 Q22")
+    return {"Q11": Q[:, 0, 0].copy(), "Q12": 0.5 * (Q[:, 0, 1] + Q[:, 1, 0]), "Q22": Q[:, 1, 1].copy()}
 
 
 def _quality(mesh, anisotropy, regions) -> np.ndarray:

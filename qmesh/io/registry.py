@@ -28,8 +28,10 @@ class Format:
     region_key_shifted: bool = True  # qmesh writes region_key in gmsh numbering (region + offset)
     reader: Callable | None = None          # own reader, when `own_layout(path)` says the file is ours
     own_layout: Callable | None = None
+    more_cell_data: Callable | None = None  # (path, meshio mesh): adds cell data meshio does not read
     notes: str = ""
     keeps_conductivity: bool = field(default=True)
+    keeps_means: bool = True      # the element means Q̄_T as cell data "Q11" "Q12" "Q22" (`Mesh.conductivity`)
 
     @property
     def keeps_tag_names(self) -> bool:  # names travel in the metadata wherever tags do
@@ -54,13 +56,18 @@ register(Format(".vtk", "vtk", {"": meshio_writers.vtk_family("vtk")}, "title",
                 tag_key="gmsh:physical", region_key="gmsh:physical", notes="legacy VTK; metadata ≤ 256 characters"))
 register(Format(".msh", "gmsh", {"2.2": gmsh22.write, "4.1": meshio_writers.gmsh41}, "section",
                 keeps_data=False, tag_key="gmsh:physical", region_key="gmsh:physical",
-                notes="gmsh 2.2 ASCII (4.1 binary by option); named physical groups"))
+                more_cell_data=gmsh22.read_means,
+                notes="gmsh 2.2 ASCII (4.1 binary by option); named physical groups; the element means in "
+                      "$QmeshElementMeans (2.2) or as element data (4.1)"))
 register(Format(".xdmf", "xdmf", {"": xdmf.write}, "information", reader=xdmf.read,
-                own_layout=xdmf.is_qmesh_layout, notes="DOLFINx layout, uncompressed HDF5 beside it"))
+                own_layout=xdmf.is_qmesh_layout,
+                notes="one grid (DOLFINx and meshio read it), facet tags in name_facets.xdmf, "
+                      "uncompressed HDF5 beside them"))
 register(Format(".mesh", "medit", {"": meshio_writers.medit}, "comment", keeps_data=False,
-                tag_key="medit:ref", region_key="medit:ref", region_key_shifted=False, notes="medit: references only"))
+                tag_key="medit:ref", region_key="medit:ref", region_key_shifted=False, keeps_means=False,
+                notes="medit: references only"))
 register(Format(".obj", "obj", {"": meshio_writers.obj}, "comment", keeps_fixed=False, keeps_data=False,
-                keeps_tags=False, keeps_regions=False, notes="triangles only"))
+                keeps_tags=False, keeps_regions=False, keeps_means=False, notes="triangles only"))
 
 FORMATS = {ext: f.meshio_name for ext, f in REGISTRY.items()}
 """Extension → meshio format name."""
@@ -70,3 +77,5 @@ KEEPS_TAGS = {ext for ext, f in REGISTRY.items() if f.keeps_tags}
 KEEPS_TAG_NAMES = {ext for ext, f in REGISTRY.items() if f.keeps_tag_names}
 KEEPS_REGIONS = {ext for ext, f in REGISTRY.items() if f.keeps_regions}
 KEEPS_CONDUCTIVITY = {ext for ext, f in REGISTRY.items() if f.keeps_conductivity}
+KEEPS_MEANS = {ext for ext, f in REGISTRY.items() if f.keeps_means}
+"""Formats that keep a Mesh's element means (`Mesh.conductivity`) as cell data Q11 Q12 Q22."""

@@ -56,21 +56,54 @@ def test_mapping_must_cover_every_region(tmp_path, two_regions):
     assert list(tmp_path.iterdir()) == []
 
 
-def test_xdmf_has_dolfinx_layout(tmp_path, two_regions):
-    """Grids "mesh" (Triangle, XY), "facet_tags", "cell_tags"; HDF5 beside it, without compression."""
+def test_xdmf_is_one_grid_with_facet_tags_beside_it(tmp_path, two_regions):
+    """r.xdmf: one grid "mesh" (Triangle, XY) with the region tags as "cell_tags"; r_facets.xdmf:
+    grid "facet_tags"; each with its HDF5 beside it, without compression."""
     h5py = pytest.importorskip("h5py")
     import xml.etree.ElementTree as ET
     io.write(tmp_path / "r.xdmf", two_regions)
+    assert {p.name for p in tmp_path.iterdir()} == {"r.xdmf", "r.h5", "r_facets.xdmf", "r_facets.h5"}
     domain = ET.parse(tmp_path / "r.xdmf").getroot().find("Domain")
-    grids = {g.get("Name"): g for g in domain.findall("Grid")}
-    assert list(grids) == ["mesh", "facet_tags", "cell_tags"]
-    assert grids["mesh"].find("Topology").get("TopologyType") == "Triangle"
-    assert grids["mesh"].find("Geometry").get("GeometryType") == "XY"
-    assert grids["facet_tags"].find("Attribute").get("Name") == "facet_tags"
+    assert [g.get("Name") for g in domain] == ["mesh"]
+    grid = domain.find("Grid")
+    assert grid.find("Topology").get("TopologyType") == "Triangle"
+    assert grid.find("Geometry").get("GeometryType") == "XY"
+    attributes = [a.get("Name") for a in grid.findall("Attribute")]
+    assert {"cell_tags", "skfem:s:left_part", "skfem:s:right", "skfem:b:wall", "skfem:b:hole"} <= set(attributes)
+    facets = ET.parse(tmp_path / "r_facets.xdmf").getroot().find("Domain")
+    assert [g.get("Name") for g in facets] == ["facet_tags"]
+    assert facets.find("Grid/Attribute").get("Name") == "facet_tags"
     with h5py.File(tmp_path / "r.h5") as f:
         assert f["/Mesh/mesh/geometry"].shape == (two_regions.n_vertices, 2)
         np.testing.assert_array_equal(f["/MeshTags/cell_tags/Values"][()], two_regions.region_tags)
-        assert all(f[k].compression is None for k in ("/Mesh/mesh/topology", "/MeshTags/facet_tags/Values"))
+        assert all(f[k].compression is None for k in ("/Mesh/mesh/topology", "/MeshTags/cell_tags/Values"))
+    with h5py.File(tmp_path / "r_facets.h5") as f:
+        assert f["/MeshTags/facet_tags/Values"].compression is None
+        assert sorted(f["/MeshTags/facet_tags/Values"][()].tolist()) == sorted(two_regions.boundary_tags.tolist())
+
+
+def test_meshio_and_skfem_read_the_xdmf(tmp_path, two_regions):
+    """meshio reads both files (one grid each); scikit-fem finds the named boundaries and regions."""
+    skfem = pytest.importorskip("skfem")
+    io.write(tmp_path / "r.xdmf", two_regions)
+    m = meshio.read(tmp_path / "r.xdmf")
+    assert [c.type for c in m.cells] == ["triangle"] and len(m.points) == two_regions.n_vertices
+    np.testing.assert_array_equal(m.cell_data["cell_tags"][0], two_regions.region_tags)
+    lines = meshio.read(tmp_path / "r_facets.xdmf")
+    assert [c.type for c in lines.cells] == ["line"] and len(lines.cells[0].data) == len(two_regions.boundary_edges)
+    loaded = skfem.Mesh.load(tmp_path / "r.xdmf")
+    adapted = io.to_skfem(two_regions)
+    assert set(loaded.boundaries) == {"wall", "hole"} and set(loaded.subdomains) == {"left_part", "right"}
+    np.testing.assert_array_equal(loaded.p, adapted.p)
+    for name in ("wall", "hole"):
+        np.testing.assert_array_equal(np.sort(loaded.boundaries[name]), np.sort(adapted.boundaries[name]))
+    for name in ("left_part", "right"):
+        np.testing.assert_array_equal(np.sort(loaded.subdomains[name]), np.sort(adapted.subdomains[name]))
+    back = io.read(tmp_path / "r.xdmf")
+    np.testing.assert_array_equal(back.triangles, two_regions.triangles)
+    np.testing.assert_array_equal(back.region_tags, two_regions.region_tags)
+    np.testing.assert_array_equal(back.boundary_tags, two_regions.boundary_tags)
+    assert back.tag_names == {1: "wall", 2: "hole"} and back.region_names == {1: "left part", 4: "right"}
 
 
 def test_gmsh_41_by_option_keeps_regions(tmp_path, two_regions):
