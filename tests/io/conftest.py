@@ -1,5 +1,6 @@
-"""A holed plate meshed by qmesh (outline "wall", hole "hole", Q = principal(1, 50, 30)), and the
-same mesh cut into two named regions: what the FEM round trips and the format tests write."""
+"""A holed plate meshed by qmesh (outline "wall", hole "hole", Q = principal(1, 50, 30)), the
+same mesh cut into two named regions, and the two-region plate with element means of a rotating
+field: what the FEM round trips and the format tests write."""
 
 import numpy as np
 import pytest
@@ -23,3 +24,15 @@ def two_regions(plate):
     return qmesh.Mesh(plate.points, plate.triangles, plate.fixed, boundary_edges=plate.boundary_edges,
                       boundary_tags=plate.boundary_tags, tag_names=plate.tag_names,
                       region_tags=np.where(x < 1, 1, 4), region_names={1: "left part", 4: "right"})
+
+
+
+
+@pytest.fixture(scope="session")
+def with_means(two_regions):
+    """The two-region plate with `conductivity`: the element means of Q = principal(1, 50, 30° + 40° x)."""
+    field = qmesh.TensorField.principal(1, 50, "30 + 40*x")
+    m = two_regions
+    return qmesh.Mesh(m.points, m.triangles, m.fixed, boundary_edges=m.boundary_edges, boundary_tags=m.boundary_tags,
+                      tag_names=m.tag_names, region_tags=m.region_tags, region_names=m.region_names,
+                      conductivity=field.means(m.points, m.triangles))
