@@ -182,14 +182,18 @@ def gauss_box_means(evaluate: Evaluate, P: Array, half_width: Array,
 class Raster:
     """Cells with edges x (nx+1,), y (ny+1,) and a constant tensor per cell q (ny, nx, 3), with the
     cumulative tables of the exact integrals (row j between y[j] and y[j+1], column i between
-    x[i] and x[i+1]; w, h the cell widths and heights):
+    x[i] and x[i+1]; w, h the cell widths and heights). The edges are stored relative to the
+    raster's lower-left corner `origin` (x[0] = y[0] = 0), and every method shifts the points it
+    is given the same way: round-off then scales with the raster's size, not with its distance
+    from (0, 0).
 
     - row[j, i] = Σ_{i' < i} q[j, i'] w[i']          (ny, nx+1, 3): G at x[i] in row j;
-    - row_abs   the same of |q|                      (ny, nx+1, 3): bounds |G| and its round-off;
+    - row_abs[j] = ‖Σ_i |q[j, i]| w[i]‖_F           (ny,): bounds |G| in row j, for round-off;
     - col[j, i] = Σ_{j' < j} q[j', i] h[j']          (ny+1, nx, 3);
     - sat[j, i] = Σ_{j' < j, i' < i} q[j', i'] w h   (ny+1, nx+1, 3): the summed-area table.
     """
 
+    origin: Array
     x: Array
     y: Array
     q: Array
@@ -200,18 +204,19 @@ class Raster:
 
     @classmethod
     def build(cls, x: Array, y: Array, q: Array) -> "Raster":
-        """The tables of cells q (ny, nx, 3) on edges x, y."""
+        """The tables of cells q (ny, nx, 3) on edges x, y (user coordinates)."""
+        origin = np.array([x[0], y[0]])
+        x, y = x - x[0], y - y[0]
         w, h = np.diff(x), np.diff(y)
         ny, nx = q.shape[:2]
         row = np.zeros((ny, nx + 1, 3))
         np.cumsum(q * w[None, :, None], axis=1, out=row[:, 1:])
-        row_abs = np.zeros((ny, nx + 1, 3))
-        np.cumsum(np.abs(q) * w[None, :, None], axis=1, out=row_abs[:, 1:])
+        row_abs = frobenius(np.sum(np.abs(q) * w[None, :, None], axis=1))
         col = np.zeros((ny + 1, nx, 3))
         np.cumsum(q * h[:, None, None], axis=0, out=col[1:])
         sat = np.zeros((ny + 1, nx + 1, 3))
         np.cumsum(row[:, 1:] * h[:, None, None], axis=0, out=sat[1:, 1:])
-        return cls(x, y, q, row, row_abs, col, sat)
+        return cls(origin, x, y, q, row, row_abs, col, sat)
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -222,27 +227,52 @@ class Raster:
         """(row j, column i) of the cell holding each point (inside the raster; a point on a cell
         line takes the cell above or to the right of it, the last row or column at the far edge)."""
         ny, nx = self.shape
-        i = np.clip(np.searchsorted(self.x, X, side="right") - 1, 0, nx - 1)
-        j = np.clip(np.searchsorted(self.y, Y, side="right") - 1, 0, ny - 1)
+        i = np.clip(np.searchsorted(self.x, X - self.origin[0], side="right") - 1, 0, nx - 1)
+        j = np.clip(np.searchsorted(self.y, Y - self.origin[1], side="right") - 1, 0, ny - 1)
         return j, i
 
     def primitive(self, X: Array, Y: Array) -> Array:
         """F(X, Y) = ∫_{x0}^{X} ∫_{y0}^{Y} Q, bilinear in each cell, for points inside → (k, 3):
         full cells below-left, the partial column and row, and the corner piece."""
         j, i = self.cell_of(X, Y)
-        u, v = (X - self.x[i])[:, None], (Y - self.y[j])[:, None]
+        u = (X - self.origin[0] - self.x[i])[:, None]
+        v = (Y - self.origin[1] - self.y[j])[:, None]
         return self.sat[j, i] + v * self.row[j, i] + u * self.col[j, i] + u * v * self.q[j, i]
+
+
+def _cut(s0: Array, s1: Array, lines: Array) -> tuple[NDArray[np.intp], NDArray[np.intp],
+                                                        NDArray[np.intp], NDArray[np.intp]]:
+    """Segments running from coordinate s0 to s1 (k,), cut at the grid `lines` strictly between
+    them, in the order of travel: per piece (segment, the line it starts on or -1 at the
+    segment's start, the line it ends on or -1 at its end, the cell between lines it lies in)."""
+    lo, hi = np.minimum(s0, s1), np.maximum(s0, s1)
+    a = np.searchsorted(lines, lo, side="right")      # lines[a - 1] <= lo < lines[a]
+    b = np.searchsorted(lines, hi, side="left")       # lines[b - 1] < hi <= lines[b]
+    n_cross = np.maximum(b - a, 0)
+    seg = np.repeat(np.arange(len(s0)), n_cross + 1)
+    k = np.arange(len(seg)) - np.repeat(np.cumsum(n_cross + 1) - (n_cross + 1), n_cross + 1)
+    up, a, b, n_cross = s1[seg] >= s0[seg], a[seg], b[seg], n_cross[seg]
+    cell = np.where(up, a - 1 + k, b - 1 - k)
+    start = np.where(k == 0, -1, np.where(up, a + k - 1, b - k))
+    end = np.where(k == n_cross, -1, np.where(up, a + k, b - 1 - k))
+    return seg, start, end, np.clip(cell, 0, len(lines) - 2)
 
 
 def raster_edge_integrals(R: Raster, P0: Array, P1: Array) -> tuple[Array, Array]:
     """∫_e G dy along each segment e = P0 → P1 (E, 2) inside the raster → (E, 3), with
-    Σ |G|·|dy| over its pieces (E,) (an upper bound of |G|, for the round-off bound).
+    a bound of its round-off (E,).
 
-    The segment is cut at its crossings with the grid lines x = x_i and y = y_j (parameters t in
-    (0, 1)); each piece lies in one cell, where G(x, y) = row[j, i] + q[j, i](x − x_i) is linear,
-    so G at the piece's midpoint times the piece's dy is its exact integral. Horizontal segments
-    have dy = 0 and contribute nothing."""
+    The segment is cut at the grid lines x = x_i it crosses (pieces in one column each), then
+    each of those at the lines y = y_j (pieces in one cell each, the cell known from the
+    order of the cuts, not searched). In cell (j, i), G(x, y) = row[j, i] + q[j, i](x − x_i) is
+    linear along the piece, so G at the piece's midpoint times the piece's dy is its exact
+    integral. Horizontal segments have dy = 0 and contribute nothing. No sorting: O(pieces).
+
+    Round-off, per piece, with g_j the row's Σ|q| w ≥ |G| and H the raster's height: G carries
+    (nx + 4) ε g_j (a cumulative sum of up to nx terms, the midpoint), dy carries 2 ε H (a
+    difference of coordinates ≤ H): |error| ≤ ε g_j ((nx + 4)|dy| + 2 H)."""
     E = len(P0)
+    P0, P1 = P0 - R.origin, P1 - R.origin
     out, bound = np.zeros((E, 3)), np.zeros(E)
     d = P1 - P0
     live = np.flatnonzero(d[:, 1] != 0)
@@ -250,39 +280,29 @@ def raster_edge_integrals(R: Raster, P0: Array, P1: Array) -> tuple[Array, Array
         return out, bound
     p0, dd = P0[live], d[live]
     x, y = R.x, R.y
-    lo, hi = np.minimum(p0, p0 + dd), np.maximum(p0, p0 + dd)
-    ax, bx = np.searchsorted(x, lo[:, 0], side="right"), np.searchsorted(x, hi[:, 0], side="left")
-    ay, by = np.searchsorted(y, lo[:, 1], side="right"), np.searchsorted(y, hi[:, 1], side="left")
-    nxc, nyc = np.maximum(bx - ax, 0), np.maximum(by - ay, 0)
-    counts = nxc + nyc + 2                           # t = 0, the crossings, t = 1
+    ny, nx = R.shape
+    # 1. cut at the columns' lines: parameters t in [0, 1] along the segment
+    e1, s1, f1, col = _cut(p0[:, 0], p0[:, 0] + dd[:, 0], x)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ta = np.where(s1 < 0, 0.0, (x[s1] - p0[e1, 0]) / dd[e1, 0])
+        tb = np.where(f1 < 0, 1.0, (x[f1] - p0[e1, 0]) / dd[e1, 0])
+    ya, yb = p0[e1, 1] + ta * dd[e1, 1], p0[e1, 1] + tb * dd[e1, 1]
+    ya[s1 < 0] = p0[e1[s1 < 0], 1]
+    yb[f1 < 0] = p0[e1[f1 < 0], 1] + dd[e1[f1 < 0], 1]
+    # 2. cut each at the rows' lines: y at the ends exact where they are grid lines
+    e2, s2, f2, row = _cut(ya, yb, y)
+    y_a = np.where(s2 < 0, ya[e2], y[s2])
+    y_b = np.where(f2 < 0, yb[e2], y[f2])
+    e, i = e1[e2], col[e2]
+    tm = (0.5 * (y_a + y_b) - p0[e, 1]) / dd[e, 1]   # dy ≠ 0 on every live segment
+    mx = p0[e, 0] + tm * dd[e, 0]
+    dy = y_b - y_a
+    u = mx - x[i]
+    G = R.row.reshape(-1, 3)[row * (nx + 1) + i] + R.q.reshape(-1, 3)[row * nx + i] * u[:, None]
     n = len(live)
-    edge = np.repeat(np.arange(n), counts)
-    start = np.cumsum(counts) - counts
-    k = np.arange(len(edge)) - start[edge]           # slot within the segment
-    t = np.empty(len(edge))
-    first, last = k == 0, k == counts[edge] - 1
-    isx = ~first & (k <= nxc[edge])
-    isy = ~first & ~last & ~isx
-    t[first], t[last] = 0.0, 1.0
-    e = edge[isx]
-    t[isx] = (x[ax[e] + k[isx] - 1] - p0[e, 0]) / dd[e, 0]
-    e = edge[isy]
-    t[isy] = (y[ay[e] + k[isy] - 1 - nxc[e]] - p0[e, 1]) / dd[e, 1]
-    np.clip(t, 0.0, 1.0, out=t)
-    order = np.lexsort((t, edge))
-    t, edge = t[order], edge[order]
-    piece = np.flatnonzero(edge[1:] == edge[:-1])    # consecutive slots of one segment
-    e = edge[piece]
-    ta, tb = t[piece], t[piece + 1]
-    tm = 0.5 * (ta + tb)
-    mx, my = p0[e, 0] + tm * dd[e, 0], p0[e, 1] + tm * dd[e, 1]
-    dy = (tb - ta) * dd[e, 1]
-    j, i = R.cell_of(mx, my)
-    u = (mx - x[i])[:, None]
-    G = R.row[j, i] + R.q[j, i] * u
-    G_abs = R.row_abs[j, i] + np.abs(R.q[j, i]) * np.abs(u)
     out[live] = _sum_by(e, G * dy[:, None], n)
-    bound[live] = _sum_by(e, frobenius(G_abs) * np.abs(dy), n)
+    eps = np.finfo(float).eps
+    bound[live] = _sum_by(e, eps * R.row_abs[row] * ((nx + 4) * np.abs(dy) + 2 * y[-1]), n)
     return out, bound
 
 
@@ -292,9 +312,10 @@ def raster_means(R: Raster, points: Array, triangles: NDArray[np.intp]) -> tuple
 
     Q̄_T = (1/|T|) ∮_∂T G dy (Green's theorem with ∂G/∂x = Q), the boundary in the triangle's own
     vertex order and |T| its signed area, so either orientation gives the mean. Each edge shared
-    by two triangles is integrated once. The round-off bound is (nx + 8) ε Σ |G| |dy| / |T|:
-    G is a cumulative sum of up to nx terms, and ∮ G dy cancels a constant part of G, so the
-    error grows with the raster's width over the triangle's size."""
+    by two triangles is integrated once. The round-off bound is that of the edges' integrals
+    (`raster_edge_integrals`) over |T|: ∮ G dy cancels the large part of G that is constant
+    along the boundary, so the error grows with the raster's size over the triangle's.
+    Coordinates are taken relative to the raster's corner."""
     M = len(triangles)
     a, b = triangles[:, [0, 1, 2]].ravel(), triangles[:, [1, 2, 0]].ravel()
     lo, hi = np.minimum(a, b), np.maximum(a, b)
@@ -306,23 +327,23 @@ def raster_means(R: Raster, points: Array, triangles: NDArray[np.intp]) -> tuple
     inv = inv.reshape(-1)
     integral = (I[inv] * sign[:, None]).reshape(M, 3, 3).sum(axis=1)
     bound = bnd[inv].reshape(M, 3).sum(axis=1)
-    A, B, C = points[triangles[:, 0]], points[triangles[:, 1]], points[triangles[:, 2]]
+    A, B, C = (points[triangles[:, k]] - R.origin for k in range(3))
     area = 0.5 * ((B[:, 0] - A[:, 0]) * (C[:, 1] - A[:, 1]) - (B[:, 1] - A[:, 1]) * (C[:, 0] - A[:, 0]))
     flat = np.flatnonzero(area == 0)
     if len(flat):
         t = flat[0]
         raise QmeshError(f"triangle {t} (vertices {points[triangles[t]].tolist()}) has zero area: "
                          "its mean over raster cells is not defined")
-    eps = np.finfo(float).eps
-    return integral / area[:, None], (R.shape[1] + 8) * eps * bound / np.abs(area)
+    return integral / area[:, None], bound / np.abs(area)
 
 
 def raster_box_means(R: Raster, P: Array, half_width: Array) -> Array:
     """Exact mean of the cells over each square [x ± h] × [y ± h] clipped to the raster →
     components (k, 3): F(b, d) − F(a, d) − F(b, c) + F(a, c) over the clipped area, F the
     summed-area primitive (`Raster.primitive`). The caller checks the squares meet the raster."""
-    x0, x1 = np.clip(P[:, 0] - half_width, R.x[0], R.x[-1]), np.clip(P[:, 0] + half_width, R.x[0], R.x[-1])
-    y0, y1 = np.clip(P[:, 1] - half_width, R.y[0], R.y[-1]), np.clip(P[:, 1] + half_width, R.y[0], R.y[-1])
+    lo, hi = R.origin, R.origin + [R.x[-1], R.y[-1]]
+    x0, x1 = np.clip(P[:, 0] - half_width, lo[0], hi[0]), np.clip(P[:, 0] + half_width, lo[0], hi[0])
+    y0, y1 = np.clip(P[:, 1] - half_width, lo[1], hi[1]), np.clip(P[:, 1] + half_width, lo[1], hi[1])
     F = R.primitive
     integral = F(x1, y1) - F(x0, y1) - F(x1, y0) + F(x0, y0)
     return integral / ((x1 - x0) * (y1 - y0))[:, None]

@@ -1,0 +1,1 @@
+"""The conductivity as a field (qmesh.TensorField): element means, box means and refusals."""
