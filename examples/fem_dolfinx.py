@@ -1,14 +1,16 @@
 """Solve −div(Q∇u) = 1 with DOLFINx on a qmesh mesh read by DOLFINx's own XDMF reader.
 
-qmesh writes the holed plate (`fem_problem.py`) as `.xdmf` in DOLFINx's layout (a grid "mesh"
-with 2-D points, a grid "facet_tags", uncompressed HDF5 beside it); `XDMFFile.read_mesh` and
-`read_meshtags` read it as written. The tag of "wall" comes from the names qmesh stored;
+qmesh writes the holed plate (`fem_problem.py`) as `plate.xdmf`, one grid "mesh" with 2-D points
+and the region tags as its attribute "cell_tags", and its facet tags in `plate_facets.xdmf`
+(grid "facet_tags"), each with uncompressed HDF5 beside it; `XDMFFile.read_mesh` and
+`read_meshtags` read them as written. The tag of "wall" comes from the names qmesh stored;
 u = 0 there (Dirichlet), natural on "hole". Q comes from `Anisotropy.matrix`. The M-matrix
 check counts the positive off-diagonal entries of the assembled stiffness matrix between free
 dofs. (`qmesh.io.to_dolfinx(mesh, comm)` gives the same mesh and tags without a file.)
 
 DOLFINx's wheels need Python >= 3.12: `python3.12 -m venv .venv-dolfinx &&
-. .venv-dolfinx/bin/activate && pip install -e ".[fem-dolfinx]"`.
+. .venv-dolfinx/bin/activate && pip install -e ".[fem-dolfinx]"`. The wheel's package
+`dolfinx_solver` loads its MPI library and is imported before `dolfinx`.
 
 Run: python examples/fem_dolfinx.py [TARGET_VERTICES] [--out DIR] [--json FILE]
 """
@@ -32,14 +34,20 @@ import qmesh.io  # noqa: E402
 
 def solve(path) -> dict:
     """Read the .xdmf at `path` with DOLFINx, solve, and return u at the dofs' points and the checks."""
+    try:
+        import dolfinx_solver  # noqa: F401 - PyPI's DOLFINx: loads MPI before dolfinx
+    except ImportError:
+        pass
     import ufl
     from dolfinx import default_scalar_type, fem
     from dolfinx import io as dio
     from mpi4py import MPI
 
+    path = Path(path)
     with dio.XDMFFile(MPI.COMM_WORLD, str(path), "r") as xdmf:
         msh = xdmf.read_mesh(name="mesh")
         msh.topology.create_connectivity(msh.topology.dim - 1, msh.topology.dim)
+    with dio.XDMFFile(MPI.COMM_WORLD, str(path.with_name(path.stem + "_facets.xdmf")), "r") as xdmf:
         facets = xdmf.read_meshtags(msh, name="facet_tags")
     names = qmesh.io.read_names(path)[0]          # {tag: name} as the user gave them (no h5py needed)
     wall = next(t for t, name in names.items() if name == "wall")
@@ -84,7 +92,7 @@ def main(target_vertices: int = 1500, out: Path | None = None) -> dict:
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("target_vertices", type=int, nargs="?", default=1500)
-    parser.add_argument("--out", type=Path, help="keep plate.xdmf/plate.h5 in this folder")
+    parser.add_argument("--out", type=Path, help="keep plate.xdmf, plate_facets.xdmf and their .h5 in this folder")
     parser.add_argument("--json", type=Path, help="write the result (points, u, checks) as JSON")
     args = parser.parse_args()
     result = main(args.target_vertices, args.out)

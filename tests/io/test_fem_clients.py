@@ -2,18 +2,19 @@
 solves −div(Q∇u) = 1 (u = 0 on "wall") to scikit-fem's solution on the Mesh's own arrays.
 
 scikit-fem, gmsh and NGSolve are installed by `.[all,peers]`; DOLFINx needs Python >= 3.12 and
-runs in a venv of its own, built here only when such a Python is on the PATH."""
+runs in a venv of its own (`dolfinx_env`: built once where such a Python exists, cached)."""
 
 import json
 import runpy
-import shutil
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
+import dolfinx_env
 import numpy as np
 import pytest
+import scipy.sparse as sp
+from means_reference import assert_assembles_the_means
 from scipy.spatial import cKDTree
 
 import qmesh
@@ -106,37 +107,26 @@ def test_ngsolve_adapter_has_the_names_and_the_area(mesh):
     assert ngsolve.Integrate(1, m, definedon=m.Boundaries("hole")) == pytest.approx(1.6, rel=1e-12)
 
 
-def _python_312():
-    """A Python >= 3.12 that runs (a pyenv shim of a version not installed does not)."""
-    for name in ("python3.14", "python3.13", "python3.12"):
-        found = shutil.which(name)
-        if not found:
-            continue
-        try:
-            ok = subprocess.run([found, "-c", "import sys, venv; sys.exit(sys.version_info < (3, 12))"],
-                                capture_output=True, timeout=60).returncode == 0
-        except (OSError, subprocess.SubprocessError):
-            ok = False
-        if ok:
-            return found
-    return None
-
-
-def test_dolfinx_reads_the_xdmf_and_solves_as_skfem(tmp_path, reference):
-    """Builds (once, under the temp folder) a venv with qmesh[fem-dolfinx] and runs the example there."""
-    python = _python_312()
+@pytest.fixture(scope="module")
+def dolfinx_python():
+    """The python of DOLFINx's venv (`dolfinx_env`: built once and cached), or a skip saying why there is none."""
+    python, note = dolfinx_env.venv()
     if python is None:
-        pytest.skip("DOLFINx's wheels need Python >= 3.12 and no working python3.12/3.13/3.14 is on the PATH; "
-                    "see the README's FEM adapters paragraph")
-    venv = Path(tempfile.gettempdir()) / "qmesh-dolfinx-venv"
-    bin_python = venv / "bin" / "python"
-    if not bin_python.exists():
-        subprocess.run([python, "-m", "venv", str(venv)], check=True)
-        subprocess.run([str(bin_python), "-m", "pip", "install", "-q", "-e", f"{ROOT}[fem-dolfinx]"], check=True,
-                       timeout=1800)
+        pytest.skip(note)
+    return python
+
+
+def _run(python, args, timeout=600):
+    out = dolfinx_env.run(python, [str(a) for a in args], timeout=timeout)
+    assert out.returncode == 0, out.stderr[-3000:]
+    return out
+
+
+@pytest.mark.slow(60)   # builds DOLFINx's venv on a machine's first run (about 60 s); 3 s once cached
+def test_dolfinx_reads_the_xdmf_and_solves_as_skfem(tmp_path, reference, dolfinx_python):
+    """DOLFINx reads plate.xdmf and plate_facets.xdmf with its own reader (examples/fem_dolfinx.py)."""
     out = tmp_path / "result.json"
-    subprocess.run([str(bin_python), str(EXAMPLES / "fem_dolfinx.py"), "400", "--out", str(tmp_path),
-                    "--json", str(out)], check=True, timeout=600)
+    _run(dolfinx_python, [EXAMPLES / "fem_dolfinx.py", "400", "--out", tmp_path, "--json", out])
     result = json.loads(out.read_text())
     assert result["gdim"] == 2 and result["facet_tags"] == [1, 2]
     assert result["names"] == {"1": "wall", "2": "hole"}
@@ -147,3 +137,25 @@ def test_dolfinx_reads_the_xdmf_and_solves_as_skfem(tmp_path, reference):
     expected = fem_problem.reference(mesh)
     _, at = cKDTree(mesh.points).query(np.array(result["points"]))
     np.testing.assert_allclose(result["u"], expected[at], rtol=0, atol=1e-10 * np.abs(expected).max())
+
+
+@pytest.mark.slow(3)
+def test_dolfinx_assembles_the_element_means(tmp_path, with_means, dolfinx_python):
+    """DOLFINx reads the .xdmf (mesh, cell tags, facet tags from name_facets.xdmf); the means as a
+    DG0 tensor Function, from the file and from `to_dolfinx`, assemble qmesh's stiffness matrix."""
+    io.write(tmp_path / "r.xdmf", with_means)
+    out = tmp_path / "result.json"
+    _run(dolfinx_python, [Path(dolfinx_env.__file__).with_name("dolfinx_means_check.py"), tmp_path / "r.xdmf", out])
+    result = json.loads(out.read_text())
+    n = with_means.n_vertices
+    for source in ("file", "adapter"):
+        K = sp.coo_matrix((result[source]["vals"], (result[source]["rows"], result[source]["cols"])), shape=(n, n))
+        assert_assembles_the_means(K, with_means)
+    assert result["adapter_value_shape"] == [2, 2] and result["adapter_name"] == "Q"
+    regions = np.full(with_means.n_triangles, -1)
+    regions[result["cells"]] = result["cell_values"]
+    np.testing.assert_array_equal(regions, with_means.region_tags)
+    tagged = sorted(zip(map(tuple, result["facets"]), result["facet_values"]))
+    expected = sorted(zip(map(tuple, np.sort(with_means.boundary_edges, axis=1).tolist()),
+                          with_means.boundary_tags.tolist()))
+    assert tagged == expected

@@ -1,6 +1,8 @@
 """Malformed and hostile files (truncated, deeply nested, huge numbers, huge digit strings, NaN,
 wrong cells) give a valid result or one QmeshError: nothing else, for the polygon and mesh readers."""
 
+import warnings
+
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -9,7 +11,7 @@ from hypothesis import strategies as st
 import qmesh
 from qmesh import io
 from qmesh.domain.polygon_file import domain_from_text
-from qmesh.errors import QmeshError
+from qmesh.errors import QmeshError, QmeshWarning
 
 TOKENS = ["[" * 3000, "{" * 3000, "9" * 5000, "9" * 400, "1e309", "-1e400", "NaN", "Infinity", "nan", ",", "\n",
           '"', "]", "}", "\x00", "1O", "é", "-", "0", " ", "$EndNodes\n", "<", ">", "</Piece>", "triangle", "line",
@@ -48,7 +50,7 @@ def test_polygon_reader_gives_a_domain_or_one_clean_error(data):
     assert isinstance(domain, qmesh.Domain) and np.all(np.isfinite(domain.seeds))
 
 
-FORMATS = [".msh", ".vtu", ".vtk", ".mesh", ".obj", ".xdmf"]
+FORMATS = [".msh", ".vtu", ".vtk", ".mesh", ".obj", ".xdmf", "_facets.xdmf"]   # the last: .xdmf's facet tags
 
 
 @pytest.fixture(scope="module")
@@ -56,12 +58,16 @@ def originals(tmp_path_factory):
     """Each format's bytes for a small tagged mesh with a stored conductivity."""
     folder = tmp_path_factory.mktemp("originals")
     P = np.array([[0, 0], [1, 0], [1, 1], [0, 1], [0.5, 0.5]])
-    mesh = qmesh.Mesh(P, [[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]], tag_names={1: "wall"})
+    Q = np.array([[[2.0, 0.5], [0.5, 1.0]]] * 4)   # element means: Q11 Q12 Q22 in every format that keeps them
+    mesh = qmesh.Mesh(P, [[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]], tag_names={1: "wall"}, conductivity=Q)
     out = {}
-    for ext in FORMATS:
-        io.write(folder / f"m{ext}", mesh, anisotropy=qmesh.Anisotropy.principal(1, 5, 10))
+    for ext in FORMATS[:-1]:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", QmeshWarning)   # .mesh and .obj drop the means
+            io.write(folder / f"m{ext}", mesh, anisotropy=qmesh.Anisotropy.principal(1, 5, 10))
         out[ext] = (folder / f"m{ext}").read_bytes()
-    out["h5"] = (folder / "m.h5").read_bytes()
+    out["_facets.xdmf"] = (folder / "m_facets.xdmf").read_bytes()
+    out["h5"], out["facets_h5"] = (folder / "m.h5").read_bytes(), (folder / "m_facets.h5").read_bytes()
     return out
 
 
@@ -75,6 +81,12 @@ def test_mesh_reader_gives_a_mesh_or_one_clean_error(tmp_path_factory, originals
     path = folder / f"m{ext}"
     path.write_bytes(data.draw(mutated(base)).encode("latin-1", "replace"))
     (folder / "m.h5").write_bytes(originals["h5"])
+    (folder / "m_facets.h5").write_bytes(originals["facets_h5"])
+    if ext.endswith(".xdmf"):   # the mesh with its facet tags, one of the two mutated
+        for name in (".xdmf", "_facets.xdmf"):
+            if name != ext:
+                (folder / f"m{name}").write_bytes(originals[name])
+        path = folder / "m.xdmf"
     for call in (io.read, io.read_anisotropy):
         try:
             result = call(path)
