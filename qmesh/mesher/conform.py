@@ -30,7 +30,7 @@ from qmesh.geometry import topology
 from qmesh.errors import QmeshError
 from qmesh.geometry.triangles import signed_areas
 from qmesh.mesher import lattice_delaunay
-from qmesh.mesher.triangulate import first_triangulation, restore
+from qmesh.mesher.triangulate import Crowded, first_triangulation, restore
 
 ENCROACH_TOL = 1e-9     # relative depth below the plane that counts as encroaching
 MAX_ROUNDS = 200        # split rounds before giving up (never reached on valid input)
@@ -73,6 +73,31 @@ def encroached(A: np.ndarray, B: np.ndarray, C: np.ndarray, anisotropy) -> np.nd
         g = ((sB - sA) / length)[:, None] * t + np.einsum("ki,ki->k", gm, n)[:, None] * n
         depth = sC - sA - np.einsum("ki,ki->k", g, C - A)
     return depth < -ENCROACH_TOL * L2
+
+
+def sharpest_corner(domain, anisotropy) -> tuple[int, float]:
+    """The input point with the domain's smallest angle, measured in the metric there, and
+    that angle in degrees."""
+    A, B = domain.segment_ends                       # segment k runs from seed k
+    seg = domain.segments
+    into = np.empty(len(seg), np.int64)
+    into[seg[:, 1]] = np.arange(len(seg))            # the segment that ends at each seed
+    P = domain.seeds
+    a, b = A[into] - P, B - P                        # towards the previous and the next seed
+    H = _metric_at(anisotropy, P)
+    cos = np.einsum("ki,kij,kj->k", a, H, b) / np.sqrt(
+        np.einsum("ki,kij,kj->k", a, H, a) * np.einsum("ki,kij,kj->k", b, H, b))
+    k = int(np.argmax(cos))
+    return k, float(np.degrees(np.arccos(np.clip(cos[k], -1.0, 1.0))))
+
+
+class SharpCorner(QmeshError):
+    """A corner so sharp in the metric that the points keeping q_ij ≥ 0 on its sides crowd
+    closer than round-off: `seed` (its input point), `angle` (degrees), `n` points reached."""
+
+    def __init__(self, seed: int, angle: float, n: int):
+        super().__init__(f"input point {seed} is a corner of {angle:.3g}° in the metric")
+        self.seed, self.angle, self.n = seed, angle, n
 
 
 def split_points(A: np.ndarray, B: np.ndarray, a_is_seed: np.ndarray, b_is_seed: np.ndarray,
@@ -268,7 +293,11 @@ def _conforming(domain, P, edge_id, anisotropy, size, max_points, pinned, place,
             / seg_len2[edge_id[on]]
         a, b = _subsegments(domain, n_seeds, edge_id, t)
         closed = None if lattice is None else lattice_delaunay.closed_form(lattice[0], place, lattice[1])
-        T, twin = first_triangulation(P, anisotropy, (np.arange(n) < n_seeds) | (edge_id >= 0), closed)
+        try:
+            T, twin = first_triangulation(P, anisotropy, (np.arange(n) < n_seeds) | (edge_id >= 0),
+                                          closed)
+        except Crowded:
+            raise SharpCorner(*sharpest_corner(domain, anisotropy), n) from None
         h = topology.find_half_edges(T, n, a, b)
         missing = h < 0
         apex = np.where(missing, 0, T.ravel()[np.where(missing, 0, (h - h % 3) + topology.PRV[h % 3])])

@@ -117,6 +117,12 @@ def _checked(plan: Plan, steps) -> Iterator[Step]:
             yield last
     except conform.TooManySplits as e:
         raise QmeshError(f"{plan.too_few()} for this domain: {e}") from None
+    except conform.SharpCorner as e:
+        x, y = plan.norm.user_domain.seeds[e.seed]
+        raise QmeshError(f"the corner at ({x:.6g}, {y:.6g}) is {e.angle:.3g}° in the metric: "
+                         f"too sharp for {e.n} vertices, the points that keep q_ij >= 0 on its "
+                         "sides crowd closer than round-off allows; ask for fewer vertices, "
+                         "or blunt the corner") from None
     check_count(last.mesh, plan)
 
 

@@ -27,6 +27,10 @@ from qmesh.geometry import topology
 from qmesh.errors import QmeshError
 from qmesh.geometry.triangles import columns, signed_areas
 
+class Crowded(QmeshError):
+    """Points closer than round-off allows: no valid triangulation of them can be told apart."""
+
+
 FLIP_TOL = 1e-10   # relative violation below which an edge counts as regular (ties stay put)
 VERTICAL = 1e-6   # |n_z| of a lifted facet below this: vertical (collinear points on the hull), not lower
 
@@ -129,7 +133,8 @@ def q_delaunay(P: np.ndarray, anisotropy) -> np.ndarray:
 
 
 EXACT_MAX = 4000     # up to this many points the first triangulation is Qhull's exact hull
-FIRST_ROUNDS = 100_000   # flip rounds allowed for the first triangulation
+FIRST_ROUNDS = 100_000   # flip rounds allowed (only a defect could need them all)
+METRIC_ROUNDS = 2000     # flip rounds in a metric without s, where flips may cycle
 VIOLATION_CHUNK = 131_072   # edges tested at once (bounds the temporary memory)
 PERTURB = 1e-9       # lifted heights (range 1) raised by up to this: ties broken, cost O(N log N)
 
@@ -174,10 +179,15 @@ def first_triangulation(P: np.ndarray, anisotropy, boundary: np.ndarray | None =
     # (660 for exp(20x) + exp(20y)); later rounds touch only the last round's triangles
     try:
         twin = topology.twins(T)
-    except ValueError as err:      # round-off decided the orientation of a flat triangle
-        raise QmeshError(f"the first triangulation is not valid ({err}): the points are closer "
-                         "than round-off allows at this s; please report this input") from None
-    T, twin, _ = restore(P, T, twin, anisotropy, candidates=candidates, max_rounds=FIRST_ROUNDS)
+    except ValueError:      # round-off decided the orientation of a flat triangle: exact 2-D
+        twin, T = None, _exact_delaunay(P, anisotropy)
+    if twin is None:
+        try:
+            twin = topology.twins(T)
+        except ValueError:
+            raise Crowded("the points the boundary needs are closer than round-off allows "
+                          "there") from None
+    T, twin, _ = restore(P, T, twin, anisotropy, candidates=candidates)
     return T, twin
 
 
@@ -189,6 +199,18 @@ def _exact_lower_hull(P: np.ndarray, anisotropy) -> np.ndarray | None:
         return lower_hull(P, anisotropy)
     except QmeshError:
         return None
+
+
+def _exact_delaunay(P: np.ndarray, anisotropy) -> np.ndarray:
+    """Qhull's exact 2-D Delaunay triangulation of the points mapped by the (mean) metric
+    factor: the fallback where the perturbed lifted hull leaves a flat triangle whose
+    orientation round-off decided (a sliver corner's concentric shells); `restore` then
+    makes it regular for a varying s."""
+    X = (P - P.mean(axis=0)) @ _mean_factor(P, anisotropy)
+    T = _valid(P, _delaunay(X / np.abs(X).max()))
+    if T is None:
+        raise QmeshError("some points are not vertices of the triangulation (duplicate points?)")
+    return T
 
 
 def _mean_factor(P: np.ndarray, anisotropy) -> np.ndarray:
@@ -291,12 +313,19 @@ def _canonical(twin: np.ndarray, h: np.ndarray | None = None) -> np.ndarray:
 
 
 def restore(P: np.ndarray, T: np.ndarray, twin: np.ndarray, anisotropy,
-            candidates: np.ndarray | None = None, max_rounds: int = 500):
+            candidates: np.ndarray | None = None, max_rounds: int | None = None):
     """Flip locally non-regular edges until the triangulation is Q-Delaunay.
 
     Returns (T, twin, number of flips). Each round flips the edges that are the most violated
-    in both of their triangles, so no triangle takes part in two flips of one round.
+    in both of their triangles, so no triangle takes part in two flips of one round. With an
+    s, flipping terminates (Lawson): the rounds are capped only against a defect
+    (FIRST_ROUNDS; a flip wave along a boundary of 20,000 points in a needle-thin metric takes
+    thousands, each touching only the last round's triangles). A metric without s has no
+    global lifting, so flips may cycle: after METRIC_ROUNDS the triangulation is kept as it is
+    (the tensor field's certification decides its edges on the element means).
     """
+    if max_rounds is None:
+        max_rounds = FIRST_ROUNDS if anisotropy.potential else METRIC_ROUNDS
     s = g = None
     if not anisotropy.is_constant and anisotropy.potential:
         s = np.asarray(anisotropy.s(P), dtype=float)
@@ -323,4 +352,6 @@ def restore(P: np.ndarray, T: np.ndarray, twin: np.ndarray, anisotropy,
         flips, owned = flips + len(h), True
         touched = (3 * tri[:, None] + np.arange(3)).ravel()
         cand = _canonical(twin, np.concatenate([bad[~sel], touched]))
+    if not anisotropy.potential:
+        return T, twin, flips
     raise QmeshError("edge flipping did not converge; please report this mesh")

@@ -1,0 +1,53 @@
+"""Valid input never ends in "please report": a corner too sharp for the vertices asked is
+refused naming the corner and what to do; a disk whose target barely exceeds its boundary
+points meshes (the flips along its needle-thin metric take thousands of rounds)."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+import qmesh
+
+SLIVER = [[6304.13782194677, -2909.1187856396928], [1081.9399992251927, 6870.7102961520895],
+          [1485.204385879639, 6103.347754101624]]
+NEAR_ISOTROPIC = qmesh.Anisotropy.constant([[374.968897314986, -65.50665312115466],
+                                            [-65.50665312115466, 246.28632615637864]])
+
+
+def test_a_corner_too_sharp_for_the_target_is_refused_by_name():
+    with pytest.raises(qmesh.QmeshError) as e:
+        qmesh.mesh(qmesh.Polygon(SLIVER), NEAR_ISOTROPIC, target_vertices=2324)
+    message = str(e.value)
+    assert "please report" not in message
+    assert "(6304.14, -2909.12)" in message and "° in the metric" in message
+    assert "fewer vertices" in message
+
+
+@pytest.mark.parametrize("vb, target", [(20000, 20001), (15468, 15469), (4000, 4080)])
+def test_a_disk_with_a_target_just_above_its_boundary_points_meshes(vb, target):
+    m = qmesh.mesh(qmesh.Disk(vb), qmesh.Anisotropy.constant([[0.1, 0], [0, 10]]),
+                   target_vertices=target)
+    assert abs(m.n_vertices - target) <= 0.1 * target
+    assert m.fixed.sum() == vb
+
+
+@pytest.mark.slow(12)
+@settings(max_examples=12, deadline=None)
+@given(aspect=st.floats(1.0, 1000.0), turn=st.floats(0.0, 180.0), k=st.floats(1.0, 100.0),
+       angle=st.floats(0.0, 180.0), n=st.integers(100, 3000), corners=st.integers(3, 6))
+def test_thin_polygons_mesh_or_are_refused_by_name(aspect, turn, k, angle, n, corners):
+    """Thin convex polygons of aspect up to 1000 under any SPD Q: a valid mesh, or a
+    QmeshError that says what the input has (never "please report")."""
+    t = np.linspace(0.0, 2 * np.pi, corners, endpoint=False)
+    ring = np.column_stack([np.cos(t), np.sin(t) / aspect])
+    c, s = np.cos(np.radians(turn)), np.sin(np.radians(turn))
+    ring = ring @ np.array([[c, s], [-s, c]])
+    try:
+        m = qmesh.mesh(qmesh.Polygon(ring), qmesh.Anisotropy.principal(1.0, k, angle),
+                       target_vertices=n)
+    except qmesh.QmeshError as e:
+        assert "please report" not in str(e)
+        return
+    area = 0.5 * np.abs(np.cross(m.points[m.triangles[:, 1]] - m.points[m.triangles[:, 0]],
+                                 m.points[m.triangles[:, 2]] - m.points[m.triangles[:, 0]])).sum()
+    assert np.isclose(area, qmesh.Polygon(ring).area, rtol=1e-9)
