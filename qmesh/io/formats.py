@@ -97,7 +97,8 @@ def write(path: PathLike, mesh: Mesh, *, anisotropy: Conductivity | None = None,
     The element means of a mesh made for a tensor field (`mesh.conductivity`) are written as
     cell data "Q11" "Q12" "Q22" where the format keeps them (`KEEPS_MEANS`); the others (medit
     `.mesh`, `.obj`) write the mesh without them and warn (QmeshWarning). `.xdmf` writes
-    `name.xdmf`, its facet tags in `name_facets.xdmf` and the arrays of both in `name.h5`.
+    `name.xdmf` and its facet tags in `name_facets.xdmf`, each with its HDF5 (`name.h5`,
+    `name_facets.h5`).
     `version` chooses a format's variant: "2.2" (default) or "4.1" for .msh. Everything is
     validated before the file is touched, and the file is written under a temporary name and
     then renamed, so an error leaves no file (and no half-written one) at `path`.

@@ -83,8 +83,18 @@ def skfem_groups(p) -> dict[str, np.ndarray]:
 def write(tmp: Path, final: Path, p) -> list[tuple[Path, Path]]:
     """Write Payload `p` to `tmp` (XML) and its facet tags beside it, each with a temporary HDF5;
     the XML refers to the HDF5 files by their final names. Returns the (temporary, final) pairs
-    to rename."""
+    to rename; on an error, removes what it wrote."""
     h5py = _h5py()
+    tmp_facets = facets_name(tmp)
+    try:
+        return _write(tmp, final, p, h5py)
+    except BaseException:
+        for part in (h5_name(tmp), h5_name(tmp_facets), tmp_facets, tmp):
+            Path(part).unlink(missing_ok=True)
+        raise
+
+
+def _write(tmp: Path, final: Path, p, h5py) -> list[tuple[Path, Path]]:
     tmp_facets, final_facets = facets_name(tmp), facets_name(final)
     mesh_root, facets_root = ET.Element("Xdmf", Version="3.0"), ET.Element("Xdmf", Version="3.0")
     with h5py.File(h5_name(tmp), "w") as h5, h5py.File(h5_name(tmp_facets), "w") as h5_facets:

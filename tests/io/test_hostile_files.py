@@ -103,3 +103,17 @@ def test_deeply_nested_metadata_is_one_error(tmp_path, originals):
     assert path.read_bytes() != originals[".vtu"]
     with pytest.raises(QmeshError, match="unreadable qmesh metadata"):
         io.read(path)
+
+
+def test_an_hdf5_dataset_larger_than_its_file_is_refused_unread(tmp_path, originals):
+    """A chunked dataset that declares 3e9 values in a file of a few kB: refused from its shape."""
+    h5py = pytest.importorskip("h5py")
+    for name in (".xdmf", "_facets.xdmf"):
+        (tmp_path / f"m{name}").write_bytes(originals[name])
+    (tmp_path / "m_facets.h5").write_bytes(originals["facets_h5"])
+    (tmp_path / "m.h5").write_bytes(originals["h5"])
+    with h5py.File(tmp_path / "m.h5", "a") as f:
+        del f["/Mesh/mesh/topology"]
+        f.create_dataset("/Mesh/mesh/topology", shape=(10**9, 3), dtype="int64", chunks=(1024, 3))
+    with pytest.raises(QmeshError, match="declares 3000000000 values"):
+        io.read(tmp_path / "m.xdmf")
