@@ -268,9 +268,12 @@ def raster_edge_integrals(R: Raster, P0: Array, P1: Array) -> tuple[Array, Array
     linear along the piece, so G at the piece's midpoint times the piece's dy is its exact
     integral. Horizontal segments have dy = 0 and contribute nothing. No sorting: O(pieces).
 
-    Round-off, per piece, with g_j the row's Σ|q| w ≥ |G| and H the raster's height: G carries
-    (nx + 4) ε g_j (a cumulative sum of up to nx terms, the midpoint), dy carries 2 ε H (a
-    difference of coordinates ≤ H): |error| ≤ ε g_j ((nx + 4)|dy| + 2 H)."""
+    Round-off (coordinates relative to the raster's corner, W × H its size, g_j = ‖Σ_i |q| w‖
+    of row j ≥ |G| there): G at a midpoint carries (nx + 4) ε g_j (a cumulative sum of up to nx
+    terms) and 2 ε W ‖q‖ (the midpoint's x), times |dy|; a cut's y carries 2 ε H, which moves
+    the two pieces meeting there by the difference of their G — ≤ ‖q‖ |dx| of each within a row
+    (cuts on row lines are exact); a vertex shifted to the corner's coordinates moves by
+    ε (W + H), which changes the integral by at most max ‖q‖ times the segment's length."""
     E = len(P0)
     P0, P1 = P0 - R.origin, P1 - R.origin
     out, bound = np.zeros((E, 3)), np.zeros(E)
@@ -302,7 +305,13 @@ def raster_edge_integrals(R: Raster, P0: Array, P1: Array) -> tuple[Array, Array
     n = len(live)
     out[live] = _sum_by(e, G * dy[:, None], n)
     eps = np.finfo(float).eps
-    bound[live] = _sum_by(e, eps * R.row_abs[row] * ((nx + 4) * np.abs(dy) + 2 * y[-1]), n)
+    qn = frobenius(R.q.reshape(-1, 3)[row * nx + i])
+    dx = (y_b - y_a) / dd[e, 1] * dd[e, 0]
+    per_piece = ((nx + 4) * R.row_abs[row] + 2 * x[-1] * qn) * np.abs(dy) + 2 * y[-1] * qn * np.abs(dx)
+    starts = np.flatnonzero(np.r_[True, e[1:] != e[:-1]])   # e is sorted: every live segment has pieces
+    q_max = np.maximum.reduceat(qn, starts)
+    ends = 2 * (x[-1] + y[-1]) * q_max * (np.abs(dd[:, 0]) + np.abs(dd[:, 1]))
+    bound[live] = eps * (_sum_by(e, per_piece, n) + ends)
     return out, bound
 
 
