@@ -159,15 +159,19 @@ def _percent(share: float | None) -> str:
     return "n/a" if share is None else f"{100 * share:.1f}%"
 
 
-def conductivity_for_report(args) -> tuple[Anisotropy, str]:
+def conductivity_for_report(args, mesh=None) -> tuple[Anisotropy | None, str]:
     """The Q to measure a mesh file with, and where it came from.
 
-    The command line's --Q/--principal/--s when given; else the conductivity the file stores
-    (`qmesh.io.read_anisotropy`); else the chapter's Q (2.95), which the caller must announce.
+    The command line's --Q/--principal/--s when given; else the element means the file stores
+    per triangle (`mesh.conductivity`: None, which `measure.report` takes as those means); else
+    the conductivity the file stores (`qmesh.io.read_anisotropy`); else the chapter's Q (2.95),
+    which the caller must announce.
     """
     given = any(getattr(args, name, None) is not None for name in ("Q", "principal", "s"))
     if given:
         return anisotropy_from(args), "command line"
+    if mesh is not None and mesh.conductivity is not None:
+        return None, "means"
     stored = io.read_anisotropy(args.meshfile)      # one Anisotropy, or {region tag: Anisotropy}
     if stored is not None:
         return stored, "file"
@@ -175,6 +179,8 @@ def conductivity_for_report(args) -> tuple[Anisotropy, str]:
 
 
 def _conductivity_text(anisotropy) -> str:
+    if anisotropy is None:                     # the element means stored per triangle
+        return "element means Q11 Q12 Q22 per triangle"
     if isinstance(anisotropy, dict):           # a conductivity per region
         return "; ".join(f"region {tag}: {_conductivity_text(a)}" for tag, a in sorted(anisotropy.items()))
     record = record_of(anisotropy)
@@ -183,9 +189,10 @@ def _conductivity_text(anisotropy) -> str:
 
 def cmd_report(args) -> int:
     mesh = io.read(args.meshfile)
-    anisotropy, source = conductivity_for_report(args)
+    anisotropy, source = conductivity_for_report(args, mesh)
     conductivity = _conductivity_text(anisotropy)
     where = {"file": "stored in the file", "command line": "from the command line",
+             "means": "stored in the file; no s, so no energy or interpolation errors",
              "default": "the chapter's default: the file stores none"}[source]
     rep = measure.report(mesh, anisotropy)
     rep["folded_triangles"] = folded_triangles(mesh)  # a file's folds and overlaps, not re-oriented away
@@ -193,11 +200,14 @@ def cmd_report(args) -> int:
         print(json.dumps({"file": str(args.meshfile), "conductivity": conductivity,
                           "conductivity_source": source, **rep}, indent=2))
         return 0
+    why = rep.pop("kappa2_undefined", None)
     width = max(map(len, rep))
     print(f"{args.meshfile}: conductivity {conductivity} ({where})")
     for key, value in rep.items():
         text = "n/a" if value is None else f"{value:.6g}" if isinstance(value, float) else str(value)
         print(f"  {key:<{width}}  {text}")
+    if why:                                 # beside the table, which stays two columns
+        print(f"qmesh: kappa2 is undefined: {why}", file=sys.stderr)
     return 0
 
 

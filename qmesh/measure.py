@@ -13,17 +13,25 @@ Heterogeneous media (MEDIA.md §2, §4): wherever a function takes `anisotropy` 
 mapping {region tag: Anisotropy}; each triangle then uses its own region's Q and metric
 (`mesh.region_tags`), and the report gives the share of q_ij ≥ 0 on interface edges (two
 triangles of different regions) apart from the interior and boundary ones.
+
+Per-triangle conductivity (FIELDS.md §2–3): only the element means Q̄_T = (1/|T|)∫_T Q enter the
+P1 stiffness matrix, K_ij = Σ_T |T| ∇φ_iᵀ Q̄_T ∇φ_j, so q_ij = ½ Σ_T √det Q̄_T cot θ_k^T with θ
+measured in H_T = adj Q̄_T. Every function that takes a conductivity also takes an array
+(M, 2, 2) of one Q per triangle, or a `TensorField` (whose means are computed), and when the
+argument is None and the mesh carries its means (`mesh.conductivity`) it measures with those. The
+energy and the interpolation errors need an s and are not defined for such a conductivity.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from typing import TYPE_CHECKING, Any, Literal, Union
+from collections.abc import Callable, Mapping
+from typing import TYPE_CHECKING, Any, Literal, NamedTuple, Union
 
 import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 import scipy.sparse as sp
+import scipy.sparse.csgraph as csgraph
 import scipy.sparse.linalg as spla
 
 from qmesh import checks
@@ -35,11 +43,21 @@ from qmesh.triangle_mesh import Mesh
 
 if TYPE_CHECKING:
     from qmesh.conductivity.anisotropy import Anisotropy, Conductivity
+    from qmesh.conductivity.field import TensorField
 
 PerTriangle = Union[float, NDArray[np.float64]]
 """A value per triangle (M,), or one float for all of them (a constant Q)."""
-Report = dict[str, Union[int, float, None]]
-"""`report`'s measurements by name: ints, floats, and None where a figure is undefined."""
+Report = dict[str, Union[int, float, str, None]]
+"""`report`'s measurements by name: ints, floats, None where a figure is undefined, and the
+text `kappa2_undefined` saying why when κ2 is None."""
+Given = Union["Conductivity", "TensorField", "Mapping[int, Union[Anisotropy, TensorField]]",
+              ArrayLike, None]
+"""What a measurement takes as the conductivity: an Anisotropy, a TensorField, a mapping
+{region tag: either}, one Q per triangle (M, 2, 2), or None (the mesh's element means when it
+carries them, else the Laplacian Q = I where that is allowed)."""
+Resolved = Union["Conductivity", NDArray[np.float64], None]
+"""A conductivity as the assembly uses it: an Anisotropy or {tag: Anisotropy}, a per-triangle
+array (M, 2, 2), or None for Q = I."""
 
 DENSE_LIMIT = 300
 """Up to this many unknowns condition_number uses a dense eigvalsh; above it, sparse eigsh.
@@ -80,12 +98,12 @@ def triangle_energy(P: ArrayLike, T: ArrayLike, anisotropy: Anisotropy) -> NDArr
     return area * edges2 / 24.0                       # (2.77), closed form
 
 
-def energy(mesh: Mesh, anisotropy: Conductivity) -> float:
+def energy(mesh: Mesh, anisotropy: Given) -> float:
     """E = ∫_Ω (s_h − s) = ‖s_h − s‖_L1 (2.77) (MATH.md "Vertex adjustment"); with one s per
-    region, the sum of each region's own."""
-    checks.mesh(mesh)
-    return float(sum(triangle_energy(mesh.points, mesh.triangles[sel], A).sum()
-                     for sel, A in _by_region(mesh, anisotropy)))
+    region, the sum of each region's own. QmeshError without an s (a per-triangle Q)."""
+    A = _resolve(mesh, anisotropy, allow_none=False)
+    return float(sum(triangle_energy(mesh.points, mesh.triangles[sel], a).sum()
+                     for sel, a in _by_region(mesh, A, "the energy (2.77)")))
 
 
 # --------------------------------------------------------------------------- regions
@@ -96,21 +114,79 @@ def _check(anisotropy: Conductivity | None, mesh: Mesh | None = None,
     region of `mesh`."""
     if not isinstance(anisotropy, Mapping):
         return checks.anisotropy_or_none(anisotropy) if allow_none else checks.anisotropy(anisotropy)
+    _check_tags(anisotropy, mesh)
     for k, v in anisotropy.items():
-        if isinstance(k, bool) or not isinstance(k, (int, np.integer)):
-            raise QmeshError(f"conductivity keys must be region tags (integers), got {k!r}")
         checks.anisotropy(v, f"the conductivity of region {k}")
-    if mesh is not None:
-        missing = sorted(set(np.unique(mesh.region_tags).tolist()) - {int(k) for k in anisotropy})
-        if missing:
-            raise QmeshError(f"no conductivity for region {missing[0]} of the mesh "
-                             f"(the mapping has {sorted(int(k) for k in anisotropy)})")
     return anisotropy
 
 
-def _by_region(mesh: Mesh, anisotropy: Conductivity) -> list[tuple[slice | NDArray[np.bool_], Anisotropy]]:
+def _check_tags(mapping: Mapping[Any, Any], mesh: Mesh | None) -> None:
+    """Integer keys that cover every region of `mesh`, or QmeshError."""
+    for k in mapping:
+        if isinstance(k, bool) or not isinstance(k, (int, np.integer)):
+            raise QmeshError(f"conductivity keys must be region tags (integers), got {k!r}")
+    if mesh is not None:
+        missing = sorted(set(np.unique(mesh.region_tags).tolist()) - {int(k) for k in mapping})
+        if missing:
+            raise QmeshError(f"no conductivity for region {missing[0]} of the mesh "
+                             f"(the mapping has {sorted(int(k) for k in mapping)})")
+
+
+def _is_field(value: object) -> bool:
+    return type(value).__name__ == "TensorField" and type(value).__module__ == "qmesh.conductivity.field"
+
+
+def _resolve(mesh: Mesh, given: Given, name: str = "anisotropy", allow_none: bool = True) -> Resolved:
+    """The conductivity to measure `mesh` with (see `Given`).
+
+    None: the mesh's element means when it carries them, else Q = I (`allow_none`) or
+    QmeshError. A TensorField, or a mapping holding one, becomes its element means per
+    triangle (FIELDS.md §2; an Anisotropy's regions in such a mapping: Q at the centroid). An
+    explicit argument is what is measured, also for a mesh that carries means.
+    """
+    checks.mesh(mesh)
+    if given is None:
+        if mesh.conductivity is not None:
+            return np.asarray(mesh.conductivity)
+        if allow_none:
+            return None
+        raise QmeshError(f"{name} must be a qmesh.Anisotropy (or {{region tag: Anisotropy}}, a "
+                         "TensorField, or one Q per triangle): the mesh carries no element means "
+                         "(mesh.conductivity is None)")
+    if _is_field(given):
+        return np.asarray(given.means(mesh.points, mesh.triangles), dtype=float)  # type: ignore[union-attr]
+    if isinstance(given, Mapping):
+        if not any(_is_field(v) for v in given.values()):
+            return _check(given, mesh)           # type: ignore[arg-type]
+        _check_tags(given, mesh)
+        out = np.empty((mesh.n_triangles, 2, 2))
+        P, T, tags = mesh.points, mesh.triangles, mesh.region_tags
+        for r in np.unique(tags).tolist():
+            sel = tags == r
+            v = given[r]
+            if _is_field(v):
+                out[sel] = v.means(P, T[sel])                # type: ignore[union-attr]
+            else:
+                x, y = corners(P, T[sel])
+                q11, q12, q22 = _conductivity(x, y, checks.anisotropy(v, f"the conductivity of region {r}"))
+                out[sel, 0, 0], out[sel, 0, 1], out[sel, 1, 0], out[sel, 1, 1] = q11, q12, q12, q22
+        return out
+    if isinstance(given, (np.ndarray, list, tuple)):
+        shape = np.shape(given)
+        if len(shape) != 3:
+            checks.anisotropy(given, name)       # the hint: Anisotropy.constant for one matrix
+        Q = checks.real_array(given, f"{name} (one Q per triangle)", (mesh.n_triangles, 2, 2))
+        return 0.5 * (Q + Q.transpose(0, 2, 1))  # the symmetric part: what the assembly uses
+    return _check(given, mesh, allow_none)      # type: ignore[arg-type]
+
+
+def _by_region(mesh: Mesh, anisotropy: Resolved, what: str = "this measure"
+               ) -> list[tuple[slice | NDArray[np.bool_], Anisotropy]]:
     """[(triangle selector, Anisotropy)]: everything for one Anisotropy, one pair per region
-    present in the mesh for a mapping."""
+    present in the mesh for a mapping. A per-triangle Q has no s: QmeshError naming `what`."""
+    if anisotropy is None or isinstance(anisotropy, np.ndarray):
+        raise QmeshError(f"{what} needs s(x, y) (an Anisotropy); a conductivity given per "
+                         "triangle (element means) has none")
     _check(anisotropy, mesh)
     if not isinstance(anisotropy, Mapping):
         return [(slice(None), anisotropy)]
@@ -118,27 +194,56 @@ def _by_region(mesh: Mesh, anisotropy: Conductivity) -> list[tuple[slice | NDArr
     return [(tags == r, anisotropy[r]) for r in np.unique(tags).tolist()]
 
 
+def _has_s(anisotropy: Resolved) -> bool:
+    """True when every part of the conductivity comes from an s (energy, errors defined)."""
+    if anisotropy is None or isinstance(anisotropy, np.ndarray):
+        return False
+    parts = anisotropy.values() if isinstance(anisotropy, Mapping) else [anisotropy]
+    return all(getattr(a, "potential", True) for a in parts)
+
+
 # --------------------------------------------------------------------------- quality
 
-def quality(mesh: Mesh, anisotropy: Conductivity) -> NDArray[np.float64]:
-    """Metric quality (2.94) of every triangle: 1 = equilateral in metric space, ≤ 0 = degenerate/inverted."""
-    checks.mesh(mesh)
+def quality(mesh: Mesh, anisotropy: Given = None) -> NDArray[np.float64]:
+    """Metric quality (2.94) of every triangle: 1 = equilateral in metric space, ≤ 0 = degenerate/inverted.
+
+    Each triangle in its own metric: ∇²s at its centroid, or for a per-triangle Q (element
+    means) H_T = adj Q̄_T / √det Q̄_T (the quality does not depend on the metric's scale; NaN
+    where Q̄_T is not positive definite).
+    """
+    A = _resolve(mesh, anisotropy, allow_none=False)
     P, T = mesh.points, mesh.triangles
-    if isinstance(anisotropy, Mapping):
+    if isinstance(A, np.ndarray):
+        return metric_quality(P, T, _metric_of(A))                       # (2.94), own H_T
+    if isinstance(A, Mapping):
         H = np.empty((len(T), 2, 2))
-        for sel, A in _by_region(mesh, anisotropy):
-            H[sel] = metric_hessians(A, P, T[sel])
+        for sel, a in _by_region(mesh, A):
+            H[sel] = metric_hessians(a, P, T[sel])
         return metric_quality(P, T, H)                                  # (2.94), own metric
-    checks.anisotropy(anisotropy)
-    return metric_quality(P, T, metric_hessians(anisotropy, P, T))   # (2.94)
+    assert A is not None
+    return metric_quality(P, T, metric_hessians(A, P, T))   # (2.94)
+
+
+def _metric_of(Q: NDArray[np.float64]) -> NDArray[np.float64]:
+    """H_T = adj Q̄_T / √det Q̄_T for every triangle (FIELDS.md §3), NaN where det ≤ 0."""
+    det = Q[:, 0, 0] * Q[:, 1, 1] - Q[:, 0, 1] * Q[:, 1, 0]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        scale = np.where(det > 0, 1.0 / np.sqrt(np.where(det > 0, det, 1.0)), np.nan)
+    H = np.empty_like(Q)
+    H[:, 0, 0], H[:, 1, 1] = Q[:, 1, 1] * scale, Q[:, 0, 0] * scale
+    H[:, 0, 1] = H[:, 1, 0] = -0.5 * (Q[:, 0, 1] + Q[:, 1, 0]) * scale
+    return H
 
 
 # --------------------------------------------------------------------------- stiffness
 
-def _conductivity(x: NDArray[np.float64], y: NDArray[np.float64], anisotropy: Conductivity | None,
+def _conductivity(x: NDArray[np.float64], y: NDArray[np.float64], anisotropy: Resolved,
                   regions: NDArray[np.int64] | None = None) -> tuple[PerTriangle, PerTriangle, PerTriangle]:
-    """Q11, Q12, Q22 per triangle at its centroid (scalars when Q is constant; None → Q = I;
-    a mapping: each triangle its region's, by `regions`)."""
+    """Q11, Q12, Q22 per triangle (scalars when Q is constant; None → Q = I; an array (M, 2, 2):
+    its entries, one Q per triangle of x, y; an Anisotropy: Q at the centroid; a mapping: each
+    triangle its region's, by `regions`)."""
+    if isinstance(anisotropy, np.ndarray):
+        return anisotropy[:, 0, 0], 0.5 * (anisotropy[:, 0, 1] + anisotropy[:, 1, 0]), anisotropy[:, 1, 1]
     if isinstance(anisotropy, Mapping):
         assert regions is not None, "a conductivity per region needs the triangles' regions"
         out = np.empty((3, len(x)))
@@ -156,14 +261,20 @@ def _conductivity(x: NDArray[np.float64], y: NDArray[np.float64], anisotropy: Co
     return Q[:, 0, 0], 0.5 * (Q[:, 0, 1] + Q[:, 1, 0]), Q[:, 1, 1]
 
 
-def _element_entries(P: NDArray[np.float64], T: NDArray[np.int64], anisotropy: Conductivity | None,
+def _rows(anisotropy: Resolved, c: slice) -> Resolved:
+    """The conductivity of the triangles `c` (a per-triangle array is sliced)."""
+    return anisotropy[c] if isinstance(anisotropy, np.ndarray) else anisotropy
+
+
+def _element_entries(P: NDArray[np.float64], T: NDArray[np.int64], anisotropy: Resolved,
                      regions: NDArray[np.int64] | None, a: NDArray[np.intp],
                      b: NDArray[np.intp]) -> tuple[NDArray[np.float64], int]:
-    """K_T[a_k, b_k] = |T| ∇φ_aᵀ Q(x_T) ∇φ_b for every triangle and corner pair k: (M, len(a)),
+    """K_T[a_k, b_k] = |T| ∇φ_aᵀ Q_T ∇φ_b for every triangle and corner pair k: (M, len(a)),
     and how many of the triangles have zero area (their entries are not finite).
 
-    ∇φ_a = ∇_{x_a}|T| / |T| (signed area), so K_T[a, b] = G_aᵀ Q G_b / | |T| | with
-    G_a = ∇_{x_a}|T| (2.69). `anisotropy=None` is the Laplacian Q = I.
+    ∇φ_a = ∇_{x_a}|T| / |T| (signed area), so K_T[a, b] = G_aᵀ Q_T G_b / | |T| | with
+    G_a = ∇_{x_a}|T| (2.69); Q_T is the triangle's element mean Q̄_T when the conductivity is
+    given per triangle (FIELDS.md §2), else Q at its centroid. `anisotropy=None` is Q = I.
     """
     F = Frame(P, T)
     x, y, gx, gy, area = F.x, F.y, F.gx, F.gy, F.A
@@ -185,7 +296,7 @@ def _refuse_zero_areas(zero: int) -> None:
 _ALL_PAIRS = (np.repeat(np.arange(3), 3), np.tile(np.arange(3), 3))
 
 
-def _element_matrices(P: NDArray[np.float64], T: NDArray[np.int64], anisotropy: Conductivity | None,
+def _element_matrices(P: NDArray[np.float64], T: NDArray[np.int64], anisotropy: Resolved,
                       regions: NDArray[np.int64] | None = None) -> NDArray[np.float64]:
     """The element matrices K_T, shape (M, 3, 3) (`_element_entries` for all nine pairs)."""
     K, zero = _element_entries(P, T, anisotropy, regions, *_ALL_PAIRS)
@@ -193,7 +304,7 @@ def _element_matrices(P: NDArray[np.float64], T: NDArray[np.int64], anisotropy: 
     return K.reshape(-1, 3, 3)
 
 
-def _assemble(mesh: Mesh, anisotropy: Conductivity | None, index: NDArray[np.int64], n: int) -> sp.csr_matrix:
+def _assemble(mesh: Mesh, anisotropy: Resolved, index: NDArray[np.int64], n: int) -> sp.csr_matrix:
     """Sum the element matrices into an n×n csr matrix; vertex v goes to row index[v] (< 0: dropped)."""
     T = mesh.triangles
     Ke = _element_matrices(mesh.points, T, anisotropy, mesh.region_tags)
@@ -207,12 +318,13 @@ def _assemble(mesh: Mesh, anisotropy: Conductivity | None, index: NDArray[np.int
     return sp.coo_matrix((data, (rows, cols)), shape=(n, n)).tocsr()
 
 
-def stiffness(mesh: Mesh, anisotropy: Conductivity | None) -> sp.csr_matrix:
-    """The N×N P1 stiffness matrix for Q (Neumann: all vertices), Q at each triangle's centroid."""
-    checks.mesh(mesh)
-    _check(anisotropy, mesh, allow_none=True)
+def stiffness(mesh: Mesh, anisotropy: Given) -> sp.csr_matrix:
+    """The N×N P1 stiffness matrix K_ij = Σ_T |T| ∇φ_iᵀ Q_T ∇φ_j (Neumann: all vertices), Q_T
+    each triangle's element mean when the conductivity is given per triangle (or None and the
+    mesh carries its means), else Q at the centroid (None without means: Q = I)."""
+    A = _resolve(mesh, anisotropy)
     n = mesh.n_vertices
-    return _assemble(mesh, anisotropy, np.arange(n), n)
+    return _assemble(mesh, A, np.arange(n), n)
 
 
 def free_vertices(mesh: Mesh) -> NDArray[np.int64]:
@@ -223,25 +335,32 @@ def free_vertices(mesh: Mesh) -> NDArray[np.int64]:
     return np.flatnonzero(used & ~mesh.boundary)
 
 
-def stiffness_interior(mesh: Mesh, anisotropy: Conductivity | None) -> sp.csr_matrix:
+def stiffness_interior(mesh: Mesh, anisotropy: Given) -> sp.csr_matrix:
     """The stiffness matrix restricted to `free_vertices(mesh)`, in that order (homogeneous Dirichlet)."""
-    _check(anisotropy, mesh, allow_none=True)
+    return _stiffness_interior(mesh, _resolve(mesh, anisotropy))
+
+
+def _stiffness_interior(mesh: Mesh, anisotropy: Resolved) -> sp.csr_matrix:
     idx = free_vertices(mesh)
     index = np.full(mesh.n_vertices, -1, dtype=np.int64)
     index[idx] = np.arange(len(idx))
     return _assemble(mesh, anisotropy, index, len(idx))
 
 
-def edge_weights(mesh: Mesh, anisotropy: Conductivity | None
+def edge_weights(mesh: Mesh, anisotropy: Given
                  ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.bool_]]:
     """Every edge (k, 2) (i < j), its weight q_ij = −K_ij (k,), and whether it is interior (k,).
 
-    For constant Q, q_ij = (√det Q / 2)(cot θ'_k + cot θ'_l) (MATH.md, Glickenstein 2007).
-    Summed per edge from the element matrices, so no sparse look-up is needed; on a boundary
-    edge (one triangle) q_ij is the off-diagonal entry of that triangle's element matrix.
+    q_ij = ½ Σ_T √det Q_T cot θ_k^T, θ_k^T the angle opposite the edge in T measured in
+    adj Q_T (MATH.md, Glickenstein 2007; FIELDS.md §3). Summed per edge from the element
+    matrices, so no sparse look-up is needed; on a boundary edge (one triangle) q_ij is the
+    off-diagonal entry of that triangle's element matrix. The conductivity as in `stiffness`.
     """
-    checks.mesh(mesh)
-    _check(anisotropy, mesh, allow_none=True)
+    return _edge_weights(mesh, _resolve(mesh, anisotropy))
+
+
+def _edge_weights(mesh: Mesh, anisotropy: Resolved
+                  ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.bool_]]:
     T = mesh.triangles
     # −K_T[a, b] for the three corner pairs only, CHUNK triangles at a time (the (M, 3, 3)
     # element matrices of a whole mesh would be the largest array of `qmesh mesh`'s summary at 1e6)
@@ -249,7 +368,7 @@ def edge_weights(mesh: Mesh, anisotropy: Conductivity | None
     regions = mesh.region_tags
     zero = 0                                                   # counted over all blocks
     for c in chunks(len(T)):
-        K, z = _element_entries(mesh.points, T[c], anisotropy,
+        K, z = _element_entries(mesh.points, T[c], _rows(anisotropy, c),
                                 None if regions is None else regions[c], *_EDGE_PAIRS)
         q_part[:, c], zero = -K.T, zero + z
     _refuse_zero_areas(zero)
@@ -258,6 +377,32 @@ def edge_weights(mesh: Mesh, anisotropy: Conductivity | None
     # summed per (i, j) by a sparse matrix (a counting sort), in the order of sorted (i, j)
     edges, (q, count) = _sum_per_edge(pairs, mesh.n_vertices, q_part, np.ones(len(q_part), np.int8))
     return edges, q, count == 2                                       # q_ij = −K_ij (2.67)
+
+
+EdgeKind = Literal["interior", "interface", "boundary"]
+
+
+def edge_q(mesh: Mesh, conductivity: Given = None
+           ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.str_]]:
+    """Every edge (E, 2) (i < j, sorted), its q_ij = −K_ij (E,), and its kind (E,): "interior"
+    (two triangles of one region), "interface" (two triangles of different regions) or
+    "boundary" (one triangle) — what a caller needs to certify a mesh: the Dirichlet matrix is
+    an M-matrix when q_ij ≥ 0 on every interior and interface edge, the Neumann one when also on
+    the boundary edges.
+
+    q_ij = ½ Σ_T √det Q̄_T cot θ_k^T (θ_k^T opposite the edge in T, measured in H_T = adj Q̄_T),
+    equivalently −K_ij with K_ij = Σ_T |T| ∇φ_iᵀ Q̄_T ∇φ_j (FIELDS.md §3). `conductivity`: one Q
+    per triangle (M, 2, 2), a TensorField (its element means), an Anisotropy or {tag: ...}; None
+    takes the mesh's element means, or Q = I when it carries none.
+    """
+    A = _resolve(mesh, conductivity, "conductivity")
+    edges, q, interior = _edge_weights(mesh, A)
+    kind = np.full(len(q), "boundary", dtype="<U9")
+    kind[interior] = "interior"
+    tags = mesh.region_tags
+    if len(tags) and tags.min() != tags.max():
+        kind[interface_edges(mesh)[1]] = "interface"
+    return edges, q, kind
 
 
 def _edge_pairs(T: NDArray[np.int64], n: int) -> NDArray[np.signedinteger]:
@@ -291,11 +436,11 @@ def interface_edges(mesh: Mesh) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
     return edges, (count == 2) & (2.0 * squares > total * total)
 
 
-def _relative_q(mesh: Mesh, anisotropy: Conductivity | None,
+def _relative_q(mesh: Mesh, anisotropy: Resolved,
                 split: bool = False) -> tuple[NDArray[np.float64], ...]:
     """Interior and boundary q_ij, each divided by max |q| over all edges; with `split`, the
     interior ones apart from the interface ones: (interior, boundary, interface)."""
-    _, q, interior = edge_weights(mesh, anisotropy)
+    _, q, interior = _edge_weights(mesh, anisotropy)
     scale = np.abs(q).max() if len(q) else 1.0
     r = q / (scale if scale > 0 else 1.0)
     if not split:
@@ -306,14 +451,15 @@ def _relative_q(mesh: Mesh, anisotropy: Conductivity | None,
     return r[interior & ~inter], r[~interior], r[interior & inter]
 
 
-def q_nonnegative_fractions(mesh: Mesh, anisotropy: Conductivity | None,
+def q_nonnegative_fractions(mesh: Mesh, anisotropy: Given,
                             rtol: float = 1e-9) -> dict[str, float | None]:
     """The shares of q_ij ≥ −rtol·max|q| as `report` gives them, from one assembly:
     "q_nonnegative_fraction" (interior edges; None also with no interior vertex: no Dirichlet
     matrix), "q_nonnegative_fraction_boundary", and "q_nonnegative_fraction_interface" when
     the mesh has interface edges or `anisotropy` is a mapping."""
     rtol = checks.real(rtol, "rtol", low=0.0, high=1.0)
-    return _shares(_relative_q(mesh, anisotropy, split=True), len(free_vertices(mesh)) > 0,
+    A = _resolve(mesh, anisotropy)
+    return _shares(_relative_q(mesh, A, split=True), len(free_vertices(mesh)) > 0,
                    isinstance(anisotropy, Mapping), rtol)
 
 
@@ -327,24 +473,24 @@ def _shares(relative: tuple[NDArray[np.float64], ...], has_interior: bool, per_r
     return out
 
 
-def q_nonnegative_fraction(mesh: Mesh, anisotropy: Conductivity | None, rtol: float = 1e-9) -> float | None:
+def q_nonnegative_fraction(mesh: Mesh, anisotropy: Given, rtol: float = 1e-9) -> float | None:
     """Fraction of interior edges with q_ij ≥ −rtol·max|q| (None when there is no interior edge).
 
     ≥ 0 on every interior edge makes the Dirichlet stiffness matrix an M-matrix.
     """
     rtol = checks.real(rtol, "rtol", low=0.0, high=1.0)
-    return _fraction_nonnegative(_relative_q(mesh, anisotropy, split=True)[0], rtol)
+    return _fraction_nonnegative(_relative_q(mesh, _resolve(mesh, anisotropy), split=True)[0], rtol)
 
 
-def q_nonnegative_fraction_interface(mesh: Mesh, anisotropy: Conductivity | None,
+def q_nonnegative_fraction_interface(mesh: Mesh, anisotropy: Given,
                                      rtol: float = 1e-9) -> float | None:
     """Fraction of interface edges (two triangles of different regions, each with its own Q)
     with q_ij ≥ −rtol·max|q| (None when there is none). MEDIA.md §2."""
     rtol = checks.real(rtol, "rtol", low=0.0, high=1.0)
-    return _fraction_nonnegative(_relative_q(mesh, anisotropy, split=True)[2], rtol)
+    return _fraction_nonnegative(_relative_q(mesh, _resolve(mesh, anisotropy), split=True)[2], rtol)
 
 
-def q_nonnegative_fraction_boundary(mesh: Mesh, anisotropy: Conductivity | None,
+def q_nonnegative_fraction_boundary(mesh: Mesh, anisotropy: Given,
                                     rtol: float = 1e-9) -> float | None:
     """Fraction of boundary edges with q_ij ≥ −rtol·max|q| (None when there is no boundary edge).
 
@@ -352,7 +498,7 @@ def q_nonnegative_fraction_boundary(mesh: Mesh, anisotropy: Conductivity | None,
     as well as inside makes the Neumann stiffness matrix an M-matrix too.
     """
     rtol = checks.real(rtol, "rtol", low=0.0, high=1.0)
-    return _fraction_nonnegative(_relative_q(mesh, anisotropy)[1], rtol)
+    return _fraction_nonnegative(_relative_q(mesh, _resolve(mesh, anisotropy))[1], rtol)
 
 
 def _fraction_nonnegative(r: NDArray[np.float64], rtol: float) -> float | None:
@@ -361,31 +507,176 @@ def _fraction_nonnegative(r: NDArray[np.float64], rtol: float) -> float | None:
 
 # --------------------------------------------------------------------------- conditioning
 
-def condition_number(mesh: Mesh, anisotropy: Conductivity | None = None, *,
-                     method: Literal["auto", "dense", "sparse"] = "auto", tol: float = 1e-10) -> float:
-    """κ2 = λ_max / λ_min of the Dirichlet-reduced stiffness matrix (MATH.md "conditioning").
+KAPPA_LIMIT = 1e-3 / float(np.finfo(float).eps)
+"""Above this κ2 (≈ 4.5e12) the computed λ_min is mostly round-off (its relative error is about
+κ2·ε times a modest factor): the matrix is reported numerically singular, with no κ2."""
 
-    `anisotropy=None` is the Laplacian (Q = I). `method`: "dense" (eigvalsh), "sparse"
-    (eigsh for λ_max; λ_min as 1 / the largest eigenvalue of K⁻¹ applied by a sparse LU),
-    or "auto" (dense up to DENSE_LIMIT unknowns). `tol` is eigsh's relative tolerance.
+
+class Conditioning(NamedTuple):
+    """κ2 = λ_max / λ_min of the Dirichlet stiffness matrix, or why there is none.
+
+    `kappa2` is a finite number ≥ 1 or None; when None, `reason` says why (no interior vertex,
+    a part of the mesh that touches no boundary, a degenerate triangle, Q not positive definite,
+    numerically singular). λ_min and λ_max are given when computed.
     """
-    checks.mesh(mesh)
-    _check(anisotropy, mesh, allow_none=True)
+
+    kappa2: float | None
+    reason: str | None = None
+    lambda_min: float | None = None
+    lambda_max: float | None = None
+
+
+def condition_number(mesh: Mesh, anisotropy: Given = None, *,
+                     method: Literal["auto", "dense", "sparse"] = "auto", tol: float = 1e-8) -> float:
+    """κ2 = λ_max / λ_min of the Dirichlet-reduced stiffness matrix (MATH.md "conditioning"),
+    always a finite number ≥ 1: QmeshError saying why when the matrix has none (see
+    `conditioning`, which returns the reason instead of raising)."""
+    c = conditioning(mesh, anisotropy, method=method, tol=tol)
+    if c.kappa2 is None:
+        raise QmeshError(f"κ2 is undefined: {c.reason}")
+    return c.kappa2
+
+
+def conditioning(mesh: Mesh, anisotropy: Given = None, *,
+                 method: Literal["auto", "dense", "sparse"] = "auto", tol: float = 1e-8) -> Conditioning:
+    """κ2 of the Dirichlet-reduced stiffness matrix K (`stiffness_interior`), or why there is none.
+
+    K = Σ_T K_T with K_T = G_T Q_T G_Tᵀ / |T| positive semi-definite when Q_T is, with kernel the
+    constants on T (2.69); so K is positive definite exactly when every Q_T is, no triangle is
+    degenerate and every connected part of the mesh has a boundary vertex (else the constants on
+    that part are in its kernel). These are checked first, from the mesh alone; then
+    "dense" (n ≤ DENSE_LIMIT under "auto"): eigvalsh; "sparse": λ_max by Lanczos on K (eigsh,
+    matrix-vector products only) and λ_min as 1 / the largest eigenvalue of K⁻¹, by Lanczos
+    with K⁻¹ applied by ONE sparse factorisation (SuperLU, symmetric mode: minimum degree on
+    Kᵀ + K, diagonal pivots). `tol` is the Lanczos residual tolerance relative to the eigenvalue;
+    the eigenvalue itself is then accurate to about tol² relative. A κ2 above KAPPA_LIMIT is
+    round-off and is reported as numerically singular.
+
+    `anisotropy` as in `stiffness` (None: the mesh's element means, or Q = I without them).
+    """
     checks.choice(method, "method", ("auto", "dense", "sparse"))
     tol = checks.real(tol, "tol", low=0.0, high=1.0, high_open=True)
-    K = stiffness_interior(mesh, anisotropy)
-    n = K.shape[0]
+    return _conditioning(mesh, _resolve(mesh, anisotropy), method, tol)
+
+
+def _conditioning(mesh: Mesh, anisotropy: Resolved, method: str = "auto", tol: float = 1e-8) -> Conditioning:
+    free = free_vertices(mesh)
+    n = len(free)
     if n == 0:
-        raise QmeshError("the mesh has no interior vertex; κ2 of the Dirichlet matrix is undefined")
+        return Conditioning(None, "the mesh has no interior vertex: there is no Dirichlet matrix")
+    not_spd = _not_positive_definite(mesh, anisotropy)
+    if not_spd:
+        return Conditioning(None, f"Q is not positive definite on {not_spd} of the "
+                                  f"{mesh.n_triangles} triangles: K is not a conductivity's matrix")
+    floating = _floating(mesh, free)
+    if floating:
+        return Conditioning(None, f"{floating} of the {n} interior vertices lie in parts of the mesh "
+                                  "that touch no boundary vertex (a mesh still being built?): the "
+                                  "Dirichlet matrix is singular there")
+    try:
+        K = _stiffness_interior(mesh, anisotropy)
+    except QmeshError as e:                                  # zero-area triangles
+        return Conditioning(None, str(e))
     if method == "dense" or n < 3 or (method == "auto" and n <= DENSE_LIMIT):
         w = scipy.linalg.eigvalsh(K.toarray())
-        return float(w[-1] / w[0])
+        return _ratio(float(w[0]), float(w[-1]))
     v0 = np.random.default_rng(0).random(n)                   # fixed start: same mesh ⇒ same κ2
-    lmax = spla.eigsh(K, k=1, which="LA", tol=tol, v0=v0, return_eigenvectors=False)[0]
-    lu = spla.splu(K.tocsc())        # COLAMD: MMD_AT_PLUS_A fills less but orders far slower
-    K_inv = spla.LinearOperator((n, n), matvec=lu.solve, dtype=float)
-    mu = spla.eigsh(K_inv, k=1, which="LA", tol=tol, v0=v0, return_eigenvectors=False)[0]
-    return float(lmax * mu)
+    lmax = _largest_eigenvalue(K.dot, v0, tol)
+    try:             # minimum degree on Kᵀ + K: a third less fill than COLAMD, so faster solves
+        lu = spla.splu(K.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                       options={"SymmetricMode": True})
+    except RuntimeError:                                       # SuperLU: "exactly singular"
+        return Conditioning(None, "the Dirichlet matrix is singular (a zero pivot)", None, lmax)
+    mu = _largest_eigenvalue(lu.solve, v0, tol)                # 1 / λ_min, one solve a step
+    return _ratio(1.0 / mu if mu > 0 else -np.inf, lmax)
+
+
+LANCZOS_STEPS = 600
+"""Lanczos steps before `_largest_eigenvalue` hands over to ARPACK (eigsh)."""
+
+
+def _dot(a: NDArray[np.float64], b: NDArray[np.float64]) -> float:
+    # einsum's own loop, not BLAS: OpenBLAS threads a long dot product, and on a busy machine
+    # its threads wait for each other (κ2 at 1e5 took several times longer that way)
+    return float(np.einsum("i,i->", a, b))
+
+
+def _largest_eigenvalue(apply: Callable[[NDArray[np.float64]], NDArray[np.float64]],
+                        v0: NDArray[np.float64], tol: float) -> float:
+    """The largest eigenvalue of a symmetric operator x ↦ apply(x), by the Lanczos recurrence
+    β_{k+1} v_{k+1} = A v_k − α_k v_k − β_k v_{k−1}, stopped when the largest Ritz value θ of
+    the tridiagonal T_k has the residual ‖A y − θ y‖ = β_{k+1} |s_k| ≤ tol·|θ| (s its
+    eigenvector of T_k). Without reorthogonalisation: lost orthogonality only repeats converged
+    Ritz values, and the largest one converges as in exact arithmetic (Paige 1971). ARPACK's
+    eigsh when LANCZOS_STEPS are not enough; NaN when `apply` gives non-finite numbers.
+    """
+    v = v0 / np.sqrt(_dot(v0, v0))
+    v_old = np.zeros_like(v)
+    alpha: list[float] = []
+    beta: list[float] = []
+    b = 0.0
+    for k in range(LANCZOS_STEPS):
+        w = np.asarray(apply(v), dtype=float)
+        if b:
+            w -= b * v_old
+        a = _dot(w, v)
+        w -= a * v
+        b = np.sqrt(_dot(w, w))
+        alpha.append(a)
+        if not (np.isfinite(a) and np.isfinite(b)):
+            return float("nan")
+        theta, s = scipy.linalg.eigh_tridiagonal(np.array(alpha), np.array(beta), select="i",
+                                                 select_range=(k, k))
+        if b * abs(s[-1, 0]) <= tol * abs(theta[0]) or b == 0.0:
+            return float(theta[0])
+        beta.append(b)
+        v_old, v = v, w / b
+    n = len(v0)
+    op = spla.LinearOperator((n, n), matvec=apply, dtype=float)
+    return float(spla.eigsh(op, k=1, which="LA", tol=tol, v0=v0, return_eigenvectors=False)[0])
+
+
+def _ratio(lmin: float, lmax: float) -> Conditioning:
+    """κ2 = λ_max / λ_min when it is a number from 1 to KAPPA_LIMIT; else why not."""
+    if not (np.isfinite(lmin) and np.isfinite(lmax)) or lmin <= 0.0 or lmax <= 0.0:
+        return Conditioning(None, f"the Dirichlet matrix is not positive definite (λ_min = {lmin:.3g})",
+                            lmin, lmax)
+    kappa = lmax / lmin
+    if not kappa <= KAPPA_LIMIT:
+        return Conditioning(None, f"the Dirichlet matrix is numerically singular (λ_max/λ_min ≈ "
+                                  f"{kappa:.2g}, beyond what double precision resolves)", lmin, lmax)
+    return Conditioning(float(max(kappa, 1.0)), None, lmin, lmax)
+
+
+def _not_positive_definite(mesh: Mesh, anisotropy: Resolved) -> int:
+    """How many triangles' Q_T are not symmetric positive definite (0 for Q = I and a constant Q,
+    which Anisotropy.constant checked)."""
+    if anisotropy is None:
+        return 0
+    parts = list(anisotropy.values()) if isinstance(anisotropy, Mapping) else [anisotropy]
+    if all(getattr(a, "H", None) is not None for a in parts):
+        return 0
+    x, y = corners(mesh.points, mesh.triangles)
+    q11, q12, q22 = (np.broadcast_to(q, (mesh.n_triangles,))
+                     for q in _conductivity(x, y, anisotropy, mesh.region_tags))
+    with np.errstate(invalid="ignore"):
+        ok = (q11 > 0) & (q11 * q22 - q12 * q12 > 0)
+    return int(np.count_nonzero(~ok))
+
+
+def _floating(mesh: Mesh, free: NDArray[np.int64]) -> int:
+    """How many of the `free` vertices lie in a connected part of the mesh (triangles sharing a
+    vertex) with no boundary vertex."""
+    T = mesh.triangles
+    n = mesh.n_vertices
+    graph = sp.coo_matrix((np.ones(2 * T.size, np.int8),
+                           (np.r_[T[:, 0], T[:, 1], T[:, 2], T[:, 1], T[:, 2], T[:, 0]],
+                            np.r_[T[:, 1], T[:, 2], T[:, 0], T[:, 0], T[:, 1], T[:, 2]])),
+                          shape=(n, n)).tocsr()
+    count, labels = csgraph.connected_components(graph, directed=False)
+    grounded = np.zeros(count, bool)
+    grounded[labels[mesh.boundary]] = True
+    return int(np.count_nonzero(~grounded[labels[free]]))
 
 
 # --------------------------------------------------------------------------- interpolation
@@ -406,17 +697,17 @@ def _interpolation_error_at_points(P: NDArray[np.float64], T: NDArray[np.int64],
     return s_vertex @ quadrature.DUNAVANT4_POINTS.T - s_q.reshape(len(T), -1)
 
 
-def interpolation_errors(mesh: Mesh, anisotropy: Conductivity) -> tuple[float, float]:
+def interpolation_errors(mesh: Mesh, anisotropy: Given) -> tuple[float, float]:
     """(‖s_h − s‖_L2 (2.96), |s_h − s|_h1 = ‖∇s_h − ∇s‖_L2 (2.97)), exact for quadratic s.
 
     Both integrands are integrated with the degree-4 Dunavant rule: (s_h − s)² has degree 4 and
-    |∇s_h − ∇s|² degree 2 when s is quadratic.
+    |∇s_h − ∇s|² degree 2 when s is quadratic. QmeshError without an s (a per-triangle Q).
     """
-    checks.mesh(mesh)
+    A = _resolve(mesh, anisotropy, allow_none=False)
     l2 = h1 = 0.0
-    for sel, A in _by_region(mesh, anisotropy):
-        a, b = _interpolation_errors2(mesh.points, mesh.triangles[sel], A)
-        l2, h1 = l2 + a, h1 + b
+    for sel, a in _by_region(mesh, A, "the interpolation errors (2.96)-(2.97)"):
+        e2, g2 = _interpolation_errors2(mesh.points, mesh.triangles[sel], a)
+        l2, h1 = l2 + e2, h1 + g2
     return float(np.sqrt(l2)), float(np.sqrt(h1))
 
 
@@ -440,32 +731,38 @@ def _interpolation_errors2(P: NDArray[np.float64], T: NDArray[np.int64],
 
 # --------------------------------------------------------------------------- report
 
-def report(mesh: Mesh, anisotropy: Conductivity) -> Report:
+def report(mesh: Mesh, anisotropy: Given = None) -> Report:
     """All measurements of one mesh as plain Python numbers (JSON-serialisable).
 
     Entries that need a stiffness matrix or ∇s_h are None when the mesh has a zero-area
-    triangle; κ2 is None when there is no interior vertex; a share of q_ij ≥ 0 is None when
-    there is no edge of its kind (interior, boundary), and the interior share also when there
-    is no interior vertex (no Dirichlet matrix whose signs would matter).
+    triangle; κ2 is None when the Dirichlet matrix has none — no interior vertex, a part of the
+    mesh with no boundary vertex, Q not positive definite, numerically singular — and then
+    `kappa2_undefined` says why (`conditioning`); a share of q_ij ≥ 0 is None when there is no
+    edge of its kind (interior, boundary), and the interior share also when there is no
+    interior vertex (no Dirichlet matrix whose signs would matter).
 
     `anisotropy` may be a mapping {region tag: Anisotropy}: every triangle then uses its own
     region's Q. When the mesh has interface edges (or a mapping is given), the interior share
     counts edges inside one region, and `q_nonnegative_fraction_interface` /
-    `min_q_ij_relative_interface` the interface edges (MEDIA.md §4).
+    `min_q_ij_relative_interface` the interface edges (MEDIA.md §4). With one Q per triangle —
+    None for a mesh that carries its element means, an array (M, 2, 2) or a TensorField — the
+    stiffness matrix, q_ij, κ2 and the quality use those means, and the energy and the
+    interpolation errors, which need an s, are None. κ2 is computed once per matrix
+    (`kappa2` with the conductivity, `kappa2_laplacian` with Q = I).
     """
-    checks.mesh(mesh)
-    _check(anisotropy, mesh)
+    A = _resolve(mesh, anisotropy, allow_none=False)
     P, T = mesh.points, mesh.triangles
     area = signed_areas(P, T)
-    qual = quality(mesh, anisotropy)
+    qual = quality(mesh, A)
     n_interior = int(len(free_vertices(mesh)))
+    has_s = _has_s(A)
     out: Report = {
         "n_vertices": int(mesh.n_vertices),
         "n_triangles": int(mesh.n_triangles),
         "n_boundary": int(mesh.boundary.sum()),
         "n_interior": n_interior,
         "inverted_triangles": int(np.sum(area <= 0.0)),
-        "energy": energy(mesh, anisotropy),
+        "energy": energy(mesh, A) if has_s else None,
         "min_quality": float(qual.min()) if len(qual) else None,
         "mean_quality": float(qual.mean()) if len(qual) else None,
         "l2_error": None, "h1_error": None, "kappa2": None, "kappa2_laplacian": None,
@@ -473,17 +770,22 @@ def report(mesh: Mesh, anisotropy: Conductivity) -> Report:
         "min_q_ij_relative": None, "min_q_ij_relative_boundary": None,
     }
     if len(T) == 0 or np.any(area == 0.0):
+        out["kappa2_undefined"] = ("the mesh has no triangle" if len(T) == 0 else
+                                   "the mesh has degenerate (zero-area) triangles")
         return out
-    out["l2_error"], out["h1_error"] = interpolation_errors(mesh, anisotropy)
-    r_in, r_b, r_if = relative = _relative_q(mesh, anisotropy, split=True)
+    if has_s:
+        out["l2_error"], out["h1_error"] = interpolation_errors(mesh, A)
+    r_in, r_b, r_if = relative = _relative_q(mesh, A, split=True)
     out.update(_shares(relative, n_interior > 0, isinstance(anisotropy, Mapping), 1e-9))
     if len(r_if) or isinstance(anisotropy, Mapping):
         out["min_q_ij_relative_interface"] = float(r_if.min()) if len(r_if) else None
     out["min_q_ij_relative"] = float(r_in.min()) if len(r_in) else None
     out["min_q_ij_relative_boundary"] = float(r_b.min()) if len(r_b) else None
-    if n_interior > 0:
-        out["kappa2"] = condition_number(mesh, anisotropy)
-        out["kappa2_laplacian"] = condition_number(mesh, None)
+    kappa = _conditioning(mesh, A)
+    out["kappa2"] = kappa.kappa2
+    if kappa.kappa2 is None:
+        out["kappa2_undefined"] = kappa.reason
+    out["kappa2_laplacian"] = _conditioning(mesh, None).kappa2
     return out
 
 
