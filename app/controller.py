@@ -259,9 +259,10 @@ class Controller:
                         row["q_nonnegative_sh"] = measure.sh_convex_fraction(step.mesh, self._anisotropy)
                     row["q_nonnegative"] = measure.q_nonnegative_fraction(step.mesh,
                                                                           self._anisotropy)
-                    row["kappa2"] = measure.condition_number(step.mesh, self._anisotropy)
-                except QmeshError:          # degenerate triangles mid-run: no stiffness matrix
-                    pass
+                    kappa = measure.conditioning(step.mesh, self._anisotropy)
+                    row["kappa2"], row["kappa2_reason"] = kappa.kappa2, kappa.reason
+                except QmeshError as e:     # degenerate triangles mid-run: no stiffness matrix
+                    row["kappa2_reason"] = str(e)
                 self._cache[i] = row
         return dict(row, history_length=len(self.history), done=self.done)
 
@@ -282,13 +283,15 @@ def _stats_row(step) -> dict:
             "n_vertices": st.n_vertices, "n_triangles": st.n_triangles,
             "energy": st.energy, "min_quality": st.min_quality,
             "mean_quality": st.mean_quality, "q_nonnegative": None, "kappa2": None,
-            "q_nonnegative_sh": None,
+            "kappa2_reason": None, "q_nonnegative_sh": None,
             "added": 0 if step.added is None else len(step.added),
             "converged": step.converged}
 
 
 def status_text(s: dict) -> str:
-    """One status line: iteration, stage, N, E, min/mean quality, fraction q_ij ≥ 0, κ2."""
+    """One status line: iteration, stage, N, E, min/mean quality, fraction q_ij ≥ 0, κ2 ("—"
+    when the stage's Dirichlet matrix has none: the reason goes to the message row; "–" while
+    not measured yet), and "converged" only for a Step that says so (a medium's last)."""
     def num(x, fmt):
         return "–" if x is None else format(x, fmt)
     return (f"iteration {s['iteration']} · {s['stage']} · N = {s['n_vertices']} · "
@@ -297,5 +300,5 @@ def status_text(s: dict) -> str:
             f"{num(None if s['q_nonnegative'] is None else 100 * s['q_nonnegative'], '.1f')}% · "
             + ("" if s.get("q_nonnegative_sh") is None else
                f"for s_h: {100 * s['q_nonnegative_sh']:.1f}% · ") +
-            f"κ2 = {num(s['kappa2'], '.3g')}"
+            f"κ2 = {'—' if s.get('kappa2_reason') else num(s['kappa2'], '.3g')}"
             + (" · converged" if s["converged"] else ""))

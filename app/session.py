@@ -125,8 +125,8 @@ class Session:
                         thin = None
                 if thin:
                     notes.append(f"warning: {thin}")
-            if step.stage == "triangulate" and not (~step.mesh.boundary).any():
-                notes.append("κ2 is undefined: the mesh has no interior vertex to solve for")
+            if row.get("kappa2_reason"):                     # shown as "—" in the status line
+                notes.append(f"κ2 is undefined: {row['kappa2_reason']}")
             if self._run.done and i == len(self._run.history) - 1 or step.converged:
                 target, n = self.params.target_vertices, step.mesh.n_vertices
                 if abs(n - target) > 0.1 * target:
