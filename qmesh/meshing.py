@@ -12,14 +12,15 @@ from collections.abc import Iterator, Mapping
 from functools import wraps
 from typing import Any, Union
 
-from qmesh import media
+from qmesh import fields, media
 from qmesh.conductivity.anisotropy import Anisotropy
+from qmesh.conductivity.field import TensorField
 from qmesh.mesher import loop
 from qmesh.mesher.step import Step
 from qmesh.triangle_mesh import Mesh
 
-Conductivity = Union[Anisotropy, Mapping[int, Anisotropy]]
-"""One Anisotropy, or {region tag: Anisotropy} for a medium."""
+Conductivity = Union[Anisotropy, TensorField, Mapping[int, Anisotropy]]
+"""One Anisotropy, a TensorField, or {region tag: Anisotropy} for a medium."""
 
 
 def _heterogeneous(domain: Any, conductivity: Any) -> bool:
@@ -28,6 +29,8 @@ def _heterogeneous(domain: Any, conductivity: Any) -> bool:
 
 @wraps(loop.mesh)
 def mesh(domain: Any, anisotropy: Conductivity, **options: Any) -> Mesh:
+    if isinstance(anisotropy, TensorField) and not getattr(domain, "regions", ()):
+        return fields.mesh(domain, anisotropy, **options)
     if _heterogeneous(domain, anisotropy):
         return media.mesh(domain, anisotropy, **options)
     return loop.mesh(domain, anisotropy, **options)
@@ -35,16 +38,22 @@ def mesh(domain: Any, anisotropy: Conductivity, **options: Any) -> Mesh:
 
 @wraps(loop.iterate)
 def iterate(domain: Any, anisotropy: Conductivity, **options: Any) -> Iterator[Step]:
+    if isinstance(anisotropy, TensorField) and not getattr(domain, "regions", ()):
+        return fields.iterate(domain, anisotropy, **options)
     if _heterogeneous(domain, anisotropy):
         return media.iterate(domain, anisotropy, **options)
     return loop.iterate(domain, anisotropy, **options)
 
 
 mesh.__doc__ = (loop.mesh.__doc__ or "") + """
+    A `TensorField` Q(x) (a formula, a callable or a raster) is meshed in the shape of Q and
+    certified: every q_ij ≥ 0 with the stiffness assembled from the element means, which the
+    mesh carries (`Mesh.conductivity`; `qmesh.fields`).
     A domain with regions or a mapping {region tag: Anisotropy} is a medium (`qmesh.media`):
     each face meshed by the same loop in its region's metric, q_ij ≥ 0 on interface edges too.
     """
 iterate.__doc__ = (loop.iterate.__doc__ or "") + """
+    A `TensorField`: a Step per stage on the field's metric, then the certified mesh.
     A domain with regions or a mapping {region tag: Anisotropy} is a medium: a Step per stage of
     every face's run (the faces done so far stitched in), the whole domain last.
     """

@@ -28,6 +28,8 @@ from qmesh.triangle_mesh import Mesh
 
 ROUND = 1e-12       # q_ij may fall below 0 by this share of Σ|q_ij^T| (round-off of the assembly)
 MAX_ROUNDS = 400    # rounds of flips and splits before the remaining edges are reported
+STALL = 30          # ... or rounds without fewer failing edges than the best so far
+SHORTEST = 1e-9     # edges shorter than this share of the domain's extent are not split
 
 
 @dataclass(frozen=True)
@@ -67,10 +69,15 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS) -> tuple[Mesh, Cert
     Qbar, err = field.means_with_error(P, T)
     Qbar, err = np.array(Qbar, dtype=float), np.array(err, dtype=float)
     flips = added = 0
+    shortest = SHORTEST * float(np.ptp(P, axis=0).max())
+    fewest, since = np.inf, 0
     for rounds in range(max_rounds + 1):
         s, b = shares(P, T, Qbar, err)
         h, q, slack = _failing(s, b, twin)
-        if not len(h) or rounds == max_rounds:
+        if len(h) < fewest:
+            fewest, since = len(h), 0
+        since += 1
+        if not len(h) or rounds == max_rounds or since > STALL:
             break
         done = _flips(P, T, twin, h, q, field)
         if len(done):
@@ -78,7 +85,10 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS) -> tuple[Mesh, Cert
             T, twin = topology.flip(T, twin, done)
             flips += len(done)
         else:
-            P, T, twin, fixed, out, t = _splits(P, T, twin, fixed, out, h, q)
+            keep = _longer(P, T, h, shortest)
+            if not keep.any():
+                break
+            P, T, twin, fixed, out, t = _splits(P, T, twin, fixed, out, h[keep], q[keep])
             added = len(P) - mesh.n_vertices
         Qbar, err = _refresh(field, P, T, Qbar, err, t)
     worst = float(slack.min()) if len(slack) else 0.0
@@ -98,9 +108,15 @@ def _failing(s, b, twin):
     scale = np.abs(s) + np.where(inner, np.abs(s[g]), 0.0)
     one = ~inner | (np.arange(len(twin)) < twin)            # each edge once
     slack = (q - bound)[one] / np.where(scale[one] > 0, scale[one], 1.0)
-    bad = one & (q - bound < -ROUND * scale)
+    bad = one & ~(q - bound >= -ROUND * scale)          # NaN fails too
     h = np.flatnonzero(bad)
     return h, q[h], slack
+
+
+def _longer(P, T, h, shortest: float) -> np.ndarray:
+    """Which half-edges h are longer than `shortest` (split no further: no flat triangles)."""
+    a, b = T[h // 3, h % 3], T[h // 3, topology.NXT[h % 3]]
+    return np.hypot(*(P[b] - P[a]).T) > shortest
 
 
 def _independent(h, q, tris):

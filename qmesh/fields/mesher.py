@@ -31,7 +31,7 @@ def iterate(domain: Any, field: Any, *, target_vertices: int | None = None,
     mesh passes q_ij ≥ 0 on every edge with the element means (`Mesh.conductivity`), the only
     one `converged`. The options are those of a constant Q (`qmesh.iterate`)."""
     domain = as_domain(domain)
-    metric = field_metric(field, smoothing_width(domain, target_vertices, size))
+    metric = field_metric(field, smoothing_width(domain, target_vertices, size), domain.bounds)
     steps = loop.iterate(domain, metric, target_vertices=target_vertices, size=size, **options)
     return _certified(steps, field, metric)
 

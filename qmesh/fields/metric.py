@@ -30,20 +30,26 @@ def smoothing_width(domain, target_vertices: int | None, size: float | None) -> 
     return float(np.mean(np.hypot(*(B - A).T)))
 
 
-def smoothed(field, P: NDArray[np.float64], width: float) -> NDArray[np.float64]:
+def smoothed(field, P: NDArray[np.float64], width: float, box) -> NDArray[np.float64]:
     """Q averaged over the square of half-side `width` around each point: exact cell areas for
-    a raster (`box_means`), a 2 × 2 Gauss rule for a formula."""
-    P = np.asarray(P, dtype=float)
+    a raster (`box_means`), a 2 × 2 Gauss rule for a formula. Q is only asked for in `box`
+    (Ω's bounding box, (lo, hi)): the mesher probes its metric near Ω, and a user's Q need only
+    be defined on Ω; a sample outside is mirrored into the box (clamping would put the samples
+    of a corner onto the corner, where a field may be singular)."""
+    lo, hi = box
+    P = np.clip(np.asarray(P, dtype=float), lo, hi)
     if field.is_raster:
         return np.asarray(field.box_means(P, width), dtype=float)
     X = (P[:, None, :] + width * _GAUSS[None]).reshape(-1, 2)
+    X = np.where(X < lo, 2 * lo - X, X)
+    X = np.clip(np.where(X > hi, 2 * hi - X, X), lo, hi)
     return np.asarray(field(X), dtype=float).reshape(len(P), 4, 2, 2).mean(axis=1)
 
 
-def field_metric(field, width: float) -> Anisotropy:
-    """The metric-only Anisotropy H = adj Q̃ / √det Q̃ of `field` smoothed at `width`."""
+def field_metric(field, width: float, box) -> Anisotropy:
+    """The metric-only Anisotropy H = adj Q̃ / √det Q̃ of `field` smoothed at `width` in `box`."""
     def hessian(P: NDArray[np.float64]) -> NDArray[np.float64]:
-        A = adj2(smoothed(field, P, width))
+        A = adj2(smoothed(field, P, width, box))
         det = A[:, 0, 0] * A[:, 1, 1] - A[:, 0, 1] * A[:, 1, 0]
         return A / np.sqrt(det)[:, None, None]
     return Anisotropy.metric_only(hessian, getattr(field, "label", "") or "tensor field")

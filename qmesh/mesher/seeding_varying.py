@@ -252,7 +252,8 @@ def initial_points(domain, anisotropy, n: int, rng) -> np.ndarray:
     area_m = sizing.metric_area(domain, anisotropy)
     cell = np.sqrt(3.0) / 2.0                         # lattice area per point is cell·h²
     h = np.sqrt(area_m / (cell * n))
-    _check_followable(domain, anisotropy, h, n)
+    if anisotropy.potential:     # a tensor field's mesh is certified on its means instead
+        _check_followable(domain, anisotropy, h, n)
     best = np.empty((0, 2))
     for _ in range(PASSES):
         X, H, prio = _patch_lattices(domain, anisotropy, h, Lbar)
