@@ -1,7 +1,11 @@
 """Fixtures shared by the test suites (the chapter's anisotropy, a small mesh made without qmesh's
-mesher) and the order the suite runs in: tests marked `slow(seconds)` (each starts a server, a
-browser or a kernel) go first, longest first, so that the workers of `pytest -n` share them out
-and the many quick tests fill in behind (see the README's test command)."""
+mesher), the suite's Hypothesis profile and the shared browser's lifetime.
+
+The suite runs on pytest-xdist in collection order with `--dist worksteal` (.ci/run): each
+worker starts on its half of the tests, and one that runs out takes half of what another has
+left, so the tests marked `slow` (over ~8 s: a server, a browser, a kernel) are shared out
+without a hand-made order; `-m "not slow"` leaves them out. pytest-timeout ends any test after
+the default `timeout` of pyproject.toml."""
 
 import os
 import sys
@@ -41,15 +45,6 @@ def delaunay_mesh():
     T[cw] = T[cw][:, [0, 2, 1]]
     fixed = np.arange(len(P)) < len(corners)
     return qmesh.Mesh(P, T, fixed)
-
-
-def pytest_collection_modifyitems(items):
-    """Slow tests first, longest first; the rest in their usual order (a stable sort: the same
-    order on every worker, as pytest-xdist requires)."""
-    def seconds(item):
-        mark = item.get_closest_marker("slow")
-        return mark.args[0] if mark else 0
-    items.sort(key=lambda item: -seconds(item))
 
 
 def pytest_runtest_setup(item):

@@ -22,7 +22,7 @@ def _iteration_stage(line):
     return int(m.group(1)), m.group(2), int(m.group(3))
 
 
-@pytest.mark.slow(21)
+@pytest.mark.slow
 def test_app_session_in_chromium():
     with b.qmesh_view_server() as url, b.chromium_page(url) as page:
         start = b.wait_drawn(page)
@@ -122,7 +122,7 @@ def _target(page):
     return page.locator("#field-target input").input_value()
 
 
-@pytest.mark.slow(12)
+@pytest.mark.slow
 def test_vb_past_the_target_and_a_refused_target_never_wedge_the_controls():
     with b.qmesh_view_server() as url, b.chromium_page(url) as page:
         b.wait_drawn(page)
@@ -168,7 +168,7 @@ def test_vb_past_the_target_and_a_refused_target_never_wedge_the_controls():
         b.save(page, "browser-vb-recovered")
 
 
-@pytest.mark.slow(12)
+@pytest.mark.slow
 def test_choosing_l_shape_and_uploading_a_polygon_file(tmp_path):
     with b.qmesh_view_server() as url, b.chromium_page(url) as page:
         start = b.wait_drawn(page)
@@ -218,7 +218,7 @@ def test_choosing_l_shape_and_uploading_a_polygon_file(tmp_path):
                 20, "the file field to forget the refused file")
 
 
-@pytest.mark.slow(13)
+@pytest.mark.slow
 def test_s_typed_as_text_remeshes_and_a_hostile_text_shows_an_error():
     with b.qmesh_view_server() as url, b.chromium_page(url) as page:
         start = b.wait_drawn(page)
@@ -263,7 +263,7 @@ def test_s_typed_as_text_remeshes_and_a_hostile_text_shows_an_error():
         b.until(lambda: message.inner_text().strip() == "" or None, 20, "the error to clear")
 
 
-@pytest.mark.slow(9)
+@pytest.mark.slow
 def test_choosing_layered_shows_regions_and_their_q():
     with b.qmesh_view_server() as url, b.chromium_page(url) as page:
         start = b.wait_drawn(page)

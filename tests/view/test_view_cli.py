@@ -88,7 +88,6 @@ print(json.dumps([out, loaded, both]))
 """
 
 
-@pytest.mark.slow(2)
 def test_bad_parameters_give_one_error_line_and_exit_2_before_vtk_or_trame_load():
     """The console script exits 2 with one line; every bad kind is refused by the session's
     checks before the viewer imports VTK and trame (so in well under a second)."""

@@ -50,7 +50,7 @@ def _wait_settled(page, timeout=60.0):
     return b.until(same, timeout, "the page to settle", interval=0)
 
 
-@pytest.mark.slow(22)
+@pytest.mark.slow
 def test_typed_target_fast_slider_keys_and_a_refused_huge_target():
     with b.qmesh_view_server() as url, b.chromium_page(url) as page:
         b.wait_drawn(page)
@@ -142,7 +142,7 @@ def test_typed_target_fast_slider_keys_and_a_refused_huge_target():
         b.save(page, "browser-inputs-refused-2e7")
 
 
-@pytest.mark.slow(11)
+@pytest.mark.slow
 def test_a_warning_is_shown_and_the_mesh_view_is_readable_at_10000():
     with b.qmesh_view_server("--vb", "512", "--target-vertices", "513") as url, \
             b.chromium_page(url) as page:

@@ -37,7 +37,7 @@ def drag(page, slider, fraction: float) -> None:
     page.mouse.up()
 
 
-@pytest.mark.slow(19)
+@pytest.mark.slow
 def test_widget_views_stay_drawn_after_two_slider_moves_in_jupyterlab(tmp_path):
     shutil.copy(NOTEBOOK, tmp_path)
     env = {name: os.environ[name] for name in HEADLESS_ENV}

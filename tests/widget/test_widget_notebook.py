@@ -30,7 +30,6 @@ print("widget ok", c.current.stats.n_vertices)
 """
 
 
-@pytest.mark.slow(3)                      # importing nbformat (jsonschema) takes ~2.5 s
 def test_the_notebook_is_stored_without_outputs():
     import nbformat
     nb = nbformat.read(NOTEBOOK, as_version=4)
@@ -39,7 +38,7 @@ def test_the_notebook_is_stored_without_outputs():
     assert code and all(not c.outputs and c.execution_count is None for c in code)
 
 
-@pytest.mark.slow(5)
+@pytest.mark.slow
 def test_the_notebook_runs_headless_and_its_widget_answers(tmp_path):
     import nbclient
     import nbformat
