@@ -115,9 +115,13 @@ def _rst(paragraph: list[str]) -> list[str]:
 
 def plain_docstring(app, what, name, obj, options, lines):
     """Rewrite a plain-text docstring, in place, into reStructuredText that says the same."""
-    out = []
+    out, literal = [], False
     for paragraph in _paragraphs(lines):
-        out.extend(_rst(paragraph) + [""])
+        if literal:          # after a paragraph ending in "::": its literal block, as written
+            out.extend(["    " + ln for ln in paragraph] + [""])
+        else:
+            out.extend(_rst(paragraph) + [""])
+        literal = paragraph[-1].rstrip().endswith("::")
     lines[:] = out
 
 

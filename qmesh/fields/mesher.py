@@ -21,6 +21,7 @@ from qmesh.fields.certify import certify
 from qmesh.fields.metric import field_metric, smoothing_width
 from qmesh.mesher import loop
 from qmesh.mesher.diagnose import warn_if_thin
+from qmesh.mesher.plan import TOLERANCE
 from qmesh.mesher.step import Stats, Step
 from qmesh.triangle_mesh import Mesh
 
@@ -33,7 +34,7 @@ def iterate(domain: Any, field: Any, *, target_vertices: int | None = None,
     domain = as_domain(domain)
     metric = field_metric(field, smoothing_width(domain, target_vertices, size), domain.bounds)
     steps = loop.iterate(domain, metric, target_vertices=target_vertices, size=size, **options)
-    return _certified(steps, field, metric)
+    return _certified(steps, field, metric, target_vertices)
 
 
 def mesh(domain: Any, field: Any, *, progress: Callable[[Step], object] | None = None,
@@ -50,7 +51,8 @@ def mesh(domain: Any, field: Any, *, progress: Callable[[Step], object] | None =
     return last.mesh
 
 
-def _certified(steps: Iterator[Step], field: Any, metric: Any) -> Iterator[Step]:
+def _certified(steps: Iterator[Step], field: Any, metric: Any,
+               target: int | None) -> Iterator[Step]:
     last = None
     for last in steps:
         yield replace(last, converged=False)
@@ -60,7 +62,7 @@ def _certified(steps: Iterator[Step], field: Any, metric: Any) -> Iterator[Step]
     yield Step("triangulate", last.iteration, m,
                Stats(m.n_vertices, m.n_triangles, flips=cert.flips, added=cert.added,
                      source=(m, metric)), converged=True)
-    if cert.added:
+    if cert.added and (target is None or m.n_vertices > (1 + TOLERANCE) * target):
         warnings.warn(f"keeping every q_ij >= 0 with the element means of Q took {cert.added} more "
                       f"vertices (N = {m.n_vertices}): Q changes faster across some triangles than "
                       "the mesh resolves", QmeshWarning, stacklevel=3)
