@@ -14,7 +14,7 @@ outputs their comments claim come out.
     * `python3 -m venv .venv`, `. .venv/bin/activate`: make and enter the virtual environment
       these tests already run in;
     * `pip install -e ".[all,peers,test]"`: minutes of downloads; the tests run in its result;
-    * `python -m pytest -q -n auto --maxschedchunk 2`: this test suite itself.
+    * `python -m pytest -q -n auto --dist worksteal`: this test suite itself.
   `qmesh setup` runs as `qmesh setup --check` (a test must not install system packages; a
   missing package fails it just the same).
 - Claims are deterministic outputs only — vertex counts, tags, names, shares of q_ij ≥ 0 — never
@@ -41,7 +41,7 @@ TEXT = {page: (ROOT / page).read_text() for page in PAGES}
 README = TEXT["README.md"]
 BIN = Path(sys.executable).parent
 SKIPPED_FOR_COST = ("python3 -m venv .venv", ". .venv/bin/activate", 'pip install -e ".[all,peers,test]"',
-                    "python -m pytest -q -n auto --maxschedchunk 2")
+                    "python -m pytest -q -n auto --dist worksteal")
 HEADLESS = {"PYVISTA_OFF_SCREEN": "true", "VTK_DEFAULT_OPENGL_WINDOW": "vtkEGLRenderWindow"}
 NUMBER = re.compile(r"-?\d+(?:\.\d+)?(?:e[-+]?\d+)?")
 FENCE = re.compile(r"^```(\S*)\n(.*?)^```", flags=re.S | re.M)
