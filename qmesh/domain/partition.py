@@ -167,6 +167,7 @@ def partition(rings: list[Ring], segment_tags: list[np.ndarray], size: float) ->
     reg = owner > 0
     np.maximum.at(hit_region, half[reg], owner[reg])
     left[hit_region > 0] = hit_region[hit_region > 0]
+    _check_same_side(owner[reg], half[reg], n_half, V, half_from)
     omega_out = np.zeros(n_half, bool)
     omega_out[(half ^ 1)[on_omega]] = True
     left[omega_out & (hit_region == 0)] = OUTSIDE
@@ -193,6 +194,26 @@ def _check_crossings(V, E, edge_source) -> None:
         where = "itself" if ri == rj else rj
         raise QmeshError(f"{ri} crosses {where}: its segment {si} meets segment {sj}"
                          + ("" if ri == rj else f" of {rj}"))
+
+
+def _check_same_side(owner, half, n_half, V, half_from) -> None:
+    """Two regions on the same side of one edge overlap there: QmeshError naming both, and
+    saying they are the same polygon when every edge of one is an edge of the other on the
+    same side (any orientation, start point or extra point on a side)."""
+    if not len(half):
+        return
+    pair = np.unique(np.column_stack([half, owner]), axis=0)      # (half-edge, region) once
+    h, r = pair[:, 0], pair[:, 1]
+    shared = np.flatnonzero(h[1:] == h[:-1])
+    if not len(shared):
+        return
+    a, b = int(r[shared[0]]), int(r[shared[0] + 1])               # a < b, one edge in common
+    ha, hb = np.unique(h[r == a]), np.unique(h[r == b])
+    if np.array_equal(ha, hb):
+        raise QmeshError(f"region {a} and region {b} are the same polygon: give each region "
+                         f"once (drop one of them, or give region {b} its own outline)")
+    raise QmeshError(f"region {a} overlaps region {b} (near {V[half_from[h[shared[0]]]].tolist()}): "
+                     "regions may share edges only from opposite sides")
 
 
 def _nest(V, half_from, half_to, cyc, area, cyc_comp) -> np.ndarray:

@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from hypothesis import given, settings, strategies as st
 
 import qmesh
 
@@ -55,3 +56,37 @@ def test_bad_regions_are_refused_by_name(regions, words):
 def test_region_names_checked():
     with pytest.raises(qmesh.QmeshError, match="one entry per region"):
         qmesh.Domain(SQUARE, regions=[[(1, 0), (2, 0), (2, 1), (1, 1)]], region_names=["a", "b"])
+
+
+def _variant(ring, reverse, start, extra):
+    """`ring` reversed or not, starting at point `start`, with a collinear point added at the
+    middle of side `extra` (None: none)."""
+    P = np.asarray(ring, float)
+    if extra is not None:
+        k = extra % len(P)
+        P = np.insert(P, k + 1, 0.5 * (P[k] + P[(k + 1) % len(P)]), axis=0)
+    if reverse:
+        P = P[::-1]
+    return np.roll(P, -start, axis=0)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.sampled_from([[(0.5, 0.2), (1.0, 0.2), (1.0, 0.6)],
+                        [(0.3, 0.3), (1.2, 0.3), (1.4, 0.8), (0.3, 0.7)],
+                        [(1, 0), (2, 0), (2, 1), (1, 1)]]),
+       st.booleans(), st.integers(0, 5), st.one_of(st.none(), st.integers(0, 5)),
+       st.booleans(), st.integers(0, 5), st.integers(0, 2))
+def test_a_region_given_twice_is_refused_naming_both(ring, rev, start, extra, rev1, start1, other):
+    first = _variant(ring, rev1, start1, None)
+    second = _variant(ring, rev, start, extra)
+    regions = [[(0.05, 0.05), (0.2, 0.05), (0.1, 0.15)], first, [(1.6, 0.85), (1.9, 0.85), (1.8, 0.95)]]
+    at = [0, 1, 3][other]
+    regions.insert(at, second)
+    i, j = sorted((3 if at <= 1 else 2, at + 1))
+    with pytest.raises(qmesh.QmeshError, match=f"region {i} and region {j} are the same polygon"):
+        qmesh.Domain(SQUARE, regions=regions)
+
+
+def test_regions_overlapping_along_an_edge_on_the_same_side_are_refused():
+    with pytest.raises(qmesh.QmeshError, match="region 1 overlaps region 2"):
+        qmesh.Domain(SQUARE, regions=[[(0.5, 0.2), (1, 0.2), (1, 0.6)], [(0.5, 0.2), (1, 0.2), (1, 0.7)]])
