@@ -1,7 +1,10 @@
 """The `qmesh` command: mesh a domain, report on any mesh file, reproduce the chapter's tables.
 
-    qmesh mesh   [--Q Q11 Q12 Q22 | --principal K1 K2 ANGLE | --s TEXT] [--disk VB | --polygon FILE]
-                 [--target-vertices N | --size H] [--alpha A] [--seed S] [--max-iterations K] -o OUT
+    qmesh mesh   [--Q Q11 Q12 Q22 | --principal K1 K2 ANGLE | --s TEXT | --field-Q Q11 Q12 Q22
+                  | --field-principal K1 K2 ANGLE | --raster FILE.npz]
+                 [--disk VB | --polygon FILE | --regions FILE] [--region-Q TAG Q11 Q12 Q22]
+                 [--region-principal TAG K1 K2 ANGLE] [--target-vertices N | --size H]
+                 [--alpha A] [--seed S] [--max-iterations K] -o OUT [--progress] [--quiet] [--json]
     qmesh report MESHFILE [--Q ... | --principal ... | --s TEXT] [--json]
                  (default Q: the one stored in the file)
     qmesh table  [--vb VB ...] [--out DIR] [--peers] [--solve] [--workers N | --scheduler ADDRESS]
@@ -26,6 +29,7 @@ from contextlib import nullcontext
 
 from qmesh import CHAPTER_Q, __version__, io, measure
 from qmesh.conductivity.anisotropy import Anisotropy
+from qmesh.conductivity.field import TensorField
 from qmesh.domain.domain import Disk
 from qmesh.errors import QmeshError, QmeshWarning
 from qmesh.geometry.folds import folded_triangles
@@ -52,8 +56,15 @@ def _non_negative_int(text: str) -> int:
     return value
 
 
-def anisotropy_from(args) -> Anisotropy:
-    """--Q Q11 Q12 Q22, --principal K1 K2 ANGLE or --s TEXT; the chapter's Q = diag(0.1, 10) by default."""
+def anisotropy_from(args) -> Anisotropy | TensorField:
+    """--Q Q11 Q12 Q22, --principal K1 K2 ANGLE or --s TEXT, or a field (--field-Q, --field-principal,
+    --raster); the chapter's Q = diag(0.1, 10) by default."""
+    if getattr(args, "field_Q", None) is not None:
+        return TensorField.from_expressions(*args.field_Q)
+    if getattr(args, "field_principal", None) is not None:
+        return TensorField.principal(*args.field_principal)
+    if getattr(args, "raster", None) is not None:
+        return raster_from(args.raster)
     if args.Q is not None:
         q11, q12, q22 = args.Q
         return Anisotropy.constant([[q11, q12], [q12, q22]])
@@ -62,6 +73,33 @@ def anisotropy_from(args) -> Anisotropy:
     if args.s is not None:
         return Anisotropy.from_expression(args.s)
     return Anisotropy.constant(CHAPTER_Q)
+
+
+RASTER_KEYS = ("x", "y", "k1", "k2")
+
+
+def raster_from(path: str) -> TensorField:
+    """A raster field from a NumPy .npz file holding arrays x (nx+1,), y (ny+1,) (cell edges),
+    k1, k2 (ny, nx) and optionally angle (ny, nx; degrees, default 0): what numpy.savez writes
+    from the arrays a MODFLOW or geostatistics script already holds. Read without pickles."""
+    import numpy as np
+    try:
+        data = np.load(path, allow_pickle=False)
+    except (ValueError, EOFError):
+        data = None
+    if not isinstance(data, np.lib.npyio.NpzFile):
+        raise QmeshError(f"{path}: not a NumPy .npz file (numpy.savez writes one from named "
+                         "arrays x, y, k1, k2, angle)")
+    with data:
+        files = list(data.files)
+        arrays = {k: data[k] for k in (*RASTER_KEYS, "angle") if k in files}
+    missing = [k for k in RASTER_KEYS if k not in arrays]
+    if missing:
+        raise QmeshError(f"{path}: a raster file needs arrays {', '.join(RASTER_KEYS)} (and "
+                         f"optionally angle); it has no {', '.join(missing)} (it has "
+                         f"{', '.join(files) or 'no arrays'})")
+    return TensorField.from_raster(arrays["x"], arrays["y"], arrays["k1"], arrays["k2"],
+                                   arrays.get("angle", 0.0))
 
 
 # --------------------------------------------------------------------------- commands
@@ -118,11 +156,12 @@ def cmd_mesh(args) -> int:
                           progress=on_step)
     seconds = time.perf_counter() - start
     last = steps[-1]
-    io.write(out, mesh, anisotropy=anisotropy)      # one Q, or one per region
-
-    q = measure.quality(mesh, anisotropy)
+    field = isinstance(anisotropy, TensorField)      # measured and stored by its element means
+    io.write(out, mesh, anisotropy=None if field else anisotropy)   # one Q, or one per region
+    given = None if field else anisotropy
+    q = measure.quality(mesh, given)
     # with no interior vertex there is no Dirichlet matrix whose signs q_ij would matter: n/a
-    shares = measure.q_nonnegative_fractions(mesh, anisotropy)
+    shares = measure.q_nonnegative_fractions(mesh, given)
     summary = {
         "output": str(out),
         "n_vertices": mesh.n_vertices,
@@ -149,8 +188,8 @@ def cmd_mesh(args) -> int:
     for w in caught:
         if not issubclass(w.category, QmeshWarning):          # not ours: shown as it would be
             warnings.showwarning(w.message, w.category, w.filename, w.lineno)
-        elif not (args.quiet or isinstance(anisotropy, dict)):
-            print(f"qmesh: warning: {w.message}", file=sys.stderr)   # the thin-domain one
+        elif not args.quiet:           # a thin domain, a medium's or a field's added vertices
+            print(f"qmesh: warning: {w.message}", file=sys.stderr)
     return 0
 
 
@@ -229,8 +268,18 @@ def cmd_table(args) -> int:
 
 # --------------------------------------------------------------------------- parser
 
-def _add_anisotropy(p) -> None:
+def _add_anisotropy(p, fields: bool = False) -> None:
     g = p.add_mutually_exclusive_group()
+    if fields:
+        g.add_argument("--field-Q", nargs=3, metavar=("Q11", "Q12", "Q22"),
+                       help="a conductivity field: each entry a number or a text in x, y (as --s), "
+                       "e.g. --field-Q '1 + x**2' 0 2; the mesh is certified q_ij >= 0 on its element means")
+        g.add_argument("--field-principal", nargs=3, metavar=("K1", "K2", "ANGLE"),
+                       help="a conductivity field by principal values and the angle of K1's axis in "
+                       "degrees, each a number or a text in x, y")
+        g.add_argument("--raster", metavar="FILE.npz",
+                       help="a raster field: a NumPy .npz with arrays x (nx+1), y (ny+1) (cell edges), "
+                       "k1, k2 and optionally angle (ny, nx), MODFLOW's K, K22, ANGLEX")
     g.add_argument("--Q", nargs=3, type=float, metavar=("Q11", "Q12", "Q22"),
                    help="constant SPD conductivity [[Q11, Q12], [Q12, Q22]] (default: 0.1 0 10)")
     g.add_argument("--principal", nargs=3, type=float, metavar=("K1", "K2", "ANGLE"),
@@ -250,7 +299,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("mesh", help="mesh a domain and write the mesh file",
                        description="Mesh a domain for the conductivity Q and write OUT "
                        "(format from the extension: " + ", ".join(io.FORMATS) + ").")
-    _add_anisotropy(p)
+    _add_anisotropy(p, fields=True)
     g = p.add_mutually_exclusive_group()
     g.add_argument("--disk", type=int, default=64, metavar="VB",
                    help="the regular VB-gon inscribed in the unit circle (default: 64)")

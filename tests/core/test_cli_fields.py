@@ -1,0 +1,83 @@
+"""`qmesh mesh --field-Q / --field-principal / --raster`: a field from the command line, its mesh
+file carrying the element means `qmesh report` measures with; bad rasters refused in one line."""
+
+import numpy as np
+import pytest
+
+import qmesh
+from qmesh.cli import main
+
+SQUARE = "0,0\n1,0\n1,1\n0,1\n"
+
+
+@pytest.fixture
+def square(tmp_path):
+    path = tmp_path / "square.csv"
+    path.write_text(SQUARE)
+    return str(path)
+
+
+def test_a_field_principal_meshes_and_the_file_keeps_its_means(tmp_path, square, capsys):
+    out = tmp_path / "layers.vtu"
+    assert main(["mesh", "--field-principal", "1", "0.001", "30*sin(pi*x)", "--polygon", square,
+                 "--target-vertices", "600", "-o", str(out)]) == 0
+    line = capsys.readouterr().out
+    assert "q_ij>=0: interior 100.0% boundary 100.0%" in line
+    m = qmesh.io.read(out)
+    assert m.conductivity is not None and m.conductivity.shape == (m.n_triangles, 2, 2)
+    assert main(["report", str(out), "--json"]) == 0
+    assert '"q_nonnegative_fraction": 1.0' in capsys.readouterr().out
+
+
+def test_a_raster_file_meshes_at_the_target_not_the_cells(tmp_path, square, capsys):
+    rng = np.random.default_rng(3)
+    path = tmp_path / "k.npz"
+    np.savez(path, x=np.linspace(0, 1, 41), y=np.linspace(0, 1, 41),
+             k1=np.exp(rng.normal(0, 1, (40, 40))), k2=np.exp(rng.normal(0, 1, (40, 40))),
+             angle=rng.uniform(0, 180, (40, 40)))
+    out = tmp_path / "k.msh"
+    assert main(["mesh", "--raster", str(path), "--polygon", square, "--target-vertices", "300",
+                 "-o", str(out)]) == 0
+    m = qmesh.io.read(out)
+    assert abs(m.n_vertices - 300) <= 30 < 1600        # 300 vertices for 1600 different cells
+    assert m.conductivity is not None
+
+
+@pytest.mark.parametrize("arrays, message", [
+    ({"x": np.linspace(0, 1, 3)}, "needs arrays x, y, k1, k2"),
+    (None, "not a NumPy .npz file"),
+])
+def test_bad_raster_files_are_one_line(tmp_path, square, capsys, arrays, message):
+    path = tmp_path / "bad.npz"
+    if arrays is None:
+        path.write_text("x,y\n1,2\n")
+    else:
+        np.savez(path, **arrays)
+    assert main(["mesh", "--raster", str(path), "--polygon", square, "-o",
+                 str(tmp_path / "x.vtu")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("qmesh: error:") and message in err and err.count("\n") == 1
+    assert not (tmp_path / "x.vtu").exists()
+
+
+def test_a_bad_field_text_names_its_component(tmp_path, capsys):
+    assert main(["mesh", "--field-Q", "1", "0", "__import__('os')", "-o",
+                 str(tmp_path / "x.vtu")]) == 2
+    assert "q22(x, y)" in capsys.readouterr().err
+
+
+def test_a_medium_prints_its_warnings(tmp_path, capsys):
+    """A thin region pushes N past the target: the command says so, as the API warns."""
+    regions = tmp_path / "thin.geojson"
+    regions.write_text('{"type": "FeatureCollection", "features": ['
+                       '{"type": "Feature", "properties": {"region": 0}, "geometry": {"type": "Polygon", '
+                       '"coordinates": [[[0, 0], [1, 0], [1, 1], [0, 1], [0, 0]]]}},'
+                       '{"type": "Feature", "properties": {"region": "thin", "principal": [1, 100, 45]}, '
+                       '"geometry": {"type": "Polygon", "coordinates": [[[0, 0.5], [1, 0.5], [1, 0.502], '
+                       '[0, 0.502], [0, 0.5]]]}}]}')
+    assert main(["mesh", "--regions", str(regions), "--target-vertices", "100", "-o",
+                 str(tmp_path / "m.vtu")]) == 0
+    err = capsys.readouterr().err
+    assert qmesh.io.read(tmp_path / "m.vtu").n_vertices > 1000          # the thin region's need
+    assert "qmesh: warning: target_vertices = 100: the mesh has" in err
+    assert "qmesh: warning: region 1 (thin):" in err
