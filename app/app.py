@@ -41,7 +41,6 @@ from trame.widgets import vuetify3 as v3
 from qmesh.errors import QmeshError
 
 from . import delivery, legend
-from .legend import VIEW_TITLES
 from .controller import PARAMS, status_text
 from .draw import VIEWS, ViewSet
 from .problem import DISK, S_PRESETS
@@ -531,7 +530,8 @@ class QmeshView(TrameApp):
                                   hint="Enter or leaving the field applies it")
             v3.VDivider(classes="my-2")
             html.Div("Views", classes="text-subtitle-2")
-            slider("z_scale", "z-scale", 0.1, 3, 0.1, shown="Number(z_scale).toFixed(1)")
+            with html.Div(v_show=("!field_view",)):        # a field has no lifted surface
+                slider("z_scale", "z-scale", 0.1, 3, 0.1, shown="Number(z_scale).toFixed(1)")
             with html.Div(id="select-colour-by"):
                 v3.VSelect(v_model=("colour_by",), label="colour by", density="compact",
                            items=("[{title: 'metric quality (2.94)', value: 'quality'},"
@@ -582,7 +582,8 @@ class QmeshView(TrameApp):
                       style="min-width: 0; min-height: 0"), \
                 v3.VCard(variant="outlined", classes="d-flex flex-column", height="100%"):
             with html.Div(classes="d-flex align-center px-2"):
-                html.Span(VIEW_TITLES[name], classes="text-caption")
+                html.Span(f"{{{{ title_{name} }}}}", classes="text-caption",
+                          id=f"title-{name}")       # a field's first view: ellipses
                 v3.VSpacer()
                 v3.VBtn(icon=(f"maximised === '{name}' ? 'mdi-arrow-collapse' :"
                               " 'mdi-arrow-expand'",),

@@ -1,5 +1,8 @@
 """`qmesh-view [--host 127.0.0.1] [--port 8080] [--server] [--domain NAME] [--s TEXT] [--memory-budget 4G]`: the web GUI.
 
+NAME is any preset of the domain list: a named shape, a medium (layered, inclusion) or a
+conductivity field (rotating, raster).
+
 Binds 127.0.0.1 unless told otherwise and opens the system browser unless `--server`.
 Sets the off-screen rendering environment of HEADLESS.md before VTK is imported, so the
 server-side views render without a display.
@@ -31,6 +34,23 @@ def memory_size(text: str) -> int:
     return int(value)
 
 
+def domain_help() -> str:
+    """--domain's help: every preset the viewer offers, by kind, from `problem` itself (the
+    named shapes, the media, the fields), so none is left out."""
+    from qmesh import domains
+
+    from .problem import DISK, FIELDS, MEDIA
+
+    def quoted(name):
+        return f"'{name}'" if " " in name else name
+    shapes = ", ".join(quoted(n) + (" (default, with --vb)" if n == DISK else "")
+                       for n in domains.NAMED)
+    media = ", ".join(quoted(n) for n in MEDIA)
+    fields = "; ".join(f"{quoted(n)} ({what})" for n, (_, what) in FIELDS.items())
+    return (f"a named domain: {shapes}; a medium (a conductivity per region): {media}; "
+            f"a conductivity field Q(x) on the unit square: {fields}")
+
+
 def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="qmesh-view", description=__doc__.splitlines()[0])
     p.add_argument("--host", default="127.0.0.1",
@@ -44,9 +64,7 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--vb", type=int, default=64, help="seed points on the disk (default 64)")
     p.add_argument("--target-vertices", type=int, default=212,
                    help="target vertex count N (default 212, the chapter's case)")
-    p.add_argument("--domain", default="disk",
-                   help="a named domain: disk (default, with --vb), L-shape, 'square with hole', "
-                        "annulus, 'plate with holes', 'notched square'")
+    p.add_argument("--domain", default="disk", help=domain_help())
     p.add_argument("--s", dest="s_text", default=None, metavar="TEXT",
                    help="start with s(x, y) given as text, e.g. 'exp(x) + y**2' "
                         "(default: the constant Q = diag(0.1, 10))")

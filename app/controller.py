@@ -18,8 +18,8 @@ import qmesh
 from qmesh import measure
 from qmesh.errors import QmeshError
 
-from .problem import (DISK, Q_MODES, S_PRESETS, make_anisotropy, make_domain, q_matrix, regions,
-                      regions_text)
+from .problem import (DISK, Q_MODES, S_PRESETS, element_means, field_text, is_field_conductivity,
+                      make_anisotropy, make_domain, q_matrix, regions, regions_text)
 
 PARAMS = ("k1", "k2", "angle", "vb", "target_vertices", "alpha", "seed", "domain", "q_mode",
           "s_text")
@@ -142,8 +142,21 @@ class Controller:
     # ------------------------------------------------------------------ the run
     @property
     def anisotropy(self):
-        """The conductivity meshed: one `qmesh.Anisotropy`, or `{region tag: Anisotropy}` for a
-        media preset."""
+        """The conductivity meshed: one `qmesh.Anisotropy`, `{region tag: Anisotropy}` for a
+        media preset, or a `qmesh.TensorField` for a field preset."""
+        return self._anisotropy
+
+    @property
+    def is_field(self) -> bool:
+        """True when the conductivity is a field Q(x) (no s)."""
+        return is_field_conductivity(self._anisotropy)
+
+    def conductivity_of(self, step):
+        """What stage `step` is measured with: a field's element means per triangle (the
+        certified ones its last Step carries, else the field's own means on that mesh);
+        otherwise the conductivity itself."""
+        if self.is_field:
+            return element_means(step.mesh, self._anisotropy)
         return self._anisotropy
 
     @property
@@ -164,11 +177,13 @@ class Controller:
 
     @property
     def readout(self) -> dict:
-        """Q11, Q12, Q22 of the parameters, and `regions_text`: a medium's Q per region (the
-        single Q then does not apply), "" otherwise."""
+        """Q11, Q12, Q22 of the parameters, and `regions_text`: what replaces them when they do
+        not apply — a medium's Q per region, or a field preset's name and label; "" otherwise."""
         Q = self.q
+        text = (field_text(self.params.domain, self._anisotropy) if self.is_field
+                else regions_text(self.regions))
         return {"q11": float(Q[0, 0]), "q12": float(Q[0, 1]), "q22": float(Q[1, 1]),
-                "regions_text": regions_text(self.regions)}
+                "regions_text": text}
 
     def reset(self) -> None:
         """Start the run again from its initial triangulation."""
@@ -194,6 +209,8 @@ class Controller:
             return False
         try:
             self.history.append(next(self._gen))
+            if self.is_field and self.history[-1].converged:
+                self._pull_tail()
         except StopIteration:
             self.done = True
             return False
@@ -201,6 +218,17 @@ class Controller:
             self.done = True
             raise
         return True
+
+    def _pull_tail(self) -> None:
+        """A field's certified Step is its last: end the generator now, so what it says after
+        that Step (the vertices certification added, edges it could not fix) is warned during
+        the same action, not lost once the run stops at its converged Step."""
+        try:
+            step = next(self._gen)
+        except StopIteration:
+            self.done = True
+        else:
+            self.history.append(step)          # not expected; kept rather than dropped
 
     @property
     def current(self) -> qmesh.Step:
@@ -252,14 +280,19 @@ class Controller:
         row = self._cache.get(i)
         if row is None:
             step = self.history[i]
-            row = _stats_row(step)
+            row = _stats_row(step, field=self.is_field)
             if not quick:
                 try:
                     if not getattr(self._anisotropy, "is_constant", True):   # s as text
                         row["q_nonnegative_sh"] = measure.sh_convex_fraction(step.mesh, self._anisotropy)
-                    row["q_nonnegative"] = measure.q_nonnegative_fraction(step.mesh,
-                                                                          self._anisotropy)
-                    kappa = measure.conditioning(step.mesh, self._anisotropy)
+                    conductivity = self.conductivity_of(step)     # a field: per-triangle means
+                    if self.is_field:          # each triangle in its own mean's metric
+                        q = measure.quality(step.mesh, conductivity)
+                        q = q[np.isfinite(q)]
+                        if len(q):
+                            row["min_quality"], row["mean_quality"] = float(q.min()), float(q.mean())
+                    row["q_nonnegative"] = measure.q_nonnegative_fraction(step.mesh, conductivity)
+                    kappa = measure.conditioning(step.mesh, conductivity)
                     row["kappa2"], row["kappa2_reason"] = kappa.kappa2, kappa.reason
                 except QmeshError as e:     # degenerate triangles mid-run: no stiffness matrix
                     row["kappa2_reason"] = str(e)
@@ -276,29 +309,41 @@ class Controller:
                 "n_vertices": [r["n_vertices"] for r in rows]}
 
 
-def _stats_row(step) -> dict:
-    """The status numbers a Step carries itself (no stiffness matrix needed)."""
+def _stats_row(step, field: bool = False) -> dict:
+    """The status numbers a Step carries itself (no stiffness matrix needed). A field's Step
+    has no energy (no s), and its quality is measured in each triangle's own mean (`status`),
+    not the smoothed metric the Step's statistics use: "–" until then."""
     st = step.stats
     return {"iteration": step.iteration, "stage": step.stage,
             "n_vertices": st.n_vertices, "n_triangles": st.n_triangles,
-            "energy": st.energy, "min_quality": st.min_quality,
-            "mean_quality": st.mean_quality, "q_nonnegative": None, "kappa2": None,
+            "energy": None if field else st.energy,
+            "min_quality": None if field else st.min_quality,
+            "mean_quality": None if field else st.mean_quality,
+            "q_nonnegative": None, "kappa2": None,
             "kappa2_reason": None, "q_nonnegative_sh": None,
             "added": 0 if step.added is None else len(step.added),
-            "converged": step.converged}
+            "converged": step.converged, "field": field}
 
 
 def status_text(s: dict) -> str:
-    """One status line: iteration, stage, N, E, min/mean quality, fraction q_ij ≥ 0, κ2 ("—"
-    when the stage's Dirichlet matrix has none: the reason goes to the message row; "–" while
-    not measured yet), and "converged" only for a Step that says so (a medium's last)."""
+    """One status line: iteration, stage, N, E (not for a field: no s), min/mean quality,
+    fraction q_ij ≥ 0, κ2 ("—" when the stage's Dirichlet matrix has none: the reason goes to the
+    message row; "–" while not measured yet), and "converged" only for a Step that says so (a
+    medium's or a field's last). A field's quality and q_ij are in each triangle's own mean."""
     def num(x, fmt):
         return "–" if x is None else format(x, fmt)
+    field = bool(s.get("field"))
+    energy = s["energy"]
+    if energy is not None and not math.isfinite(energy):       # a metric without s
+        energy = None
+    share = None if s["q_nonnegative"] is None else 100 * s["q_nonnegative"]
     return (f"iteration {s['iteration']} · {s['stage']} · N = {s['n_vertices']} · "
-            f"E = {num(s['energy'], '.4g')} · quality min {num(s['min_quality'], '.3f')} "
-            f"mean {num(s['mean_quality'], '.3f')} · q_ij ≥ 0: "
-            f"{num(None if s['q_nonnegative'] is None else 100 * s['q_nonnegative'], '.1f')}% · "
+            + ("" if field else f"E = {num(energy, '.4g')} · ")
+            + f"quality min {num(s['min_quality'], '.3f')} "
+            f"mean {num(s['mean_quality'], '.3f')} · "
+            + ("q_ij ≥ 0 with the element means: " if field else "q_ij ≥ 0: ")
+            + f"{num(share, '.1f')}% · "
             + ("" if s.get("q_nonnegative_sh") is None else
-               f"for s_h: {100 * s['q_nonnegative_sh']:.1f}% · ") +
-            f"κ2 = {'—' if s.get('kappa2_reason') else num(s['kappa2'], '.3g')}"
+               f"for s_h: {100 * s['q_nonnegative_sh']:.1f}% · ")
+            + f"κ2 = {'—' if s.get('kappa2_reason') else num(s['kappa2'], '.3g')}"
             + (" · converged" if s["converged"] else ""))

@@ -12,6 +12,7 @@ import pyvista as pv
 from qmesh.errors import QmeshError
 
 from . import scene, system
+from .problem import means_source
 
 BACKGROUND = "white"
 MESH_FACE = "#e9edf2"
@@ -20,6 +21,9 @@ FIXED = "#d62728"          # seed boundary vertices
 ADDED = "#ff7f0e"          # points inserted by the last insert stage
 ARROW = "#1f5fbf"          # displacements of the last adjust stage
 SURFACE = "#9ecae1"        # the smooth s(x)
+ELLIPSE_CMAP = "plasma"    # a field's ellipses by log10 of Q's larger eigenvalue
+FIELD_EDGE = ("#8c8c8c", "#c4c4c4")   # the mesh under them, drawn / crowded: lighter than
+#                                       elsewhere, so the ellipses stand out
 FACET = "#fdae6b"          # the facets of s_h
 # edges by the sign of q_ij: (actor name, q_sign value, colour, line width); negatives stand out
 # (black and red stay visible on every colour of viridis, green vanished on its greens)
@@ -66,6 +70,9 @@ def _put(plotter: pv.Plotter, name: str, mesh: pv.PolyData | None, **kwargs) -> 
 def draw_lifted(plotter: pv.Plotter, view: scene.LiftedScene) -> None:
     """The translucent s(x), the lifted vertices, the s_h facets with their edges (a medium:
     no surface, each region's piece in its region's colour)."""
+    for name in ("ellipses", "ellipse_outlines"):             # a field's, drawn before
+        plotter.remove_actor(name, render=False)
+        plotter.__dict__.get("_qmesh_looks", {}).pop(name, None)
     _put(plotter, "surface", view.surface, color=SURFACE, opacity=0.3, ambient=0.5,
          show_scalar_bar=False)
     if "region_rgb" in view.facets.cell_data:
@@ -77,6 +84,23 @@ def draw_lifted(plotter: pv.Plotter, view: scene.LiftedScene) -> None:
     many = view.vertices.n_points > SPHERE_LIMIT
     _put(plotter, "vertices", view.vertices, color=EDGE, point_size=3 if many else 5,
          render_points_as_spheres=not many, show_scalar_bar=False)
+
+
+def draw_field(plotter: pv.Plotter, view: scene.FieldScene) -> None:
+    """A field's first view: the flat mesh (faces light, edges as the other views) and Q(x) as
+    ellipses above it, filled by log10 of Q's larger eigenvalue, outlined; no surface, no
+    lifted vertices."""
+    plotter.remove_actor("surface", render=False)
+    plotter.remove_actor("vertices", render=False)
+    plotter.__dict__.get("_qmesh_looks", {}).pop("surface", None)
+    plotter.__dict__.get("_qmesh_looks", {}).pop("vertices", None)
+    _put(plotter, "facets", view.mesh, color="white", show_edges=True,
+         edge_color=FIELD_EDGE[0], line_width=1, lighting=False, show_scalar_bar=False)
+    _put(plotter, "ellipses", view.ellipses, scalars="log10_k_max", preference="cell",
+         cmap=ELLIPSE_CMAP, clim=view.clim, lighting=False, show_scalar_bar=False)
+    _put(plotter, "ellipse_outlines", view.outlines, scalars="log10_k_max", preference="cell",
+         cmap=ELLIPSE_CMAP, clim=view.clim, line_width=3, lighting=False,
+         show_scalar_bar=False)
 
 
 def draw_projected(plotter: pv.Plotter, view: scene.ProjectedScene) -> None:
@@ -221,6 +245,7 @@ class ViewSet:
         self._drawn = False
         self._z_scale = None
         self._domain_key = None
+        self._field = False              # the first view shows a field's ellipses, top-down
         for name, plotter in self.plotters.items():
             plotter.render_window.AddObserver("WindowResizeEvent",
                                               lambda *_, n=name: self._resized(n))
@@ -242,9 +267,16 @@ class ViewSet:
         `regions` a medium's rows (tag, name, q11, q12, q22) for the legend."""
         edge_look(edges, 0.0)                           # QmeshError for an unknown mode
         p = self.plotters
-        draw_lifted(p["lifted"], scene.lifted(step, anisotropy, z_scale, domain=domain))
+        field = scene.is_field(anisotropy)
+        if field:                                       # no s: Q(x) as ellipses, top-down
+            shown = scene.ellipses(step, anisotropy, domain=domain)
+            draw_field(p["lifted"], shown)
+        else:
+            draw_lifted(p["lifted"], scene.lifted(step, anisotropy, z_scale, domain=domain))
         projected = scene.projected(step, arrow_scale=arrow_scale)
         draw_projected(p["mesh"], projected)
+        _put(p["lifted"], "sample", projected.sample if field else None, color=EDGE,
+             line_width=1, show_scalar_bar=False)       # a field's mesh when edges crowd
         q = scene.quality(step, anisotropy, colour_by, q_sign_edges)
         draw_quality(p["quality"], q, scalar_bar=self.scalar_bar)
         _put(p["quality"], "sample", None if q.edges is not None else projected.sample,
@@ -252,9 +284,17 @@ class ViewSet:
         self.legend = {"title": SCALAR_TITLES[q.scalars], "clim": tuple(map(float, q.clim)),
                        "q_sign_edges": q.edges is not None, "n_negative": q.n_negative,
                        "regions": list(regions) if scene.is_medium(anisotropy) else [],
-                       "n_interface": q.n_interface}
+                       "n_interface": q.n_interface, "field": field}
+        if field:
+            self.legend.update(field_clim=tuple(map(float, shown.clim)),
+                               n_ellipses=len(shown.centres), field_label=anisotropy.label,
+                               means=means_source(step.mesh))
         key = None if domain is None else tuple(np.asarray(r).tobytes() for r in domain.rings)
-        if not self._drawn or key != self._domain_key:      # first draw, or a new domain
+        key = (key, field)
+        if field != self._field:
+            self._field = field
+            self._lifted_style(field)
+        if not self._drawn or key != self._domain_key:      # first draw, a new domain or kind
             self.reset_cameras()
             self._drawn = True
             self._domain_key = key
@@ -271,7 +311,7 @@ class ViewSet:
         Called after every draw and after the user zooms (the app's camera observers).
         """
         looks = {}
-        targets = {"lifted": ("facets", "vertices"), "mesh": ("mesh", "sample"),
+        targets = {"lifted": ("facets", "vertices", "sample"), "mesh": ("mesh", "sample"),
                    "quality": ("triangles", "sample")}
         for name, actors in targets.items():
             plotter = self.plotters[name]
@@ -297,14 +337,33 @@ class ViewSet:
                     continue                             # the q_ij-sign lines are the edges
                 prop = actor.GetProperty()
                 prop.SetEdgeVisibility(look is not None)
-                prop.SetEdgeColor(pv.Color(EDGE if look == "dark" else EDGE_LIGHT).float_rgb)
+                colours = FIELD_EDGE if name == "lifted" and self._field else (EDGE, EDGE_LIGHT)
+                prop.SetEdgeColor(pv.Color(colours[0] if look == "dark" else colours[1]).float_rgb)
         self.legend["crowded"] = looks["mesh"] != "dark"
         return looks
 
+    def _lifted_style(self, field: bool) -> None:
+        """The first view's interaction: panned and zoomed like the mesh view for a field (a
+        plane), rotated for a lifted surface."""
+        plotter = self.plotters["lifted"]
+        if getattr(plotter, "iren", None) is None:
+            return
+        if field:
+            plotter.enable_2d_style()
+        else:
+            plotter.enable_trackball_style()
+
     def reset_cameras(self) -> None:
         """Lifted: seen from below, where the lower hull faces (s_h ≥ s lies behind the
-        translucent s); mesh and quality: top-down with a parallel projection."""
-        self.plotters["lifted"].view_vector((0.9, -1.7, -0.7), viewup=(0, 0, 1))
+        translucent s); a field's ellipses, and mesh and quality: top-down with a parallel
+        projection."""
+        lifted = self.plotters["lifted"]
+        if self._field:
+            lifted.enable_parallel_projection()
+            lifted.view_xy(render=False)
+        else:
+            lifted.disable_parallel_projection()
+            lifted.view_vector((0.9, -1.7, -0.7), viewup=(0, 0, 1))
         self.fit_lifted()
         self.plotters["mesh"].enable_parallel_projection()
         self.plotters["quality"].enable_parallel_projection()
@@ -328,6 +387,12 @@ class ViewSet:
         lifted = self.plotters["lifted"]
         lifted.reset_camera(render=False)
         w, h = lifted.render_window.GetSize()
+        if self._field:                                  # a plane seen from above
+            x0, x1, y0, y1 = lifted.bounds[:4]
+            aspect = w / h if w > 0 and h > 0 else 1.0
+            lifted.camera.parallel_scale = 1.08 * max((y1 - y0) / 2, (x1 - x0) / 2 / aspect)
+            lifted.renderer.ResetCameraClippingRange()
+            return
         X = _scene_points(lifted, ("surface", "facets"))
         if w <= 0 or h <= 0 or len(X) == 0:
             lifted.camera.zoom(1.05 * _narrow(lifted))

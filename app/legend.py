@@ -20,6 +20,19 @@ VIEW_TITLES = {"lifted": "lifted: s(x) and the facets of s_h",
                "mesh": "mesh: seeds, inserted points, moves",
                "quality": "quality (2.94)"}
 """The views' titles, one wording for the trame app and the widget."""
+FIELD_TITLE = "Q(x) as ellipses, and the mesh (a field has no s to lift)"
+"""The first view's title for a conductivity field (`title`)."""
+PLASMA = ("#0d0887", "#5302a3", "#8b0aa5", "#b83289", "#db5c68", "#f48849", "#febd2a",
+          "#f0f921")
+"""matplotlib's plasma at eight even stops (draw.ELLIPSE_CMAP), for the ellipses' colour bar."""
+
+
+def title(name: str, info: dict) -> str:
+    """View `name`'s title for what it shows (`info` is `ViewSet.legend`): the first view of a
+    field shows ellipses, not a lifted surface."""
+    if name == "lifted" and info.get("field"):
+        return FIELD_TITLE
+    return VIEW_TITLES[name]
 
 _ROW = "display:flex;flex-wrap:wrap;align-items:center;gap:4px 12px;font-size:12px;padding:2px 6px"
 
@@ -49,7 +62,15 @@ def _number(x: float) -> str:
 
 def html(name: str, info: dict) -> str:
     """The legend of view `name` ("lifted", "mesh", "quality"); `info` is `ViewSet.legend`."""
-    if name == "lifted" and info.get("regions"):
+    if name == "lifted" and info.get("field"):
+        lo, hi = info.get("field_clim", (0.0, 1.0))
+        bar = ("<span style='display:inline-block;width:90px;height:10px;border:1px solid #888;"
+               f"background:linear-gradient(to right,{','.join(PLASMA)})'></span>")
+        items = [_item("", "ellipses: axes along Q's eigenvectors, ∝ √eigenvalues (each to "
+                           "its own scale), over the mesh"),
+                 f"<span class='legend-colour-bar'>colour: log10 of Q's larger eigenvalue "
+                 f"{_number(lo)} {bar} {_number(hi)}</span>"]
+    elif name == "lifted" and info.get("regions"):
         items = [_item(_swatch(draw.FACET), "a medium has one s per region, not one surface: "
                        "each region's triangles lifted onto its own s_r (own height scale), "
                        "in its region's colour"),
@@ -78,6 +99,10 @@ def html(name: str, info: dict) -> str:
                f"background:linear-gradient(to right,{','.join(VIRIDIS)})'></span>")
         items = [f"<span class='legend-colour-bar'>{escape(info.get('title', 'quality'))}: "
                  f"{_number(lo)} {bar} {_number(hi)}</span>"]
+        if info.get("field"):
+            source = ("the certified means the mesh carries" if info.get("means") == "certified"
+                      else "computed from the field on this stage's mesh")
+            items.append(_item("", f"each triangle in its own element mean Q̄_T ({source})"))
         if info.get("q_sign_edges"):
             look = {value: (colour, width) for _, value, colour, width in draw.Q_SIGN_LINES}
             items += [_item(_line(*look[1]), "q_ij ≥ 0"),
@@ -92,11 +117,15 @@ def html(name: str, info: dict) -> str:
 
 
 def state(info: dict) -> dict:
-    """{"legend_lifted": …, "legend_mesh": …, "legend_quality": …} for the trame state, and
+    """{"legend_lifted": …, "legend_mesh": …, "legend_quality": …} and the views' titles
+    {"title_lifted": …, …}, `field_view` (the first view shows a field's ellipses), and
     `legend_height` (px, one for all three, so the views keep one height and one scale): two
-    lines, or room for a medium's region list."""
+    lines, three for a field, or room for a medium's region list."""
     out = {f"legend_{name}": html(name, info) for name in draw.VIEWS}
-    out["legend_height"] = 44 if not info.get("regions") else 50 + 20 * len(info["regions"])
+    out.update({f"title_{name}": title(name, info) for name in draw.VIEWS})
+    out["field_view"] = bool(info.get("field"))
+    out["legend_height"] = (50 + 20 * len(info["regions"]) if info.get("regions")
+                            else 62 if info.get("field") else 44)
     return out
 
 

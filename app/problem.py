@@ -3,12 +3,14 @@
 The session asks here for the `qmesh.Domain` (the VB-gon, a named shape or an uploaded polygon
 file) and the `qmesh.Anisotropy` (constant Q from k1, k2, angle, or s(x, y) typed as text) of a
 parameter set. The media presets (`MEDIA`: "layered", "inclusion", from `qmesh.domain.media_cases`)
-bring their own regions and a conductivity per region, `{region tag: Anisotropy}`: for them
-k1, k2, angle and s(x, y) do not apply.
+bring their own regions and a conductivity per region, `{region tag: Anisotropy}`; the field
+presets (`FIELDS`: "rotating", "raster") the unit square and a conductivity field
+`qmesh.TensorField` Q(x), which has no s. For both, k1, k2, angle and s(x, y) do not apply.
 """
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Mapping
 
 import numpy as np
@@ -25,6 +27,39 @@ MEDIA = {"layered": (cases.layered, {0: "layer 1 (bottom)", 1: "layer 2", 2: "la
          "inclusion": (cases.inclusion, {0: "background", 1: "star", 2: "lens"})}
 """Media presets: the `qmesh.domain.media_cases` builder and the names the viewer gives their regions
 (the case's own `region_names` win where it has them)."""
+
+FVCA5_TEST5 = ("(0.001*x**2 + y**2)/(x**2 + y**2)", "(0.001 - 1)*x*y/(x**2 + y**2)",
+               "(x**2 + 0.001*y**2)/(x**2 + y**2)")
+"""FVCA5 test 5 (Herbin & Hubert 2008), δ = 1e-3: Q11, Q12, Q22 rotating about the origin."""
+RASTER_CELLS = 64
+RASTER_SEED = 0
+
+
+def rotating_field() -> qmesh.TensorField:
+    """FVCA5 test 5: K = [[δx² + y², (δ−1)xy], [(δ−1)xy, x² + δy²]] / (x² + y²), δ = 1e-3: a
+    1000 : 1 anisotropy whose weak axis points at the origin (a corner of the unit square)."""
+    return qmesh.TensorField.from_expressions(*FVCA5_TEST5)
+
+
+def raster_field() -> qmesh.TensorField:
+    """A 64 × 64 raster on the unit square, every cell different: k1, k2 = exp(N(0, 1)) and the
+    angle of k1 uniform in [0, 180) degrees, drawn with `numpy.random.default_rng(0)`."""
+    rng = np.random.default_rng(RASTER_SEED)
+    n = RASTER_CELLS
+    edges = np.linspace(0.0, 1.0, n + 1)
+    k1, k2 = np.exp(rng.normal(size=(n, n))), np.exp(rng.normal(size=(n, n)))
+    return qmesh.TensorField.from_raster(edges, edges, k1, k2, rng.uniform(0.0, 180.0, (n, n)))
+
+
+def unit_square() -> qmesh.Domain:
+    return qmesh.Polygon([(0, 0), (1, 0), (1, 1), (0, 1)])
+
+
+FIELDS = {"rotating": (rotating_field, "FVCA5 test 5, a rotating 1000 : 1 anisotropy"),
+          "raster": (raster_field, "a 64 × 64 lognormal raster of k1, k2 with random angles, "
+                                   "every cell different")}
+"""Field presets: the conductivity field's builder and what the viewer says it is. Their domain
+is the unit square."""
 
 DISK = "disk"
 FILE_PREFIX = "file: "
@@ -44,7 +79,8 @@ def q_matrix(k1: float, k2: float, angle: float) -> np.ndarray:
 
 def domain_names(uploads=()) -> list[str]:
     """The domains on offer: the named shapes of `qmesh.domains` (the disk first), then uploads."""
-    return list(domains.NAMED) + list(MEDIA) + [FILE_PREFIX + name for name in uploads]
+    return (list(domains.NAMED) + list(MEDIA) + list(FIELDS)
+            + [FILE_PREFIX + name for name in uploads])
 
 
 def make_domain(p, uploads: dict) -> qmesh.Domain:
@@ -58,6 +94,8 @@ def make_domain(p, uploads: dict) -> qmesh.Domain:
         domain = domains.NAMED[p.domain]()
     elif p.domain in MEDIA:
         domain = MEDIA[p.domain][0]()[0]
+    elif p.domain in FIELDS:
+        domain = unit_square()
     elif p.domain.startswith(FILE_PREFIX) and p.domain[len(FILE_PREFIX):] in uploads:
         domain = uploads[p.domain[len(FILE_PREFIX):]]
     else:
@@ -72,22 +110,39 @@ def make_domain(p, uploads: dict) -> qmesh.Domain:
 def make_anisotropy(p):
     """Constant Q from k1, k2, angle; or s(x, y) from its text (parsed, never run: a bad text
     raises QmeshError pointing at the offending part); for a media preset its
-    `{region tag: Anisotropy}`."""
+    `{region tag: Anisotropy}`, for a field preset its `qmesh.TensorField`."""
     if is_medium(p):
         return dict(MEDIA[p.domain][0]()[1])
+    if is_field(p):
+        return FIELDS[p.domain][0]()
     if p.q_mode == "expression":
         return qmesh.Anisotropy.from_expression(p.s_text)
     return qmesh.Anisotropy.constant(q_matrix(p.k1, p.k2, p.angle))
 
 
 def varying(p) -> bool:
-    """True when the conductivity varies smoothly over the domain (s given as text)."""
-    return p.q_mode == "expression" and not is_medium(p)
+    """True when the conductivity varies over the domain (s given as text, or a field): the
+    memory budget counts such a run at its larger figure per vertex."""
+    return is_field(p) or (p.q_mode == "expression" and not is_medium(p))
 
 
 def is_medium(p) -> bool:
     """True when the parameters name a media preset (a conductivity per region)."""
     return p.domain in MEDIA
+
+
+def is_field(p) -> bool:
+    """True when the parameters name a field preset (a conductivity field Q(x), no s)."""
+    return p.domain in FIELDS
+
+
+def field_text(domain_name: str, field) -> str:
+    """The Q readout of a field preset: what it is and the field's label, one line; "" for
+    anything else."""
+    if domain_name not in FIELDS:
+        return ""
+    return (f"k1, k2, angle and s(x, y) do not apply: Q(x) is a field · {domain_name}: "
+            f"{FIELDS[domain_name][1]} · {field.label}")
 
 
 def region_name(domain_name: str, tag: int, mesh_names=None) -> str:
@@ -133,3 +188,38 @@ def regions_text(rows: list[dict]) -> str:
 def read_upload(name: str, content) -> qmesh.Domain:
     """A polygon file (CSV or GeoJSON, by its name's suffix) as a domain; QmeshError if bad."""
     return polygon_file.domain_from_text(content, name)
+
+
+def is_field_conductivity(conductivity) -> bool:
+    """True for a conductivity field `qmesh.TensorField` (no s: no lifted surface)."""
+    return isinstance(conductivity, qmesh.TensorField)
+
+
+_MEANS: dict = {}
+_MEANS_KEPT = 8
+_MEANS_LOCK = threading.Lock()      # the app draws on its loop and measures in a worker
+
+
+def element_means(mesh, field) -> np.ndarray:
+    """Each triangle's own mean Q̄_T (M, 2, 2) of a field on `mesh`: the means the mesh carries
+    (`mesh.conductivity`: a field's last Step, the means it was certified with), else the field's
+    `means(points, triangles)` (a stage before it). Kept for the last few meshes: the quality
+    view, the q_ij signs and the status line all ask for the same ones."""
+    if mesh.conductivity is not None:
+        return np.asarray(mesh.conductivity, dtype=float)
+    key = (id(mesh), id(field))
+    with _MEANS_LOCK:
+        hit = _MEANS.get(key)
+    if hit is None or hit[0] is not mesh or hit[1] is not field:
+        hit = (mesh, field, np.asarray(field.means(mesh.points, mesh.triangles), dtype=float))
+        with _MEANS_LOCK:
+            while len(_MEANS) >= _MEANS_KEPT:
+                _MEANS.pop(next(iter(_MEANS)))
+            _MEANS[key] = hit
+    return hit[2]
+
+
+def means_source(mesh) -> str:
+    """Where a field mesh's element means come from: "certified" (carried by the mesh, the last
+    Step) or "field" (computed from the field for a stage before it)."""
+    return "certified" if mesh.conductivity is not None else "field"

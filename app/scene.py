@@ -17,6 +17,13 @@ lifted view then shows each region's own piece (its triangles lifted onto its s_
 per region, no smooth surface); the projected mesh is coloured by region; the quality view
 uses each triangle's own metric and marks the interface edges (two triangles, two regions).
 
+A conductivity field (`qmesh.TensorField`, a formula or a raster of Q(x)) has no s, so no surface
+to lift: the first view then shows Q itself as ellipses over the domain (`ellipses`: one per cell
+of a coarse grid, axes along Q's eigenvectors, semi-axes ∝ √eigenvalues) with the mesh, and the
+quality view and the q_ij signs use each triangle's own element mean Q̄_T (the means the last
+Step's mesh carries and was certified with, or for a stage before it the field's own means on
+that mesh: `problem.element_means`).
+
 Every array operation is vectorised over vertices, triangles or edges (and looped only over the
 few regions of a medium).
 """
@@ -34,6 +41,8 @@ from qmesh import measure
 from qmesh.errors import QmeshError
 from qmesh.geometry.rings import inside
 from qmesh.geometry.triangles import metric_areas, metric_hessians, metric_quality
+
+from .problem import element_means, is_field_conductivity as is_field
 
 COLOUR_BY = ("quality", "metric_area")
 """What the quality view can colour triangles by."""
@@ -190,9 +199,26 @@ def is_medium(anisotropy) -> bool:
     return isinstance(anisotropy, Mapping)
 
 
+def mean_metrics(Q: np.ndarray) -> np.ndarray:
+    """H_T = adj Q̄_T / √det Q̄_T of per-triangle conductivities (M, 2, 2) (FIELDS.md §3: the
+    metric in which a triangle's q_ij share is the cotangent formula); NaN where Q̄_T is not
+    positive definite."""
+    Q = np.asarray(Q, dtype=float)
+    det = Q[:, 0, 0] * Q[:, 1, 1] - Q[:, 0, 1] * Q[:, 1, 0]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        scale = np.where(det > 0, 1.0 / np.sqrt(np.where(det > 0, det, 1.0)), np.nan)
+    H = np.empty_like(Q)
+    H[:, 0, 0], H[:, 1, 1] = Q[:, 1, 1] * scale, Q[:, 0, 0] * scale
+    H[:, 0, 1] = H[:, 1, 0] = -0.5 * (Q[:, 0, 1] + Q[:, 1, 0]) * scale
+    return H
+
+
 def hessians(mesh, anisotropy) -> np.ndarray:
-    """The metric H of every triangle (M, 2, 2): its region's for a medium."""
+    """The metric H of every triangle (M, 2, 2): its region's for a medium, its own element
+    mean's (`mean_metrics`) for a field."""
     P, T = mesh.points, mesh.triangles
+    if is_field(anisotropy):
+        return mean_metrics(element_means(mesh, anisotropy))
     if not is_medium(anisotropy):
         return metric_hessians(anisotropy, P, T)
     tags = mesh.region_tags
@@ -279,6 +305,125 @@ def _lifted_pieces(step, anisotropy, z_scale: float, rings) -> LiftedScene:
     facets.cell_data["region"] = np.concatenate(region)
     facets.cell_data["region_rgb"] = region_rgb(facets.cell_data["region"])
     return LiftedScene(pv.PolyData(), points_polydata(X, z), facets, float(z_scale))
+
+
+# --------------------------------------------------------------------------- a field's view
+
+GLYPH_CELLS = 12
+"""Ellipses across the domain's longer side in the field view (one per grid cell inside Ω)."""
+GLYPH_FILL = 0.45
+"""Largest semi-axis of an ellipse as a share of its grid cell (0.5 would touch the neighbours)."""
+ELLIPSE_SEGMENTS = 40
+
+
+@dataclass(frozen=True)
+class FieldScene:
+    """The first view of a field (no s, no surface): Q(x) as ellipses over the flat mesh.
+
+    Each ellipse sits at a grid cell's centre c inside Ω with its axes along the eigenvectors
+    of Q(c) and semi-axes ∝ √eigenvalues, scaled so that its larger one is GLYPH_FILL of the
+    cell (shape and direction, each ellipse on its own scale); its colour (cell array
+    "log10_k_max") is log10 of Q(c)'s larger eigenvalue, the size the shape leaves out.
+    """
+
+    ellipses: pv.PolyData     # one polygon per ellipse, cell array "log10_k_max"
+    outlines: pv.PolyData     # the same ellipses as closed lines (a 1000 : 1 one is all outline)
+    mesh: pv.PolyData         # the Step's triangles, flat (z = 0)
+    centres: np.ndarray       # (n, 2) where Q was evaluated
+    tensors: np.ndarray       # (n, 2, 2) Q at the centres
+    clim: tuple[float, float]  # the colour range of log10_k_max
+    n_skipped: int = 0        # grid centres where the field refused to be evaluated
+
+
+def glyph_centres(rings, cells: int = GLYPH_CELLS, contains=None) -> tuple[np.ndarray, float]:
+    """Centres of the cells of a grid `cells` wide over the rings' bounding box that lie inside
+    Ω (by `contains`, else the even-odd rule on the rings), and the cell size."""
+    allp = np.concatenate(rings)
+    lo, hi = allp.min(axis=0), allp.max(axis=0)
+    h = float((hi - lo).max()) / int(cells)
+    if not h > 0:
+        return np.zeros((0, 2)), 1.0
+    nx, ny = (max(1, int(np.ceil((hi[k] - lo[k]) / h - 1e-9))) for k in (0, 1))
+    x = lo[0] + (hi[0] - lo[0] - nx * h) / 2 + h * (np.arange(nx) + 0.5)
+    y = lo[1] + (hi[1] - lo[1] - ny * h) / 2 + h * (np.arange(ny) + 0.5)
+    C = np.column_stack([a.ravel() for a in np.meshgrid(x, y)])
+    test = contains or (lambda X: _inside_rings(rings, X))
+    return C[np.asarray(test(C), dtype=bool)], h
+
+
+def _field_at(field, C: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Q at the centres (n, 2, 2) and which centres it was evaluated at: a field refusing a
+    point (QmeshError: not SPD there, outside a raster) loses that glyph, not the view."""
+    try:
+        return np.asarray(field(C), dtype=float), np.ones(len(C), dtype=bool)
+    except QmeshError:
+        pass
+    ok = np.zeros(len(C), dtype=bool)
+    Q = np.zeros((len(C), 2, 2))
+    for k in range(len(C)):                        # a few hundred centres at most
+        try:
+            Q[k] = np.asarray(field(C[k:k + 1]), dtype=float)[0]
+            ok[k] = True
+        except QmeshError:
+            continue
+    return Q[ok], ok
+
+
+def ellipse_polydata(C: np.ndarray, Q: np.ndarray, size: float, z: float = 0.0,
+                     segments: int = ELLIPSE_SEGMENTS) -> tuple[pv.PolyData, np.ndarray]:
+    """Ellipses at centres C (n, 2) for SPD Q (n, 2, 2): axes along Q's eigenvectors, semi-axes
+    size · √(λ_i / λ_max) (each ellipse's larger semi-axis is `size`). Returns the polygons and
+    each Q's eigenvalues (n, 2), ascending."""
+    if len(C) == 0:
+        return pv.PolyData(), np.zeros((0, 2))
+    lam, V = np.linalg.eigh(0.5 * (Q + np.transpose(Q, (0, 2, 1))))
+    lam = np.maximum(lam, 0.0)
+    top = np.maximum(lam[:, 1:], 1e-300)
+    radii = size * np.sqrt(lam / top)                                 # (n, 2)
+    t = np.linspace(0.0, 2 * np.pi, segments, endpoint=False)
+    circle = np.stack([np.cos(t), np.sin(t)], axis=1)                  # (s, 2)
+    pts = C[:, None, :] + np.einsum("nij,nj,sj->nsi", V, radii, circle)
+    n = len(C)
+    faces = np.column_stack([np.full(n, segments, dtype=np.int64),
+                             np.arange(n * segments, dtype=np.int64).reshape(n, segments)])
+    poly = pv.PolyData(_xyz(pts.reshape(-1, 2), z), faces=faces.ravel())
+    return poly, lam
+
+
+def outline_polydata(ellipses: pv.PolyData, segments: int = ELLIPSE_SEGMENTS) -> pv.PolyData:
+    """The polygons of `ellipse_polydata` as closed polylines on the same points, with the same
+    cell arrays."""
+    if ellipses.n_points == 0:
+        return pv.PolyData()
+    n = ellipses.n_cells
+    ring = np.arange(n * segments, dtype=np.int64).reshape(n, segments)
+    lines = np.column_stack([np.full(n, segments + 1, dtype=np.int64), ring, ring[:, :1]])
+    out = pv.PolyData(ellipses.points.copy(), lines=lines.ravel())
+    for name in ellipses.cell_data.keys():
+        out.cell_data[name] = ellipses.cell_data[name]
+    return out
+
+
+def ellipses(step, field, *, domain=None, cells: int = GLYPH_CELLS) -> FieldScene:
+    """The first view of `step` for a conductivity field: Q(x) as ellipses on a coarse grid
+    over Ω (see `FieldScene`), drawn just above the flat mesh."""
+    if not is_field(field):
+        raise QmeshError(f"ellipses show a qmesh.TensorField, got {type(field).__name__}")
+    P, T = step.mesh.points, step.mesh.triangles
+    rings = domain_rings(step, domain)
+    C, h = glyph_centres(rings, cells, None if domain is None else lambda X: domain.contains(X))
+    Q, ok = _field_at(field, C)
+    C_ok = C[ok]
+    width = float(np.ptp(np.concatenate(rings), axis=0).max()) or 1.0
+    poly, lam = ellipse_polydata(C_ok, Q, GLYPH_FILL * h, z=2e-3 * width)
+    clim = (0.0, 1.0)
+    if len(lam):
+        value = np.log10(np.maximum(lam[:, 1], 1e-300))
+        poly.cell_data["log10_k_max"] = value
+        lo, hi = float(value.min()), float(value.max())
+        clim = (lo, hi) if hi - lo > 1e-9 * max(1.0, abs(lo)) else (lo - 1.0, lo + 1.0)
+    return FieldScene(poly, outline_polydata(poly), triangles_polydata(P, T), C_ok, Q, clim,
+                      int((~ok).sum()))
 
 
 # --------------------------------------------------------------------------- projected view
@@ -376,7 +521,8 @@ def q_signs(step, anisotropy, rtol: float = 1e-9) -> tuple[np.ndarray, np.ndarra
     0 on the boundary (where the M-matrix property says nothing), 2 on an interface between two
     regions with q_ij ≥ 0 (assembled from both sides, each triangle with its own Q). Round-off
     counts as ≥ 0."""
-    edges, q, interior = measure.edge_weights(step.mesh, anisotropy)
+    conductivity = element_means(step.mesh, anisotropy) if is_field(anisotropy) else anisotropy
+    edges, q, interior = measure.edge_weights(step.mesh, conductivity)
     scale = np.abs(q).max() if len(q) else 1.0
     sign = np.where(interior, np.where(q >= -rtol * scale, 1, -1), 0)
     if is_medium(anisotropy):

@@ -116,7 +116,7 @@ class Session:
         if key not in self._notes:
             notes = []
             step = self._run.history[i]
-            if step.stage == "triangulate":
+            if step.stage == "triangulate" and not self._run.is_field:   # a field's mesher warns itself
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore")
                     try:

@@ -222,7 +222,8 @@ class QmeshWidget(w.VBox):
 
     def _layout(self) -> list:
         s, b = self.sliders, self.buttons
-        views = w.HBox([w.VBox([w.HTML(f"<b>{VIEW_TITLES[name]}</b>"), self.view_widgets[name],
+        self.titles = {name: w.HTML(f"<b>{html_escape(VIEW_TITLES[name])}</b>") for name in VIEWS}
+        views = w.HBox([w.VBox([self.titles[name], self.view_widgets[name],
                                 self.legends[name]])
                         for name in VIEWS])
         self._constant_box = w.VBox([s["k1"], s["k2"], s["angle"], self.readout])
@@ -346,6 +347,7 @@ class QmeshWidget(w.VBox):
         self.views.draw(c.current, c.anisotropy, **self._view_options())
         for name, html in self.legends.items():
             html.value = legend.html(name, self.views.legend)
+            self.titles[name].value = f"<b>{html_escape(legend.title(name, self.views.legend))}</b>"
         self._sync(quick=True)
         self._push()
         if not quick:
