@@ -15,6 +15,7 @@ by `qmesh.domain.polygon_file`'s GeoJSON ring reader (positions, closing points)
 from __future__ import annotations
 
 import json
+import math
 
 from qmesh.domain.polygon_file import _checked_ring, _path, rings_from_polygon
 from qmesh.conductivity.anisotropy import Anisotropy
@@ -41,6 +42,10 @@ def regions_from_text(text: str, where: str):
         doc = json.loads(text)
     except json.JSONDecodeError as e:
         raise QmeshError(f"{where}, line {e.lineno} column {e.colno}: not valid JSON: {e.msg}") from None
+    except ValueError as e:  # an integer of more digits than Python converts
+        raise QmeshError(f"{where}: not valid JSON: {str(e)[:120]}") from None
+    except RecursionError:
+        raise QmeshError(f"{where}: not valid GeoJSON: nested too deeply") from None
     if not isinstance(doc, dict) or doc.get("type") != "FeatureCollection" \
             or not isinstance(doc.get("features"), list):
         raise QmeshError(f"{where}: a region file is a GeoJSON FeatureCollection of Polygon "
@@ -101,8 +106,11 @@ def conductivity_per_region(domain, from_file: dict, region_q, region_principal,
     cond.update(from_file)
     for flag, given in (("--region-Q", region_q or []), ("--region-principal", region_principal or [])):
         for tag, a, b, c in given:
-            if tag != int(tag) or not 0 <= int(tag) <= len(domain.regions):
+            if not (math.isfinite(tag) and tag == int(tag) and 0 <= int(tag) <= len(domain.regions)):
                 raise QmeshError(f"{flag} {tag:g}: the region tags are 0 to {len(domain.regions)}")
-            cond[int(tag)] = (Anisotropy.constant([[a, b], [b, c]]) if flag == "--region-Q"
-                              else Anisotropy.principal(a, b, c))
+            try:
+                cond[int(tag)] = (Anisotropy.constant([[a, b], [b, c]]) if flag == "--region-Q"
+                                  else Anisotropy.principal(a, b, c))
+            except QmeshError as e:
+                raise QmeshError(f"{flag} {int(tag)}: {e}") from None
     return cond
