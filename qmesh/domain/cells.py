@@ -125,7 +125,8 @@ def _component_rings(x, y, comp, n_comp):
         d_in, d_out = P - np.roll(P, 1, axis=0), np.roll(P, -1, axis=0) - P
         turn = d_in[:, 0] * d_out[:, 1] - d_in[:, 1] * d_out[:, 0]
         P = P[turn != 0]                                  # straight runs: their ends only
-        area = 0.5 * np.sum(P[:, 0] * np.roll(P[:, 1], -1) - P[:, 1] * np.roll(P[:, 0], -1))
+        R = (P - P[0]) / np.abs(P - P[0]).max()           # the sign survives far-off or huge grids
+        area = np.sum(R[:, 0] * np.roll(R[:, 1], -1) - R[:, 1] * np.roll(R[:, 0], -1))
         owner = E[first[k], 2]
         if area > 0:
             out[owner][0] = P

@@ -141,10 +141,23 @@ class Domain:
             if (a > 0) != (k == 0):
                 P = np.roll(P[::-1], 1, axis=0)
                 t = t[(-np.arange(len(t)) - 1) % len(t)]
-            P = P.copy()
-            P.setflags(write=False)
             oriented.append(P)
             seg_tags.append(t)
+        self._store(oriented, seg_tags, abs(areas[0]) - sum(abs(a) for a in areas[1:]))
+        self._tag_names = _tag_names(names, ring_tags)
+        self._regions: tuple[Domain, ...] = ()
+        self._region_names: dict[int, str] = {}
+        self._partition: Partition | None = None
+        if regions is not None and not (isinstance(regions, (list, tuple)) and not regions):
+            attach(self, regions, region_names, ring_tags, Domain)
+
+    def _store(self, oriented: list[NDArray[np.float64]], seg_tags: list[NDArray[np.int64]],
+               area: float) -> None:
+        """Keep oriented rings (outline counter-clockwise, holes clockwise), their segment
+        tags and Ω's area, with the seeds and segments read from them."""
+        oriented = [P.copy() for P in oriented]
+        for P in oriented:
+            P.setflags(write=False)
         self._rings = tuple(oriented)
         seeds = np.concatenate(oriented)
         seeds.setflags(write=False)
@@ -157,13 +170,19 @@ class Domain:
         self._segment_tags = np.concatenate(seg_tags)
         self._segment_tags.setflags(write=False)
         self._ring_of_seed = np.repeat(np.arange(len(oriented)), np.diff(offsets))
-        self._tag_names = _tag_names(names, ring_tags)
-        self._area = abs(areas[0]) - sum(abs(a) for a in areas[1:])
-        self._regions: tuple[Domain, ...] = ()
-        self._region_names: dict[int, str] = {}
-        self._partition: Partition | None = None
-        if regions is not None and not (isinstance(regions, (list, tuple)) and not regions):
-            attach(self, regions, region_names, ring_tags, Domain)
+        self._area = area
+
+    @classmethod
+    def _traced(cls, outer: NDArray[np.float64], holes: Sequence[NDArray[np.float64]] = ()) -> Domain:
+        """A domain of rings known to be simple, disjoint and oriented (the outline counter-
+        clockwise, holes clockwise): the zones `cells.zones` traces along cell edges, whose
+        checks one by one would cost more than the partition that checks them together."""
+        new = object.__new__(cls)
+        rings = [np.asarray(outer, float)] + [np.asarray(h, float) for h in holes]
+        area = _rings.signed_area(rings[0]) + sum(_rings.signed_area(h) for h in rings[1:])
+        new._store(rings, [np.full(len(P), k + 1, np.int64) for k, P in enumerate(rings)], area)
+        new._tag_names, new._regions, new._region_names, new._partition = {}, (), {}, None
+        return new
 
     @classmethod
     def from_cells(cls, x: ArrayLike, y: ArrayLike, k1: ArrayLike, k2: ArrayLike,
@@ -171,8 +190,7 @@ class Domain:
         """(Domain, {region tag: Anisotropy}) of a structured grid with per-cell k1, k2, angle
         (MODFLOW's convention), cells of equal conductivity merged into regions (`cells.zones`)."""
         outline, regions, params = cells.zones(x, y, k1, k2, angle)
-        domain = cls(outline, regions=[cls(outer, holes) if holes else outer
-                                       for outer, holes in regions])
+        domain = cls(outline, regions=[Domain._traced(outer, holes) for outer, holes in regions])
         return domain, {tag: Anisotropy.principal(*p) for tag, p in enumerate(params)}
 
     @property
@@ -358,14 +376,35 @@ def _check_simple(raw: list[NDArray[np.float64]]) -> None:
         raise QmeshError(f"point {p - offsets[rp]} of {_ring_name(rp)} touches segment "
                          f"{s - offsets[rs]} of {_ring_name(rs)} (closer than {TOUCH:g} × the "
                          f"domain's size)")
-    outline = raw[0]
-    oa, ob = outline, np.roll(outline, -1, axis=0)
-    for k, H in enumerate(raw[1:], start=1):
-        if not _rings.inside(H[:1], oa, ob)[0]:
-            raise QmeshError(f"{_ring_name(k)} is not inside the outline")
-        for m, G in enumerate(raw[1:], start=1):
-            if m != k and _rings.inside(H[:1], G, np.roll(G, -1, axis=0))[0]:
-                raise QmeshError(f"{_ring_name(k)} lies inside {_ring_name(m)}; holes must be disjoint")
+    if len(raw) == 1:
+        return
+    # rings neither cross nor touch: each hole lies inside or outside each other ring as a
+    # whole, so its first point decides; one sweep over every (point, segment) pair sharing a
+    # height, parity per (hole, ring)
+    ring_of = np.repeat(np.arange(len(raw)), sizes)
+    probe = offsets[1:-1]                              # first point of every hole
+    P, A, B = pts[probe], pts[ia], pts[ib]
+    ylo, yhi = np.minimum(A[:, 1], B[:, 1]), np.maximum(A[:, 1], B[:, 1])
+    n_r = np.int64(len(raw))
+    keys = []
+    for pt, sg in _rings._pairs(P[:, 1], ylo, yhi):
+        a, b, p = A[sg], B[sg], P[pt]
+        straddle = (a[:, 1] > p[:, 1]) != (b[:, 1] > p[:, 1])
+        t = np.where(straddle, (p[:, 1] - a[:, 1]) / np.where(straddle, b[:, 1] - a[:, 1], 1.0), 0.0)
+        hit = straddle & (a[:, 0] + t * (b[:, 0] - a[:, 0]) > p[:, 0])
+        keys.append(pt[hit] * n_r + ring_of[sg][hit])
+    k = np.concatenate(keys) if keys else np.zeros(0, np.int64)
+    u, count = np.unique(k, return_counts=True)
+    u = u[count % 2 == 1]
+    hole, ring = u // n_r + 1, u % n_r                 # hole `hole` lies inside ring `ring`
+    outside = np.setdiff1d(np.arange(1, len(raw)), hole[ring == 0])
+    if len(outside):
+        raise QmeshError(f"{_ring_name(int(outside[0]))} is not inside the outline")
+    nested = (ring > 0) & (ring != hole)
+    if nested.any():
+        i = int(np.flatnonzero(nested)[0])
+        raise QmeshError(f"{_ring_name(int(hole[i]))} lies inside {_ring_name(int(ring[i]))}; "
+                         "holes must be disjoint")
 
 
 class Polygon(Domain):

@@ -45,6 +45,9 @@ class MediaPlan:
         self.faces = part.faces
         cond = conductivity_of_regions(domain, conductivity)
         self.anis = [cond[f.region] for f in self.faces]
+        if target_vertices is not None and target_vertices <= len(part.points):
+            raise QmeshError(f"target_vertices = {target_vertices} must exceed the "
+                             f"{len(part.points)} input points of the domain and its regions")
         bare = [face_domain(part, f, {}, self.face_name(i)) for i, f in enumerate(self.faces)]
         self.k = [hessian_scale(a, d.seeds) for a, d in zip(self.anis, bare)]
         self.area = [sizing.metric_area(d, a) / k for d, a, k in zip(bare, self.anis, self.k)]
@@ -54,9 +57,6 @@ class MediaPlan:
         self.order = sorted(range(len(self.faces)), key=lambda i: self.area[i])   # largest last
         everything = list(range(len(self.faces)))
         if target_vertices is not None:
-            if target_vertices <= len(part.points):
-                raise QmeshError(f"target_vertices = {target_vertices} must exceed the "
-                                 f"{len(part.points)} input points of the domain and its regions")
             self.h = self._size_for(everything, target_vertices)
         else:
             self.h = float(size) if size is not None else float(np.mean(np.concatenate(self.lengths)))
