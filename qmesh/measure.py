@@ -527,7 +527,7 @@ class Conditioning(NamedTuple):
 
 
 def condition_number(mesh: Mesh, anisotropy: Given = None, *,
-                     method: Literal["auto", "dense", "sparse"] = "auto", tol: float = 1e-8) -> float:
+                     method: Literal["auto", "dense", "sparse"] = "auto", tol: float = 1e-6) -> float:
     """κ2 = λ_max / λ_min of the Dirichlet-reduced stiffness matrix (MATH.md "conditioning"),
     always a finite number ≥ 1: QmeshError saying why when the matrix has none (see
     `conditioning`, which returns the reason instead of raising)."""
@@ -538,7 +538,7 @@ def condition_number(mesh: Mesh, anisotropy: Given = None, *,
 
 
 def conditioning(mesh: Mesh, anisotropy: Given = None, *,
-                 method: Literal["auto", "dense", "sparse"] = "auto", tol: float = 1e-8) -> Conditioning:
+                 method: Literal["auto", "dense", "sparse"] = "auto", tol: float = 1e-6) -> Conditioning:
     """κ2 of the Dirichlet-reduced stiffness matrix K (`stiffness_interior`), or why there is none.
 
     K = Σ_T K_T with K_T = G_T Q_T G_Tᵀ / |T| positive semi-definite when Q_T is, with kernel the
@@ -548,8 +548,9 @@ def conditioning(mesh: Mesh, anisotropy: Given = None, *,
     "dense" (n ≤ DENSE_LIMIT under "auto"): eigvalsh; "sparse": λ_max by Lanczos on K (eigsh,
     matrix-vector products only) and λ_min as 1 / the largest eigenvalue of K⁻¹, by Lanczos
     with K⁻¹ applied by ONE sparse factorisation (SuperLU, symmetric mode: minimum degree on
-    Kᵀ + K, diagonal pivots). `tol` is the Lanczos residual tolerance relative to the eigenvalue;
-    the eigenvalue itself is then accurate to about tol² relative. A κ2 above KAPPA_LIMIT is
+    Kᵀ + K, diagonal pivots). `tol` bounds the Lanczos residual relative to the eigenvalue (so
+    an eigenvalue lies that close); the extreme eigenvalues themselves come out about tol²
+    relative (residual² / gap), far below the figures printed. A κ2 above KAPPA_LIMIT is
     round-off and is reported as numerically singular.
 
     `anisotropy` as in `stiffness` (None: the mesh's element means, or Q = I without them).
@@ -559,7 +560,7 @@ def conditioning(mesh: Mesh, anisotropy: Given = None, *,
     return _conditioning(mesh, _resolve(mesh, anisotropy), method, tol)
 
 
-def _conditioning(mesh: Mesh, anisotropy: Resolved, method: str = "auto", tol: float = 1e-8) -> Conditioning:
+def _conditioning(mesh: Mesh, anisotropy: Resolved, method: str = "auto", tol: float = 1e-6) -> Conditioning:
     free = free_vertices(mesh)
     n = len(free)
     if n == 0:
@@ -583,8 +584,8 @@ def _conditioning(mesh: Mesh, anisotropy: Resolved, method: str = "auto", tol: f
     v0 = np.random.default_rng(0).random(n)                   # fixed start: same mesh ⇒ same κ2
     lmax = _largest_eigenvalue(K.dot, v0, tol)
     try:             # minimum degree on Kᵀ + K: a third less fill than COLAMD, so faster solves
-        lu = spla.splu(K.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                       options={"SymmetricMode": True})
+        lu = spla.splu(sp.csc_matrix((K.data, K.indices, K.indptr), shape=K.shape),   # K = Kᵀ
+                       permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
     except RuntimeError:                                       # SuperLU: "exactly singular"
         return Conditioning(None, "the Dirichlet matrix is singular (a zero pivot)", None, lmax)
     mu = _largest_eigenvalue(lu.solve, v0, tol)                # 1 / λ_min, one solve a step
@@ -667,13 +668,10 @@ def _not_positive_definite(mesh: Mesh, anisotropy: Resolved) -> int:
 def _floating(mesh: Mesh, free: NDArray[np.int64]) -> int:
     """How many of the `free` vertices lie in a connected part of the mesh (triangles sharing a
     vertex) with no boundary vertex."""
-    T = mesh.triangles
     n = mesh.n_vertices
-    graph = sp.coo_matrix((np.ones(2 * T.size, np.int8),
-                           (np.r_[T[:, 0], T[:, 1], T[:, 2], T[:, 1], T[:, 2], T[:, 0]],
-                            np.r_[T[:, 1], T[:, 2], T[:, 0], T[:, 0], T[:, 1], T[:, 2]])),
-                          shape=(n, n)).tocsr()
-    count, labels = csgraph.connected_components(graph, directed=False)
+    pairs = _edge_pairs(mesh.triangles, n)        # each edge of each triangle, one direction:
+    graph = sp.csr_matrix((np.ones(len(pairs), np.int8), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    count, labels = csgraph.connected_components(graph, directed=False)   # undirected reads both
     grounded = np.zeros(count, bool)
     grounded[labels[mesh.boundary]] = True
     return int(np.count_nonzero(~grounded[labels[free]]))
