@@ -20,7 +20,7 @@ VIEW_TITLES = {"lifted": "lifted: s(x) and the facets of s_h",
                "mesh": "mesh: seeds, inserted points, moves",
                "quality": "quality (2.94)"}
 """The views' titles, one wording for the trame app and the widget."""
-FIELD_TITLE = "Q(x) as ellipses, and the mesh (a field has no s to lift)"
+FIELD_TITLE = "Q(x) as ellipses over the mesh (no s to lift)"
 """The first view's title for a conductivity field (`title`)."""
 PLASMA = ("#0d0887", "#5302a3", "#8b0aa5", "#b83289", "#db5c68", "#f48849", "#febd2a",
           "#f0f921")

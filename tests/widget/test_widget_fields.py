@@ -1,0 +1,57 @@
+"""The Jupyter widget (static pictures, no kernel) on a conductivity field: the `rotating`
+preset shows its label instead of the Q controls, Q(x) as ellipses in the first picture under
+its own title, and Run ends at the certified mesh."""
+
+import io
+
+import numpy as np
+import pytest
+from PIL import Image
+
+import qmesh
+import qmesh_view
+from lab_browser import drawn
+from qmesh_view import legend
+from qmesh_view.controller import status_text
+
+SIZE = (240, 220)
+
+
+@pytest.fixture
+def view():
+    w = qmesh_view.widget(backend="static", view_size=SIZE)
+    yield w
+    w.close()
+
+
+def pictures(w) -> dict:
+    return {name: np.asarray(Image.open(io.BytesIO(image.value)).convert("RGB"))
+            for name, image in w.view_widgets.items()}
+
+
+def coloured(image: np.ndarray, spread: int = 60) -> float:
+    rgb = image.astype(int)
+    return float(np.mean(rgb.max(axis=-1) - rgb.min(axis=-1) > spread))
+
+
+def test_the_rotating_field_in_the_widget(view):
+    assert legend.VIEW_TITLES["lifted"] in view.titles["lifted"].value
+    view.sliders["domain"].value = "rotating"
+    c = view.controller
+    assert c.params.domain == "rotating" and isinstance(c.anisotropy, qmesh.TensorField)
+    assert view._constant_box.layout.display == "none" and view._s_box.layout.display == "none"
+    assert view.sliders["q_mode"].layout.display == "none"
+    assert "FVCA5 test 5" in view.media_readout.value
+    assert legend.FIELD_TITLE in view.titles["lifted"].value
+    assert "ellipses" in view.legends["lifted"].value
+    images = pictures(view)
+    assert all(drawn(img) for img in images.values())
+    assert coloured(images["lifted"]) > 0.01                  # the ellipses
+    view.buttons["run"].click()
+    assert c.at_end and c.current.mesh.conductivity is not None
+    assert view.status.value == status_text(c.status()) and "converged" in view.status.value
+    assert "with the element means: 100.0%" in view.status.value
+    assert "certified" in view.legends["quality"].value
+    view.sliders["domain"].value = "disk"
+    assert legend.VIEW_TITLES["lifted"] in view.titles["lifted"].value
+    assert "ellipses" not in view.legends["lifted"].value
