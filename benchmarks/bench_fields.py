@@ -37,7 +37,8 @@ Every measurement uses element means Q̄_T computed HERE, not the mesh's: formul
   at the boundary vertices, scipy.sparse spsolve;
 - κ2 of the Dirichlet matrix (`qmesh.measure.conditioning` with the means computed here);
 - min metric quality (2.94) in each triangle's own H_T = adj Q̄_T / √det Q̄_T (`measure.quality`);
-- seconds: qmesh, the whole `qmesh.mesh` call; peers, their final calibrated run;
+- seconds: qmesh, the whole run (`qmesh.iterate` to its last Step, which is `qmesh.mesh`); peers,
+  their final calibrated run;
 - peak memory: every mesher runs in a fresh subprocess (this script with --worker); its peak RSS
   (VmHWM of /proc/self/status) and, in brackets, the growth over the RSS it had after its imports and
   building the field (the peers' over all their calibration runs);
@@ -361,6 +362,15 @@ def assemble(P, T, Qbar) -> tuple[sp.csr_matrix, np.ndarray, np.ndarray]:
     return K, bnd, area
 
 
+def median_stretch(P, T) -> float:
+    """Median over the triangles of longest edge / its altitude, over an equilateral's (1)."""
+    X = P[T]
+    L2 = (np.diff(X[:, [0, 1, 2, 0]], axis=1) ** 2).sum(axis=2).max(axis=1)
+    area = 0.5 * np.abs((X[:, 1, 0] - X[:, 0, 0]) * (X[:, 2, 1] - X[:, 0, 1])
+                        - (X[:, 1, 1] - X[:, 0, 1]) * (X[:, 2, 0] - X[:, 0, 0]))
+    return float(np.median(L2 / (2 * area)) * np.sqrt(3) / 2)
+
+
 def maximum_principle(P, T, Qbar) -> tuple[int, float]:
     """−div(Q∇u) = 0, u = 1 on the boundary where x < ½, else 0: vertices outside [0, 1] by more
     than MP_TOL and the worst excess."""
@@ -429,8 +439,12 @@ def run_mesher(case: Case, mesher: str, n: int, Q=None) -> dict:
     with warnings.catch_warnings(record=True) as said:
         warnings.simplefilter("always", qmesh.QmeshWarning)
         t0 = time.perf_counter()
-        if mesher == "qmesh":
-            m = qmesh.mesh(domain, fld, target_vertices=n)
+        if mesher == "qmesh":                  # qmesh.mesh is iterate's last Step: certified
+            stamps = [t0]
+            for step in qmesh.iterate(domain, fld, target_vertices=n):
+                stamps.append(time.perf_counter())
+            m = step.mesh
+            out["certify_seconds"] = stamps[-1] - stamps[-2]      # the last Step: certify
         elif mesher == "constQ":
             m = qmesh.mesh(domain, qmesh.Anisotropy.constant(np.asarray(Q)), target_vertices=n)
         elif mesher == "constfield":
@@ -482,10 +496,13 @@ def measure_mesh(case: Case, P, T, fixed, problem=None) -> dict:
     Qbar = independent_means(case, P, T, problem)
     mesh = qmesh.Mesh(P, T, fixed)
     n_in, n_b, rel = positive_off_diagonals(P, T, Qbar)
+    quality = measure.quality(mesh, Qbar)
     v, worst = maximum_principle(P, T, Qbar)
     out = {"N": int(len(P)), "pos_in": n_in, "pos_b": n_b, "mp": v, "mp_worst": worst,
            "kappa2": measure.conditioning(mesh, Qbar).kappa2,
-           "min_q": float(np.nanmin(measure.quality(mesh, Qbar))), "Qbar": Qbar, "rel": rel}
+           "min_q": float(np.nanmin(quality)), "stretch": median_stretch(P, T),
+           "worst_at": P[T[int(np.nanargmin(quality))]].mean(axis=0).round(3).tolist(),
+           "Qbar": Qbar, "rel": rel}
     if case.kind == "formula":
         out["l2"] = l2_error(P, T, Qbar, problem[1], problem[2])
     return out
@@ -504,7 +521,7 @@ def run(case_names, ns, big, mmg=True, figure_case="fvca5") -> tuple[list[dict],
                 row = {"case": name, "mesher": mesher, "target": n, "seconds": r["seconds"],
                        "total_seconds": r["total_seconds"], "runs": r["runs"],
                        "peak_mb": r["peak_kb"] / 1024, "grow_mb": (r["peak_kb"] - r["base_kb"]) / 1024,
-                       "warnings": r["warnings"]}
+                       "warnings": r["warnings"], "certify_s": r.get("certify_seconds")}
                 row.update(measure_mesh(case, P, T, r["fixed"], problem))
                 if mesher == "qmesh":
                     Qm = r["conductivity"]
@@ -572,6 +589,17 @@ def summary(rows) -> list[str]:
     notes.append("qmesh's seconds / constant Q's (Anisotropy; constant TensorField): " + "; ".join(
         f"{r['case']} at {r['target']}: {r['seconds'] / r['const_s']:.0f}× "
         f"({r['seconds'] / r['constfield_s']:.1f}×)" for r in q))
+    notes.append("qmesh's certify-and-repair pass (its last Step) took: " + "; ".join(
+        f"{r['case']} at {r['target']}: {r['certify_s']:.2f} of {r['seconds']:.2f} s" for r in q))
+    notes.append("where qmesh's worst triangle (min quality) lies, its centroid: " + "; ".join(
+        f"{r['case']} at {r['target']}: {r['min_q']:.3f} at ({r['worst_at'][0]}, {r['worst_at'][1]})"
+        for r in q))
+    notes.append("median stretch of the triangles (longest edge / its altitude, 1 for an "
+                 "equilateral), qmesh / MMG2D / Triangle: " + "; ".join(
+                     f"{r['case']} at {r['target']}: " + " / ".join(
+                         f"{by[(r['case'], r['target'], m)]['stretch']:.1f}"
+                         for m in ("qmesh", "MMG2D", "Triangle") if (r['case'], r['target'], m) in by)
+                     for r in q))
     warned = [f"{r['case']} at {r['target']}: " + " / ".join(r["warnings"]) for r in q if r["warnings"]]
     notes.append("qmesh's warnings: " + ("; ".join(warned) if warned else "none"))
     return notes
