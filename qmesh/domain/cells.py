@@ -76,6 +76,17 @@ def zones(x, y, k1, k2, angle=0.0):
     return outline, regions, params
 
 
+def cell_of_zone(x, y, k1, k2, angle, params) -> str:
+    """Where the zone of conductivity `params` (k1, k2, angle) lies, for a message: its first
+    cell (row j, column i) and that cell's corner."""
+    x, y = _grid_axis(x, "x"), _grid_axis(y, "y")
+    shape = (len(y) - 1, len(x) - 1)
+    K1, K2, ANG = (_field(v, shape, n) for v, n in ((k1, "k1"), (k2, "k2"), (angle, "angle")))
+    hit = (K1 == params[0]) & (K2 == params[1]) & (np.mod(ANG, 180.0) == params[2])
+    j, i = (int(v[0]) for v in np.nonzero(hit))
+    return f"cell (row {j}, column {i}) at x = {x[i]:g}, y = {y[j]:g}"
+
+
 def _component_rings(x, y, comp, n_comp):
     """Per component: (outer ring, [hole rings]) traced along cell edges, straight runs merged."""
     ny, nx = comp.shape

@@ -191,7 +191,13 @@ class Domain:
         (MODFLOW's convention), cells of equal conductivity merged into regions (`cells.zones`)."""
         outline, regions, params = cells.zones(x, y, k1, k2, angle)
         domain = cls(outline, regions=[Domain._traced(outer, holes) for outer, holes in regions])
-        return domain, {tag: Anisotropy.principal(*p) for tag, p in enumerate(params)}
+        cond = {}
+        for tag, p in enumerate(params):
+            try:
+                cond[tag] = Anisotropy.principal(*p)
+            except QmeshError as e:
+                raise QmeshError(f"{cells.cell_of_zone(x, y, k1, k2, angle, p)}: {e}") from None
+        return domain, cond
 
     @property
     def regions(self) -> tuple[Domain, ...]:

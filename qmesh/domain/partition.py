@@ -78,7 +78,11 @@ def partition(rings: list[Ring], segment_tags: list[np.ndarray], size: float) ->
     """The arrangement of `rings` (Ω's first: outline, holes; then the regions'); `segment_tags`
     the user's tags of Ω's rings' segments, one array per Ω ring."""
     # 1. vertices: every ring point, points closer than TOUCH·size merged (first one kept)
-    pts = np.concatenate([r.points for r in rings])
+    user = np.concatenate([r.points for r in rings])
+    # computed about the box's centre: cross products of far-off coordinates (1e8 and more)
+    # would cancel; the partition keeps the user's coordinates bit for bit
+    centre = 0.5 * user.min(axis=0) + 0.5 * user.max(axis=0)
+    pts = user - centre
     sizes = [len(r.points) for r in rings]
     offsets = np.cumsum([0] + sizes)
     pairs = cKDTree(pts).query_pairs(TOUCH * size, output_type="ndarray")
@@ -88,7 +92,8 @@ def partition(rings: list[Ring], segment_tags: list[np.ndarray], size: float) ->
     first = np.full(label.max() + 1, len(pts))
     np.minimum.at(first, label, np.arange(len(pts)))
     _, vid = np.unique(first[label], return_inverse=True)
-    V = pts[np.sort(np.unique(first[label]))]
+    keep = np.sort(np.unique(first[label]))
+    V, Vu = pts[keep], user[keep]
     # directed input segments: vertex ids, owner ring, segment index within its ring
     sa = np.concatenate([vid[o:o + n] for o, n in zip(offsets, sizes)])
     sb = np.concatenate([np.roll(vid[o:o + n], -1) for o, n in zip(offsets, sizes)])
@@ -98,7 +103,8 @@ def partition(rings: list[Ring], segment_tags: list[np.ndarray], size: float) ->
     if degenerate.any():
         k = int(np.flatnonzero(degenerate)[0])
         raise QmeshError(f"{rings[sring[k]].name}: segment {sseg[k]} is shorter than "
-                         f"{TOUCH:g} × the domain's size")
+                         f"{TOUCH:g} × the domain's size, so its ends are one point: enlarge "
+                         "that ring or drop one of the two points")
 
     # 2. split every segment at the vertices lying on it
     near = _rings.near_points(V, V[sa], V[sb], sa, sb, TOUCH * size)
@@ -167,7 +173,7 @@ def partition(rings: list[Ring], segment_tags: list[np.ndarray], size: float) ->
     reg = owner > 0
     np.maximum.at(hit_region, half[reg], owner[reg])
     left[hit_region > 0] = hit_region[hit_region > 0]
-    _check_same_side(owner[reg], half[reg], n_half, V, half_from)
+    _check_same_side(owner[reg], half[reg], n_half, Vu, half_from)
     omega_out = np.zeros(n_half, bool)
     omega_out[(half ^ 1)[on_omega]] = True
     left[omega_out & (hit_region == 0)] = OUTSIDE
@@ -176,11 +182,11 @@ def partition(rings: list[Ring], segment_tags: list[np.ndarray], size: float) ->
     if bad.any():
         h = int(np.flatnonzero(bad)[0])
         raise QmeshError(f"region {hit_region[h]} leaves the domain: its edge from "
-                         f"{V[half_from[h]].tolist()} to {V[half_to[h]].tolist()} runs along "
+                         f"{Vu[half_from[h]].tolist()} to {Vu[half_to[h]].tolist()} runs along "
                          f"{edge_source[h // 2][0]} (segment {edge_source[h // 2][1]}) on the outside")
-    faces, edge_faces, first_half = _label_faces(V, E, half_from, half_to, left, hit_region, omega_out,
+    faces, edge_faces, first_half = _label_faces(Vu, E, half_from, half_to, left, hit_region, omega_out,
                                      face_half, n_cyc, cyc, edge_source, area)
-    return Partition(V, E, edge_source, edge_tag, half_from, nxt, faces, edge_faces, first_half)
+    return Partition(Vu, E, edge_source, edge_tag, half_from, nxt, faces, edge_faces, first_half)
 
 
 def _check_crossings(V, E, edge_source) -> None:

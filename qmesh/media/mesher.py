@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from qmesh.conductivity.anisotropy import Anisotropy
 from qmesh.domain.domain import as_domain
 from qmesh.errors import QmeshError, QmeshWarning
 from qmesh.media.faces import face_domain, merge_points, points_on_edges
@@ -128,7 +129,10 @@ def _face_steps(plan: MediaPlan, i: int, extra: dict, options: dict, notes: list
     """Algorithm 2.1 on face i, its Steps as they come. A face thinner (or sharper) in its metric
     than the shared size needs a finer one: its run says "too large", and the size is halved
     for this face, a few times. Its warnings go to `notes`, naming its region."""
-    dom = face_domain(plan.part, plan.faces[i], extra, plan.face_name(i))
+    try:
+        dom = face_domain(plan.part, plan.faces[i], extra, plan.face_name(i))
+    except QmeshError as e:
+        raise plan.too_small(i) or e from None
     said: list = []
     aim = plan.last_face_target(i, dom, meshes)
     for k in range(FINER + 1):
@@ -141,9 +145,12 @@ def _face_steps(plan: MediaPlan, i: int, extra: dict, options: dict, notes: list
             break
         except QmeshError as e:
             if k == FINER or ("too large" not in str(e) and "target_vertices" not in str(e)):
-                raise QmeshError(f"{plan.face_name(i)}: {e}") from None
+                raise plan.too_small(i) or QmeshError(f"{plan.face_name(i)}: {e}") from None
     assert last is not None
-    thin = thin_domain(last.mesh, plan.anis[i])
+    shape = plan.anis[i]
+    if shape.is_constant:              # its shape only: a Q of 1e300 would overflow the areas
+        shape = Anisotropy.constant(shape.matrix / plan.k[i])
+    thin = thin_domain(last.mesh, shape)
     notes += [(f"{plan.face_name(i)}: {w.message}", w.category) for w in said]
     if thin is not None:
         notes.append((f"{plan.face_name(i)}: {thin}", QmeshWarning))

@@ -31,6 +31,7 @@ from qmesh.mesher.plan import BOUNDARY_FACTOR
 from qmesh.triangle_mesh import Mesh
 
 RESIZE = 2.0     # the faces still to come are sized at most this factor away from the first h
+TINY = 1e-5      # a face this small (× the domain's size) that cannot be meshed is named as the cause
 SLACK = 0.03     # ... and only when the faces done so far put the run this share off its target
 
 
@@ -50,7 +51,7 @@ class MediaPlan:
                              f"{len(part.points)} input points of the domain and its regions")
         bare = [face_domain(part, f, {}, self.face_name(i)) for i, f in enumerate(self.faces)]
         self.k = [hessian_scale(a, d.seeds) for a, d in zip(self.anis, bare)]
-        self.area = [sizing.metric_area(d, a) / k for d, a, k in zip(bare, self.anis, self.k)]
+        self.area = [_metric_area(d, a, k) for d, a, k in zip(bare, self.anis, self.k)]
         self.lengths = [sizing.metric_edge_lengths(d, a, k) for d, a, k in zip(bare, self.anis, self.k)]
         self.longest = self._interface_lengths()
         self.target = target_vertices
@@ -68,6 +69,27 @@ class MediaPlan:
         r = self.faces[i].region
         names = self.domain.region_names
         return f"region {r}" + (f" ({names[r]})" if r in names else "")
+
+    def too_small(self, i: int) -> QmeshError | None:
+        """Why face i could not be meshed when it, or a face beside it, is tiny next to the
+        domain (TINY × its size or less): the points that face's metric needs on its edges
+        come closer than the round-off of the face around it allows. None otherwise."""
+        part, D = self.part, self.domain.diameter
+        ef = part.edge_faces
+        near = {i} | {int(f) for f in ef[(ef == i).any(axis=1)].ravel() if f >= 0}
+        ext = {}
+        for j in near:
+            X = part.points[part.edges[np.flatnonzero((ef == j).any(axis=1))].ravel()]
+            ext[j] = float(np.ptp(X, axis=0).max())
+        j = min(ext, key=ext.get)
+        if ext[j] > TINY * D:
+            return None
+        where = "" if j == i else f", and {self.face_name(i)} around it cannot be meshed"
+        return QmeshError(f"{self.face_name(j)} is {ext[j]:.3g} across, {ext[j] / D:.2g} × the "
+                          f"domain's size{where}: the points its metric needs on its edges come "
+                          "closer together than floating point resolves beside the rest of the "
+                          "domain; enlarge it, or leave it out (give that area its neighbour's "
+                          "conductivity)")
 
     def _interface_lengths(self) -> np.ndarray:
         """Metric length of every interface edge in the longer of its two sides' metrics."""
@@ -95,10 +117,16 @@ class MediaPlan:
         """Expected vertices the faces `faces` add at metric edge length h: Euler's estimate
         per face (mesher.sizing), less one count of every interface vertex they share with
         another face (counted on both sides, or already there)."""
-        n = sum(sizing.vertices_for_size(self.area[i], self.lengths[i], h, BOUNDARY_FACTOR)
-                for i in faces)
         mine = np.zeros(len(self.faces), bool)
         mine[faces] = True
+        if not hasattr(self, "_seg_face"):       # every face's segment lengths, concatenated
+            self._seg_len = np.concatenate(self.lengths)
+            self._seg_face = np.repeat(np.arange(len(self.faces)), [len(L) for L in self.lengths])
+            self._area_arr = np.asarray(self.area, float)
+        nb = np.maximum(1, np.ceil(self._seg_len[mine[self._seg_face]] / (BOUNDARY_FACTOR * h))).sum()
+        # Euler's estimate per face (sizing.vertices_for_size), summed over the faces
+        n = sizing.vertices_from_counts(float(self._area_arr[mine].sum()), h, float(nb)) \
+            + 0.5 * (2 * int(mine.sum()) - 2)
         ef = self.part.edge_faces
         shared = self.part.interface & (mine[ef[:, 0]] | mine[ef[:, 1]])
         return n - float(self.pieces(h)[shared].sum())
@@ -141,6 +169,20 @@ class MediaPlan:
     def size_of(self, i: int) -> float:
         """The face mesher's `size`: h in the user's metric ∇²s_r (= h·√k_r)."""
         return self.h_rest * np.sqrt(self.k[i])
+
+
+def _metric_area(dom, anisotropy, k: float) -> float:
+    """∫ √det(∇²s / k) over the face: with k divided out before the determinant for a constant
+    Q, so a conductivity of 1e300 (whose determinant overflows) is sized like any other."""
+    if anisotropy.is_constant:
+        H = anisotropy.H / k
+        return dom.area * float(np.sqrt(H[0, 0] * H[1, 1] - H[0, 1] * H[1, 0]))
+    area = sizing.metric_area(dom, anisotropy) / k
+    if not np.isfinite(area):
+        raise QmeshError(f"the metric area of a region with k = {k:.3g} overflows; divide every "
+                         "region's conductivity by a common factor (the mesh depends on their "
+                         "shapes and ratios)")
+    return area
 
 
 def vertex_count(meshes: Iterable[Mesh]) -> int:

@@ -1,0 +1,71 @@
+"""What a medium's refusals say: what the input has and what to do, never an option the user
+did not set or a defect the input does not have; and far-off or extreme inputs that mesh."""
+
+import numpy as np
+import pytest
+
+import qmesh
+from qmesh import measure
+
+P = qmesh.Anisotropy.principal
+I = qmesh.Anisotropy.constant([[1.0, 0.0], [0.0, 1.0]])
+UNIT = [(0, 0), (1, 0), (1, 1), (0, 1)]
+
+
+def _triangle(size):
+    return np.array([(0.5, 0.5), (0.5 + size, 0.5), (0.5 + size / 2, 0.5 + size)])
+
+
+@pytest.mark.parametrize("size", [1e-6, 1e-7, 1e-8])
+def test_a_tiny_inclusion_is_refused_naming_its_size(size):
+    d = qmesh.Domain(UNIT, regions=[_triangle(size)])
+    with pytest.raises(qmesh.QmeshError) as e:
+        qmesh.mesh(d, {0: I, 1: P(100, 1, 30)}, target_vertices=500)
+    msg = str(e.value)
+    assert f"region 1 is {size:.3g} across" in msg and "enlarge it" in msg
+    for wrong in ("duplicate", "touches", "pinch", "please report"):
+        assert wrong not in msg
+
+
+def test_an_inclusion_below_the_merge_distance_is_refused_at_the_domain():
+    with pytest.raises(qmesh.QmeshError, match="region 1: segment 0 is shorter.*enlarge"):
+        qmesh.Domain(UNIT, regions=[_triangle(1e-10)])
+
+
+@pytest.mark.filterwarnings("ignore::qmesh.QmeshWarning")
+def test_a_small_inclusion_meshes():
+    d = qmesh.Domain(UNIT, regions=[_triangle(1e-4)])
+    m = qmesh.mesh(d, {0: I, 1: P(100, 1, 30)}, target_vertices=500)
+    assert measure.q_nonnegative_fractions(m, {0: I, 1: P(100, 1, 30)})["q_nonnegative_fraction"] == 1.0
+
+
+@pytest.mark.parametrize("offset", [1e6, 1e8, -1e10])
+def test_cells_far_from_the_origin_mesh(offset):
+    x = np.linspace(0, 1, 5) + offset
+    d, cond = qmesh.Domain.from_cells(x, x, 1 + np.arange(16.0).reshape(4, 4), 1.0)
+    assert len(d.regions) == 15
+    m = qmesh.mesh(d, cond, target_vertices=300)
+    assert measure.q_nonnegative_fractions(m, cond) == {
+        "q_nonnegative_fraction": 1.0, "q_nonnegative_fraction_boundary": 1.0,
+        "q_nonnegative_fraction_interface": 1.0}
+
+
+def test_a_huge_isotropic_cell_meshes():
+    x = np.linspace(0, 1, 5)
+    k = np.ones((4, 4))
+    k[1, 2] = 1e300
+    d, cond = qmesh.Domain.from_cells(x, x, k, k)
+    m = qmesh.mesh(d, cond, target_vertices=300)
+    assert abs(m.n_vertices - 300) <= 30
+    fr = measure.q_nonnegative_fractions(m, cond)
+    assert fr["q_nonnegative_fraction"] == fr["q_nonnegative_fraction_interface"] == 1.0
+
+
+def test_a_cell_whose_conductivities_are_too_far_apart_is_named():
+    x = np.linspace(0, 1, 5)
+    k1 = np.ones((4, 4))
+    k1[1, 2] = 1e300
+    with pytest.raises(qmesh.QmeshError) as e:
+        qmesh.Domain.from_cells(x, x, k1, 1.0)
+    msg = str(e.value)
+    assert "cell (row 1, column 2)" in msg and "k1 = 1e+300" in msg and "size" not in msg
