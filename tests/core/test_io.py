@@ -26,7 +26,8 @@ def test_round_trip(tmp_path, delaunay_mesh, ext):
     np.testing.assert_array_equal(back.triangles, delaunay_mesh.triangles)
     expected_fixed = delaunay_mesh.fixed if ext in io.KEEPS_FIXED else np.zeros(delaunay_mesh.n_vertices, bool)
     np.testing.assert_array_equal(back.fixed, expected_fixed)
-    expected = {path.name, "m.h5"} if ext == ".xdmf" else {path.name}  # xdmf: its HDF5 beside it
+    expected = ({path.name, "m.h5", "m_facets.xdmf", "m_facets.h5"} if ext == ".xdmf"   # xdmf: its
+                else {path.name})                           # HDF5 and the facet tags' companion
     assert {p.name for p in tmp_path.iterdir()} == expected  # no temporary file left behind
 
 
