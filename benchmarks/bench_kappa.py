@@ -73,6 +73,15 @@ def size_rows(n: int, vb: int, repeat: int) -> list[list[object]]:
     return rows
 
 
+REASONS = ("touch no boundary vertex", "no interior vertex", "not positive definite",
+           "numerically singular", "zero-area", "singular")
+
+
+def short(reason: str) -> str:
+    """The kind of reason conditioning gave, for a table cell."""
+    return next((r for r in REASONS if r in reason), reason[:50])
+
+
 def media_rows(target: int) -> list[list[object]]:
     from qmesh.domain import media_cases
     rows = []
@@ -84,11 +93,11 @@ def media_rows(target: int) -> list[list[object]]:
             for step in qmesh.iterate(domain, conductivity, target_vertices=target, seed=0):
                 c = measure.conditioning(step.mesh, conductivity)
                 if c.kappa2 is None:
-                    reasons[str(c.reason).split(":")[0].split(" of the ")[-1][:60]] += 1
+                    reasons[short(str(c.reason))] += 1
                 else:
                     values.append(c.kappa2)
         bad = sum(not (np.isfinite(v) and v >= 1.0) for v in values)
-        why = "; ".join(f"{k}… ×{v}" for k, v in reasons.items()) or "—"
+        why = "; ".join(f"{k} (×{v})" for k, v in reasons.items()) or "—"
         print(f"{name}: {len(values) + sum(reasons.values())} stages, κ2 on {len(values)} "
               f"(range {min(values, default=np.nan):.3g} to {max(values, default=np.nan):.3g}, "
               f"{bad} not finite ≥ 1), none on {sum(reasons.values())}: {why}", flush=True)
