@@ -201,6 +201,7 @@ class Controller:
             while self._pull():
                 pass
             self.index = len(self.history) - 1
+        self._warm()
 
     def _pull(self) -> bool:
         """Ask the generator for one more Step; False once the run has ended. An exception from
@@ -244,8 +245,19 @@ class Controller:
         """Show the next stage (replayed from the history, or computed). False at the end."""
         if self.index + 1 < len(self.history) or self._pull():
             self.index += 1
+            self._warm()
             return True
         return False
+
+    def _warm(self) -> None:
+        """A field: compute the shown stage's element means now (the caller's thread: the app's
+        worker), so drawing it on the event loop finds them ready. A field that refuses to be
+        averaged there is left for the views and the status line to report."""
+        if self.is_field:
+            try:
+                self.conductivity_of(self.current)
+            except QmeshError:
+                pass
 
     def iterate(self) -> bool:
         """Show stages up to and including the next triangulate stage. False if none was left."""
@@ -267,6 +279,7 @@ class Controller:
     def scrub(self, index: int) -> qmesh.Step:
         """Show stage `index` of the history (clamped to the stages computed so far)."""
         self.index = int(np.clip(int(index), 0, len(self.history) - 1))
+        self._warm()
         return self.current
 
     # ------------------------------------------------------------------ measurements

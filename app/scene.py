@@ -451,12 +451,15 @@ def projected(step, *, arrow_scale: float = 1.0, min_move: float = 0.0) -> Proje
     m = step.mesh
     P = m.points
     added = np.asarray(step.added if step.added is not None else [], dtype=np.int64)
+    added = added[(added >= 0) & (added < len(P))]
     if step.moved is not None:
-        D = np.asarray(step.moved, dtype=float)
+        # the moves of the vertices there were: a stage that then appended vertices (a metric
+        # without s splits edges while it re-triangulates) holds fewer moves than vertices
+        D = np.asarray(step.moved, dtype=float)[:len(P)]
         length = np.hypot(D[:, 0], D[:, 1])
-        keep = length > min_move
+        keep = np.flatnonzero(length > min_move)
         arrows = arrows_polydata(P[keep] - D[keep], arrow_scale * D[keep])
-        n_moved = int(keep.sum())
+        n_moved = len(keep)
     else:
         arrows, n_moved = pv.PolyData(), 0
     tri = triangles_polydata(P, m.triangles)

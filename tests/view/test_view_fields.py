@@ -264,3 +264,19 @@ def test_help_lists_every_preset():
     text = " ".join(out.stdout.split())
     for name in Session().domain_names():
         assert name in text, name
+
+
+def test_a_stage_with_fewer_moves_than_vertices_is_drawn(rotating):
+    """A metric without s may split edges after its vertex step, so a stage can hold the moves
+    of the vertices there were before: arrows for those, the appended ones without."""
+    from dataclasses import replace
+    s, first = rotating
+    adjust = next(st for st in s.history if st.stage == "adjust")
+    n = adjust.mesh.n_vertices
+    shorter = replace(adjust, moved=np.asarray(adjust.moved)[: n - 7],
+                      added=np.array([0, n + 3], dtype=np.int64))
+    view = scene.projected(shorter)
+    whole = scene.projected(adjust)
+    moved = np.hypot(*np.asarray(adjust.moved)[: n - 7].T)
+    assert view.n_moved == int(np.sum(moved > 0)) <= whole.n_moved
+    assert view.n_added == 1
