@@ -34,7 +34,7 @@ from numpy.typing import ArrayLike, NDArray
 from qmesh.errors import QmeshError, QmeshWarning
 from qmesh.domain.polygon_file import MAX_COORDINATE
 from qmesh.geometry.folds import turns_clockwise
-from qmesh.io import boundary, conductivity, metadata
+from qmesh.io import boundary, conductivity, metadata, sizes
 from qmesh.io.meshio_writers import _meshio, restore_order
 from qmesh.io.payload import MEANS, payload
 from qmesh.io.registry import FORMATS, REGISTRY, Format
@@ -150,6 +150,7 @@ def _load(path: Path, fmt: Format) -> Any:
     try:
         if fmt.reader is not None and fmt.own_layout is not None and fmt.own_layout(path):
             return fmt.reader(path)
+        sizes.check(path, fmt.meshio_name)   # what the file declares, before meshio allocates it
         with contextlib.redirect_stderr(_io.StringIO()):  # meshio prints its own warnings there
             m = getattr(_meshio(), fmt.meshio_name).read(path)  # meshio.read() calls sys.exit on a bad file
         restore_order(m)

@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from qmesh.errors import QmeshError
-from qmesh.io import metadata
+from qmesh.io import metadata, sizes
 from qmesh.io.meshio_writers import _meshio, optional
 
 FACETS = "_facets"
@@ -193,12 +193,7 @@ def read(path: Path):
             if not h5.is_file():
                 raise QmeshError(f"{source}: its HDF5 file {str(h5)!r} does not exist")
             files[h5] = h5py.File(h5, "r")
-        ds = files[h5][key]
-        if not isinstance(ds, h5py.Dataset) or ds.dtype.kind not in "fiub":
-            raise QmeshError(f"{source}: {key!r} is not a numeric dataset")
-        limit = h5.stat().st_size * (1 if ds.chunks is None else 1024)  # compressed chunks: up to 1024×
-        if ds.size * ds.dtype.itemsize > max(limit, 1 << 16):
-            raise QmeshError(f"{source}: dataset {key!r} declares {ds.size} values, more than its HDF5 file holds")
+        ds = sizes.dataset(path, files[h5], key, h5)   # its declared size against its file and the budget
         if rows is not None and (len(ds.shape) == 0 or ds.shape[0] != rows or ds.size > 9 * rows):
             raise QmeshError(f"{source}: dataset {key!r} has shape {ds.shape}, expected {rows} rows")
         return np.asarray(ds[()])
