@@ -56,8 +56,9 @@ TEXT_PARAMS = ("target_vertices", "seed")   # typed: applied on Enter or blur, n
 SLIDER_PARAMS = tuple(n for n in PARAMS if n not in TEXT_PARAMS + ("s_text",))
 
 
-def convergence_chart(series: dict) -> dict:
-    """State for the sparklines: log10 E, κ2, N per iteration, and "first → last" labels."""
+def convergence_chart(series: dict, field: bool = False) -> dict:
+    """State for the sparklines: log10 E, κ2, N per iteration, and "first → last" labels (E's
+    says "none: no s" for a `field`, whose metric has no energy)."""
     def ends(values, fmt):
         v = [x for x in values if x is not None]
         return f"{v[0]:{fmt}} → {v[-1]:{fmt}}" if v else ""
@@ -65,7 +66,7 @@ def convergence_chart(series: dict) -> dict:
     kappa2 = [x for x in series["kappa2"] if x is not None]
     return {"chart_energy": [math.log10(x) for x in energy], "chart_kappa2": kappa2,
             "chart_n": list(series["n_vertices"]),
-            "chart_labels": {"chart_energy": ends(energy, ".3g"),
+            "chart_labels": {"chart_energy": "none: no s" if field else ends(energy, ".3g"),
                              "chart_kappa2": ends(kappa2, ".3g"),
                              "chart_n": ends(series["n_vertices"], "d")}}
 
@@ -171,7 +172,7 @@ class QmeshView(TrameApp):
 
     def _chart(self) -> dict:
         """Worker thread: the convergence series as sparkline data (E on a log10 scale)."""
-        return convergence_chart(self.session.convergence())
+        return convergence_chart(self.session.convergence(), field=self.session.controller.is_field)
 
     def _show(self) -> int:
         """Event loop: draw the shown stage, push its images, the slider and its quick numbers.

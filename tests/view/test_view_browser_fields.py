@@ -53,5 +53,6 @@ def test_picking_rotating_runs_and_shows_ellipses_and_the_mesh():
         grey = (rgb.max(axis=-1) - rgb.min(axis=-1) < 12) & (rgb.max(axis=-1) < 200)
         assert grey.mean() > 0.005                                     # the mesh under them
         assert "certified" in b.page_text(page, "#legend-quality")
+        assert "none: no s" in b.page_text(page, "#chart")              # no energy to chart
         BASELINES.mkdir(exist_ok=True)
         page.screenshot(path=str(BASELINES / "field_rotating.png"))
