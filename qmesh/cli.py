@@ -34,6 +34,7 @@ from qmesh.domain.domain import Disk
 from qmesh.errors import QmeshError, QmeshWarning
 from qmesh.geometry.folds import folded_triangles
 from qmesh.io.conductivity import PREFIX as RECORD_PREFIX, record_of
+from qmesh.mesher import budget
 from qmesh.meshing import iterate
 from qmesh.meshing import mesh as run_mesher
 from qmesh.domain.polygon_file import read_domain
@@ -130,6 +131,11 @@ def _advance(bar, step) -> None:
 def cmd_mesh(args) -> int:
     out = io.check_writable(args.output)
     anisotropy = anisotropy_from(args)
+    if not (args.polygon or args.regions):   # the disk's own count, before its VB points are made
+        budget.check(budget.disk_vertices(args.disk, anisotropy, target_vertices=args.target_vertices,
+                                          size=args.size),
+                     varying=not (isinstance(anisotropy, Anisotropy) and anisotropy.is_constant),
+                     what=f"--disk {args.disk}" + ("" if args.target_vertices or args.size else " at the default size"))
     domain = read_domain(args.polygon) if args.polygon else Disk(args.disk)
     if args.regions or args.region_Q or args.region_principal:      # a conductivity per region
         domain, from_file = read_regions(args.regions) if args.regions else (domain, {})

@@ -14,16 +14,23 @@ from __future__ import annotations
 
 import os
 
+import numpy as np
+
 from qmesh.errors import QmeshError
 
-BYTES_PER_VERTEX = {False: 1300, True: 6600}
+BYTES_PER_VERTEX = {False: 600, True: 1600}
 """Peak bytes per vertex of `qmesh.mesh` (constant s: False, varying s: True), rounded up from
-the largest figure `python benchmarks/bench_memory.py` measures on Disk(256) at N = 1e4, 1e5 and
-4e5 for the constant Q (2.95) and for s = exp(x) + y² (the figures: its page in docs/benchmarks/)."""
-FIXED_BYTES = 64 * 2**20
-"""Working memory of any run, whatever N (the first triangulation, caches, Qhull's buffers)."""
+the largest figure `python benchmarks/bench_memory.py` measures on Disk(256) at N = 4e5, 1e6 and
+2e6: 557, 531 and 510 for the constant Q (2.95), 1479 and 1230 for s = exp(x) + y² (at 1e6; the
+figure falls as N grows, the run's fixed part spread over more vertices)."""
+FIXED_BYTES = 128 * 2**20
+"""Working memory of any run, whatever N (the first triangulation, caches, Qhull's buffers): it
+covers the small runs' figures (varying s at N = 1e4: 101 MB above the baseline)."""
 DEFAULT_FRACTION = 0.5
 """Share of the available memory a request may use when no budget is given."""
+LIMIT_FRACTION = 0.8
+"""Share of what a process limit (RLIMIT_AS, a memory cgroup) leaves that a request may use: the
+address space also holds what a run maps without touching, so not all of it."""
 
 
 def estimate_bytes(n_vertices, *, varying: bool) -> int:
@@ -56,21 +63,102 @@ def available_bytes() -> int:
     raise QmeshError("cannot tell how much memory is available on this system")
 
 
+def _status_bytes(field: str) -> int | None:
+    """A size field of /proc/self/status (VmSize:, VmRSS:) in bytes, or None."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as f:
+            for line in f:
+                if line.startswith(field):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return None
+
+
+def _read_int(path: str) -> int | None:
+    try:
+        with open(path, encoding="ascii") as f:
+            text = f.read().strip()
+    except OSError:
+        return None
+    return int(text) if text.isdigit() else None    # "max" (cgroup v2): no limit
+
+
+def _cgroup_dirs() -> list[str]:
+    """The memory cgroup folders of this process (v2's unified one, v1's memory controller)."""
+    out = []
+    try:
+        with open("/proc/self/cgroup", encoding="ascii") as f:
+            lines = f.read().splitlines()
+    except OSError:
+        return out
+    for line in lines:
+        parts = line.split(":", 2)
+        if len(parts) != 3:
+            continue
+        _, controllers, rel = parts
+        rel = rel.lstrip("/")
+        if controllers == "":
+            out.append(os.path.join("/sys/fs/cgroup", rel))
+        elif "memory" in controllers.split(","):
+            out.append(os.path.join("/sys/fs/cgroup/memory", rel))
+    return out
+
+
+def process_limits() -> list[tuple[int, str]]:
+    """(bytes still free under the limit, the limit named) for each limit set on this process:
+    the address-space limit (RLIMIT_AS, `ulimit -v`, `prlimit --as`) less the address space in
+    use, and a memory cgroup's limit (v2 memory.max, v1 memory.limit_in_bytes) less its usage.
+    Empty when no limit is set."""
+    out: list[tuple[int, str]] = []
+    try:
+        import resource
+        soft, _ = resource.getrlimit(resource.RLIMIT_AS)
+        unlimited = resource.RLIM_INFINITY
+    except (ImportError, OSError, ValueError, AttributeError):   # not a POSIX system
+        soft = unlimited = -1
+    if soft != unlimited and soft > 0:
+        used = _status_bytes("VmSize:") or 0
+        out.append((max(0, soft - used), f"the process's address-space limit (RLIMIT_AS, ulimit -v) of "
+                    f"{_gib(soft)}, {_gib(used)} of it in use"))
+    for folder in _cgroup_dirs():
+        for limit_file, usage_file in (("memory.max", "memory.current"),
+                                       ("memory.limit_in_bytes", "memory.usage_in_bytes")):
+            limit = _read_int(os.path.join(folder, limit_file))
+            if limit is None or limit >= 2**60:          # v1's "no limit" is a huge number
+                continue
+            used = _read_int(os.path.join(folder, usage_file)) or 0
+            out.append((max(0, limit - used), f"the memory cgroup's limit ({limit_file}) of {_gib(limit)}, "
+                        f"{_gib(used)} of it in use"))
+    return out
+
+
+def default_budget_of() -> tuple[int, str]:
+    """The budget when none is given, and what set it: DEFAULT_FRACTION of the available memory,
+    or LIMIT_FRACTION of what a process limit (`process_limits`) leaves, whichever is smaller."""
+    best = (int(DEFAULT_FRACTION * available_bytes()), "half the memory available now")
+    for free, what in process_limits():
+        if int(LIMIT_FRACTION * free) < best[0]:
+            best = (int(LIMIT_FRACTION * free), f"{int(100 * LIMIT_FRACTION)}% of what {what} leaves")
+    return best
+
+
 def default_budget() -> int:
-    """The budget when none is given: DEFAULT_FRACTION of the available memory."""
-    return int(DEFAULT_FRACTION * available_bytes())
+    """The budget when none is given (`default_budget_of`)."""
+    return default_budget_of()[0]
 
 
 def _gib(n: float) -> str:
     return f"{n / 2**30:.2f} GiB" if n < 10 * 2**30 else f"{n / 2**30:.0f} GiB"
 
 
-def check(n_vertices, *, varying: bool, budget: int | None = None) -> int:
+def check(n_vertices, *, varying: bool, budget: int | None = None, what: str | None = None) -> int:
     """Raise QmeshError when meshing `n_vertices` would need more than `budget` bytes (default:
-    half the memory available now); otherwise return the estimate in bytes."""
+    `default_budget_of`: half the memory available now, or less under a process limit);
+    otherwise return the estimate in bytes. `what` names the input that implies the count."""
     need = estimate_bytes(n_vertices, varying=varying)
     if budget is None:
-        budget, whose = default_budget(), "half the memory available now"
+        budget, whose = default_budget_of()
     else:
         try:
             budget = int(budget)
@@ -84,9 +172,32 @@ def check(n_vertices, *, varying: bool, budget: int | None = None) -> int:
         most = max_vertices(budget, varying=varying)
         advice = (f"ask for fewer vertices (at most about {most:.3g})" if most >= 3 else
                   f"any run needs about {_gib(FIXED_BYTES)}, so give a larger budget")
-        raise QmeshError(f"{float(n_vertices):.3g} vertices with {kind} s need about {_gib(need)} "
-                         f"of memory, more than {whose} ({_gib(budget)}); {advice}")
+        count = f"{float(n_vertices):.3g} vertices with {kind} s need"
+        if what:
+            count = f"{what} implies {float(n_vertices):.3g} vertices, which with {kind} s need"
+        raise QmeshError(f"{count} about {_gib(need)} of memory, more than {whose} ({_gib(budget)}); {advice}")
     return need
+
+
+def disk_vertices(vb: int, anisotropy, *, target_vertices: int | None = None, size: float | None = None) -> float:
+    """The fewest vertices a mesh of the regular `vb`-gon (`qmesh.Disk(vb)`) can have, known
+    before its `vb` points are made: each of them is a vertex, a target is at least that, and
+    with neither a target nor a size the default size (the mean metric length of its edges,
+    about 2π/vb of the circle's metric perimeter) fills the disk with about vb² vertices,
+    computed here on a 64-gon whose edges are scaled down to the vb-gon's."""
+    n = float(max(vb, target_vertices or 0))
+    if target_vertices is not None or size is not None or vb <= 64:
+        return n
+    from qmesh.conductivity.anisotropy import Anisotropy
+    from qmesh.domain.domain import Disk
+    from qmesh.mesher import sizing
+    if not isinstance(anisotropy, Anisotropy):
+        return n                      # a field or one conductivity per region: the plan sizes it
+    small = Disk(64)
+    lengths = sizing.metric_edge_lengths(small, anisotropy)
+    h = float(lengths.mean()) * np.sin(np.pi / vb) / np.sin(np.pi / 64)   # the vb-gon's mean edge
+    area = sizing.metric_area(small, anisotropy)
+    return max(n, sizing.vertices_from_counts(area, h, vb))
 
 
 def max_vertices(budget: int, *, varying: bool) -> int:

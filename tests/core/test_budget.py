@@ -16,10 +16,15 @@ def test_the_estimate_grows_with_n_and_varying_s_costs_more(a, b, varying):
 
 
 def test_the_estimate_is_the_measured_bytes_per_vertex():
-    # bench_memory.py measured 1258 B/vertex at N = 4e5 (constant Q): the estimate covers it
-    need = budget.estimate_bytes(400_000, varying=False)
-    assert 1258 * 400_000 < need < 2 * 1258 * 400_000
-    assert budget.estimate_bytes(10**7, varying=True) > 5962 * 10**7
+    # bench_memory.py measured 557, 531 and 510 B/vertex at N = 4e5, 1e6 and 2e6 (constant Q),
+    # 1479 and 1230 at 4e5 and 1e6 (varying s), 101 MB in all at 1e4 (varying s)
+    for n, per in ((400_000, 557), (1_000_000, 531), (2_000_000, 510)):
+        assert per * n < budget.estimate_bytes(n, varying=False) < 2 * per * n
+    for n, per in ((400_000, 1479), (1_000_000, 1230)):
+        assert per * n < budget.estimate_bytes(n, varying=True) < 2 * per * n
+    assert budget.estimate_bytes(10_000, varying=True) > 101e6
+    # 9e6 vertices of the chapter's Q peaked at 4.06 GB for the whole command: 1e7 fits 12 GiB
+    assert budget.estimate_bytes(10**7, varying=False) < 12 * 2**30 * budget.DEFAULT_FRACTION * 1.1
 
 
 @settings(max_examples=30, deadline=None)
@@ -40,7 +45,7 @@ def test_a_2e7_target_is_refused_naming_the_estimate_and_the_budget():
     with pytest.raises(qmesh.QmeshError) as e:
         budget.check(2e7, varying=False, budget=8 * 2**30)
     text = str(e.value)
-    assert "about 24 GiB" in text and "8.00 GiB" in text and "memory budget" in text
+    assert "about 11 GiB" in text and "8.00 GiB" in text and "memory budget" in text
 
 
 @pytest.mark.parametrize("varying", [False, True])
@@ -74,11 +79,12 @@ def test_bad_counts_and_budgets_are_refused(bad):
     (lambda: qmesh.Anisotropy.from_expression("exp(x) + y**2"), True),
 ])
 def test_mesh_and_iterate_refuse_what_exceeds_the_memory_available(monkeypatch, anisotropy, varying):
-    """The estimate guards qmesh.mesh itself (issue 18 item 3, issue 20 item 3): with 256 MiB
-    available, 200,000 vertices (≥ 1e5·1300 B + 64 MiB, half of 256 MiB = 128 MiB) are refused
+    """The estimate guards qmesh.mesh itself (issue 18 item 3, issue 20 item 3): with 384 MiB
+    available, 200,000 vertices (2e5·600 B + 128 MiB, over half of 384 MiB = 192 MiB) are refused
     before anything of that size is allocated."""
     import tracemalloc
-    monkeypatch.setattr(budget, "available_bytes", lambda: 256 * 2**20)
+    monkeypatch.setattr(budget, "available_bytes", lambda: 384 * 2**20)
+    monkeypatch.setattr(budget, "process_limits", lambda: [])
     tracemalloc.start()
     for run in (qmesh.mesh, qmesh.iterate):
         with pytest.raises(qmesh.QmeshError, match="vertices with a (varying|constant) s need about"):
