@@ -1,12 +1,12 @@
 """FVCA5 test 4, the vertical fault, solved with scikit-fem on a qmesh mesh with regions.
 
-The unit square in layers of K1 = diag(1e-2, 1e-3) and K2 = diag(1e2, 1e1), offset across the
-fault x = 0.5 (our reading of Herbin & Hubert 2008, test 4: `qmesh.domain.media_cases.fvca4`). The
-problem −div(K∇u) = 0 with u = 1 on the left side and 0 on the rest of the boundary satisfies
-the maximum principle, 0 ≤ u ≤ 1; the P1 solution keeps it when the stiffness matrix is an
-M-matrix, i.e. every q_ij ≥ 0 — interface edges included, each side in its own region's K.
-The same problem is solved on an isotropic Triangle mesh of the same N (regions as segments),
-and the vertices outside [0, 1] are counted on both.
+The unit square in horizontal strips 0.1 high of K2 = diag(1e2, 1e1) and K1 = diag(1e-2, 1e-3),
+offset by 0.05 across the fault x = 0.5, with u = 1 − x on the boundary and no source
+(Herbin & Hubert 2008, test 4: `qmesh.domain.media_cases.fvca4`, which cites its sources). The
+solution of −div(K∇u) = 0 satisfies the maximum principle, 0 ≤ u ≤ 1; the P1 solution keeps it
+when the stiffness matrix is an M-matrix, i.e. every q_ij ≥ 0 — interface edges included, each
+side in its own region's K. The same problem is solved on an isotropic Triangle mesh of the
+same N (regions as segments), and the vertices outside [0, 1] are counted on both.
 
 Run: python examples/heterogeneous_fem.py [TARGET_VERTICES]      (needs qmesh[fem,compare])
 """
