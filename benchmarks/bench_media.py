@@ -1,7 +1,10 @@
 """Heterogeneous media: qmesh vs MMG2D vs Triangle at equal N.
 
-Cases (`qmesh.domain.media_cases`): FVCA5 tests 4 (vertical fault), 6 (oblique drain), 7 (oblique
-barrier), a layered box and an inclusion. For each target N:
+Cases (`qmesh.domain.media_cases`, which cites the benchmarks' definitions): FVCA5 tests 4
+(vertical fault: strips 0.1 high offset by 0.05 across x = 0.5, u = 1 − x on ∂Ω), 6 (oblique
+drain), 7 (oblique barrier), FVCA6 test 5 on a plane (four quadrants at 1000:1, ellipses
+orthogonal across x = ½, meeting at the cross point; exact u = α sin 2πx sin 2πy), a layered box
+and an inclusion. For each target N:
 - qmesh: `qmesh.mesh(domain, {tag: Anisotropy}, target_vertices=N)`;
 - MMG2D (mmgpy) from the constrained triangulation of every region edge, triangle references =
   regions (so MMG keeps the interfaces), the per-vertex metric ∇²s_r / k_r of the vertex's
@@ -9,12 +12,15 @@ barrier), a layered box and an inclusion. For each target N:
   (`qmesh.compare.media_peers.mmg2d`);
 - Triangle, isotropic, regions as segments (`pq30a`, area calibrated to N).
 Columns: N; share of q_ij ≥ 0 on interior / interface / boundary edges (each triangle's own Q);
-the discrete maximum principle on −div(Q∇u) = 0, u = g on ∂Ω (g the case's data): vertices
-outside [min g, max g] (beyond 1e-10 of the range) and the worst excess relative to the range;
-κ2 of the Dirichlet matrix; min metric quality (2.94) in each triangle's own metric; seconds
-(qmesh: the whole run; peers: their final calibrated run). Then the geometric mean of
-κ2(qmesh) / κ2(MMG2D). The page (docs/benchmarks/bench_media.md) also shows the inclusion
-case's three meshes at N = 2000 (with MMG2D).
+for the cases without a source, the discrete maximum principle on −div(Q∇u) = 0, u = g on ∂Ω
+(g the case's data): vertices outside [min g, max g] (beyond 1e-10 of the range) and the worst
+excess relative to the range; for FVCA6 test 5, the L2 error of the P1 solution against the
+exact u (stiffness with each triangle's region K, load ∫ f φ_i and error by the degree-4
+Dunavant rule with f and u of the triangle's region, u = exact = 0 on ∂Ω); κ2 of the Dirichlet
+matrix; min metric quality (2.94) in each triangle's own metric; seconds (qmesh: the whole run;
+peers: their final calibrated run). Then the geometric mean of κ2(qmesh) / κ2(MMG2D). The page
+(docs/benchmarks/bench_media.md) also shows the inclusion case's three meshes at N = 2000
+(with MMG2D). A case qmesh refuses is a row with its message; the peers then mesh the target N.
 
     python benchmarks/bench_media.py [--n 2000 8000] [--cases fvca4 ...] [--no-mmg] [--no-page]
     python benchmarks/bench_media.py --figure screenshots/media_inclusion.png   (that PNG only)
@@ -36,12 +42,16 @@ import qmesh
 from qmesh import measure
 from qmesh.domain import media_cases
 from qmesh.compare import media_peers as peers
+from qmesh.geometry import quadrature
 
 import report_page
 
 SHORT = {"fvca4": media_cases.fvca4, "fvca6": media_cases.fvca6, "fvca7": media_cases.fvca7,
+         "fvca6_test5": media_cases.fvca6_test5,
          "layered": media_cases.layered, "inclusion": media_cases.inclusion}
 NAMES = {v: k for k, v in media_cases.CASES.items()}
+EXACT = {media_cases.fvca6_test5: (media_cases.fvca6_test5_exact, media_cases.fvca6_test5_source)}
+"""Cases with a source and an exact solution: (u(x, y, tag), f(x, y, tag))."""
 
 
 def maximum_principle(mesh, cond, g) -> tuple[int, float]:
@@ -57,13 +67,45 @@ def maximum_principle(mesh, cond, g) -> tuple[int, float]:
     return int(np.sum(excess > 1e-10)), float(max(excess.max(), 0.0))
 
 
-def row(case, mesher, mesh, seconds, cond, g) -> dict:
+def p1_l2_error(mesh, cond, exact, source) -> float:
+    """‖u_h − u‖_L2 of the P1 solution of −div(K∇u) = f, u_h = u at the boundary vertices: the
+    stiffness with each triangle's region K (`measure.stiffness`), the load ∫ f φ_i and the error
+    by the degree-4 Dunavant rule, f and u of each triangle's region (exact(x, y, tag),
+    source(x, y, tag))."""
+    P, T = mesh.points, mesh.triangles
+    bary, w = quadrature.DUNAVANT4_POINTS, quadrature.DUNAVANT4_WEIGHTS     # (q, 3), Σ w = 1
+    X = np.einsum("qa,mad->mqd", bary, P[T])                                  # (M, q, 2)
+    tag = np.broadcast_to(mesh.region_tags[:, None], X.shape[:2])
+    a, b, c = P[T[:, 0]], P[T[:, 1]], P[T[:, 2]]
+    area = 0.5 * np.abs((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1])
+                        - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
+    load = area[:, None] * np.einsum("q,mq,qi->mi", w, source(X[..., 0], X[..., 1], tag), bary)
+    rhs = np.bincount(T.ravel(), load.ravel(), minlength=len(P))
+    K = measure.stiffness(mesh, cond).tocsr()
+    bnd = mesh.boundary
+    I, B = np.flatnonzero(~bnd), np.flatnonzero(bnd)
+    # a boundary vertex's value from any triangle holding it (u is continuous: 0 on ∂Ω here)
+    owner = np.empty(len(P), np.int64)
+    owner[T.ravel()] = np.repeat(mesh.region_tags, 3)
+    U = np.zeros(len(P))
+    U[B] = exact(P[B, 0], P[B, 1], owner[B])
+    U[I] = spla.spsolve(K[I][:, I].tocsc(), rhs[I] - K[I][:, B] @ U[B])
+    uh = np.einsum("mi,qi->mq", U[T], bary)
+    err = (uh - exact(X[..., 0], X[..., 1], tag)) ** 2
+    return float(np.sqrt(np.sum(area * (err @ w))))
+
+
+def row(case, mesher, mesh, seconds, cond, g, solution=None) -> dict:
     r = measure.report(mesh, cond)
-    v, worst = maximum_principle(mesh, cond, g)
-    return {"case": case, "mesher": mesher, "N": mesh.n_vertices,
-            "q_int": r["q_nonnegative_fraction"], "q_if": r.get("q_nonnegative_fraction_interface"),
-            "q_bnd": r["q_nonnegative_fraction_boundary"], "mp": v, "mp_worst": worst,
-            "kappa2": r["kappa2"], "min_q": r["min_quality"], "seconds": seconds}
+    out = {"case": case, "mesher": mesher, "N": mesh.n_vertices,
+           "q_int": r["q_nonnegative_fraction"], "q_if": r.get("q_nonnegative_fraction_interface"),
+           "q_bnd": r["q_nonnegative_fraction_boundary"],
+           "kappa2": r["kappa2"], "min_q": r["min_quality"], "seconds": seconds}
+    if solution is None:
+        out["mp"], out["mp_worst"] = maximum_principle(mesh, cond, g)
+    else:
+        out["l2"] = p1_l2_error(mesh, cond, *solution)
+    return out
 
 
 def run(case_fns, ns, mmg=True) -> list[dict]:
@@ -71,17 +113,28 @@ def run(case_fns, ns, mmg=True) -> list[dict]:
     for fn in case_fns:
         name = NAMES[fn]
         domain, cond, g = fn()
+        solution = EXACT.get(fn)
         for n in ns:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", qmesh.QmeshWarning)
                 t0 = time.perf_counter()
-                m = qmesh.mesh(domain, cond, target_vertices=n)
-                rows.append(row(name, "qmesh", m, time.perf_counter() - t0, cond, g))
+                try:
+                    m = qmesh.mesh(domain, cond, target_vertices=n)
+                except qmesh.QmeshError as e:
+                    m = None
+                    rows.append({"case": name, "mesher": "qmesh", "target": n, "refused": str(e),
+                                 "seconds": time.perf_counter() - t0})
+                else:
+                    rows.append(row(name, "qmesh", m, time.perf_counter() - t0, cond, g, solution))
+                    rows[-1]["target"] = n
+            n_peer = n if m is None else m.n_vertices
             if mmg:
-                pm = peers.mmg2d(domain, cond, m.n_vertices)
-                rows.append(row(name, "MMG2D", pm.mesh, pm.seconds, cond, g))
-            pt = peers.triangle(domain, m.n_vertices)
-            rows.append(row(name, "Triangle", pt.mesh, pt.seconds, cond, g))
+                pm = peers.mmg2d(domain, cond, n_peer)
+                rows.append(row(name, "MMG2D", pm.mesh, pm.seconds, cond, g, solution))
+                rows[-1]["target"] = n
+            pt = peers.triangle(domain, n_peer)
+            rows.append(row(name, "Triangle", pt.mesh, pt.seconds, cond, g, solution))
+            rows[-1]["target"] = n
             print(*(_line(r) for r in rows[-(3 if mmg else 2):]), sep="\n", flush=True)
     return rows
 
@@ -91,10 +144,14 @@ def _pct(x):
 
 
 def _cells(r) -> list[str]:
+    if "refused" in r:
+        return [r["case"], r["mesher"], f"refused at target {r['target']}: {r['refused']}",
+                "", "", "", "", "", f"{r['seconds']:.2f}"]
     return [r["case"], r["mesher"], str(r["N"]),
             f"{_pct(r['q_int'])} / {_pct(r['q_if'])} / {_pct(r['q_bnd'])}",
-            f"{r['mp']} ({r['mp_worst']:.1e})", f"{r['kappa2']:.3g}", f"{r['min_q']:.3f}",
-            f"{r['seconds']:.2f}"]
+            f"{r['mp']} ({r['mp_worst']:.1e})" if "mp" in r else "n/a",
+            f"{r['l2']:.3e}" if "l2" in r else "n/a",
+            f"{r['kappa2']:.3g}", f"{r['min_q']:.3f}", f"{r['seconds']:.2f}"]
 
 
 def _line(r) -> str:
@@ -102,7 +159,7 @@ def _line(r) -> str:
 
 
 HEADERS = ["case", "mesher", "N", "q_ij ≥ 0 % interior / interface / boundary",
-           "max-principle violations (worst)", "κ2", "min quality", "s"]
+           "max-principle violations (worst)", "L2 error (FVCA6 test 5)", "κ2", "min quality", "s"]
 HEADER = "| " + " | ".join(HEADERS) + " |\n" + "|" + "---|" * len(HEADERS)
 
 
@@ -177,17 +234,8 @@ def main(argv=None) -> None:
         return
     print(HEADER)
     rows = run([SHORT[c] for c in args.cases], args.n, mmg=not args.no_mmg)
-    q = [r for r in rows if r["mesher"] == "qmesh"]
-    mm = [r for r in rows if r["mesher"] == "MMG2D"]
-    if mm:
-        ratio = np.exp(np.mean([np.log(a["kappa2"] / b["kappa2"]) for a, b in zip(q, mm)]))
-        print(f"\ngeometric mean of κ2(qmesh) / κ2(MMG2D): {ratio:.3f}")
-    notes = [f"geometric mean of κ2(qmesh) / κ2(MMG2D): {ratio:.3f}"] if mm else []
-    notes.append(f"qmesh: {sum(r['mp'] for r in q)} maximum-principle violations in {len(q)} meshes; "
-                 f"min quality {min(r['min_q'] for r in q):.3f}; N within "
-                 f"{max(abs(r['N'] - n) / n for r, n in zip(q, [n for _ in args.cases for n in args.n])):.1%} "
-                 "of the target")
-    print(notes[-1])
+    notes = summary(rows)
+    print("", *notes, sep="\n")
     if not args.no_page:
         figures = []
         if "inclusion" in args.cases and not args.no_mmg:
@@ -198,20 +246,58 @@ def main(argv=None) -> None:
                       "in red"))
         report_page.write_page(
             __file__, sys.argv, "Heterogeneous media against MMG2D and Triangle",
-            "Cases of `qmesh.domain.media_cases`: FVCA5 tests 4 (vertical fault), 6 (oblique drain), 7 "
-            "(oblique barrier), a layered box and an inclusion. For each target N, qmesh "
+            "Cases of `qmesh.domain.media_cases` (its docstring cites the benchmarks' papers and "
+            "the participant's code their data were read in): FVCA5 test 4 (vertical fault: "
+            "strips 0.1 high of K2 = diag(1e2, 1e1) and K1 = diag(1e-2, 1e-3), offset by 0.05 "
+            "across x = 0.5, u = 1 − x on ∂Ω), tests 6 (oblique drain) and 7 (oblique barrier) "
+            "with step data, FVCA6 test 5 on a plane (quadrants K = diag(10, 0.01), diag(0.1, 100), "
+            "diag(0.01, 10), diag(100, 0.1) meeting at the cross point (½, ½), exact "
+            "u = α sin 2πx sin 2πy with α = 0.1, 10, 100, 0.01, f = −div(K∇u) per quadrant, "
+            "u = 0 on ∂Ω), a layered box and an inclusion (step data). For each target N, qmesh "
             "(`qmesh.mesh(domain, {tag: Anisotropy}, target_vertices=N)`); MMG2D (mmgpy) from the "
             "constrained triangulation of every region edge, triangle references = regions, the "
             "per-vertex metric ∇²s_r / k_r of the vertex's region (the mean of its regions' on an "
             "interface), scaled to qmesh's N; Triangle, isotropic, regions as segments (`pq30a`, "
             "area calibrated to N). Columns: N; share of q_ij ≥ 0 on interior / interface / "
-            "boundary edges (each triangle's own Q); the discrete maximum principle on "
-            "−div(Q∇u) = 0, u = g on ∂Ω (g the case's data): vertices outside [min g, max g] "
-            "(beyond 1e-10 of the range) and the worst excess relative to the range; κ2 of the "
-            "Dirichlet matrix; min metric quality (2.94) in each triangle's own metric; seconds "
-            "(qmesh: the whole run; peers: their final calibrated run).",
+            "boundary edges (each triangle's own Q); for the cases without a source, the discrete "
+            "maximum principle on −div(Q∇u) = 0, u = g on ∂Ω (g the case's data): vertices outside "
+            "[min g, max g] (beyond 1e-10 of the range) and the worst excess relative to the "
+            "range; for FVCA6 test 5, ‖u_h − u‖_L2 of the P1 solution (stiffness with each "
+            "triangle's region K, load and error by the degree-4 Dunavant rule with the "
+            "triangle's region's f and u; ‖u‖_L2 = 25.1); κ2 of the Dirichlet matrix; min metric "
+            "quality (2.94) in each triangle's own metric; seconds (qmesh: the whole run; peers: "
+            "their final calibrated run).",
             tables=[report_page.Table(HEADERS, [_cells(r) for r in rows])],
             notes=[n + "." for n in notes], figures=figures)
+
+
+def summary(rows) -> list[str]:
+    """The notes under the table: κ2 against MMG2D, qmesh's violations, quality and N, the L2
+    errors' ratios and any refusal."""
+    by = {(r["case"], r["target"], r["mesher"]): r for r in rows}
+    q = [r for r in rows if r["mesher"] == "qmesh" and "refused" not in r]
+    pairs = [(r, by[r["case"], r["target"], "MMG2D"]) for r in q
+             if (r["case"], r["target"], "MMG2D") in by]
+    notes = []
+    if pairs:
+        ratio = np.exp(np.mean([np.log(a["kappa2"] / b["kappa2"]) for a, b in pairs]))
+        notes.append(f"geometric mean of κ2(qmesh) / κ2(MMG2D): {ratio:.3f}")
+    if q:
+        mp = [r for r in q if "mp" in r]
+        notes.append(f"qmesh: {sum(r['mp'] for r in mp)} maximum-principle violations in "
+                     f"{len(mp)} meshes; min quality {min(r['min_q'] for r in q):.3f}; N within "
+                     f"{max(abs(r['N'] - r['target']) / r['target'] for r in q):.1%} of the target")
+    for r in q:
+        if "l2" not in r:
+            continue
+        parts = [f"{r['l2'] / by[r['case'], r['target'], p]['l2']:.2f}× {p}'s"
+                 for p in ("MMG2D", "Triangle") if (r["case"], r["target"], p) in by]
+        notes.append(f"{r['case']}, N = {r['N']}: L2 error of qmesh {r['l2']:.3e}, "
+                     + ", ".join(parts))
+    for r in rows:
+        if "refused" in r:
+            notes.append(f"qmesh refused {r['case']} at target {r['target']}: {r['refused']}")
+    return notes
 
 
 if __name__ == "__main__":
