@@ -42,6 +42,7 @@ from qmesh.triangle_mesh import Mesh
 
 FINER = 6              # halvings of the size a face that is too thin for it may take
 MAX_HANDOVERS = 1000   # rounds of interface points handed between finished faces
+MAX_NOTES = 3          # the faces' warnings shown one by one; beyond, one line counts them
 TOLERANCE = 0.1        # a mesh further than this share from target_vertices is warned about
 _PASSED = ("alpha", "quality_threshold", "max_iterations", "seed", "boundary_refinement")
 
@@ -117,11 +118,23 @@ def _run(plan: MediaPlan, options: dict, every: bool) -> Iterator[Step]:
     m = _stitched(plan, meshes, done)
     yield Step("triangulate", step.iteration, m, Stats(m.n_vertices, m.n_triangles, source=(m, cond)),
                converged=True)
-    for message, category in notes:
+    for message, category in _summary(notes):
         warnings.warn(message, category, stacklevel=3)
     if plan.target is not None and abs(m.n_vertices - plan.target) > TOLERANCE * plan.target:
         warnings.warn(f"target_vertices = {plan.target}: the mesh has {m.n_vertices} vertices "
                       "(the interfaces and q_ij >= 0 on them need these)", QmeshWarning, stacklevel=3)
+
+
+def _summary(notes: list) -> list:
+    """The faces' warnings, at most MAX_NOTES of them: beyond, the first ones and one line
+    counting the rest by region (a zoned model warns once, not once per zone)."""
+    if len(notes) <= MAX_NOTES:
+        return notes
+    rest = notes[MAX_NOTES - 1:]
+    names = sorted({m.split(":")[0] for m, _ in rest}, key=lambda n: (len(n), n))
+    shown = ", ".join(names[:5]) + (", …" if len(names) > 5 else "")
+    return notes[:MAX_NOTES - 1] + [(f"{len(rest)} more warnings of the same kinds from "
+                                     f"{len(names)} regions ({shown})", QmeshWarning)]
 
 
 def _face_steps(plan: MediaPlan, i: int, extra: dict, options: dict, notes: list,
