@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 from qmesh.sweep import results
+from qmesh.sweep.study import MAX_JOBS
 
 
 def _positive_int(text: str) -> int:
@@ -44,6 +45,8 @@ def add_parser(sub) -> None:
                      "(default: one per CPU, at most one per job)")
     p.add_argument("--meshes", metavar="DIR", help="folder for the mesh files (default: RESULTS' name "
                    "without extension, plus -meshes)")
+    p.add_argument("--max-jobs", type=_positive_int, default=MAX_JOBS, metavar="N",
+                   help=f"refuse a study of more than N jobs, counted before any is made (default: {MAX_JOBS})")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(handler=cmd_sweep)
 
@@ -54,7 +57,7 @@ def cmd_sweep(args) -> int:
     from qmesh.sweep.study import study_jobs
     output = results.check_path(args.output)
     meshes = Path(args.meshes) if args.meshes else output.with_name(output.stem + "-meshes")
-    jobs = study_jobs(args.study, meshes)
+    jobs = study_jobs(args.study, meshes, max_jobs=args.max_jobs)
     s = run_sweep(jobs, output, scheduler=args.scheduler, workers=args.workers, quiet=args.quiet)
     print(f"{output}: {s.jobs} jobs: {s.ran} run, {s.skipped} already done, {s.failed} failed; "
           f"{s.seconds:.1f} s")

@@ -2,7 +2,7 @@
 
 A `LocalCluster` (one single-threaded worker process per job slot, on 127.0.0.1, no dashboard)
 unless a scheduler address is given. Jobs go out with `Client.submit` and come back in the
-order they finish (`as_completed`); the table is rewritten as rows arrive (at most once a
+order they finish (`wait`); the table is rewritten as rows arrive (at most once a
 second, and at the end, also when interrupted), so a re-run finds every finished job and skips
 it: a job is finished when its row has no error and its mesh file exists. Rows of earlier jobs
 that are not in this study are kept; a failed job's old row stays until its new run replaces it.
@@ -13,6 +13,7 @@ from __future__ import annotations
 import logging
 import os
 import signal
+import socket
 import sys
 import threading
 import time
@@ -26,7 +27,11 @@ from qmesh.sweep.job import Job, failed_row, run_job
 from qmesh.sweep.progress import Progress
 
 CONNECT_TIMEOUT = "10s"
+CONNECT_SECONDS = 10.0   # for the connection and the scheduler's first bytes (Dask's own timeout
+                         # covers only the TCP connection: its handshake read then waits forever)
 WRITE_EVERY = 1.0   # seconds between rewrites of the table while jobs come in
+POLL = 1.0          # seconds between looks at the cluster while no job finishes
+NO_WORKER_WAIT = 30.0   # seconds with jobs left and no worker before they are reported lost
 
 
 @dataclass
@@ -67,7 +72,7 @@ def run_sweep(jobs: list[Job], output, *, scheduler: str | None = None, workers:
 
     try:
         if todo:
-            with dask_client(scheduler, workers or min(len(todo), os.cpu_count() or 1)) as client:
+            with dask_client(scheduler, min(workers or os.cpu_count() or 1, len(todo))) as client:
                 for folder in {Path(j.mesh).parent for j in todo}:
                     folder.mkdir(parents=True, exist_ok=True)
                 _collect(client, todo, bar, new, save)
@@ -81,20 +86,50 @@ def run_sweep(jobs: list[Job], output, *, scheduler: str | None = None, workers:
 
 def _collect(client, todo: list[Job], bar: Progress, rows: list[dict], save) -> None:
     """Submit every job and append its row to `rows` as it finishes; `save()` at most every
-    WRITE_EVERY seconds."""
-    from dask.distributed import as_completed
+    WRITE_EVERY seconds. When no worker is left for NO_WORKER_WAIT seconds while jobs remain
+    (the only worker killed), the remaining jobs become failed rows saying so, and the sweep ends."""
+    from dask.distributed import wait
     futures = {client.submit(run_job, job, pure=False): job for job in todo}
+    pending = set(futures)
     last = time.perf_counter()
-    for future in as_completed(futures):
+    alone_since = None
+    while pending:
         try:
-            row = future.result()
-        except Exception as e:  # noqa: BLE001 — a lost worker, say: this job's row, not the sweep's end
-            row = failed_row(futures[future], e)
-        rows.append(row)
-        bar.update(row)
+            done, pending = wait(pending, timeout=POLL, return_when="FIRST_COMPLETED")
+        except TimeoutError:    # Dask's wait raises when nothing finished in time
+            done = set()
+        for future in done:
+            try:
+                row = future.result()
+            except Exception as e:  # noqa: BLE001 — a lost worker, say: this job's row, not the sweep's end
+                row = failed_row(futures[future], e)
+            rows.append(row)
+            bar.update(row)
+        if done:
+            alone_since = None
+        elif not _workers(client):
+            alone_since = alone_since or time.perf_counter()
+            if time.perf_counter() - alone_since >= NO_WORKER_WAIT:
+                lost = QmeshError(f"no Dask worker left for {NO_WORKER_WAIT:.0f} s (killed, or out of memory?); "
+                                  "the job did not finish; run the sweep again to retry it")
+                for future in pending:
+                    rows.append(failed_row(futures[future], lost))
+                    bar.update(rows[-1])
+                client.cancel(list(pending))
+                break
+        else:
+            alone_since = None
         if time.perf_counter() - last >= WRITE_EVERY:
             save()
             last = time.perf_counter()
+
+
+def _workers(client) -> int:
+    """The number of workers the scheduler has now (asked, not cached)."""
+    try:
+        return len(client.nthreads())
+    except Exception:  # noqa: BLE001 — the scheduler itself gone: none
+        return 0
 
 
 def _ordered(jobs: list[Job], rows: list[dict]) -> list[dict]:
@@ -112,10 +147,12 @@ def dask_client(scheduler: str | None, workers: int):
     except ImportError as e:
         raise QmeshError(f"Dask is not installed (pip install 'qmesh[sweep]'): {e}") from e
     if scheduler:
+        probe(scheduler)
         try:
             client = Client(scheduler, timeout=CONNECT_TIMEOUT)
-        except (OSError, TimeoutError, ValueError) as e:
-            raise QmeshError(f"cannot reach the Dask scheduler at {scheduler!r}: {e}") from e
+        except Exception as e:  # noqa: BLE001 — Dask's errors on a bad peer have no common base
+            raise QmeshError(f"cannot reach the Dask scheduler at {scheduler!r}: "
+                             f"{type(e).__name__}: {str(e)[:200]}") from e
         with client:
             yield client
         return
@@ -133,6 +170,49 @@ def dask_client(scheduler: str | None, workers: int):
         yield client
 
 
+def probe(address: str, seconds: float | None = None) -> None:
+    """QmeshError unless `address` is a tcp:// address where something answers as a Dask
+    scheduler does: it speaks first, a message whose first 8 bytes are its length. Dask's
+    connect timeout covers only the TCP connection; its handshake read waits forever on a peer
+    that never answers, and takes an HTTP server's reply as a frame length (exabytes)."""
+    seconds = CONNECT_SECONDS if seconds is None else seconds
+    scheme, sep, rest = address.partition("://")
+    if not sep:
+        scheme, rest = "tcp", address
+    if scheme != "tcp":
+        raise QmeshError(f"scheduler address {address!r}: qmesh sweep reaches a Dask scheduler over tcp:// "
+                         f"only ({scheme}:// needs credentials or libraries it does not pass); "
+                         "give tcp://HOST:PORT")
+    host, colon, port = rest.rstrip("/").rpartition(":")
+    host = host.strip("[]")
+    if not colon or not host or not port.isdigit() or not 0 < int(port) < 65536:
+        raise QmeshError(f"scheduler address {address!r} is not tcp://HOST:PORT")
+    try:
+        sock = socket.create_connection((host, int(port)), timeout=seconds)
+    except OSError as e:
+        raise QmeshError(f"cannot reach the Dask scheduler at {address!r}: {e.strerror or e}") from e
+    deadline = time.monotonic() + seconds
+    first = b""
+    try:
+        with sock:
+            while len(first) < 8:
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    raise socket.timeout
+                sock.settimeout(left)
+                got = sock.recv(8 - len(first))
+                if not got:
+                    break
+                first += got
+    except (socket.timeout, TimeoutError):
+        raise QmeshError(f"{address!r} accepts connections but sends nothing within {seconds:g} s: "
+                         "not a Dask scheduler, or one too busy to answer") from None
+    except OSError as e:
+        raise QmeshError(f"cannot reach the Dask scheduler at {address!r}: {e.strerror or e}") from e
+    if len(first) < 8 or not 8 <= int.from_bytes(first, "little") < 2**30:
+        raise QmeshError(f"{address!r} is not a Dask scheduler: it answered {first!r}")
+
+
 def _main_thread() -> bool:
     return threading.current_thread() is threading.main_thread()
 
@@ -143,7 +223,7 @@ def map_ordered(fn, args: list[tuple], *, scheduler: str | None = None, workers:
     of `args`; `done(result)` as each finishes. A failed task raises QmeshError naming its
     arguments, after the others were cancelled."""
     from dask.distributed import as_completed
-    with dask_client(scheduler, workers or min(len(args), os.cpu_count() or 1)) as client:
+    with dask_client(scheduler, min(workers or os.cpu_count() or 1, max(len(args), 1))) as client:
         futures = {client.submit(fn, *a, pure=False): i for i, a in enumerate(args)}
         out: list = [None] * len(args)
         for future in as_completed(futures):

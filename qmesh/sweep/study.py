@@ -31,6 +31,11 @@ except ModuleNotFoundError:  # Python 3.10: the same parser as the package tomli
 
 REQUIRED = ("domains", "conductivities", "target_vertices")
 OPTIONAL = {"seeds": [0], "mesh_format": "vtu"}
+MAX_JOBS = 100_000
+"""The most jobs a study may have unless the caller raises it (`qmesh sweep --max-jobs`): the
+product is counted before any job is made."""
+INT64_MAX = 2**63 - 1
+"""target_vertices and seeds go to the results table as int64 (Parquet): none may exceed it."""
 
 
 def read_study(path) -> dict:
@@ -49,15 +54,18 @@ def read_study(path) -> dict:
         raise QmeshError(f"{path}: not UTF-8 text: {e}") from e
     except (tomllib.TOMLDecodeError, json.JSONDecodeError) as e:
         raise QmeshError(f"{path}: not valid {suffix[1:].upper()}: {e}") from e
+    except (ValueError, RecursionError) as e:      # a number of more digits than Python converts, deep nesting
+        raise QmeshError(f"{path}: not a usable {suffix[1:].upper()} study: {str(e)[:200]}") from e
     if not isinstance(data, dict):
         raise QmeshError(f"{path}: a study is a table of keys ({', '.join(REQUIRED)}), "
                          f"got a JSON {type(data).__name__}")
     return data
 
 
-def study_jobs(path, meshes) -> list[Job]:
+def study_jobs(path, meshes, max_jobs: int = MAX_JOBS) -> list[Job]:
     """Every job of the study file at `path`, in the order domains × conductivities × N × seeds;
-    mesh files go into the folder `meshes`."""
+    mesh files go into the folder `meshes`. A study of more than `max_jobs` jobs is refused from
+    the lengths of its lists, before any entry is checked or any job made."""
     path = Path(path)
     data = read_study(path)
     name = str(path)
@@ -70,6 +78,13 @@ def study_jobs(path, meshes) -> list[Job]:
             raise QmeshError(f"{name}: no {key!r} (a study needs {', '.join(REQUIRED)})")
     study = {**OPTIONAL, **data}
     lists = {key: _list(study[key], f"{name}: {key}") for key in (*REQUIRED, "seeds")}
+    count = 1
+    for key in (*REQUIRED, "seeds"):
+        count *= len(lists[key])
+    if count > max_jobs:
+        sizes = " × ".join(f"{len(lists[k])} {k}" for k in (*REQUIRED, "seeds"))
+        raise QmeshError(f"{name}: {sizes} make {count} jobs, more than the limit of {max_jobs}; "
+                         "split the study, or raise the limit (qmesh sweep --max-jobs N)")
 
     files = {d: domain_file(d, path.parent, f"{name}: domains[{i}]")
              for i, d in _unique(lists["domains"], f"{name}: domains", _text)}
@@ -111,6 +126,9 @@ def _text(value, where: str) -> str:
 def _integer(value, where: str, low: int, what: str) -> int:
     if isinstance(value, bool) or not isinstance(value, int) or value < low:
         raise QmeshError(f"{where} must be {what}, got {json.dumps(value, default=repr)}")
+    if value > INT64_MAX:          # the table's int64 column could not hold it
+        shown = str(value) if value < 10**40 else f"a number of {len(str(value))} digits"
+        raise QmeshError(f"{where} must be {what} up to {INT64_MAX}, got {shown}")
     return value
 
 
