@@ -105,9 +105,9 @@ def _valid(P: np.ndarray, T: np.ndarray | None) -> np.ndarray | None:
     return T if used.all() else None
 
 
-def _delaunay(X: np.ndarray) -> np.ndarray:
+def _delaunay(X: np.ndarray, options: str | None = None) -> np.ndarray:
     try:
-        return Delaunay(X).simplices
+        return Delaunay(X, qhull_options=options).simplices
     except QhullError as err:
         raise QmeshError(f"Qhull could not triangulate the points: {err}") from None
 
@@ -136,6 +136,7 @@ EXACT_MAX = 4000     # up to this many points the first triangulation is Qhull's
 FIRST_ROUNDS = 100_000   # flip rounds allowed (only a defect could need them all)
 METRIC_ROUNDS = 2000     # flip rounds in a metric without s, where flips may cycle
 VIOLATION_CHUNK = 131_072   # edges tested at once (bounds the temporary memory)
+THIN = 100.0         # a point set this many times longer than wide is joggled for Qhull (_thin)
 PERTURB = 1e-9       # lifted heights (range 1) raised by up to this: ties broken, cost O(N log N)
 
 
@@ -180,7 +181,7 @@ def first_triangulation(P: np.ndarray, anisotropy, boundary: np.ndarray | None =
     try:
         twin = topology.twins(T)
     except ValueError:      # round-off decided the orientation of a flat triangle: exact 2-D
-        twin, T = None, _exact_delaunay(P, anisotropy)
+        twin, T, candidates = None, _exact_delaunay(P, anisotropy), None
     if twin is None:
         try:
             twin = topology.twins(T)
@@ -244,12 +245,31 @@ def _perturbed_hull(P: np.ndarray, L: np.ndarray, perturbed: np.ndarray,
     u = np.random.default_rng(0).random(len(P)) * perturbed
     idx = np.arange(len(P)) if among is None else np.flatnonzero(among)
     X, z, u, Q = X[idx], z[idx], u[idx], P[idx]
-    T = _valid(Q, _lower_facets(np.column_stack([X, z + PERTURB * u]), "Qt"))
+    lifted = np.column_stack([X, z + PERTURB * u])
+    T = None
+    if _thin(X):        # nearly one curve once lifted: Qhull's exact merging takes seconds per
+        T = _valid(Q, _lower_facets(lifted, "QJ"))   # 1e4 points, its joggle a hundredth
+        if T is None:
+            T = _valid(Q, _delaunay(X, "QJ"))
+    if T is None:
+        T = _valid(Q, _lower_facets(lifted, "Qt"))
     if T is None:       # points closer than the perturbation allows: the exact 2-D route
         T = _valid(Q, _delaunay(X))
     if T is None:
         raise QmeshError("some points are not vertices of the triangulation (duplicate points?)")
     return idx[T]
+
+
+def _thin(X: np.ndarray) -> bool:
+    """Whether the points X (metric coordinates) spread THIN times further along one direction
+    than across it: a strip of the domain thin in the metric. Their lifted points are nearly
+    one curve, a near-degenerate input Qhull's exact mode resolves slowly; its joggled mode
+    ("QJ", input moved by ~1e-11) is fast, and `restore`'s exact local test then settles
+    every edge the joggle decided."""
+    if len(X) < 3:
+        return False
+    w = np.linalg.eigvalsh(np.cov(X.T))
+    return bool(w[0] <= 0 or w[1] > THIN**2 * w[0])
 
 
 def _violation(P, T, twin, h, anisotropy, s, g):

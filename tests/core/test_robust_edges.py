@@ -51,3 +51,14 @@ def test_thin_polygons_mesh_or_are_refused_by_name(aspect, turn, k, angle, n, co
     area = 0.5 * np.abs(np.cross(m.points[m.triangles[:, 1]] - m.points[m.triangles[:, 0]],
                                  m.points[m.triangles[:, 2]] - m.points[m.triangles[:, 0]])).sum()
     assert np.isclose(area, qmesh.Polygon(ring).area, rtol=1e-9)
+
+
+def test_a_thin_strip_under_a_rotated_strong_anisotropy_meshes():
+    """A strip 0.005 wide under principal(1, 1000, 45°): nearly one curve once lifted, which
+    Qhull's exact mode resolved in seconds per call; joggled it is a hundredth of that
+    (the time is benchmarks/bench_scale_cases.py's)."""
+    strip = qmesh.Polygon([(0, 0), (1, 0), (1, 0.005), (0, 0.005)])
+    m = qmesh.mesh(strip, qmesh.Anisotropy.principal(1, 1000, 45), target_vertices=10000)
+    assert abs(m.n_vertices - 10000) <= 1000
+    r = qmesh.measure.report(m, qmesh.Anisotropy.principal(1, 1000, 45))
+    assert r["q_nonnegative_fraction_boundary"] == 1.0
