@@ -59,9 +59,10 @@ def _certified(steps: Iterator[Step], field: Any, metric: Any,
     assert last is not None
     warn_if_thin(last.mesh, metric, stacklevel=4)
     m, cert = certify(last.mesh, field)
-    yield Step("triangulate", last.iteration, m,
-               Stats(m.n_vertices, m.n_triangles, flips=cert.flips, added=cert.added,
-                     source=(m, metric)), converged=True)
+    final = Step("triangulate", last.iteration, m,
+                 Stats(m.n_vertices, m.n_triangles, flips=cert.flips, added=cert.added,
+                       source=(m, metric)), converged=True)
+    # said before the last Step is yielded: a caller that stops at `converged` still hears it
     if cert.added and (target is None or m.n_vertices > (1 + TOLERANCE) * target):
         warnings.warn(f"keeping every q_ij >= 0 with the element means of Q took {cert.added} more "
                       f"vertices (N = {m.n_vertices}): Q changes faster across some triangles than "
@@ -70,3 +71,4 @@ def _certified(steps: Iterator[Step], field: Any, metric: Any,
         warnings.warn(f"{cert.remaining} edges still have q_ij < 0 with the element means after "
                       f"{cert.rounds} rounds of flips and splits (worst q_ij / sum|q_ij^T| = "
                       f"{cert.worst:.2e}); ask for more vertices", QmeshWarning, stacklevel=3)
+    yield final
