@@ -100,9 +100,10 @@ def _run(plan: MediaPlan, options: dict, every: bool) -> Iterator[Step]:
     meshes: dict[int, Mesh] = {}
     notes: list = []                         # (message, category) the faces' runs warned
     cond = {f.region: a for f, a in zip(plan.faces, plan.anis)}
+    n_done = 0
     for at, i in enumerate(plan.order):
         if at:
-            plan.size_rest(plan.order[at:], vertex_count(meshes.values()))
+            plan.size_rest(plan.order[at:], n_done)
         for step in _face_steps(plan, i, extra, options, notes, meshes):
             if every:
                 m = _stitched(plan, meshes, done, i, step.mesh)
@@ -115,6 +116,7 @@ def _run(plan: MediaPlan, options: dict, every: bool) -> Iterator[Step]:
             extra[e] = merge_points(part, e, extra.get(e), X)
         done.append(i)
         _share(plan, meshes, done, new, extra)
+        n_done = vertex_count(meshes.values())
     m = _stitched(plan, meshes, done)
     yield Step("triangulate", step.iteration, m, Stats(m.n_vertices, m.n_triangles, source=(m, cond)),
                converged=True)

@@ -20,10 +20,11 @@ from collections.abc import Iterable
 from typing import Any
 
 import numpy as np
-from scipy.spatial import cKDTree
+from scipy.spatial import ConvexHull, QhullError, cKDTree
 
 from qmesh.domain.regions import conductivity_of_regions
 from qmesh.errors import QmeshError
+from qmesh.geometry import rings
 from qmesh.media.faces import face_domain
 from qmesh.mesher import sizing
 from qmesh.mesher.normalise import hessian_scale
@@ -31,6 +32,8 @@ from qmesh.mesher.plan import BOUNDARY_FACTOR
 from qmesh.triangle_mesh import Mesh
 
 RESIZE = 2.0     # the faces still to come are sized at most this factor away from the first h
+COARSER = 64.0   # ... and at most this factor coarser (a target below what the faces need)
+THIN = 0.5       # a face w wide in its metric needs boundary pieces about this many w long
 TINY = 1e-5      # a face this small (× the domain's size) that cannot be meshed is named as the cause
 SLACK = 0.03     # ... and only when the faces done so far put the run this share off its target
 
@@ -55,6 +58,16 @@ class MediaPlan:
         self.lengths = [sizing.metric_edge_lengths(d, a, k) for d, a, k in zip(bare, self.anis, self.k)]
         _check_junctions(part, self.anis, self.face_name)
         self.longest = self._interface_lengths()
+        # each interface edge's segment in the face domain of either side
+        seg_edge = np.concatenate([d.segment_tags - 1 for d in bare])
+        seg_face = np.repeat(np.arange(len(self.faces)), [len(d.segment_tags) for d in bare])
+        self._inter = np.flatnonzero(part.interface)
+        slot = np.full((len(part.edges), 2), -1)
+        side = (part.edge_faces[seg_edge, 1] == seg_face).astype(np.int64)
+        slot[seg_edge, side] = np.arange(len(seg_edge))
+        self._side = slot[self._inter]
+        self.width = np.array([_metric_width(part, f, a, k)
+                               for f, a, k in zip(self.faces, self.anis, self.k)])
         self.target = target_vertices
         self.order = sorted(range(len(self.faces)), key=lambda i: self.area[i])   # largest last
         everything = list(range(len(self.faces)))
@@ -114,7 +127,7 @@ class MediaPlan:
             1, np.ceil(self.longest / (BOUNDARY_FACTOR * h))).astype(np.int64)
         return pieces
 
-    def count(self, h: float, faces: list) -> float:
+    def count(self, h: float, faces: list, thin: bool = False) -> float:
         """Expected vertices the faces `faces` add at metric edge length h: Euler's estimate
         per face (mesher.sizing), less one count of every interface vertex they share with
         another face (counted on both sides, or already there)."""
@@ -124,28 +137,46 @@ class MediaPlan:
             self._seg_len = np.concatenate(self.lengths)
             self._seg_face = np.repeat(np.arange(len(self.faces)), [len(L) for L in self.lengths])
             self._area_arr = np.asarray(self.area, float)
-        nb = np.maximum(1, np.ceil(self._seg_len[mine[self._seg_face]] / (BOUNDARY_FACTOR * h))).sum()
-        # Euler's estimate per face (sizing.vertices_for_size), summed over the faces
-        n = sizing.vertices_from_counts(float(self._area_arr[mine].sum()), h, float(nb)) \
-            + 0.5 * (2 * int(mine.sum()) - 2)
-        ef = self.part.edge_faces
-        shared = self.part.interface & (mine[ef[:, 0]] | mine[ef[:, 1]])
-        return n - float(self.pieces(h)[shared].sum())
+        # a face w wide in its metric keeps its boundary unencroached with pieces ≲ THIN·w
+        # whatever h is: a thin face's boundary count, not its area, sets its vertices
+        step = (np.minimum(BOUNDARY_FACTOR * h, THIN * self.width[self._seg_face]) if thin
+                else np.full(len(self._seg_len), BOUNDARY_FACTOR * h))
+        pieces = np.maximum(1, np.ceil(self._seg_len / step))          # per face segment
+        on = mine[self._seg_face]
+        nb = np.bincount(self._seg_face[on], pieces[on], minlength=len(self.faces))[mine]
+        # Euler per face, M = 2N − N_b − 2 triangles: by area (and at least N_b − 2)
+        tri = self._area_arr[mine] / sizing.equilateral_area(h)
+        if thin:
+            tri = np.maximum(tri, nb - 2)
+        n = float(0.5 * (tri + nb + 2).sum())
+        # an interface edge's points counted by both sides, or there already: the fewer side's
+        # pieces (its inner points and one end) once less
+        ef = self.part.edge_faces[self._inter]
+        shared = mine[ef[:, 0]] | mine[ef[:, 1]]
+        both = (np.minimum(pieces[self._side[:, 0]], pieces[self._side[:, 1]]) if thin
+                else self.pieces(h)[self._inter])
+        return n - float(both[shared].sum())
 
-    def _size_for(self, faces: list, n: float) -> float:
-        return sizing.size_for_count(lambda h: self.count(h, faces), n, sum(self.area),
+    def _size_for(self, faces: list, n: float, thin: bool = False) -> float:
+        return sizing.size_for_count(lambda h: self.count(h, faces, thin), n, sum(self.area),
                                      sum(float(L.sum()) for L in self.lengths), steps=100)
 
     def size_rest(self, rest: list, n_done: int) -> None:
         """Size the faces `rest` still to mesh for what the target leaves after `n_done`
-        vertices (within RESIZE of the first h) when the run is more than SLACK off course;
-        without a target the size stays."""
+        vertices, when the run is more than SLACK off course: finer by at most RESIZE than the
+        first h, coarser by up to COARSER (a target near the faces' own minimum needs the
+        coarsest h); without a target the size stays."""
         if self.target is None or not rest:
             return
-        if abs(n_done + self.count(self.h_rest, rest) - self.target) <= SLACK * self.target:
-            return         # on course: a new h would only make the interfaces disagree
-        h = self._size_for(rest, self.target - n_done)
-        self.h_rest = float(np.clip(h, self.h / RESIZE, self.h * RESIZE))
+        if abs(n_done + self.count(self.h_rest, rest) - self.target) > SLACK * self.target:
+            h = self._size_for(rest, self.target - n_done)
+            self.h_rest = float(np.clip(h, self.h / RESIZE, self.h * RESIZE))
+        # the faces left cannot fit what the target leaves even at their least (a face thin in
+        # its metric needs boundary pieces about THIN of its width long, whatever h is): the
+        # coarsest h for them, up to COARSER, so N ends near the faces' own minimum
+        if n_done + self.count(self.h * COARSER, rest, thin=True) > (1 + SLACK) * self.target:
+            h = self._size_for(rest, self.target - n_done, thin=True)
+            self.h_rest = float(np.clip(h, self.h_rest, self.h * COARSER))
 
     def last_face_target(self, i: int, dom: Any, meshes: dict) -> int | None:
         """For the last face, the vertex count that lands the run on target_vertices (its own
@@ -216,6 +247,23 @@ def _check_junctions(part, anis: list, face_name) -> None:
                     "on both sides of the interfaces there (splitting them towards the point "
                     "never ends); move a corner off that point, or let the regions meet along "
                     "an edge (e.g. a thin region between them)")
+
+
+def _metric_width(part, face, anisotropy, k: float) -> float:
+    """The width of the face's convex hull in its metric ∇²s / k (taken at the hull's centre
+    for a varying s): an upper bound of the face's own width in its metric."""
+    X = part.points[part.half_from[part.cycle(face.cycles[0])]]
+    c = X.mean(axis=0)
+    X = X - c
+    H = (anisotropy.H if anisotropy.is_constant
+         else np.asarray(anisotropy.hessian(c[None]), float)[0]) / k
+    try:
+        L = np.linalg.cholesky(np.asarray(H, float))
+        Y = X @ L                                        # |x|_H = |x L| with H = L Lᵀ
+        hull = ConvexHull(Y)
+    except (np.linalg.LinAlgError, QhullError, ValueError):
+        return np.inf
+    return float(rings.convex_width(Y[hull.vertices]))
 
 
 def _metric_area(dom, anisotropy, k: float) -> float:

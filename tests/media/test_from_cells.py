@@ -61,3 +61,33 @@ def test_bad_cell_arrays_are_refused():
         qmesh.Domain.from_cells([0, 1, 2], [0, 1], [[1.0, -1.0]], 1.0)
     with pytest.raises(qmesh.QmeshError, match="increasing"):
         qmesh.Domain.from_cells([0, 2, 1], [0, 1], 1.0, 1.0)
+
+
+def _rotating(n, delta=1e-3):
+    """FVCA5 test 5's tensor at the centres of n × n cells of the unit square: (x, k1, k2, angle)."""
+    x = np.linspace(0, 1, n + 1)
+    c = 0.5 * (x[1:] + x[:-1])
+    X, Y = np.meshgrid(c, c)
+    r2 = X * X + Y * Y
+    K = np.empty(X.shape + (2, 2))
+    K[..., 0, 0] = (delta * X * X + Y * Y) / r2
+    K[..., 0, 1] = K[..., 1, 0] = (delta - 1) * X * Y / r2
+    K[..., 1, 1] = (X * X + delta * Y * Y) / r2
+    w, v = np.linalg.eigh(K)
+    return x, w[..., 1], w[..., 0], np.degrees(np.arctan2(v[..., 1, 1], v[..., 0, 1]))
+
+
+def test_all_different_cells_follow_the_target_monotonically():
+    x, k1, k2, ang = _rotating(6)
+    d, cond = qmesh.Domain.from_cells(x, x, k1, k2, ang)
+    counts = []
+    for n in (1000, 4000, 10000):
+        with warnings.catch_warnings(record=True) as said:
+            warnings.simplefilter("always")
+            m = qmesh.mesh(d, cond, target_vertices=n)
+        assert len(said) <= 4                      # the faces' warnings summed up, not one per zone
+        fr = qmesh.measure.q_nonnegative_fractions(m, cond)
+        assert min(fr.values()) == 1.0
+        counts.append(m.n_vertices)
+    assert counts == sorted(counts)
+    assert abs(counts[-1] - 10000) <= 0.1 * 10000
