@@ -46,10 +46,36 @@ def smoothed(field, P: NDArray[np.float64], width: float, box) -> NDArray[np.flo
     return np.asarray(field(X), dtype=float).reshape(len(P), 4, 2, 2).mean(axis=1)
 
 
+def shape(Q: NDArray[np.float64]) -> NDArray[np.float64]:
+    """H = adj Q / √det Q: the metric of Q's shape, det H = 1."""
+    A = adj2(Q)
+    det = A[:, 0, 0] * A[:, 1, 1] - A[:, 0, 1] * A[:, 1, 0]
+    return A / np.sqrt(det)[:, None, None]
+
+
 def field_metric(field, width: float, box) -> Anisotropy:
-    """The metric-only Anisotropy H = adj Q̃ / √det Q̃ of `field` smoothed at `width` in `box`."""
+    """The metric-only Anisotropy H = adj Q̃ / √det Q̃ of `field` smoothed at `width` in `box`.
+
+    Smoothed at `width`, H varies little over width/GRID: it is sampled once on a grid of that
+    spacing over the box (at most MAX_GRID nodes a side) and interpolated bilinearly — the
+    mesher asks for it at every vertex at every stage, and a formula's or a raster's smoothing
+    costs a few evaluations each. A bilinear mix of SPD matrices is SPD."""
+    lo, hi = (np.asarray(v, dtype=float) for v in box)
+    n = np.clip(np.ceil((hi - lo) * GRID / width).astype(int) + 1, 2, MAX_GRID)
+    gx, gy = np.linspace(lo[0], hi[0], n[0]), np.linspace(lo[1], hi[1], n[1])
+    nodes = np.column_stack([np.repeat(gx, n[1]), np.tile(gy, n[0])])
+    table = shape(smoothed(field, nodes, width, (lo, hi))).reshape(n[0], n[1], 2, 2)
+
     def hessian(P: NDArray[np.float64]) -> NDArray[np.float64]:
-        A = adj2(smoothed(field, P, width, box))
-        det = A[:, 0, 0] * A[:, 1, 1] - A[:, 0, 1] * A[:, 1, 0]
-        return A / np.sqrt(det)[:, None, None]
+        P = np.asarray(P, dtype=float)
+        u = np.clip((P[:, 0] - lo[0]) / (gx[1] - gx[0]), 0.0, n[0] - 1.0)
+        v = np.clip((P[:, 1] - lo[1]) / (gy[1] - gy[0]), 0.0, n[1] - 1.0)
+        i, j = np.minimum(u.astype(int), n[0] - 2), np.minimum(v.astype(int), n[1] - 2)
+        fu, fv = (u - i)[:, None, None], (v - j)[:, None, None]
+        return ((1 - fu) * ((1 - fv) * table[i, j] + fv * table[i, j + 1])
+                + fu * ((1 - fv) * table[i + 1, j] + fv * table[i + 1, j + 1]))
     return Anisotropy.metric_only(hessian, getattr(field, "label", "") or "tensor field")
+
+
+GRID = 2          # grid nodes per smoothing width
+MAX_GRID = 2048   # nodes a side at most (4e6 in all)

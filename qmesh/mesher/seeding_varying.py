@@ -94,6 +94,49 @@ def _conflicts(X: np.ndarray, H: np.ndarray, r: float, Lbar: np.ndarray):
     return i, j
 
 
+ORIENTATIONS = 64     # groups of major-axis direction in the oriented conflict search
+ROUND_METRIC = 2.0    # metrics less anisotropic than this share one group
+
+
+def _conflicts_oriented(X: np.ndarray, H: np.ndarray, r: float):
+    """The pairs of `_conflicts` for a metric whose direction turns across Ω (a tensor field):
+    a pair conflicts only if Eᵀ H_i E < 2r² (½(H_i + H_j) ≥ ½H_i), so each point searches from
+    its own side with its own reach, in the coordinates of the mean metric of the points whose
+    major axis points the same way (ORIENTATIONS groups): a ball there is as narrow as the
+    point's own ellipse, where the mean metric of a turning field is nearly round and its balls
+    hold a thousand points. The pairs are the same set; the search costs a tree per group."""
+    a, b, c = H[:, 0, 0], H[:, 0, 1], H[:, 1, 1]
+    theta = 0.5 * np.arctan2(2.0 * b, a - c)                      # the larger eigenvalue's axis
+    lmin = np.clip(_sym_eig_min(H), 1e-300, None)
+    ratio = (a + c - lmin) / lmin
+    group = np.floor((theta / np.pi + 0.5) * ORIENTATIONS).astype(np.int64) % ORIENTATIONS
+    group[ratio < ROUND_METRIC] = -1
+    found = [np.empty((0, 2), np.int64)]
+    for g in np.unique(group):
+        src = np.flatnonzero(group == g)
+        L = np.linalg.cholesky(H[src].mean(axis=0))
+        Linv = np.linalg.inv(L)
+        G = np.einsum("ij,njk,lk->nil", Linv, H[src], Linv)        # L⁻¹ H L⁻ᵀ: H where y = x L
+        radius = np.sqrt(2.0) * r / np.sqrt(np.clip(_sym_eig_min(G), 1e-300, None))
+        Y = X @ L
+        tree = cKDTree(Y)
+        count = np.cumsum(tree.query_ball_point(Y[src], radius, return_length=True))
+        cuts = np.searchsorted(count, np.arange(PAIR_CHUNK, count[-1], PAIR_CHUNK))
+        for part in np.split(np.arange(len(src)), np.unique(cuts[cuts > 0])):
+            hits = tree.query_ball_point(Y[src[part]], radius[part], return_sorted=False)
+            n_hit = np.fromiter((len(h) for h in hits), np.int64, len(hits))
+            if not n_hit.sum():
+                continue
+            i = np.repeat(src[part], n_hit)
+            j = np.concatenate([np.asarray(h, np.int64) for h in hits if len(h)])
+            i, j = np.minimum(i, j)[i != j], np.maximum(i, j)[i != j]
+            E = X[j] - X[i]
+            d2 = np.einsum("ni,nij,nj->n", E, 0.5 * (H[i] + H[j]), E)
+            found.append(np.column_stack([i, j])[d2 < r * r])
+    pairs = np.unique(np.concatenate(found), axis=0)
+    return pairs[:, 0], pairs[:, 1]
+
+
 def _luby(n: int, i: np.ndarray, j: np.ndarray, rng, priority=None) -> np.ndarray:
     """A maximal independent set of the graph on n nodes with edges (i, j): boolean mask.
 
@@ -259,7 +302,8 @@ def initial_points(domain, anisotropy, n: int, rng) -> np.ndarray:
         X, H, prio = _patch_lattices(domain, anisotropy, h, Lbar)
         inside = _inside_with_margin(domain, X, H, MARGIN * h)
         X, H, prio = X[inside], H[inside], prio[inside]
-        i, j = _conflicts(X, H, CONFLICT * h, Lbar)
+        i, j = (_conflicts(X, H, CONFLICT * h, Lbar) if anisotropy.potential
+                else _conflicts_oriented(X, H, CONFLICT * h))
         P = X[_luby(len(X), i, j, rng, prio)]
         if abs(len(P) - n) < abs(len(best) - n):
             best = P
