@@ -120,7 +120,10 @@ def retriangulate(plan: Plan, st: State, it: int) -> Step:
                                    st.anisotropy, plan.cap)
     st.conform(c)
     n = len(P0)
-    pushed = None if c.P[:n] is P0 or np.array_equal(c.P[:n], P0) else plan.norm.scale * (c.P[:n] - P0)
+    pushed = None
+    if not (c.P[:n] is P0 or np.array_equal(c.P[:n], P0)):   # one row per vertex: the split-in ones 0
+        pushed = np.zeros_like(c.P)
+        pushed[:n] = plan.norm.scale * (c.P[:n] - P0)
     return Step("triangulate", it, st.mesh,
                 st.stats(flips=flips + c.flips, added=len(c.added), seconds=time.perf_counter() - t0),
                 moved=pushed, added=c.added)
