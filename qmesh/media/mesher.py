@@ -40,7 +40,8 @@ from qmesh.mesher.options import Options
 from qmesh.mesher.step import Stats, Step
 from qmesh.triangle_mesh import Mesh
 
-FINER = 6              # halvings of the size a face that is too thin for it may take
+FINER = 12             # halvings of the size a face too thin for it may take (6 beyond
+                       # the 64x coarser h a target near the faces' least may give it)
 MAX_HANDOVERS = 1000   # rounds of interface points handed between finished faces
 MAX_NOTES = 3          # the faces' warnings shown one by one; beyond, one line counts them
 TOLERANCE = 0.1        # a mesh further than this share from target_vertices is warned about
@@ -123,8 +124,12 @@ def _run(plan: MediaPlan, options: dict, every: bool) -> Iterator[Step]:
     for message, category in _summary(notes):
         warnings.warn(message, category, stacklevel=3)
     if plan.target is not None and abs(m.n_vertices - plan.target) > TOLERANCE * plan.target:
-        warnings.warn(f"target_vertices = {plan.target}: the mesh has {m.n_vertices} vertices "
-                      "(the interfaces and q_ij >= 0 on them need these)", QmeshWarning, stacklevel=3)
+        least = (f", about the least these regions need (their widths in their own metrics and "
+                 f"q_ij >= 0 on their interfaces); ask for more for N to follow the target"
+                 if m.n_vertices > plan.target and plan.h_rest > plan.h_euler else
+                 " (the interfaces and q_ij >= 0 on them need these)")
+        warnings.warn(f"target_vertices = {plan.target}: the mesh has {m.n_vertices} vertices"
+                      + least, QmeshWarning, stacklevel=3)
 
 
 def _summary(notes: list) -> list:

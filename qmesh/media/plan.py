@@ -33,7 +33,8 @@ from qmesh.triangle_mesh import Mesh
 
 RESIZE = 2.0     # the faces still to come are sized at most this factor away from the first h
 COARSER = 64.0   # ... and at most this factor coarser (a target below what the faces need)
-THIN = 0.5       # a face w wide in its metric needs boundary pieces about this many w long
+LEAST_SHARE = 0.5  # faces whose least count is this share of the target are sized by width at once
+THIN = 0.25      # a face w wide in its metric needs boundary pieces about this many w long
 TINY = 1e-5      # a face this small (× the domain's size) that cannot be meshed is named as the cause
 SLACK = 0.03     # ... and only when the faces done so far put the run this share off its target
 
@@ -71,10 +72,18 @@ class MediaPlan:
         self.target = target_vertices
         self.order = sorted(range(len(self.faces)), key=lambda i: self.area[i])   # largest last
         everything = list(range(len(self.faces)))
+        self.thin = False          # sized with the faces' widths from the start
         if target_vertices is not None:
-            self.h = self._size_for(everything, target_vertices)
+            # faces whose least count (at any h) is a large share of the target: sized with
+            # their widths from the first face on, so the first ones do not take it all
+            huge = 10.0 * (np.sqrt(sum(self.area)) + sum(float(L.sum()) for L in self.lengths))
+            self.thin = self.count(huge, everything, thin=True) > LEAST_SHARE * target_vertices
+            self.h = self.h_euler = self._size_for(everything, target_vertices)
+            if self.thin:      # no coarser than COARSER × Euler's h (a target below the least)
+                self.h = min(self._size_for(everything, target_vertices, True), COARSER * self.h)
         else:
             self.h = float(size) if size is not None else float(np.mean(np.concatenate(self.lengths)))
+            self.h_euler = self.h
             sizing.check_vertex_count(self.count(self.h, everything), f"size = {self.h:.3g}")
         self.h_rest = self.h
         self.extra = self._cuts(self.pieces(self.h))
@@ -168,15 +177,15 @@ class MediaPlan:
         coarsest h); without a target the size stays."""
         if self.target is None or not rest:
             return
-        if abs(n_done + self.count(self.h_rest, rest) - self.target) > SLACK * self.target:
-            h = self._size_for(rest, self.target - n_done)
+        if abs(n_done + self.count(self.h_rest, rest, self.thin) - self.target) > SLACK * self.target:
+            h = self._size_for(rest, self.target - n_done, self.thin)
             self.h_rest = float(np.clip(h, self.h / RESIZE, self.h * RESIZE))
         # the faces left cannot fit what the target leaves even at their least (a face thin in
         # its metric needs boundary pieces about THIN of its width long, whatever h is): the
         # coarsest h for them, up to COARSER, so N ends near the faces' own minimum
-        if n_done + self.count(self.h * COARSER, rest, thin=True) > (1 + SLACK) * self.target:
+        if n_done + self.count(self.h_euler * COARSER, rest, thin=True) > (1 + SLACK) * self.target:
             h = self._size_for(rest, self.target - n_done, thin=True)
-            self.h_rest = float(np.clip(h, self.h_rest, self.h * COARSER))
+            self.h_rest = float(np.clip(h, self.h_rest, self.h_euler * COARSER))
 
     def last_face_target(self, i: int, dom: Any, meshes: dict) -> int | None:
         """For the last face, the vertex count that lands the run on target_vertices (its own
