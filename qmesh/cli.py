@@ -57,6 +57,21 @@ def _non_negative_int(text: str) -> int:
     return value
 
 
+def _vertex_count(text: str) -> int:
+    """argparse type for --target-vertices: an integer, also written with an exponent (2e7,
+    1.5e4) when its value is integral; the memory budget then says whether it fits."""
+    from decimal import Decimal, InvalidOperation
+    try:
+        value = Decimal(str(text).strip())
+    except InvalidOperation:
+        value = None
+    if value is None or not value.is_finite() or value != value.to_integral_value():
+        raise argparse.ArgumentTypeError(f"must be an integer (e.g. 20000 or 2e4), got {text!r}")
+    if value.adjusted() > 30:
+        raise argparse.ArgumentTypeError(f"is far too large: {text!r}")
+    return int(value)
+
+
 def anisotropy_from(args) -> Anisotropy | TensorField:
     """--Q Q11 Q12 Q22, --principal K1 K2 ANGLE or --s TEXT, or a field (--field-Q, --field-principal,
     --raster); the chapter's Q = diag(0.1, 10) by default."""
@@ -318,7 +333,7 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument(flag, nargs=4, type=float, action="append", metavar=meta, help="the conductivity of region TAG "
                        "(repeatable; regions given none use --Q/--principal/--s)")
     g = p.add_mutually_exclusive_group()
-    g.add_argument("--target-vertices", type=int, metavar="N", help="aim for N vertices: the mesh ends on N, or near it where keeping q_ij >= 0 "
+    g.add_argument("--target-vertices", type=_vertex_count, metavar="N", help="aim for N vertices: the mesh ends on N, or near it where keeping q_ij >= 0 "
                    "on the boundary needs more vertices (a few percent; more for small N)")
     g.add_argument("--size", type=float, metavar="H", help="target edge length in the metric ∇²s "
                    "(default: the mean metric length of the domain's edges)")
