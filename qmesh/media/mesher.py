@@ -201,11 +201,13 @@ def _share(plan: MediaPlan, meshes: dict[int, Mesh], done: list[int], new: dict,
     part = plan.part
     face_of = part.edge_faces
     queue = [new]
+    rank = {j: k for k, j in enumerate(done)}
     for _ in range(MAX_HANDOVERS):
         if not queue:
             return
         pts = queue.pop()
-        for j in done:
+        beside = {int(f) for e in pts for f in face_of[e] if int(f) in rank}
+        for j in sorted(beside, key=rank.get):     # the finished faces beside these edges only
             give = {e: X for e, X in pts.items() if j in face_of[e]}
             if not give:
                 continue
