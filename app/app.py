@@ -51,22 +51,33 @@ VIEW_MODES = ("remote", "local")
 CHART_SERIES = (("chart_energy", "energy E per iteration (log scale)", "#1f77b4"),
                 ("chart_kappa2", "κ2 per iteration", "#d62728"),
                 ("chart_n", "N per iteration", "#2ca02c"))
-VIEW_HEIGHT = "calc(100vh - 330px)"   # the views fill the page below the status lines
+VIEW_HEIGHT = "calc(100vh - 347px)"   # the views fill the page below the status lines
 TEXT_PARAMS = ("target_vertices", "seed")   # typed: applied on Enter or blur, never per key
 SLIDER_PARAMS = tuple(n for n in PARAMS if n not in TEXT_PARAMS + ("s_text",))
 
 
 def convergence_chart(series: dict, field: bool = False) -> dict:
     """State for the sparklines: log10 E, κ2, N per iteration, and "first → last" labels (E's
-    says "none: no s" for a `field`, whose metric has no energy)."""
+    says "none: no s" for a `field`, whose metric has no energy).
+
+    A medium's Steps are the stages of each face's run in turn: E is a face's own energy, so
+    its chart follows the last face run ("face k (the last run): …"), while κ2 and N (of the faces
+    stitched so far) run over every face's iterations in order."""
     def ends(values, fmt):
         v = [x for x in values if x is not None]
         return f"{v[0]:{fmt}} → {v[-1]:{fmt}}" if v else ""
-    energy = [x for x in series["energy"] if x is not None and x > 0]
+    faces = series.get("face") or [0] * len(series["energy"])
+    known = [f for f in faces if f is not None]
+    last = max(known) if known else 0
+    energy = [x for x, f in zip(series["energy"], faces)
+              if x is not None and x > 0 and (last == 0 or f == last)]
     kappa2 = [x for x in series["kappa2"] if x is not None]
+    e_label = "none: no s" if field else ends(energy, ".3g")
+    if last > 0 and not field:
+        e_label = f"face {last + 1} (the last run): {e_label}"
     return {"chart_energy": [math.log10(x) for x in energy], "chart_kappa2": kappa2,
             "chart_n": list(series["n_vertices"]),
-            "chart_labels": {"chart_energy": "none: no s" if field else ends(energy, ".3g"),
+            "chart_labels": {"chart_energy": e_label,
                              "chart_kappa2": ends(kappa2, ".3g"),
                              "chart_n": ends(series["n_vertices"], "d")}}
 
@@ -102,6 +113,7 @@ class QmeshView(TrameApp):
             self.views.plotters[name].enable_2d_style()
         self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="qmesh-view")
         self._drain_task = None
+        self._resume = False             # a Run stopped by a change that may yet be refused
         self._options_changed = False
         self._init_state()
         self.views.draw(self.session.current, self.session.anisotropy, **self._view_options())
@@ -147,6 +159,7 @@ class QmeshView(TrameApp):
             if name in TEXT_PARAMS:         # a new key redraws the field over what was typed
                 self.state[f"rev_{name}"] = (self.state[f"rev_{name}"] or 0) + 1
         self.state.update(self.session.readout)
+        self.state.s_shown = p.s_text if p.q_mode == "expression" else ""
 
     def _settle_controls(self, sent: dict) -> None:
         """After a change: write back only the controls whose value in force differs from what
@@ -162,8 +175,8 @@ class QmeshView(TrameApp):
     def _messages(self, notes=()) -> None:
         """The line beside the status: refusals of the last action, warnings about the stage."""
         with self.state:
-            self.state.messages = " · ".join(dict.fromkeys([*self.session.action_messages,
-                                                            *notes]))
+            self.state.messages = "\n".join(dict.fromkeys([*self.session.action_messages,
+                                                           *notes]))
 
     def _view_options(self) -> dict:
         return dict(z_scale=float(self.state.z_scale), colour_by=self.state.colour_by,
@@ -357,13 +370,14 @@ class QmeshView(TrameApp):
             asynchronous.create_task(self._apply_s(s_preset))
 
     async def _apply_s(self, text: str) -> None:
-        """Re-mesh with s(x, y) = text; a refused text keeps the last mesh, its error (red)
-        goes next to the field, and the text stays there to be corrected."""
+        """Re-mesh with s(x, y) = text; a refused text keeps the last mesh, its error (red,
+        "not applied: …") goes under the field, the text stays there to be corrected, and the
+        line below names the s the views still show."""
         self.session.stop()
         await self._when_idle()
         outcome = await self._act(lambda: self.session.apply_s(text))
         with self.state:
-            self.state.s_error = "" if outcome.ok else outcome.message
+            self.state.s_error = "" if outcome.ok else f"not applied: {outcome.message}"
             self._settle_controls({})
             if not outcome.ok:
                 self.state.s_input = text
@@ -410,7 +424,16 @@ class QmeshView(TrameApp):
         self._submit(name, str(text).strip())
 
     def _submit(self, name: str, value) -> None:
-        self.session.submit(name, value)
+        """Hand the value to the session. Refused before any meshing: the control gets the
+        value in force back and a running Run goes on; else the Run stops and the drain task
+        applies it (and restarts the Run if the mesher refuses it: a refusal never stops it)."""
+        running = bool(self.state.running)
+        refused = self.session.submit(name, value)
+        if refused is not None:
+            self._messages()
+            self._settle_controls({name: value})
+            return
+        self._resume = self._resume or running
         if self._drain_task is None or self._drain_task.done():
             self._drain_task = asynchronous.create_task(self._drain())
 
@@ -423,10 +446,17 @@ class QmeshView(TrameApp):
             changes = self.session.take_pending()
             if not changes:
                 continue
+            run = self.session.controller
             outcome = await self._act(lambda: self.session.change(**changes))
             self._settle_controls(changes)
             if outcome.kind == "unchanged":
                 self._messages()
+            if (not outcome.ok and self._resume and self.session.controller is run
+                    and not self.session.has_pending() and not self.session.at_end):
+                self._resume = False
+                asynchronous.create_task(self._run())      # the refused change stops nothing
+            elif outcome.ok:
+                self._resume = False
 
     # ------------------------------------------------------------------ cameras
     def _link_cameras(self) -> None:
@@ -441,6 +471,8 @@ class QmeshView(TrameApp):
     def _after_camera(self) -> None:
         looks_before = dict(self._edge_looks) if hasattr(self, "_edge_looks") else None
         self._edge_looks = self.views.apply_edges()
+        with self.state:                  # the quality legend says which q_ij lines are drawn
+            self.state.update(legend.state(self.views.legend))
         for name in ("mesh", "quality"):
             self.html_views[name].update()
         if looks_before is not None and looks_before.get("lifted") != self._edge_looks["lifted"]:
@@ -502,6 +534,9 @@ class QmeshView(TrameApp):
                                   on_enter=(self.on_s_enter, "[$event.target.value]"),
                                   classes="my-1",
                                   spellcheck="false", autocomplete="off")
+                html.Div("the views show s(x, y) = {{ s_shown }}", v_show=("s_shown",),
+                         id="s-shown", classes="text-caption",
+                         style="overflow-wrap: anywhere")
                 with html.Div(id="select-s-preset"):
                     v3.VSelect(v_model=("s_preset", None), items=("s_presets",),
                                label="presets", density="compact", hide_details=True,
@@ -555,12 +590,12 @@ class QmeshView(TrameApp):
         with v3.VContainer(fluid=True, classes="pa-2"):
             html.Div("{{ status_line }}", id="status-line",
                      classes="text-body-2 font-weight-medium px-2")
-            # refusals and warnings: always two lines high, so the views below never move
+            # refusals and warnings, one per line: three lines high, so the views below never
+            # move; more than three scroll (every message stays readable)
             html.Div("{{ messages }}", id="messages", title=("messages",),
                      classes="text-body-2 px-2",
-                     style="height: 2.6em; line-height: 1.3em; overflow: hidden; "
-                           "color: #b3261e; display: -webkit-box; -webkit-line-clamp: 2; "
-                           "-webkit-box-orient: vertical")
+                     style="height: 3.9em; line-height: 1.3em; overflow-y: auto; "
+                           "white-space: pre-line; color: #b3261e")
             with html.Div(classes="d-flex align-center px-2 mt-1", id="history-row"):
                 html.Span("stage", classes="text-body-2 mr-3")
                 with html.Div(style="flex: 1 1 auto"):
@@ -572,36 +607,44 @@ class QmeshView(TrameApp):
                           style=("{display: 'grid', gap: '6px', resize: 'vertical',"
                                  " overflow: 'hidden', minHeight: '320px',"
                                  f" height: '{VIEW_HEIGHT}',"
+                                 " gridTemplateRows: 'minmax(0, 1fr) auto',"
                                  " gridTemplateColumns: maximised ? '1fr' : 'repeat(3, 1fr)'}",)):
                 for name in VIEWS:
                     self._view_card(name)
             self._chart_row()
 
     def _view_card(self, name: str) -> None:
-        """One view: title and maximise button, the picture filling the card, its legend below."""
+        """One view: title and maximise button, the picture filling the card, its legend below.
+
+        The card spans two rows of the views' grid (picture, legend) as a subgrid, so the legend
+        row is as high as the tallest of the three legends: every legend shows in full and the
+        three pictures keep one height (mesh and quality share a camera, so one scale)."""
         with html.Div(v_show=(f"!maximised || maximised === '{name}'",), id=f"card-{name}",
-                      style="min-width: 0; min-height: 0"), \
-                v3.VCard(variant="outlined", classes="d-flex flex-column", height="100%"):
-            with html.Div(classes="d-flex align-center px-2"):
-                html.Span(f"{{{{ title_{name} }}}}", classes="text-caption",
-                          id=f"title-{name}")       # a field's first view: ellipses
-                v3.VSpacer()
-                v3.VBtn(icon=(f"maximised === '{name}' ? 'mdi-arrow-collapse' :"
-                              " 'mdi-arrow-expand'",),
-                        size="x-small", variant="text", id=f"max-{name}",
-                        click=f"maximised = (maximised === '{name}' ? '' : '{name}')",
-                        title="maximise / restore this view")
-            with html.Div(style="position: relative; flex: 1 1 auto; min-height: 200px",
-                          id=f"view-{name}"):
-                if self.view_mode == "local":
-                    self.html_views[name] = vtk_widgets.VtkLocalView(
-                        self.views.plotters[name].render_window,
-                        ref=f"view_{name}", style="position: absolute; inset: 0")
-                else:
-                    self.html_views[name] = vtk_widgets.VtkRemoteView(
-                        self.views.plotters[name].render_window,
-                        ref=f"view_{name}", interactive_ratio=1, still_quality=90,
-                        style="position: absolute; inset: 0")
+                      classes="qmesh-card",
+                      style="display: grid; grid-row: span 2; grid-template-rows: subgrid; "
+                            "min-width: 0; min-height: 0; border: thin solid "
+                            "rgba(0, 0, 0, 0.25); border-radius: 4px; overflow: hidden"):
+            with html.Div(classes="d-flex flex-column", style="min-height: 0"):
+                with html.Div(classes="d-flex align-center px-2"):
+                    html.Span(f"{{{{ title_{name} }}}}", classes="text-caption",
+                              id=f"title-{name}")       # a field's first view: ellipses
+                    v3.VSpacer()
+                    v3.VBtn(icon=(f"maximised === '{name}' ? 'mdi-arrow-collapse' :"
+                                  " 'mdi-arrow-expand'",),
+                            size="x-small", variant="text", id=f"max-{name}",
+                            click=f"maximised = (maximised === '{name}' ? '' : '{name}')",
+                            title="maximise / restore this view")
+                with html.Div(style="position: relative; flex: 1 1 auto; min-height: 160px",
+                              id=f"view-{name}"):
+                    if self.view_mode == "local":
+                        self.html_views[name] = vtk_widgets.VtkLocalView(
+                            self.views.plotters[name].render_window,
+                            ref=f"view_{name}", style="position: absolute; inset: 0")
+                    else:
+                        self.html_views[name] = vtk_widgets.VtkRemoteView(
+                            self.views.plotters[name].render_window,
+                            ref=f"view_{name}", interactive_ratio=1, still_quality=90,
+                            style="position: absolute; inset: 0")
             legend.html_legend(name)
 
     def _chart_row(self) -> None:

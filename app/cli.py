@@ -34,6 +34,15 @@ def memory_size(text: str) -> int:
     return int(value)
 
 
+def vertex_count(text: str) -> int:
+    """An integer, also with an exponent when integral ("2e7") (argparse type)."""
+    from .controller import _integer
+    try:
+        return _integer("the target", text)
+    except QmeshError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+
+
 def domain_help() -> str:
     """--domain's help: every preset the viewer offers, by kind, from `problem` itself (the
     named shapes, the media, the fields), so none is left out."""
@@ -62,7 +71,7 @@ def parser() -> argparse.ArgumentParser:
                    help="remote (default): the server renders and sends images; local: the "
                         "browser renders with vtk.js (measured slower: benchmarks/bench_view.py)")
     p.add_argument("--vb", type=int, default=64, help="seed points on the disk (default 64)")
-    p.add_argument("--target-vertices", type=int, default=212,
+    p.add_argument("--target-vertices", type=vertex_count, default=212,
                    help="target vertex count N (default 212, the chapter's case)")
     p.add_argument("--domain", default="disk", help=domain_help())
     p.add_argument("--s", dest="s_text", default=None, metavar="TEXT",

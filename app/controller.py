@@ -10,6 +10,7 @@ app and the Jupyter widget drive the session.
 from __future__ import annotations
 
 import math
+from decimal import Decimal, InvalidOperation
 from dataclasses import dataclass, fields
 
 import numpy as np
@@ -50,15 +51,28 @@ class Params:
 
 
 def _integer(name: str, value) -> int:
+    """An integer: an int, an integral float, or text naming one, also with an exponent ("2e7",
+    "1.5e4": what people type for large counts); anything else is refused."""
+    refused = QmeshError(f"{name} must be an integer, got {value!r}")
     if isinstance(value, bool):
-        raise QmeshError(f"{name} must be an integer, got {value!r}")
+        raise refused
+    if isinstance(value, str):
+        try:
+            number = Decimal(value.strip())
+        except InvalidOperation:
+            raise refused from None
+        if not number.is_finite() or number != number.to_integral_value():
+            raise refused
+        if number.adjusted() > 30:              # int() of 1e999999999 would take minutes
+            raise QmeshError(f"{name} is far too large, got {value!r}")
+        return int(number)
     try:
         out = int(value)
-        exact = out == value or (isinstance(value, str) and float(value) == out)
+        exact = out == value
     except (TypeError, ValueError, OverflowError):
-        raise QmeshError(f"{name} must be an integer, got {value!r}") from None
+        raise refused from None
     if not exact:
-        raise QmeshError(f"{name} must be an integer, got {value!r}")
+        raise refused
     return out
 
 
@@ -316,7 +330,12 @@ class Controller:
         """E, κ2 and N at the end of every iteration computed so far (its triangulate stages)."""
         idx = [i for i, s in enumerate(self.history) if s.stage == "triangulate"]
         rows = [self.status(i) for i in idx]
-        return {"iteration": [r["iteration"] for r in rows],
+        face, faces = -1, []                 # a medium: which face's run (its iteration 0 starts one)
+        for i in idx:
+            step = self.history[i]
+            face += step.iteration == 0
+            faces.append(None if self.regions and step.converged else face)
+        return {"iteration": [r["iteration"] for r in rows], "face": faces,
                 "energy": [r["energy"] for r in rows],
                 "kappa2": [r["kappa2"] for r in rows],
                 "n_vertices": [r["n_vertices"] for r in rows]}

@@ -124,10 +124,19 @@ def draw_projected(plotter: pv.Plotter, view: scene.ProjectedScene) -> None:
         actor.mapper.SetScalarRange(lo - 0.25, hi + 0.25 if hi > lo else lo + 1.0)
     _put(plotter, "sample", view.sample, color=EDGE, line_width=1, show_scalar_bar=False)
     _put(plotter, "arrows", view.arrows, color=ARROW, line_width=2, show_scalar_bar=False)
-    _put(plotter, "added", view.added, color=ADDED, point_size=9,
+    _put(plotter, "added", view.added, color=ADDED, point_size=marker_size(view.added.n_points, 9),
          render_points_as_spheres=True, show_scalar_bar=False)
-    _put(plotter, "fixed", view.fixed, color=FIXED, point_size=7,
+    _put(plotter, "fixed", view.fixed, color=FIXED, point_size=marker_size(view.fixed.n_points, 7),
          render_points_as_spheres=True, show_scalar_bar=False)
+
+
+MARKERS_FULL = 200         # up to this many markers at full size; more shrink as 1/√n to 3 px
+
+
+def marker_size(n: int, full: float) -> float:
+    """Pixel size of `n` point markers: `full` for a few, shrinking as 1/√n (the area they
+    cover stays about the same) down to 3 px, so thousands of them leave the mesh visible."""
+    return float(np.clip(full * np.sqrt(MARKERS_FULL / max(n, 1)), 3.0, full))
 
 
 def draw_quality(plotter: pv.Plotter, view: scene.QualityScene,
@@ -158,6 +167,29 @@ def draw_quality(plotter: pv.Plotter, view: scene.QualityScene,
     for name, value, colour, width in Q_SIGN_LINES:
         part = None if edges is None else edges.extract_cells(np.flatnonzero(sign == value))
         _put(plotter, name, part, color=colour, line_width=width, show_scalar_bar=False)
+
+
+Q_SIGN_CROWDED = ("q_positive", "q_boundary")
+"""The q_ij-sign lines that follow the edge density (dark, light, hidden); q_ij < 0 and a
+medium's interfaces are always drawn, so a crowded mesh still shows where the M-matrix property
+fails."""
+NEGATIVE_THIN = 2          # q_ij < 0 lines when the other edges are light or hidden
+
+
+def apply_q_sign_look(plotter: pv.Plotter, look: str | None) -> None:
+    """The q_ij-sign lines for edges that look `look` on screen: q_ij ≥ 0 and boundary edges
+    dark, light or hidden like every other edge; q_ij < 0 always drawn (thinner when crowded)."""
+    widths = {name: width for name, _, _, width in Q_SIGN_LINES}
+    for name, _, colour, _ in Q_SIGN_LINES:
+        actor = plotter.actors.get(name)
+        if actor is None:
+            continue
+        prop = actor.GetProperty()
+        if name in Q_SIGN_CROWDED:
+            actor.SetVisibility(look is not None)
+            prop.SetColor(pv.Color(colour if look == "dark" else EDGE_LIGHT).float_rgb)
+        elif name == "q_negative":
+            prop.SetLineWidth(widths[name] if look == "dark" else NEGATIVE_THIN)
 
 
 def typical_edge(step) -> float:
@@ -279,12 +311,14 @@ class ViewSet:
              line_width=1, show_scalar_bar=False)       # a field's mesh when edges crowd
         q = scene.quality(step, anisotropy, colour_by, q_sign_edges)
         draw_quality(p["quality"], q, scalar_bar=self.scalar_bar)
-        _put(p["quality"], "sample", None if q.edges is not None else projected.sample,
-             color=EDGE, line_width=1, show_scalar_bar=False)
+        _put(p["quality"], "sample", projected.sample, color=EDGE, line_width=1,
+             show_scalar_bar=False)                     # shown when edges crowd
         self.legend = {"title": SCALAR_TITLES[q.scalars], "clim": tuple(map(float, q.clim)),
                        "q_sign_edges": q.edges is not None, "n_negative": q.n_negative,
                        "regions": list(regions) if scene.is_medium(anisotropy) else [],
-                       "n_interface": q.n_interface, "field": field}
+                       "n_interface": q.n_interface, "field": field,
+                       "n_added": projected.n_added, "n_added_shown": projected.added.n_points,
+                       "n_fixed": projected.n_fixed, "n_fixed_shown": projected.fixed.n_points}
         if field:
             self.legend.update(field_clim=tuple(map(float, shown.clim)),
                                n_ellipses=len(shown.centres), field_label=anisotropy.label,
@@ -339,7 +373,9 @@ class ViewSet:
                 prop.SetEdgeVisibility(look is not None)
                 colours = FIELD_EDGE if name == "lifted" and self._field else (EDGE, EDGE_LIGHT)
                 prop.SetEdgeColor(pv.Color(colours[0] if look == "dark" else colours[1]).float_rgb)
+        apply_q_sign_look(self.plotters["quality"], looks["quality"])
         self.legend["crowded"] = looks["mesh"] != "dark"
+        self.legend["quality_edges"] = looks["quality"]
         return looks
 
     def _lifted_style(self, field: bool) -> None:

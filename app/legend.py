@@ -72,7 +72,8 @@ def html(name: str, info: dict) -> str:
                  f"{_number(lo)} {bar} {_number(hi)}</span>"]
     elif name == "lifted" and info.get("regions"):
         items = [_item(_swatch(draw.FACET), "a medium has one s per region, not one surface: "
-                       "each region's triangles lifted onto its own s_r (own height scale), "
+                       "each region's triangles lifted onto its own s_r less its own plane "
+                       "(own height scale), "
                        "in its region's colour"),
                  _item(_dot(draw.EDGE), "vertices (x, s_r(x))")]
     elif name == "lifted":
@@ -80,8 +81,12 @@ def html(name: str, info: dict) -> str:
                  _item(_swatch(draw.FACET), "facets of s_h"),
                  _item(_dot(draw.EDGE), "vertices (x, s(x))")]
     elif name == "mesh":
-        items = [_item(_dot(draw.FIXED), "seed points (fixed)"),
-                 _item(_dot(draw.ADDED), "inserted by the last insert"),
+        def few(n, shown):
+            return f" ({shown} of {n} marked)" if shown < n else ""
+        items = [_item(_dot(draw.FIXED), "seed points (fixed)"
+                       + few(info.get("n_fixed", 0), info.get("n_fixed_shown", 0))),
+                 _item(_dot(draw.ADDED), "inserted by the last insert"
+                       + few(info.get("n_added", 0), info.get("n_added_shown", 0))),
                  _item(_line(draw.ARROW), "moves of the last adjust")]
         regions = info.get("regions") or []
         if regions:
@@ -105,12 +110,24 @@ def html(name: str, info: dict) -> str:
             items.append(_item("", f"each triangle in its own element mean Q̄_T ({source})"))
         if info.get("q_sign_edges"):
             look = {value: (colour, width) for _, value, colour, width in draw.Q_SIGN_LINES}
-            items += [_item(_line(*look[1]), "q_ij ≥ 0"),
-                      _item(_line(*look[-1]), f"q_ij < 0 ({info.get('n_negative', 0)})"),
-                      *([_item(_line(*look[2]), f"interface, q_ij ≥ 0 "
-                                                f"({info.get('n_interface', 0)})")]
-                        if info.get("regions") else []),
-                      _item(_line(*look[0]), "boundary edge")]
+            crowd = info.get("quality_edges", "dark")
+            light = (draw.EDGE_LIGHT, 1)
+            n_neg = info.get("n_negative", 0)
+            items.append(_item("", "edges by sign of q_ij (switch on):"))
+            items.append(_item(_line(draw.Q_SIGN_LINES[-1][2],
+                                     look[-1][1] if crowd == "dark" else draw.NEGATIVE_THIN),
+                               f"q_ij < 0: {n_neg} edge{'s' if n_neg != 1 else ''}"
+                               + (", always drawn" if crowd != "dark" else "")))
+            if info.get("regions"):
+                items.append(_item(_line(*look[2]), f"interface, q_ij ≥ 0 "
+                                                    f"({info.get('n_interface', 0)})"))
+            if crowd == "dark":
+                items += [_item(_line(*look[1]), "q_ij ≥ 0"),
+                          _item(_line(*look[0]), "boundary edge")]
+            elif crowd == "light":
+                items.append(_item(_line(*light), "q_ij ≥ 0 and boundary (light: crowded)"))
+            else:
+                items.append(_item("", "q_ij ≥ 0 not drawn: too dense (zoom in)"))
     else:
         raise ValueError(f"no legend for view {name!r}")
     return f"<div class='legend' style='{_ROW}'>{''.join(items)}</div>"
@@ -132,5 +149,5 @@ def state(info: dict) -> dict:
 def html_legend(name: str) -> None:
     """The trame element showing view `name`'s legend from the state (id legend-NAME)."""
     from trame.widgets import html as h
-    h.Div(v_html=(f"legend_{name}",), id=f"legend-{name}",     # one height for all three
-          style=("`height: ${legend_height}px; overflow-y: auto`",))
+    h.Div(v_html=(f"legend_{name}",), id=f"legend-{name}",     # the card's second grid row
+          style="max-height: 40vh; overflow-y: auto; min-height: 0")

@@ -13,8 +13,8 @@ by the trame app and the Jupyter widget (ARCHITECTURE.md "qmesh_view.scene").
   every edge coloured by the sign of q_ij = −K_ij (Glickenstein 2007).
 
 A medium (a `{region tag: Anisotropy}` mapping) has one s per region, not one surface: the
-lifted view then shows each region's own piece (its triangles lifted onto its s_r, normalised
-per region, no smooth surface); the projected mesh is coloured by region; the quality view
+lifted view then shows each region's own piece (its triangles lifted onto its s_r less its
+least-squares plane, normalised per region, no smooth surface); the projected mesh is coloured by region; the quality view
 uses each triangle's own metric and marks the interface edges (two triangles, two regions).
 
 A conductivity field (`qmesh.TensorField`, a formula or a raster of Q(x)) has no s, so no surface
@@ -285,18 +285,24 @@ def lifted(step, anisotropy, z_scale: float = 1.0, *, domain=None,
 
 
 def _lifted_pieces(step, anisotropy, z_scale: float, rings) -> LiftedScene:
-    """A medium: every region's triangles lifted onto its own s_r (one s per region, each
-    normalised to its own range: s_r is only defined up to an affine function), the pieces
-    side by side over the plane; no smooth surface (there is no single one)."""
+    """A medium: every region's triangles lifted onto its own s_r relative to its own plane.
+
+    s_r is only defined up to an affine function, and the affine parts of different regions
+    tilt their pieces every which way; what matters to the lower hull is the convex rest. So
+    each region shows s_r minus its least-squares plane over the region's vertices, normalised
+    to its own range, starting from the plane z = 0: one bowl (or trough) per region, side by
+    side over the plane, no smooth surface (there is no single one)."""
     P, T, tags = step.mesh.points, step.mesh.triangles, step.mesh.region_tags
     width = float(np.ptp(np.concatenate(rings), axis=0).max())
     points, faces, heights, region, offset = [], [], [], [], 0
     for tag in np.unique(tags).tolist():
         Tr = T[tags == tag]
         used, local = np.unique(Tr, return_inverse=True)
-        s_r = np.asarray(anisotropy[tag].s(P[used]), dtype=float)
-        heights.append(height_map(s_r, s_r.min(), s_r.max(), width, z_scale))
-        points.append(P[used])
+        X = P[used]
+        s_r = np.asarray(anisotropy[tag].s(X), dtype=float)
+        rest = s_r - own_plane(X, s_r)
+        heights.append(height_map(rest, rest.min(), rest.max(), width, z_scale))
+        points.append(X)
         faces.append(local.reshape(Tr.shape)[:, ::-1] + offset)
         region.append(np.full(len(Tr), tag))
         offset += len(used)
@@ -305,6 +311,15 @@ def _lifted_pieces(step, anisotropy, z_scale: float, rings) -> LiftedScene:
     facets.cell_data["region"] = np.concatenate(region)
     facets.cell_data["region_rgb"] = region_rgb(facets.cell_data["region"])
     return LiftedScene(pv.PolyData(), points_polydata(X, z), facets, float(z_scale))
+
+
+def own_plane(X: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """The least-squares plane a + b x + c y through the values `s` at points X (n, 2), at X."""
+    if len(X) < 3 or not np.all(np.isfinite(s)):
+        return np.full(len(X), float(np.nanmin(s)) if len(s) else 0.0)
+    A = np.column_stack([np.ones(len(X)), X - X.mean(axis=0)])
+    coef, *_ = np.linalg.lstsq(A, s, rcond=None)
+    return A @ coef
 
 
 # --------------------------------------------------------------------------- a field's view
@@ -440,6 +455,7 @@ class ProjectedScene:
     n_moved: int
     sample: pv.PolyData = None   # outlines of one triangle per cell of a coarse grid (crowded)
     interfaces: pv.PolyData = None   # a medium's interface edges (two regions), else empty
+    n_fixed: int = 0          # fixed vertices (`fixed` and `added` hold at most MAX_MARKERS)
 
 
 def projected(step, *, arrow_scale: float = 1.0, min_move: float = 0.0) -> ProjectedScene:
@@ -477,9 +493,22 @@ def projected(step, *, arrow_scale: float = 1.0, min_move: float = 0.0) -> Proje
         if len(E):
             lift = 2e-3 * max(float(np.ptp(P, axis=0).max()), 1e-300)
             interfaces = pv.PolyData(_xyz(P, lift), lines=_lines(E))
-    return ProjectedScene(tri, points_polydata(P[m.fixed]),
-                          points_polydata(P[added]), arrows, len(added), n_moved,
-                          sample_outlines(P, T), interfaces)
+    fixed = np.flatnonzero(m.fixed)
+    return ProjectedScene(tri, points_polydata(P[markers(fixed)]),
+                          points_polydata(P[markers(added)]), arrows, len(added), n_moved,
+                          sample_outlines(P, T), interfaces, len(fixed))
+
+
+MAX_MARKERS = 2000
+"""At most this many seed or inserted-point markers (evenly taken): more only hide the mesh."""
+
+
+def markers(index: np.ndarray, most: int = MAX_MARKERS) -> np.ndarray:
+    """`index` thinned evenly to at most `most` entries."""
+    index = np.asarray(index)
+    if len(index) <= most:
+        return index
+    return index[np.linspace(0, len(index) - 1, most).round().astype(np.int64)]
 
 
 SAMPLE_CELLS = 36            # grid cells across the domain's width for the sampled outlines

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import asyncio
 import inspect
+import re
 import threading
 import warnings
 from dataclasses import asdict, dataclass
@@ -32,6 +33,7 @@ from qmesh.mesher import budget, diagnose
 from .controller import PARAMS, Controller, Params, _checked, reconcile
 from .problem import FILE_PREFIX, domain_names, read_upload, varying
 
+REGION_WORD = re.compile(r"\bregion (\d+)\b(?! \()")
 RUN_PAUSE = 0.05     # seconds between animated stages, so every frame reaches the screen
 LABELS = {"vb": "VB", "target_vertices": "target vertices"}
 
@@ -64,12 +66,15 @@ class Session:
         self.uploads: dict = {}
         p = _checked(Params(**params))
         self._check_budget(p)
-        self._run = Controller(uploads=self.uploads, **asdict(p))
+        self.action_messages: list[str] = []
+        with warnings.catch_warnings(record=True) as caught:     # to the message row, not stderr
+            warnings.simplefilter("always", QmeshWarning)
+            self._run = Controller(uploads=self.uploads, **asdict(p))
+        self.action_messages = self._said(caught)
         self._pending: dict = {}
         self._lock = threading.Lock()
         self._stop = threading.Event()
         self.running = False
-        self.action_messages: list[str] = []
         self._notes: dict = {}
 
     # ------------------------------------------------------------------ what is on screen
@@ -147,9 +152,27 @@ class Session:
                 outcome = action()
             except Exception as e:                     # noqa: BLE001  (MemoryError included)
                 outcome = Outcome("refused", describe(e))
-        said = [f"warning: {w.message}" for w in caught if issubclass(w.category, QmeshWarning)]
-        self.action_messages = ([outcome.message] if outcome.message else []) + said
+        self.action_messages = ([self.named(outcome.message)] if outcome.message else []
+                                ) + self._said(caught)
         return outcome
+
+    def _said(self, caught) -> list[str]:
+        return [self.named(f"warning: {w.message}") for w in caught
+                if issubclass(w.category, QmeshWarning)]
+
+    def named(self, text: str) -> str:
+        """`text` with a medium's "region 3" also named as the legend names it: "region 3
+        (layer 4)" (the mesher numbers regions by tag; the viewer's names count from 1)."""
+        try:
+            names = {r["tag"]: r["name"] for r in self._run.regions}
+        except Exception:                              # noqa: BLE001  a message never fails
+            names = {}
+        if not names:
+            return text
+        def name(m):
+            tag = int(m.group(1))
+            return f"region {tag} ({names[tag]})" if tag in names else m.group(0)
+        return REGION_WORD.sub(name, text)
 
     def _check_budget(self, p: Params) -> None:
         budget.check(p.target_vertices, varying=varying(p), budget=self.memory_budget)
@@ -169,7 +192,9 @@ class Session:
             changes = {name: value, **changes}
         return self._guard(lambda: self._change(changes))
 
-    def _change(self, changes: dict) -> Outcome:
+    def _plan(self, changes: dict) -> tuple[Params, list[str], list[str]]:
+        """The parameters `changes` lead to (each checked in turn; a refused one skipped), the
+        notes on values adjusted with them, and the refusals."""
         unknown = sorted(set(changes) - set(PARAMS))
         if unknown:
             raise QmeshError(f"unknown parameter(s) {unknown}; known: {PARAMS}")
@@ -186,6 +211,26 @@ class Session:
                     notes.append(f"{LABELS[other]} set to {getattr(q, other)} so that VB stays "
                                  f"below the target")
             p = q
+        return p, notes, refusals
+
+    def refusal(self, name: str, value) -> Outcome | None:
+        """The refusal of setting `name` to `value` after what is pending, when it can be told
+        without meshing (not a number, out of range, over the memory budget); else None."""
+        with self._lock:
+            pending = {k: v for k, v in self._pending.items() if k != name}
+        try:
+            before, _, _ = self._plan(pending)
+            after, _, refusals = self._plan({**pending, name: value})
+            if refusals and after == before:
+                return Outcome("refused", self.named("; ".join(refusals)))
+            if after != before:
+                self._check_budget(after)
+        except QmeshError as e:
+            return Outcome("refused", self.named(str(e)))
+        return None
+
+    def _change(self, changes: dict) -> Outcome:
+        p, notes, refusals = self._plan(changes)
         if p == self.params:
             return Outcome("refused", "; ".join(refusals)) if refusals else Outcome("unchanged")
         self._start(p)
@@ -213,12 +258,21 @@ class Session:
         return self._guard(add)
 
     # ------------------------------------------------------------------ coalescing
-    def submit(self, name: str, value) -> None:
-        """A control moved: keep its value (the last one wins) and stop a run in progress."""
+    def submit(self, name: str, value) -> Outcome | None:
+        """A control moved: keep its value (the last one wins) and stop a run in progress.
+
+        A value refused before any meshing (`refusal`) is not kept and stops nothing: a running
+        Run goes on, the refusal is returned and becomes the message."""
+        refused = self.refusal(name, value)
         with self._lock:
             self._pending.pop(name, None)
-            self._pending[name] = value
+            if refused is None:
+                self._pending[name] = value
+        if refused is not None:
+            self.action_messages = [refused.message]
+            return refused
         self._stop.set()
+        return None
 
     def take_pending(self) -> dict:
         """The changes submitted since the last call, in the order they were last changed."""

@@ -199,8 +199,10 @@ class QmeshWidget(w.VBox):
         self.legends = {name: w.HTML() for name in VIEWS}
 
     def _static_views(self) -> dict:
-        width, height = self.view_size
-        return {name: w.Image(format="png", width=width, height=height) for name in VIEWS}
+        return {name: w.Image(format="png", layout=w.Layout(width="100%", height="auto",
+                                                             max_width=f"{self.view_size[0]}px",
+                                                             object_fit="contain"))
+                for name in VIEWS}
 
     def _trame_views(self) -> dict:
         """PyVista's trame Jupyter backend: a server-rendered view (iframe) per plotter."""
@@ -212,7 +214,7 @@ class QmeshWidget(w.VBox):
                 plotter.enable_2d_style()
             with contextlib.redirect_stdout(io.StringIO()):    # trame-vtklocal's "Using wasm_dir"
                 out[name] = show_trame(plotter, mode="server", add_menu=False,
-                                       width=f"{width}px", height=f"{height}px")
+                                       width="100%", height=f"{height}px")
         # the mesh and quality views share a camera: after moving one, push the other too
         for source, other in (("mesh", "quality"), ("quality", "mesh")):
             iren = self.views.plotters[source].iren.interactor
@@ -223,16 +225,19 @@ class QmeshWidget(w.VBox):
     def _layout(self) -> list:
         s, b = self.sliders, self.buttons
         self.titles = {name: w.HTML(f"<b>{html_escape(VIEW_TITLES[name])}</b>") for name in VIEWS}
+        # the three views share the output area's width (each at most its rendered size),
+        # so the widget fits beside JupyterLab's side panels instead of being cut off
         views = w.HBox([w.VBox([self.titles[name], self.view_widgets[name],
-                                self.legends[name]])
-                        for name in VIEWS])
+                                self.legends[name]],
+                               layout=w.Layout(flex="1 1 0", min_width="0"))
+                        for name in VIEWS], layout=w.Layout(width="100%"))
         self._constant_box = w.VBox([s["k1"], s["k2"], s["angle"], self.readout])
         self._s_box = w.VBox([self.s_text, self.s_error])
         return [w.HBox([w.VBox([s["q_mode"], self._constant_box, self._s_box,
                                 self.media_readout]),
                         w.VBox([s["domain"], self.upload, s["vb"], s["target_vertices"],
-                                self.edges])]),
-                w.HBox([*b.values(), self.history]),
+                                self.edges])], layout=w.Layout(flex_flow="row wrap")),
+                w.HBox([*b.values(), self.history], layout=w.Layout(flex_flow="row wrap")),
                 self.status, self.error, views]
 
     def _connect(self) -> None:
@@ -271,6 +276,11 @@ class QmeshWidget(w.VBox):
         """Any parameter change restarts the run; VB and the target move together; a refused
         value is put back on its control."""
         if self._syncing:
+            return
+        refused = self.session.refusal(name, change["new"])
+        if refused is not None:              # told without meshing: a running Run goes on
+            self.session.action_messages = [refused.message]
+            self._answer(refused)
             return
         self.session.stop()
         self._answer(self.session.change(name, change["new"]))
