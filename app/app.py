@@ -61,7 +61,7 @@ def convergence_chart(series: dict, field: bool = False) -> dict:
     says "none: no s" for a `field`, whose metric has no energy).
 
     A medium's Steps are the stages of each face's run in turn: E is a face's own energy, so
-    its chart follows the last face run ("face k (the last run): …"), while κ2 and N (of the faces
+    its chart follows the last face run ("face k: …"), while κ2 and N (of the faces
     stitched so far) run over every face's iterations in order."""
     def ends(values, fmt):
         v = [x for x in values if x is not None]
@@ -74,7 +74,7 @@ def convergence_chart(series: dict, field: bool = False) -> dict:
     kappa2 = [x for x in series["kappa2"] if x is not None]
     e_label = "none: no s" if field else ends(energy, ".3g")
     if last > 0 and not field:
-        e_label = f"face {last + 1} (the last run): {e_label}"
+        e_label = f"face {last + 1}: {e_label}"
     return {"chart_energy": [math.log10(x) for x in energy], "chart_kappa2": kappa2,
             "chart_n": list(series["n_vertices"]),
             "chart_labels": {"chart_energy": e_label,

@@ -54,7 +54,7 @@ def test_adjusted_moves_vb_and_the_target_together_and_says_so():
     ("vb", 64.5, "integer"), ("k1", float("nan"), "finite"), ("domain", "torus", "domain must be"),
     ("colour", 1, "unknown parameter"), ("q_mode", "magic", "q_mode"),
     ("target_vertices", 2_000_000_000, "GiB"), ("target_vertices", "2e9", "GiB"),
-    ("target_vertices", "2.5e2", "integer"), ("seed", True, "integer")])
+    ("target_vertices", "2.125e2", "integer"), ("seed", True, "integer")])
 def test_refused_keeps_everything_and_says_why(name, value, match):
     s = Session()
     s.iterate()
