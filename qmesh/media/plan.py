@@ -33,6 +33,7 @@ from qmesh.triangle_mesh import Mesh
 
 RESIZE = 2.0     # the faces still to come are sized at most this factor away from the first h
 COARSER = 64.0   # ... and at most this factor coarser (a target below what the faces need)
+THIN_ASPECT = 8.0  # a face whose longest side is this many widths (in its metric) is thin
 LEAST_SHARE = 0.5  # faces whose least count is this share of the target are sized by width at once
 THIN = 0.25      # a face w wide in its metric needs boundary pieces about this many w long
 TINY = 1e-5      # a face this small (× the domain's size) that cannot be meshed is named as the cause
@@ -146,9 +147,13 @@ class MediaPlan:
             self._seg_len = np.concatenate(self.lengths)
             self._seg_face = np.repeat(np.arange(len(self.faces)), [len(L) for L in self.lengths])
             self._area_arr = np.asarray(self.area, float)
+            # a face is thin when its longest side is THIN_ASPECT times its width in its metric
+            longest = np.array([L.max() for L in self.lengths])
+            w = np.where(THIN_ASPECT * self.width < longest, THIN * self.width, np.inf)
+            self._thin_step = w[self._seg_face]
         # a face w wide in its metric keeps its boundary unencroached with pieces ≲ THIN·w
         # whatever h is: a thin face's boundary count, not its area, sets its vertices
-        step = (np.minimum(BOUNDARY_FACTOR * h, THIN * self.width[self._seg_face]) if thin
+        step = (np.minimum(BOUNDARY_FACTOR * h, self._thin_step) if thin
                 else np.full(len(self._seg_len), BOUNDARY_FACTOR * h))
         pieces = np.maximum(1, np.ceil(self._seg_len / step))          # per face segment
         on = mine[self._seg_face]
