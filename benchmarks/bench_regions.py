@@ -35,7 +35,7 @@ def hexagons(n: int, overlap: bool = False) -> list[np.ndarray]:
     c = (np.stack(np.meshgrid(np.arange(k), np.arange(k)), -1).reshape(-1, 2)[:n] + 0.5) * step
     out = [ci + unit for ci in c]
     if overlap:
-        out[-1] = out[-2] + 0.3 * step
+        out[-1] = out[-2] + [0.3 * step, 0.0]
     return out
 
 
@@ -106,7 +106,11 @@ def main(argv=None):
             "overlap, to refuse a target of 6 vertices per inclusion (below the input points), "
             "and to mesh it, beside a plain box at the same N; then `Domain.from_cells` on "
             "n × n cells whose conductivities all differ (n² regions), up to the domain.",
-            tables=tables)
+            tables=tables,
+            notes=["Before these checks were made near-linear (as reported on main 80610ea, a "
+                   "quiet machine): 100 inclusions at N 5,000 took 18 s, 300 took 99 s, 1,000 at "
+                   "N 20,000 took 404 s; refusing 1,000 inclusions took 30 s; `Domain.from_cells` "
+                   "on 200 × 200 all-different cells took 66 s before meshing started."])
 
 
 if __name__ == "__main__":
