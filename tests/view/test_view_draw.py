@@ -71,7 +71,7 @@ def test_every_colouring_has_a_legend():
     area = legend.html("quality", {"title": "metric area", "clim": (0.00047, 0.025),
                                    "q_sign_edges": True, "n_negative": 3})
     assert "metric area: 0.00047" in area and "0.025" in area
-    assert "q_ij ≥ 0" in area and "q_ij &lt; 0 (3)" in area and "boundary edge" in area
+    assert "q_ij ≥ 0" in area and "q_ij &lt; 0: 3 edges" in area and "boundary edge" in area
     for _, value, colour, _ in draw.Q_SIGN_LINES:
         assert (colour in area) == (value != 2)     # interface edges: media only (test_view_media)
     assert "q_ij" not in q

@@ -58,6 +58,7 @@ def test_the_legend_names_every_region_with_its_q(layered):
         views.draw(layered.current, layered.anisotropy, domain=layered.domain,
                    regions=layered.regions, q_sign_edges=True)
         mesh = legend.html("mesh", views.legend)
+        views.legend["quality_edges"] = "dark"       # zoomed in: every kind of q_ij line drawn
         for r in layered.regions:
             assert f"{r['name']}: Q = [[{r['q11']:.3g}" in mesh
             assert scene.region_colour(r["tag"]) in mesh

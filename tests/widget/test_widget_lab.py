@@ -28,6 +28,7 @@ def views(frames) -> dict:
 
 def drag(page, slider, fraction: float) -> None:
     """Drag `slider`'s handle to `fraction` of its track, as a user does with the mouse."""
+    slider.scroll_into_view_if_needed()      # the widget fits a narrow output area: taller
     handle = slider.locator(".noUi-handle").bounding_box()
     track = slider.locator(".noUi-target").bounding_box()
     y = handle["y"] + handle["height"] / 2
