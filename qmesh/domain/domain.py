@@ -296,8 +296,9 @@ class Domain:
         new.__dict__.update(self.__dict__)
         new.__dict__.pop("_triangulation", None)        # a cache in the old coordinates
         rings = []
+        c = np.asarray(center, dtype=float)
         for R in self._rings:
-            R = (R - center) / scale
+            R = (R - c) / scale
             R.setflags(write=False)
             rings.append(R)
         new._rings = tuple(rings)

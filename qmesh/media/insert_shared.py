@@ -19,7 +19,7 @@ from scipy.spatial import cKDTree
 
 from qmesh.errors import QmeshError
 from qmesh.geometry import topology
-from qmesh.mesher.conform import encroached, split_points
+from qmesh.mesher.conform import beside_corners, encroached, marked, split_points
 from qmesh.mesher.triangulate import restore
 from qmesh.triangle_mesh import Mesh
 
@@ -51,7 +51,7 @@ def insert_on_boundary(mesh: Mesh, anisotropy, points: dict, part) -> tuple[Mesh
         rest[first] = False
         X, edge = X[rest], edge[rest]
     T, twin, _ = restore(P, T, twin, anisotropy)                  # its own metric
-    junction = _junctions(P, part)
+    junction = marked(P, part.points[np.bincount(part.edges.ravel(), minlength=len(part.points)) >= 3])
     added = []
     for _ in range(MAX_SPLITS):
         hb = np.flatnonzero(twin < 0)
@@ -65,7 +65,7 @@ def insert_on_boundary(mesh: Mesh, anisotropy, points: dict, part) -> tuple[Mesh
         hb, u, v, w = hb[first], u[first], v[first], w[first]
         x = split_points(P[u], P[v], fixed[u], fixed[v], anisotropy)
         junction = np.concatenate([junction, np.zeros(len(P) - len(junction), bool)])
-        x = _beside_junctions(x, P, u, v, w, junction, anisotropy)
+        x = beside_corners(x, P, u, v, w, junction, anisotropy)
         added.append((out[u], x))
         P, T, twin, out, fixed = _split(P, T, twin, out, fixed, hb, x)
         T, twin, _ = restore(P, T, twin, anisotropy)
@@ -77,46 +77,6 @@ def insert_on_boundary(mesh: Mesh, anisotropy, points: dict, part) -> tuple[Mesh
     E = np.column_stack([T[t, k], T[t, topology.NXT[k]]])
     face = Mesh(P, T, fixed, E, out[E[:, 0]] + 1, mesh.tag_names)
     return face, _on_interfaces(added, part)
-
-
-def _junctions(P, part) -> np.ndarray:
-    """Which vertices of P are partition vertices where three or more partition edges meet
-    (regions meeting at a point, or an interface meeting the outline or a hole)."""
-    deg = np.bincount(part.edges.ravel(), minlength=len(part.points))
-    J = part.points[deg >= 3]
-    out = np.zeros(len(P), bool)
-    if len(J):
-        d, _ = cKDTree(J).query(P)
-        out = d == 0
-    return out
-
-
-def _beside_junctions(x, P, u, v, w, junction, anisotropy) -> np.ndarray:
-    """Split points of subsegments u→v with one end a junction: the farthest point from the
-    junction whose subsegment the apex w no longer encroaches, ρ = |w|² / ⟨w, t⟩ in the metric
-    (t the unit direction of the subsegment, w from the junction), capped at ¾ of the way.
-    Never nearer the junction than w itself (ρ ≥ |w|): splits next to a junction follow the
-    points already there instead of each face's own powers of two, which do not line up
-    across faces in different metrics and would run towards the junction without end."""
-    one = junction[u] != junction[v]
-    if not one.any():
-        return x
-    k = np.flatnonzero(one)
-    J = np.where(junction[u[k], None], P[u[k]], P[v[k]])
-    O = np.where(junction[u[k], None], P[v[k]], P[u[k]])
-    H = (np.broadcast_to(anisotropy.H, (len(k), 2, 2)) if anisotropy.is_constant
-         else np.asarray(anisotropy.hessian(J), float))
-    E, W = O - J, P[w[k]] - J
-    L = np.sqrt(np.einsum("ki,kij,kj->k", E, H, E))
-    ww = np.einsum("ki,kij,kj->k", W, H, W)
-    wt = np.einsum("ki,kij,kj->k", W, H, E) / L
-    with np.errstate(divide="ignore", invalid="ignore"):
-        frac = np.where(wt > 0, ww / wt / L, np.nan) * (1 - 1e-6)
-    ok = np.isfinite(frac) & (frac > 0) & (frac < 1)
-    frac = np.minimum(frac, 0.75)
-    out = np.array(x)
-    out[k[ok]] = J[ok] + frac[ok, None] * E[ok]
-    return out
 
 
 def _holding(P, T, twin, out, part, X, edge) -> np.ndarray:

@@ -207,7 +207,7 @@ def _share(plan: MediaPlan, meshes: dict[int, Mesh], done: list[int], new: dict,
             return
         pts = queue.pop()
         beside = {int(f) for e in pts for f in face_of[e] if int(f) in rank}
-        for j in sorted(beside, key=rank.get):     # the finished faces beside these edges only
+        for j in sorted(beside, key=lambda f: rank[f]):     # the finished faces beside these edges only
             give = {e: X for e, X in pts.items() if j in face_of[e]}
             if not give:
                 continue

@@ -20,11 +20,11 @@ from collections.abc import Iterable
 from typing import Any
 
 import numpy as np
-from scipy.spatial import ConvexHull, QhullError, cKDTree
+from scipy.spatial import cKDTree
 
+from qmesh.domain.junctions import check_junctions
 from qmesh.domain.regions import conductivity_of_regions
 from qmesh.errors import QmeshError
-from qmesh.geometry import rings
 from qmesh.media.faces import face_domain
 from qmesh.mesher import sizing
 from qmesh.mesher.normalise import hessian_scale
@@ -56,9 +56,9 @@ class MediaPlan:
                              f"{len(part.points)} input points of the domain and its regions")
         bare = [face_domain(part, f, {}, self.face_name(i)) for i, f in enumerate(self.faces)]
         self.k = [hessian_scale(a, d.seeds) for a, d in zip(self.anis, bare)]
-        self.area = [_metric_area(d, a, k) for d, a, k in zip(bare, self.anis, self.k)]
+        self.area = [sizing.metric_area_scaled(d, a, k) for d, a, k in zip(bare, self.anis, self.k)]
         self.lengths = [sizing.metric_edge_lengths(d, a, k) for d, a, k in zip(bare, self.anis, self.k)]
-        _check_junctions(part, self.anis, self.face_name)
+        check_junctions(part, self.anis, self.face_name)
         self.longest = self._interface_lengths()
         # each interface edge's segment in the face domain of either side
         seg_edge = np.concatenate([d.segment_tags - 1 for d in bare])
@@ -68,8 +68,9 @@ class MediaPlan:
         side = (part.edge_faces[seg_edge, 1] == seg_face).astype(np.int64)
         slot[seg_edge, side] = np.arange(len(seg_edge))
         self._side = slot[self._inter]
-        self.width = np.array([_metric_width(part, f, a, k)
-                               for f, a, k in zip(self.faces, self.anis, self.k)])
+        self.width = np.array([sizing.hull_metric_width(
+            part.points[part.half_from[part.cycle(f.cycles[0])]], a, k)
+            for f, a, k in zip(self.faces, self.anis, self.k)])
         self.target = target_vertices
         self.order = sorted(range(len(self.faces)), key=lambda i: self.area[i])   # largest last
         everything = list(range(len(self.faces)))
@@ -105,7 +106,7 @@ class MediaPlan:
         for j in near:
             X = part.points[part.edges[np.flatnonzero((ef == j).any(axis=1))].ravel()]
             ext[j] = float(np.ptp(X, axis=0).max())
-        j = min(ext, key=ext.get)
+        j = min(ext, key=lambda f: ext[f])
         if ext[j] > TINY * D:
             return None
         where = "" if j == i else f", and {self.face_name(i)} around it cannot be meshed"
@@ -215,83 +216,6 @@ class MediaPlan:
     def size_of(self, i: int) -> float:
         """The face mesher's `size`: h in the user's metric ∇²s_r (= h·√k_r)."""
         return self.h_rest * np.sqrt(self.k[i])
-
-
-def _check_junctions(part, anis: list, face_name) -> None:
-    """Refuse a point inside Ω where regions meet and no mesh can keep each side's q_ij ≥ 0.
-
-    Around such a point the faces' wedges alternate with the interface edges e_0 … e_{n-1}. The
-    first vertex on e_i lies at some distance ℓ_i; a wedge of metric angle θ < 90° between e_i
-    and e_{i+1} (metric stretches a_i, a_{i+1} along them) keeps its two first subsegments
-    unencroached only if their metric lengths are within a factor 1/cos θ of each other:
-    |log ℓ_{i+1} − log ℓ_i + log(a_{i+1}/a_i)| ≤ −log cos θ. Around the point the log ℓ
-    differences sum to zero, so some ℓ exist exactly when |Σ log(a_{i+1}/a_i)| ≤ Σ −log cos θ."""
-    V, E, ef = part.points, part.edges, part.edge_faces
-    deg = np.bincount(E.ravel(), minlength=len(V))
-    on_boundary = np.zeros(len(V), bool)
-    on_boundary[E[~part.interface].ravel()] = True
-    inner = (deg >= 3) & ~on_boundary
-    for v in np.flatnonzero(inner):
-        es = np.flatnonzero((E == v).any(axis=1))
-        first = E[es, 0] == v
-        d = V[np.where(first, E[es, 1], E[es, 0])] - V[v]
-        d = d / np.hypot(d[:, 0], d[:, 1])[:, None]
-        order = np.argsort(np.arctan2(d[:, 1], d[:, 0]))
-        es, first, d = es[order], first[order], d[order]
-        face = np.where(first, ef[es, 0], ef[es, 1])          # the wedge left of v → e_i
-        shift, slack, what = 0.0, 0.0, []
-        for i in range(len(es)):
-            a, b, f = d[i], d[(i + 1) % len(es)], int(face[i])
-            A = anis[f]
-            H = np.asarray(A.H if A.is_constant else A.hessian(V[v][None])[0], float)
-            H = H / np.abs(H).max()
-            la, lb = np.sqrt(a @ H @ a), np.sqrt(b @ H @ b)
-            cos = (a @ H @ b) / (la * lb)
-            reflex = a[0] * b[1] - a[1] * b[0] <= 0
-            if reflex or cos <= 0:
-                break            # a wedge of 90° or more absorbs any mismatch
-            shift += np.log(lb / la)
-            slack += -np.log(cos)
-            what.append(f"{face_name(f)} {np.degrees(np.arccos(min(cos, 1.0))):.3g}°")
-        else:
-            if abs(shift) > slack * (1 + 1e-9):
-                raise QmeshError(
-                    f"regions meet at the point {V[v].tolist()} with angles "
-                    f"{', '.join(what)} in their own metrics: no mesh keeps every q_ij ≥ 0 "
-                    "on both sides of the interfaces there (splitting them towards the point "
-                    "never ends); move a corner off that point, or let the regions meet along "
-                    "an edge (e.g. a thin region between them)")
-
-
-def _metric_width(part, face, anisotropy, k: float) -> float:
-    """The width of the face's convex hull in its metric ∇²s / k (taken at the hull's centre
-    for a varying s): an upper bound of the face's own width in its metric."""
-    X = part.points[part.half_from[part.cycle(face.cycles[0])]]
-    c = X.mean(axis=0)
-    X = X - c
-    H = (anisotropy.H if anisotropy.is_constant
-         else np.asarray(anisotropy.hessian(c[None]), float)[0]) / k
-    try:
-        L = np.linalg.cholesky(np.asarray(H, float))
-        Y = X @ L                                        # |x|_H = |x L| with H = L Lᵀ
-        hull = ConvexHull(Y)
-    except (np.linalg.LinAlgError, QhullError, ValueError):
-        return np.inf
-    return float(rings.convex_width(Y[hull.vertices]))
-
-
-def _metric_area(dom, anisotropy, k: float) -> float:
-    """∫ √det(∇²s / k) over the face: with k divided out before the determinant for a constant
-    Q, so a conductivity of 1e300 (whose determinant overflows) is sized like any other."""
-    if anisotropy.is_constant:
-        H = anisotropy.H / k
-        return dom.area * float(np.sqrt(H[0, 0] * H[1, 1] - H[0, 1] * H[1, 0]))
-    area = sizing.metric_area(dom, anisotropy) / k
-    if not np.isfinite(area):
-        raise QmeshError(f"the metric area of a region with k = {k:.3g} overflows; divide every "
-                         "region's conductivity by a common factor (the mesh depends on their "
-                         "shapes and ratios)")
-    return area
 
 
 def vertex_count(meshes: Iterable[Mesh]) -> int:

@@ -120,6 +120,45 @@ def split_points(A: np.ndarray, B: np.ndarray, a_is_seed: np.ndarray, b_is_seed:
     return A + frac[:, None] * (B - A)
 
 
+def marked(P: np.ndarray, corners: np.ndarray) -> np.ndarray:
+    """Which points of P are exactly one of `corners` (a medium's junctions: partition vertices
+    where three or more partition edges meet)."""
+    out = np.zeros(len(P), bool)
+    if len(corners):
+        from scipy.spatial import cKDTree
+        d, _ = cKDTree(corners).query(P)
+        out = d == 0
+    return out
+
+
+def beside_corners(x, P, u, v, w, junction, anisotropy) -> np.ndarray:
+    """Split points of subsegments u→v with one end a junction: the farthest point from the
+    junction whose subsegment the apex w no longer encroaches, ρ = |w|² / ⟨w, t⟩ in the metric
+    (t the unit direction of the subsegment, w from the junction), capped at ¾ of the way.
+    Never nearer the junction than w itself (ρ ≥ |w|): splits next to a junction follow the
+    points already there instead of each face's own powers of two, which do not line up
+    across faces in different metrics and would run towards the junction without end."""
+    one = junction[u] != junction[v]
+    if not one.any():
+        return x
+    k = np.flatnonzero(one)
+    J = np.where(junction[u[k], None], P[u[k]], P[v[k]])
+    O = np.where(junction[u[k], None], P[v[k]], P[u[k]])
+    H = (np.broadcast_to(anisotropy.H, (len(k), 2, 2)) if anisotropy.is_constant
+         else np.asarray(anisotropy.hessian(J), float))
+    E, W = O - J, P[w[k]] - J
+    L = np.sqrt(np.einsum("ki,kij,kj->k", E, H, E))
+    ww = np.einsum("ki,kij,kj->k", W, H, W)
+    wt = np.einsum("ki,kij,kj->k", W, H, E) / L
+    with np.errstate(divide="ignore", invalid="ignore"):
+        frac = np.where(wt > 0, ww / wt / L, np.nan) * (1 - 1e-6)
+    ok = np.isfinite(frac) & (frac > 0) & (frac < 1)
+    frac = np.minimum(frac, 0.75)
+    out = np.array(x)
+    out[k[ok]] = J[ok] + frac[ok, None] * E[ok]
+    return out
+
+
 def metric_lengths2(A: np.ndarray, B: np.ndarray, anisotropy) -> np.ndarray:
     E = B - A
     return np.einsum("ki,kij,kj->k", E, _metric_at(anisotropy, 0.5 * (A + B)), E)

@@ -8,9 +8,11 @@ links the triangle count M to the N vertices of which N_b lie on the boundary.
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial import ConvexHull, QhullError
 
 from qmesh.conductivity.anisotropy import Anisotropy
 from qmesh.errors import QmeshError
+from qmesh.geometry.rings import convex_width
 from qmesh.mesher import budget
 from qmesh.mesher.conform import conforming_delaunay
 
@@ -128,3 +130,32 @@ def check_vertex_count(n: float, what: str) -> None:
         need = budget.estimate_bytes(min(n, 1e300), varying=False) / 2**30
         raise QmeshError(f"{what} asks for about {n:.3g} vertices (~{need:.3g} GiB of "
                          f"memory at least); the limit is {MAX_VERTICES:.0e}")
+
+
+def metric_area_scaled(domain, anisotropy, k: float) -> float:
+    """∫_Ω √det(∇²s / k): with k divided out before the determinant for a constant Q, so a
+    conductivity of 1e300 (whose determinant overflows) is sized like any other (a region of a
+    medium passes its own scale k_r)."""
+    if anisotropy.is_constant:
+        H = anisotropy.H / k
+        return domain.area * float(np.sqrt(H[0, 0] * H[1, 1] - H[0, 1] * H[1, 0]))
+    area = metric_area(domain, anisotropy) / k
+    if not np.isfinite(area):
+        raise QmeshError(f"the metric area of a region with k = {k:.3g} overflows; divide every "
+                         "region's conductivity by a common factor (the mesh depends on their "
+                         "shapes and ratios)")
+    return area
+
+
+def hull_metric_width(X: np.ndarray, anisotropy, k: float) -> float:
+    """The width of the convex hull of the points X in the metric ∇²s / k (taken at their centre
+    for a varying s): an upper bound of the width of a polygon with those corners."""
+    c = X.mean(axis=0)
+    H = (anisotropy.H if anisotropy.is_constant
+         else np.asarray(anisotropy.hessian(c[None]), float)[0]) / k
+    try:
+        Y = (X - c) @ np.linalg.cholesky(np.asarray(H, float))   # |x|_H = |x L| with H = L Lᵀ
+        hull = ConvexHull(Y)
+    except (np.linalg.LinAlgError, QhullError, ValueError):
+        return np.inf
+    return float(convex_width(Y[hull.vertices]))
