@@ -27,10 +27,14 @@ import time
 import warnings
 from contextlib import nullcontext
 
+import numpy as np
+
 from qmesh import CHAPTER_Q, __version__, io, measure
 from qmesh.conductivity.anisotropy import Anisotropy
 from qmesh.conductivity.field import TensorField
+from qmesh.domain import domain as domain_types
 from qmesh.domain.domain import Disk
+from qmesh.mesher import sizing
 from qmesh.errors import QmeshError, QmeshWarning
 from qmesh.geometry.folds import folded_triangles
 from qmesh.io.conductivity import PREFIX as RECORD_PREFIX, record_of
@@ -118,6 +122,25 @@ def raster_from(path: str) -> TensorField:
                                    arrays.get("angle", 0.0))
 
 
+def disk_vertices(vb: int, anisotropy, *, target_vertices: int | None = None, size: float | None = None) -> float:
+    """The fewest vertices a mesh of the regular `vb`-gon (`qmesh.Disk(vb)`) can have, known
+    before its `vb` points are made: each of them is a vertex, a target is at least that, and
+    with neither a target nor a size the default size (the mean metric length of its edges,
+    about 2π/vb of the circle's metric perimeter) fills the disk with about vb² vertices,
+    computed here on a 64-gon whose edges are scaled down to the vb-gon's."""
+    n = float(max(vb, target_vertices or 0))
+    if target_vertices is not None or size is not None or vb <= 64:
+        return n
+    if not isinstance(anisotropy, Anisotropy):
+        return n                      # a field or one conductivity per region: the plan sizes it
+    small = domain_types.Disk(64)          # not the name the command builds its domain with
+    lengths = sizing.metric_edge_lengths(small, anisotropy)
+    h = float(lengths.mean()) * np.sin(np.pi / vb) / np.sin(np.pi / 64)   # the vb-gon's mean edge
+    area = sizing.metric_area(small, anisotropy)
+    return max(n, sizing.vertices_from_counts(area, h, vb))
+
+
+
 # --------------------------------------------------------------------------- commands
 
 def _progress(step, out) -> None:
@@ -147,7 +170,7 @@ def cmd_mesh(args) -> int:
     out = io.check_writable(args.output)
     anisotropy = anisotropy_from(args)
     if not (args.polygon or args.regions):   # the disk's own count, before its VB points are made
-        budget.check(budget.disk_vertices(args.disk, anisotropy, target_vertices=args.target_vertices,
+        budget.check(disk_vertices(args.disk, anisotropy, target_vertices=args.target_vertices,
                                           size=args.size),
                      varying=not (isinstance(anisotropy, Anisotropy) and anisotropy.is_constant),
                      what=f"--disk {args.disk}" + ("" if args.target_vertices or args.size else " at the default size"))

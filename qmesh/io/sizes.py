@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from qmesh.errors import QmeshError
+from qmesh.io.meshio_writers import optional
 
 RATIO = 64
 """Bytes a reader may allocate per byte of the file: a mesh's arrays compress far less than
@@ -246,9 +247,8 @@ def xdmf(path: Path) -> None:
                 name, key = text.split(":", 1)
                 h5 = _beside(path, name, "HDF5 file")
                 if h5 not in files:
-                    from qmesh.io.xdmf import _h5py
                     try:
-                        files[h5] = _h5py().File(h5, "r")
+                        files[h5] = optional("h5py", "XDMF files").File(h5, "r")
                     except OSError as e:
                         raise QmeshError(f"{str(path)!r}: cannot open its HDF5 file {name!r}: {e}") from e
                 dataset(path, files[h5], key, h5)

@@ -179,27 +179,6 @@ def check(n_vertices, *, varying: bool, budget: int | None = None, what: str | N
     return need
 
 
-def disk_vertices(vb: int, anisotropy, *, target_vertices: int | None = None, size: float | None = None) -> float:
-    """The fewest vertices a mesh of the regular `vb`-gon (`qmesh.Disk(vb)`) can have, known
-    before its `vb` points are made: each of them is a vertex, a target is at least that, and
-    with neither a target nor a size the default size (the mean metric length of its edges,
-    about 2π/vb of the circle's metric perimeter) fills the disk with about vb² vertices,
-    computed here on a 64-gon whose edges are scaled down to the vb-gon's."""
-    n = float(max(vb, target_vertices or 0))
-    if target_vertices is not None or size is not None or vb <= 64:
-        return n
-    from qmesh.conductivity.anisotropy import Anisotropy
-    from qmesh.domain.domain import Disk
-    from qmesh.mesher import sizing
-    if not isinstance(anisotropy, Anisotropy):
-        return n                      # a field or one conductivity per region: the plan sizes it
-    small = Disk(64)
-    lengths = sizing.metric_edge_lengths(small, anisotropy)
-    h = float(lengths.mean()) * np.sin(np.pi / vb) / np.sin(np.pi / 64)   # the vb-gon's mean edge
-    area = sizing.metric_area(small, anisotropy)
-    return max(n, sizing.vertices_from_counts(area, h, vb))
-
-
 def max_vertices(budget: int, *, varying: bool) -> int:
     """The largest vertex count whose estimate fits in `budget` bytes (0 if none does)."""
     return max(0, int((int(budget) - FIXED_BYTES) // BYTES_PER_VERTEX[bool(varying)]))

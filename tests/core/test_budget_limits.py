@@ -7,6 +7,8 @@ import sys
 
 import pytest
 
+from qmesh.cli import disk_vertices
+
 import qmesh
 from qmesh.mesher import budget
 
@@ -95,6 +97,6 @@ def test_the_disks_count_is_what_the_plan_expects_or_less(vb, target):
     from qmesh.mesher.options import Options
     from qmesh.mesher.plan import plan
     A = qmesh.Anisotropy.constant(qmesh.CHAPTER_Q)
-    implied = budget.disk_vertices(vb, A, target_vertices=target)
+    implied = disk_vertices(vb, A, target_vertices=target)
     expected = plan(qmesh.Disk(vb), A, Options(target_vertices=target)).expected
     assert implied <= expected * 1.01 and implied >= 0.9 * min(expected, max(vb, target or 0))
