@@ -21,7 +21,9 @@ resource.setrlimit(resource.RLIMIT_AS, (int(sys.argv[1]), resource.RLIM_INFINITY
 from qmesh.mesher import budget
 print("budget", budget.default_budget(), flush=True)
 code = main(["mesh", "--disk", "16", "--target-vertices", sys.argv[2], "-o", sys.argv[3], "--quiet"])
-print("peak", resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024, "code", code, flush=True)
+# the peak resident set of this process (VmHWM: ru_maxrss may carry a parent's peak over exec)
+hwm = [l for l in open("/proc/self/status") if l.startswith("VmHWM")][0].split()[1]
+print("peak", int(hwm) * 1024, "code", code, flush=True)
 """
 
 
