@@ -1,6 +1,6 @@
 """A conductivity field in the real app: `qmesh-view --server` on 127.0.0.1 in Debian's Chromium.
 Pick `rotating` (FVCA5 test 5), Run to the certified mesh, and see the ellipses and the mesh.
-The page's screenshot goes to screenshots/field_rotating.png."""
+The page's screenshot goes to test-artifacts/ (screenshots/field_rotating.png is one kept)."""
 
 import re
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import view_browser as b
 from headless_browser import drawn
-from view_cases import BASELINES
+from view_cases import ARTIFACTS
 
 pytestmark = pytest.mark.browser      # shares the worker's Chromium (tests/conftest.py)
 
@@ -54,5 +54,5 @@ def test_picking_rotating_runs_and_shows_ellipses_and_the_mesh():
         assert grey.mean() > 0.005                                     # the mesh under them
         assert "certified" in b.page_text(page, "#legend-quality")
         assert "none: no s" in b.page_text(page, "#chart")              # no energy to chart
-        BASELINES.mkdir(exist_ok=True)
-        page.screenshot(path=str(BASELINES / "field_rotating.png"))
+        ARTIFACTS.mkdir(exist_ok=True)
+        page.screenshot(path=str(ARTIFACTS / "field_rotating.png"))
