@@ -38,6 +38,7 @@ import pyvista as pv
 from scipy.spatial import ConvexHull, Delaunay, cKDTree
 
 from qmesh import measure
+from qmesh.conductivity.anisotropy import shape_metric
 from qmesh.errors import QmeshError
 from qmesh.geometry.rings import inside
 from qmesh.geometry.triangles import metric_areas, metric_hessians, metric_quality
@@ -203,14 +204,7 @@ def mean_metrics(Q: np.ndarray) -> np.ndarray:
     """H_T = adj Q̄_T / √det Q̄_T of per-triangle conductivities (M, 2, 2) (FIELDS.md §3: the
     metric in which a triangle's q_ij share is the cotangent formula); NaN where Q̄_T is not
     positive definite."""
-    Q = np.asarray(Q, dtype=float)
-    det = Q[:, 0, 0] * Q[:, 1, 1] - Q[:, 0, 1] * Q[:, 1, 0]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        scale = np.where(det > 0, 1.0 / np.sqrt(np.where(det > 0, det, 1.0)), np.nan)
-    H = np.empty_like(Q)
-    H[:, 0, 0], H[:, 1, 1] = Q[:, 1, 1] * scale, Q[:, 0, 0] * scale
-    H[:, 0, 1] = H[:, 1, 0] = -0.5 * (Q[:, 0, 1] + Q[:, 1, 0]) * scale
-    return H
+    return shape_metric(Q)
 
 
 def hessians(mesh, anisotropy) -> np.ndarray:

@@ -35,6 +35,7 @@ import scipy.sparse.csgraph as csgraph
 import scipy.sparse.linalg as spla
 
 from qmesh import checks
+from qmesh.conductivity.anisotropy import shape_metric
 from qmesh.geometry import quadrature
 from qmesh.errors import QmeshError
 from qmesh.geometry.topology import edge_keys
@@ -226,13 +227,7 @@ def quality(mesh: Mesh, anisotropy: Given = None) -> NDArray[np.float64]:
 
 def _metric_of(Q: NDArray[np.float64]) -> NDArray[np.float64]:
     """H_T = adj Q̄_T / √det Q̄_T for every triangle (FIELDS.md §3), NaN where det ≤ 0."""
-    det = Q[:, 0, 0] * Q[:, 1, 1] - Q[:, 0, 1] * Q[:, 1, 0]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        scale = np.where(det > 0, 1.0 / np.sqrt(np.where(det > 0, det, 1.0)), np.nan)
-    H = np.empty_like(Q)
-    H[:, 0, 0], H[:, 1, 1] = Q[:, 1, 1] * scale, Q[:, 0, 0] * scale
-    H[:, 0, 1] = H[:, 1, 0] = -0.5 * (Q[:, 0, 1] + Q[:, 1, 0]) * scale
-    return H
+    return shape_metric(Q)
 
 
 # --------------------------------------------------------------------------- stiffness

@@ -35,6 +35,20 @@ def adj2(M: NDArray[np.float64]) -> NDArray[np.float64]:
     return out
 
 
+def shape_metric(Q: NDArray[np.float64]) -> NDArray[np.float64]:
+    """H = adj Q / √det Q of conductivities (…, 2, 2): the metric of Q's shape, det H = 1, in
+    which a triangle's share of q_ij is ½ cot of its opposite angle (FIELDS.md §3); NaN where Q
+    is not positive definite."""
+    Q = np.asarray(Q, dtype=float)
+    det = Q[..., 0, 0] * Q[..., 1, 1] - Q[..., 0, 1] * Q[..., 1, 0]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        scale = np.where(det > 0, 1.0 / np.sqrt(np.where(det > 0, det, 1.0)), np.nan)
+    H = np.empty_like(Q)
+    H[..., 0, 0], H[..., 1, 1] = Q[..., 1, 1] * scale, Q[..., 0, 0] * scale
+    H[..., 0, 1] = H[..., 1, 0] = -0.5 * (Q[..., 0, 1] + Q[..., 1, 0]) * scale
+    return H
+
+
 class _UserField:
     """A user's s, ∇s or ∇²s as the mesher calls it: NumPy warnings raised inside it stay quiet,
     an exception inside it becomes a QmeshError naming it, and its result is checked for shape."""

@@ -20,6 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from qmesh.conductivity import means as _m
 from qmesh.conductivity.expression import check, parse_function
+from qmesh import checks
 from qmesh.errors import QmeshError
 
 Array = NDArray[np.float64]
@@ -95,16 +96,7 @@ def _check_components(X: Array, Y: Array, q11: Array, q12: Array, q21: Array, q2
 
 
 def _points(P: ArrayLike, name: str = "points") -> Array:
-    try:
-        A = np.asarray(P, dtype=float)
-    except (TypeError, ValueError):
-        raise QmeshError(f"{name} must be an array of real numbers of shape (n, 2), got {P!r:.80}") from None
-    if A.ndim != 2 or A.shape[1] != 2:
-        raise QmeshError(f"{name} must have shape (n, 2), got {A.shape}")
-    if not np.all(np.isfinite(A)):
-        k = int(np.flatnonzero(~np.isfinite(A).all(axis=1))[0])
-        raise QmeshError(f"{name}[{k}] = {A[k].tolist()} is not finite")
-    return A
+    return checks.real_array(P, name, (None, 2))
 
 
 def _triangles(triangles: ArrayLike, n_points: int) -> NDArray[np.intp]:

@@ -141,16 +141,21 @@ def _coordinate(text: str, where: str, number: int, line: str) -> float:
 
 # --------------------------------------------------------------------------- GeoJSON
 
-def _geojson_rings(text: str, where: str) -> list[np.ndarray]:
+def load_json(text: str, where: str):
+    """The JSON document in `text`; QmeshError naming `where` and the line for bad JSON, a
+    number of more digits than Python converts, or nesting deeper than its parser goes."""
     try:
-        doc = json.loads(text)
+        return json.loads(text)
     except json.JSONDecodeError as e:
-        raise QmeshError(f"{where}, line {e.lineno} column {e.colno}: not valid JSON: {e.msg}") from e
+        raise QmeshError(f"{where}, line {e.lineno} column {e.colno}: not valid JSON: {e.msg}") from None
     except ValueError as e:  # an integer of more digits than Python converts
         raise QmeshError(f"{where}: not valid JSON: {str(e)[:120]}") from None
     except RecursionError:
         raise QmeshError(f"{where}: not valid GeoJSON: nested too deeply") from None
-    return rings_from_polygon(_polygon_geometry(doc, where), where)
+
+
+def _geojson_rings(text: str, where: str) -> list[np.ndarray]:
+    return rings_from_polygon(_polygon_geometry(load_json(text, where), where), where)
 
 
 def rings_from_polygon(geometry: dict, where: str) -> list[np.ndarray]:

@@ -17,7 +17,7 @@ from __future__ import annotations
 import json
 import math
 
-from qmesh.domain.polygon_file import _checked_ring, _path, rings_from_polygon
+from qmesh.domain.polygon_file import _checked_ring, _path, load_json, rings_from_polygon
 from qmesh.conductivity.anisotropy import Anisotropy
 from qmesh.domain.domain import Domain
 from qmesh.errors import QmeshError
@@ -38,14 +38,7 @@ def read_regions(path):
 
 
 def regions_from_text(text: str, where: str):
-    try:
-        doc = json.loads(text)
-    except json.JSONDecodeError as e:
-        raise QmeshError(f"{where}, line {e.lineno} column {e.colno}: not valid JSON: {e.msg}") from None
-    except ValueError as e:  # an integer of more digits than Python converts
-        raise QmeshError(f"{where}: not valid JSON: {str(e)[:120]}") from None
-    except RecursionError:
-        raise QmeshError(f"{where}: not valid GeoJSON: nested too deeply") from None
+    doc = load_json(text, where)
     if not isinstance(doc, dict) or doc.get("type") != "FeatureCollection" \
             or not isinstance(doc.get("features"), list):
         raise QmeshError(f"{where}: a region file is a GeoJSON FeatureCollection of Polygon "

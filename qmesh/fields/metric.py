@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from qmesh.conductivity.anisotropy import Anisotropy, adj2
+from qmesh.conductivity.anisotropy import Anisotropy, shape_metric
 
 _GAUSS = np.array([[sx, sy] for sx in (-1, 1) for sy in (-1, 1)]) / np.sqrt(3.0)
 """2 × 2 Gauss–Legendre points on [−1, 1]²: they avoid the centre, where a field such as
@@ -46,13 +46,6 @@ def smoothed(field, P: NDArray[np.float64], width: float, box) -> NDArray[np.flo
     return np.asarray(field(X), dtype=float).reshape(len(P), 4, 2, 2).mean(axis=1)
 
 
-def shape(Q: NDArray[np.float64]) -> NDArray[np.float64]:
-    """H = adj Q / √det Q: the metric of Q's shape, det H = 1."""
-    A = adj2(Q)
-    det = A[:, 0, 0] * A[:, 1, 1] - A[:, 0, 1] * A[:, 1, 0]
-    return A / np.sqrt(det)[:, None, None]
-
-
 def field_metric(field, width: float, box) -> Anisotropy:
     """The metric-only Anisotropy H = adj Q̃ / √det Q̃ of `field` smoothed at `width` in `box`.
 
@@ -64,7 +57,7 @@ def field_metric(field, width: float, box) -> Anisotropy:
     n = np.clip(np.ceil((hi - lo) * GRID / width).astype(int) + 1, 2, MAX_GRID)
     gx, gy = np.linspace(lo[0], hi[0], n[0]), np.linspace(lo[1], hi[1], n[1])
     nodes = np.column_stack([np.repeat(gx, n[1]), np.tile(gy, n[0])])
-    table = shape(smoothed(field, nodes, width, (lo, hi))).reshape(n[0], n[1], 2, 2)
+    table = shape_metric(smoothed(field, nodes, width, (lo, hi))).reshape(n[0], n[1], 2, 2)
 
     def hessian(P: NDArray[np.float64]) -> NDArray[np.float64]:
         P = np.asarray(P, dtype=float)
