@@ -96,6 +96,12 @@ def _conflicts(X: np.ndarray, H: np.ndarray, r: float, Lbar: np.ndarray):
 
 ORIENTATIONS = 64     # groups of major-axis direction in the oriented conflict search
 ROUND_METRIC = 2.0    # metrics less anisotropic than this share one group
+TREE = dict(leafsize=32, balanced_tree=False, compact_nodes=False)   # one tree per group: fast builds
+
+
+def _quadratic(E: np.ndarray, H: np.ndarray) -> np.ndarray:
+    """Eᵀ H E for rows E (n, 2) and symmetric H (n, 2, 2)."""
+    return H[:, 0, 0] * E[:, 0] ** 2 + 2.0 * H[:, 0, 1] * E[:, 0] * E[:, 1] + H[:, 1, 1] * E[:, 1] ** 2
 
 
 def _conflicts_oriented(X: np.ndarray, H: np.ndarray, r: float):
@@ -111,7 +117,8 @@ def _conflicts_oriented(X: np.ndarray, H: np.ndarray, r: float):
     ratio = (a + c - lmin) / lmin
     group = np.floor((theta / np.pi + 0.5) * ORIENTATIONS).astype(np.int64) % ORIENTATIONS
     group[ratio < ROUND_METRIC] = -1
-    found = [np.empty((0, 2), np.int64)]
+    n = len(X)
+    keys = [np.empty(0, np.int64)]
     for g in np.unique(group):
         src = np.flatnonzero(group == g)
         L = np.linalg.cholesky(H[src].mean(axis=0))
@@ -119,22 +126,26 @@ def _conflicts_oriented(X: np.ndarray, H: np.ndarray, r: float):
         G = np.einsum("ij,njk,lk->nil", Linv, H[src], Linv)        # L⁻¹ H L⁻ᵀ: H where y = x L
         radius = np.sqrt(2.0) * r / np.sqrt(np.clip(_sym_eig_min(G), 1e-300, None))
         Y = X @ L
-        tree = cKDTree(Y)
-        count = np.cumsum(tree.query_ball_point(Y[src], radius, return_length=True))
-        cuts = np.searchsorted(count, np.arange(PAIR_CHUNK, count[-1], PAIR_CHUNK))
-        for part in np.split(np.arange(len(src)), np.unique(cuts[cuts > 0])):
-            hits = tree.query_ball_point(Y[src[part]], radius[part], return_sorted=False)
-            n_hit = np.fromiter((len(h) for h in hits), np.int64, len(hits))
-            if not n_hit.sum():
-                continue
-            i = np.repeat(src[part], n_hit)
-            j = np.concatenate([np.asarray(h, np.int64) for h in hits if len(h)])
-            i, j = np.minimum(i, j)[i != j], np.maximum(i, j)[i != j]
-            E = X[j] - X[i]
-            d2 = np.einsum("ni,nij,nj->n", E, 0.5 * (H[i] + H[j]), E)
-            found.append(np.column_stack([i, j])[d2 < r * r])
-    pairs = np.unique(np.concatenate(found), axis=0)
-    return pairs[:, 0], pairs[:, 1]
+        tree = cKDTree(Y, **TREE)
+        # searchers binned by reach (factors of √2), each bin one array-valued search with
+        # its largest reach, filtered by each searcher's own: no per-point lists
+        level = np.floor(2.0 * np.log2(radius / radius.min())).astype(np.int64)
+        for b in np.unique(level):
+            s, reach = src[level == b], radius[level == b]
+            count = np.cumsum(tree.query_ball_point(Y[s], reach, return_length=True))
+            cuts = np.searchsorted(count, np.arange(PAIR_CHUNK, count[-1], PAIR_CHUNK))
+            for part in np.split(np.arange(len(s)), np.unique(cuts[cuts > 0])):
+                p = cKDTree(Y[s[part]], **TREE).sparse_distance_matrix(
+                    tree, float(reach[part].max()), output_type="ndarray")
+                i, j = s[part][p["i"]], p["j"]
+                ok = (p["v"] <= reach[part][p["i"]]) & (i != j)
+                i, j = i[ok], j[ok]
+                E = X[j] - X[i]
+                d2 = 0.5 * (_quadratic(E, H[i]) + _quadratic(E, H[j]))
+                near = d2 < r * r
+                keys.append(np.minimum(i, j)[near] * n + np.maximum(i, j)[near])
+    key = np.unique(np.concatenate(keys))           # each pair once, sorted as (i, j)
+    return key // n, key % n
 
 
 def _luby(n: int, i: np.ndarray, j: np.ndarray, rng, priority=None) -> np.ndarray:
