@@ -41,6 +41,7 @@ EDGE_THIN_PX = 3.0         # light down to this many, hidden below (they would o
 EDGE_LIGHT = "#a0a0a0"
 WINDOW_SIZE = (520, 480)
 SPHERE_LIMIT = 2000        # above this many lifted vertices, flat points (spheres cost ~40% more)
+MEDIUM_VIEW = (0.3, -1.0, 2.5)   # a medium's lifted pieces, seen obliquely from above
 
 
 def _put(plotter: pv.Plotter, name: str, mesh: pv.PolyData | None, **kwargs) -> None:
@@ -278,6 +279,7 @@ class ViewSet:
         self._z_scale = None
         self._domain_key = None
         self._field = False              # the first view shows a field's ellipses, top-down
+        self._medium = False             # ... a medium's pieces, from above
         for name, plotter in self.plotters.items():
             plotter.render_window.AddObserver("WindowResizeEvent",
                                               lambda *_, n=name: self._resized(n))
@@ -324,7 +326,9 @@ class ViewSet:
                                n_ellipses=len(shown.centres), field_label=anisotropy.label,
                                means=means_source(step.mesh))
         key = None if domain is None else tuple(np.asarray(r).tobytes() for r in domain.rings)
-        key = (key, field)
+        medium = scene.is_medium(anisotropy)
+        key = (key, field, medium)
+        self._medium = medium
         if field != self._field:
             self._field = field
             self._lifted_style(field)
@@ -391,15 +395,17 @@ class ViewSet:
 
     def reset_cameras(self) -> None:
         """Lifted: seen from below, where the lower hull faces (s_h ≥ s lies behind the
-        translucent s); a field's ellipses, and mesh and quality: top-down with a parallel
-        projection."""
+        translucent s); a medium's pieces (no surface to look through) obliquely from above, so
+        the regions read side by side as on the mesh view; a field's ellipses, and mesh and
+        quality: top-down with a parallel projection."""
         lifted = self.plotters["lifted"]
         if self._field:
             lifted.enable_parallel_projection()
             lifted.view_xy(render=False)
         else:
             lifted.disable_parallel_projection()
-            lifted.view_vector((0.9, -1.7, -0.7), viewup=(0, 0, 1))
+            lifted.view_vector(MEDIUM_VIEW if self._medium else (0.9, -1.7, -0.7),
+                               viewup=(0, 0, 1))
         self.fit_lifted()
         self.plotters["mesh"].enable_parallel_projection()
         self.plotters["quality"].enable_parallel_projection()

@@ -72,9 +72,8 @@ def html(name: str, info: dict) -> str:
                  f"{_number(lo)} {bar} {_number(hi)}</span>"]
     elif name == "lifted" and info.get("regions"):
         items = [_item(_swatch(draw.FACET), "a medium has one s per region, not one surface: "
-                       "each region's triangles lifted onto its own s_r less its own plane "
-                       "(own height scale), "
-                       "in its region's colour"),
+                       "each region in its colour, its triangles lifted onto its own s_r less "
+                       "its own plane, at most half the region's width high, seen from above"),
                  _item(_dot(draw.EDGE), "vertices (x, s_r(x))")]
     elif name == "lifted":
         items = [_item(_swatch(draw.SURFACE, 0.5), "s(x), translucent"),

@@ -285,9 +285,11 @@ def _lifted_pieces(step, anisotropy, z_scale: float, rings) -> LiftedScene:
     tilt their pieces every which way; what matters to the lower hull is the convex rest. So
     each region shows s_r minus its least-squares plane over the region's vertices, normalised
     to its own range, starting from the plane z = 0: one bowl (or trough) per region, side by
-    side over the plane, no smooth surface (there is no single one)."""
+    side over the plane, no smooth surface (there is no single one). A piece rises at most half
+    its region's narrower side (times `z_scale`), not half the domain's width: a thin layer or a
+    small inclusion stays a low relief over its own footprint, coloured by region, instead of a
+    sheet leaning over its neighbours."""
     P, T, tags = step.mesh.points, step.mesh.triangles, step.mesh.region_tags
-    width = float(np.ptp(np.concatenate(rings), axis=0).max())
     points, faces, heights, region, offset = [], [], [], [], 0
     for tag in np.unique(tags).tolist():
         Tr = T[tags == tag]
@@ -295,7 +297,8 @@ def _lifted_pieces(step, anisotropy, z_scale: float, rings) -> LiftedScene:
         X = P[used]
         s_r = np.asarray(anisotropy[tag].s(X), dtype=float)
         rest = s_r - own_plane(X, s_r)
-        heights.append(height_map(rest, rest.min(), rest.max(), width, z_scale))
+        narrow = float(np.ptp(X, axis=0).min()) if len(X) else 0.0
+        heights.append(height_map(rest, rest.min(), rest.max(), narrow, z_scale))
         points.append(X)
         faces.append(local.reshape(Tr.shape)[:, ::-1] + offset)
         region.append(np.full(len(Tr), tag))
