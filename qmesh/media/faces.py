@@ -22,14 +22,10 @@ def face_domain(part, face, extra: dict, name: str):
     rings, tags = [], []
     for c in face.cycles:
         pts, tg = [], []
-        for h in part.cycle(c):
-            e, backwards = int(h >> 1), bool(h & 1)
-            pts.append(part.points[part.half_from[h]][None])
-            tg.append(np.array([e + 1]))
-            x = extra.get(e)
-            if x is not None and len(x):
-                pts.append(x[::-1] if backwards else x)
-                tg.append(np.full(len(x), e + 1))
+        for h in part.cycle(c):          # half-edge h runs along edge h >> 1, backwards when odd
+            x = extra.get(int(h >> 1), np.zeros((0, 2)))
+            pts += [part.points[part.half_from[h]][None], x[::-1] if h & 1 else x]
+            tg.append(np.full(len(x) + 1, int(h >> 1) + 1))
         rings.append(np.concatenate(pts))
         tags.append(np.concatenate(tg))
     try:
@@ -40,30 +36,17 @@ def face_domain(part, face, extra: dict, name: str):
 
 
 def points_on_edges(mesh, part, n_seeds: int) -> dict:
-    """The vertices a face mesh put on partition edges, beyond its input points: {edge: (k, 2)}."""
-    E, tags = mesh.boundary_edges, mesh.boundary_tags - 1
-    out = {}
-    for side in (0, 1):
-        v = E[:, side]
-        new = v >= n_seeds
-        for e in np.unique(tags[new]):
-            out.setdefault(int(e), []).append(v[new][tags[new] == e])
-    # a corner of the partition is never a point "on" an edge (round-off copies included)
-    tree = cKDTree(part.points)
+    """The vertices a face mesh put on partition edges, beyond its input points: {edge: (k, 2)}
+    (a corner of the partition, round-off copies included, is never a point "on" an edge)."""
+    e, v = np.repeat(mesh.boundary_tags - 1, 2), mesh.boundary_edges.ravel()
+    ev = np.unique(np.column_stack([e, v])[v >= n_seeds], axis=0)       # by edge, then vertex
     tol = 1e-12 * float(np.ptp(part.points, axis=0).max())
-    res = {}
-    for e, v in out.items():
-        X = mesh.points[np.unique(np.concatenate(v))]
-        far = tree.query(X)[0] > tol
-        if far.any():
-            res[e] = X[far]
-    return res
+    ev = ev[cKDTree(part.points).query(mesh.points[ev[:, 1]])[0] > tol]
+    return {int(k): mesh.points[ev[ev[:, 0] == k, 1]] for k in np.unique(ev[:, 0])}
 
 
 def merge_points(part, e: int, old: np.ndarray | None, new: np.ndarray) -> np.ndarray:
     """Points on edge e, old and new, without repeats, ordered along the edge."""
     a, b = part.points[part.edges[e]]
-    X = new if old is None else np.concatenate([old, new])
-    X = np.unique(X, axis=0)
-    t = (X - a) @ (b - a)
-    return X[np.argsort(t, kind="stable")]
+    X = np.unique(new if old is None else np.concatenate([old, new]), axis=0)
+    return X[np.argsort((X - a) @ (b - a), kind="stable")]

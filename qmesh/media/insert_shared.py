@@ -30,72 +30,63 @@ def insert_on_boundary(mesh: Mesh, anisotropy, points: dict, part) -> tuple[Mesh
     """`mesh` (a face mesh, boundary tag = partition edge + 1) with `points` {partition edge:
     (k, 2)} inserted on its boundary edges of that edge (points it has already are skipped),
     and the points it then had to add on interface edges of `part`, {edge: (k, 2)}."""
-    edge = np.concatenate([np.full(len(X), e, np.int64) for e, X in points.items()] or [[]])
-    X = np.concatenate([np.asarray(X, float).reshape(-1, 2) for X in points.values()] or
-                       [np.zeros((0, 2))])
-    tol = 1e-12 * float(np.ptp(mesh.points, axis=0).max())
-    new = cKDTree(mesh.points).query(X)[0] > tol if len(X) else np.zeros(0, bool)
+    edge = np.concatenate([np.full(len(X), e, np.int64) for e, X in points.items()])
+    X = np.concatenate([np.asarray(X, float).reshape(-1, 2) for X in points.values()])
+    new = cKDTree(mesh.points).query(X)[0] > 1e-12 * float(np.ptp(mesh.points, axis=0).max())
     if not new.any():
         return mesh, {}
-    P, T = np.array(mesh.points), np.array(mesh.triangles)
+    P, T, fixed = np.array(mesh.points), np.array(mesh.triangles), np.array(mesh.fixed)
     twin = topology.twins(T)
     out = np.full(len(P), -1, np.int64)       # partition edge of each vertex's outgoing boundary edge
     out[mesh.boundary_edges[:, 0]] = mesh.boundary_tags - 1
-    fixed = np.array(mesh.fixed)
     X, edge = X[new], edge[new]
     while len(X):                             # at most one split per triangle at a time
         hb = _holding(P, T, twin, out, part, X, edge)
-        _, first = np.unique(hb // 3, return_index=True)
+        first = np.unique(hb // 3, return_index=True)[1]
         P, T, twin, out, fixed = _split(P, T, twin, out, fixed, hb[first], X[first])
-        rest = np.ones(len(X), bool)
-        rest[first] = False
-        X, edge = X[rest], edge[rest]
+        X, edge = np.delete(X, first, axis=0), np.delete(edge, first)
     T, twin, _ = restore(P, T, twin, anisotropy)                  # its own metric
-    junction = marked(P, part.points[np.bincount(part.edges.ravel(), minlength=len(part.points)) >= 3])
-    added = []
+    corners = part.points[np.bincount(part.edges.ravel(), minlength=len(part.points)) >= 3]
+    on_edge, added = [np.zeros(0, np.int64)], [np.zeros((0, 2))]  # split points, their edges
     for _ in range(MAX_SPLITS):
         hb = np.flatnonzero(twin < 0)
         t, k = np.divmod(hb, 3)
         u, v, w = T[t, k], T[t, topology.NXT[k]], T[t, topology.PRV[k]]
-        bad = encroached(P[u], P[v], P[w], anisotropy)
-        if not bad.any():
+        bad = np.flatnonzero(encroached(P[u], P[v], P[w], anisotropy))
+        if not len(bad):
             break
-        hb, u, v, w = hb[bad], u[bad], v[bad], w[bad]
-        _, first = np.unique(hb // 3, return_index=True)
-        hb, u, v, w = hb[first], u[first], v[first], w[first]
-        x = split_points(P[u], P[v], fixed[u], fixed[v], anisotropy)
-        junction = np.concatenate([junction, np.zeros(len(P) - len(junction), bool)])
-        x = beside_corners(x, P, u, v, w, junction, anisotropy)
-        added.append((out[u], x))
-        P, T, twin, out, fixed = _split(P, T, twin, out, fixed, hb, x)
+        first = bad[np.unique(t[bad], return_index=True)[1]]
+        x = split_points(P[u[first]], P[v[first]], fixed[u[first]], fixed[v[first]], anisotropy)
+        x = beside_corners(x, P, u[first], v[first], w[first], marked(P, corners), anisotropy)
+        on_edge.append(out[u[first]])
+        added.append(x)
+        P, T, twin, out, fixed = _split(P, T, twin, out, fixed, hb[first], x)
         T, twin, _ = restore(P, T, twin, anisotropy)
     else:
         raise QmeshError("boundary edges stay encroached after "
                          f"{MAX_SPLITS} splits next to an inserted interface point")
-    hb = np.flatnonzero(twin < 0)
-    t, k = np.divmod(hb, 3)
-    E = np.column_stack([T[t, k], T[t, topology.NXT[k]]])
-    face = Mesh(P, T, fixed, E, out[E[:, 0]] + 1, mesh.tag_names)
-    return face, _on_interfaces(added, part)
+    face = Mesh(P, T, fixed, np.column_stack([u, v]), out[u] + 1, mesh.tag_names)   # its boundary
+    e, x = np.concatenate(on_edge), np.concatenate(added)
+    keep = part.interface[e]
+    return face, {int(k): x[keep & (e == k)] for k in np.unique(e[keep])}
 
 
 def _holding(P, T, twin, out, part, X, edge) -> np.ndarray:
     """For each point X[i] on partition edge edge[i], the boundary half-edge that holds it."""
     hb = np.flatnonzero(twin < 0)
-    t, k = np.divmod(hb, 3)
-    u, v = T[t, k], T[t, topology.NXT[k]]
+    u, v = T[hb // 3, hb % 3], T[hb // 3, topology.NXT[hb % 3]]
     found = np.full(len(X), -1, np.int64)
     for e in np.unique(edge):                  # one pass per partition edge touched
         a, b = part.points[part.edges[e]]
         d = (b - a) / float((b - a) @ (b - a))
         on = np.flatnonzero(out[u] == e)
-        lo = np.minimum((P[u[on]] - a) @ d, (P[v[on]] - a) @ d)
-        hi = np.maximum((P[u[on]] - a) @ d, (P[v[on]] - a) @ d)
-        order = np.argsort(lo)
+        su, sv = (P[u[on]] - a) @ d, (P[v[on]] - a) @ d
+        order = np.argsort(np.minimum(su, sv))
+        lo, hi = np.minimum(su, sv)[order], np.maximum(su, sv)[order]
         mine = np.flatnonzero(edge == e)
         s = (X[mine] - a) @ d
-        j = np.searchsorted(lo[order], s) - 1
-        ok = (j >= 0) & (s < hi[order][np.maximum(j, 0)])
+        j = np.searchsorted(lo, s) - 1
+        ok = (j >= 0) & (s < hi[np.maximum(j, 0)])
         if not ok.all():
             x = X[mine[~ok][0]].tolist()
             raise QmeshError(f"no boundary edge of the face holds the interface point {x}")
@@ -110,13 +101,3 @@ def _split(P, T, twin, out, fixed, hb, x):
     T, twin = topology.split_boundary_edges(T, twin, hb, n + np.arange(len(hb)))
     return (np.concatenate([P, x]), T, twin, np.concatenate([out, out[u]]),
             np.concatenate([fixed, np.zeros(len(hb), bool)]))
-
-
-def _on_interfaces(added: list, part) -> dict:
-    """{interface edge: points} of the split points that landed on an interface."""
-    if not added:
-        return {}
-    e = np.concatenate([a for a, _ in added])
-    x = np.concatenate([b for _, b in added])
-    keep = part.interface[e]
-    return {int(k): x[keep & (e == k)] for k in np.unique(e[keep])}

@@ -70,13 +70,11 @@ def mesh(domain: Any, conductivity: Any, *, target_vertices: int | None = None, 
     same arguments; `progress`, when given, is called with every Step."""
     if progress is not None and not callable(progress):
         raise QmeshError(f"progress must be a function of one Step, got {type(progress).__name__}")
-    last = None
     for last in _run(_plan(domain, conductivity, target_vertices, size, min_area, options),
                      options, progress is not None):
         if progress is not None:
             progress(last)
-    assert last is not None          # a run yields at least its last Step
-    return last.mesh
+    return last.mesh              # a run yields at least its last Step
 
 
 def _plan(domain: Any, conductivity: Any, target_vertices: int | None, size: float | None,
@@ -96,29 +94,22 @@ def _plan(domain: Any, conductivity: Any, target_vertices: int | None, size: flo
 def _run(plan: MediaPlan, options: dict, every: bool) -> Iterator[Step]:
     """The faces in the plan's order, each run to its end and shared with the finished ones;
     with `every`, a Step per stage of each face's run; the stitched whole last."""
-    part, done = plan.part, list[int]()
     extra = dict(plan.extra)                 # interface points shared so far, per edge
-    meshes: dict[int, Mesh] = {}
+    meshes: dict[int, Mesh] = {}             # the finished faces, in the order they were meshed
     notes: list = []                         # (message, category) the faces' runs warned
     cond = {f.region: a for f, a in zip(plan.faces, plan.anis)}
-    n_done = 0
     for at, i in enumerate(plan.order):
         if at:
-            plan.size_rest(plan.order[at:], n_done)
+            plan.size_rest(plan.order[at:], vertex_count(meshes.values()))
         for step in _face_steps(plan, i, extra, options, notes, meshes):
             if every:
-                m = _stitched(plan, meshes, done, i, step.mesh)
+                m = _stitched(plan, {**meshes, i: step.mesh})
                 yield Step(step.stage, step.iteration, m, Stats(m.n_vertices, m.n_triangles,
                            seconds=step.stats.seconds, source=(m, cond)))
         meshes[i] = step.mesh
-        new = {e: X for e, X in points_on_edges(step.mesh, part, int(step.mesh.fixed.sum())).items()
-               if part.interface[e]}
-        for e, X in new.items():
-            extra[e] = merge_points(part, e, extra.get(e), X)
-        done.append(i)
-        _share(plan, meshes, done, new, extra)
-        n_done = vertex_count(meshes.values())
-    m = _stitched(plan, meshes, done)
+        new = points_on_edges(step.mesh, plan.part, int(step.mesh.fixed.sum()))
+        _share(plan, meshes, {e: X for e, X in new.items() if plan.part.interface[e]}, extra)
+    m = _stitched(plan, meshes)
     yield Step("triangulate", step.iteration, m, Stats(m.n_vertices, m.n_triangles, source=(m, cond)),
                converged=True)
     for message, category in _summary(notes):
@@ -158,22 +149,16 @@ def _face_steps(plan: MediaPlan, i: int, extra: dict, options: dict, notes: list
     for k in range(FINER + 1):
         try:
             sizing = {"size": plan.size_of(i) / 2**k} if aim is None or k else {"target_vertices": aim}
-            steps = _recording(loop.iterate(dom, plan.anis[i], **sizing, **options), said)
-            last = None
-            for last in steps:
+            for last in _recording(loop.iterate(dom, plan.anis[i], **sizing, **options), said):
                 yield last
             break
         except QmeshError as e:
             if k == FINER or ("too large" not in str(e) and "target_vertices" not in str(e)):
                 raise plan.too_small(i) or QmeshError(f"{plan.face_name(i)}: {e}") from None
-    assert last is not None
-    shape = plan.anis[i]
-    if shape.is_constant:              # its shape only: a Q of 1e300 would overflow the areas
-        shape = Anisotropy.constant(shape.matrix / plan.k[i])
-    thin = thin_domain(last.mesh, shape)
-    notes += [(f"{plan.face_name(i)}: {w.message}", w.category) for w in said]
-    if thin is not None:
-        notes.append((f"{plan.face_name(i)}: {thin}", QmeshWarning))
+    a = plan.anis[i]                   # its shape only: a Q of 1e300 would overflow the areas
+    thin = thin_domain(last.mesh, Anisotropy.constant(a.matrix / plan.k[i]) if a.is_constant else a)
+    notes += [(f"{plan.face_name(i)}: {m}", c) for m, c in [(w.message, w.category) for w in said]
+              + ([] if thin is None else [(thin, QmeshWarning)])]
 
 
 def _recording(steps: Iterator[Step], said: list) -> Iterator[Step]:
@@ -188,35 +173,28 @@ def _recording(steps: Iterator[Step], said: list) -> Iterator[Step]:
         yield step
 
 
-def _stitched(plan: MediaPlan, meshes: dict[int, Mesh], done: list[int], current: int | None = None,
-              mesh: Mesh | None = None) -> Mesh:
-    faces = list(done) + ([] if current is None else [current])
-    parts = [meshes[k] for k in done] + ([] if mesh is None else [mesh])
-    return stitch(plan.part, parts, [plan.faces[k].region for k in faces], plan.domain)
+def _stitched(plan: MediaPlan, meshes: dict[int, Mesh]) -> Mesh:
+    return stitch(plan.part, list(meshes.values()), [plan.faces[k].region for k in meshes], plan.domain)
 
 
-def _share(plan: MediaPlan, meshes: dict[int, Mesh], done: list[int], new: dict, extra: dict) -> None:
-    """Hand the interface points `new` {edge: points} to the finished faces beside them; the
-    points those must add in turn (a split on an interface) are handed on likewise."""
-    part = plan.part
-    face_of = part.edge_faces
-    queue = [new]
-    rank = {j: k for k, j in enumerate(done)}
+def _share(plan: MediaPlan, meshes: dict[int, Mesh], new: dict, extra: dict) -> None:
+    """Hand the interface points `new` {edge: points} to the finished faces beside them (and
+    into `extra`); the points those must add in turn (a split on an interface) likewise."""
+    part, queue = plan.part, [new]
+    rank = {j: k for k, j in enumerate(meshes)}
     for _ in range(MAX_HANDOVERS):
         if not queue:
             return
         pts = queue.pop()
-        beside = {int(f) for e in pts for f in face_of[e] if int(f) in rank}
+        for e, X in pts.items():
+            extra[e] = merge_points(part, e, extra.get(e), X)
+        beside = {int(f) for e in pts for f in part.edge_faces[e] if int(f) in rank}
         for j in sorted(beside, key=lambda f: rank[f]):     # the finished faces beside these edges only
-            give = {e: X for e, X in pts.items() if j in face_of[e]}
-            if not give:
-                continue
+            give = {e: X for e, X in pts.items() if j in part.edge_faces[e]}
             try:
                 meshes[j], more = insert_on_boundary(meshes[j], plan.anis[j], give, part)
             except QmeshError as err:
                 raise QmeshError(f"{plan.face_name(j)}: {err}") from None
-            for e, X in more.items():
-                extra[e] = merge_points(part, e, extra.get(e), X)
             if more:
                 queue.append(more)
     raise QmeshError("the faces kept handing each other interface points (more than "

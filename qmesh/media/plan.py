@@ -7,11 +7,9 @@ between the faces by metric area through the single-region mesher's own relation
 Interfaces are cut beforehand into pieces ≤ h in the metric of both sides, so the neighbours
 start from the same points.
 
-A face thin or sharp in its own metric needs more vertices than its area says. The faces are
-meshed smallest metric area first, and before each face the h of the faces still to come is
-sized again for what the target leaves (`size_rest`); the largest face, last, is given the
-exact vertex count that remains (`last_face_target`), so the run lands on N without being run
-twice.
+A face thin or sharp in its own metric needs more vertices than its area says, so the faces
+still to come are sized again before each face (`size_rest`), and the largest, meshed last, is
+given the count that remains (`last_face_target`): the run lands on N without a second run.
 """
 
 from __future__ import annotations
@@ -56,21 +54,27 @@ class MediaPlan:
                              f"{len(part.points)} input points of the domain and its regions")
         bare = [face_domain(part, f, {}, self.face_name(i)) for i, f in enumerate(self.faces)]
         self.k = [hessian_scale(a, d.seeds) for a, d in zip(self.anis, bare)]
-        self.area = [sizing.metric_area_scaled(d, a, k) for d, a, k in zip(bare, self.anis, self.k)]
-        self.lengths = [sizing.metric_edge_lengths(d, a, k) for d, a, k in zip(bare, self.anis, self.k)]
+        self.area = np.array([sizing.metric_area_scaled(d, a, k) for d, a, k in zip(bare, self.anis, self.k)])
+        lengths = [sizing.metric_edge_lengths(d, a, k) for d, a, k in zip(bare, self.anis, self.k)]
         check_junctions(part, self.anis, self.face_name)
-        self.longest = self._interface_lengths()
-        # each interface edge's segment in the face domain of either side
+        # every face's segments, concatenated; each interface edge's segment on either side
+        self._seg_len = np.concatenate(lengths)
+        self._total = sum(self.area), sum(float(L.sum()) for L in lengths)   # area, boundary
+        self._seg_face = np.repeat(np.arange(len(self.faces)), [len(L) for L in lengths])
         seg_edge = np.concatenate([d.segment_tags - 1 for d in bare])
-        seg_face = np.repeat(np.arange(len(self.faces)), [len(d.segment_tags) for d in bare])
         self._inter = np.flatnonzero(part.interface)
         slot = np.full((len(part.edges), 2), -1)
-        side = (part.edge_faces[seg_edge, 1] == seg_face).astype(np.int64)
-        slot[seg_edge, side] = np.arange(len(seg_edge))
+        slot[seg_edge, (part.edge_faces[seg_edge, 1] == self._seg_face).astype(np.int64)] = \
+            np.arange(len(seg_edge))
         self._side = slot[self._inter]
-        self.width = np.array([sizing.hull_metric_width(
+        # an interface edge's metric length in the longer of its two sides' metrics
+        self.longest = self._seg_len[self._side].max(axis=1)
+        width = np.array([sizing.hull_metric_width(
             part.points[part.half_from[part.cycle(f.cycles[0])]], a, k)
             for f, a, k in zip(self.faces, self.anis, self.k)])
+        # a face whose longest side is THIN_ASPECT times its width in its metric is thin
+        w = np.where(THIN_ASPECT * width < np.array([L.max() for L in lengths]), THIN * width, np.inf)
+        self._thin_step = w[self._seg_face]
         self.target = target_vertices
         self.order = sorted(range(len(self.faces)), key=lambda i: self.area[i])   # largest last
         everything = list(range(len(self.faces)))
@@ -78,17 +82,17 @@ class MediaPlan:
         if target_vertices is not None:
             # faces whose least count (at any h) is a large share of the target: sized with
             # their widths from the first face on, so the first ones do not take it all
-            huge = 10.0 * (np.sqrt(sum(self.area)) + sum(float(L.sum()) for L in self.lengths))
+            huge = 10.0 * (np.sqrt(self._total[0]) + self._total[1])
             self.thin = self.count(huge, everything, thin=True) > LEAST_SHARE * target_vertices
             self.h = self.h_euler = self._size_for(everything, target_vertices)
             if self.thin:      # no coarser than COARSER × Euler's h (a target below the least)
                 self.h = min(self._size_for(everything, target_vertices, True), COARSER * self.h)
         else:
-            self.h = float(size) if size is not None else float(np.mean(np.concatenate(self.lengths)))
+            self.h = float(size) if size is not None else float(np.mean(self._seg_len))
             self.h_euler = self.h
             sizing.check_vertex_count(self.count(self.h, everything), f"size = {self.h:.3g}")
         self.h_rest = self.h
-        self.extra = self._cuts(self.pieces(self.h))
+        self.extra = self._cuts(self.h)
 
     def face_name(self, i: int) -> str:
         r = self.faces[i].region
@@ -99,13 +103,10 @@ class MediaPlan:
         """Why face i could not be meshed when it, or a face beside it, is tiny next to the
         domain (TINY × its size or less): the points that face's metric needs on its edges
         come closer than the round-off of the face around it allows. None otherwise."""
-        part, D = self.part, self.domain.diameter
-        ef = part.edge_faces
+        part, D, ef = self.part, self.domain.diameter, self.part.edge_faces
         near = {i} | {int(f) for f in ef[(ef == i).any(axis=1)].ravel() if f >= 0}
-        ext = {}
-        for j in near:
-            X = part.points[part.edges[np.flatnonzero((ef == j).any(axis=1))].ravel()]
-            ext[j] = float(np.ptp(X, axis=0).max())
+        ext = {j: float(np.ptp(part.points[part.edges[(ef == j).any(axis=1)]].reshape(-1, 2),
+                               axis=0).max()) for j in near}
         j = min(ext, key=lambda f: ext[f])
         if ext[j] > TINY * D:
             return None
@@ -116,65 +117,30 @@ class MediaPlan:
                           "domain; enlarge it, or leave it out (give that area its neighbour's "
                           "conductivity)")
 
-    def _interface_lengths(self) -> np.ndarray:
-        """Metric length of every interface edge in the longer of its two sides' metrics."""
-        E, V, part = self.part.edges, self.part.points, self.part
-        inter = np.flatnonzero(part.interface)
-        longest = np.zeros(len(inter))
-        for side in (0, 1):
-            f = part.edge_faces[inter, side]
-            for face in np.unique(f):
-                on = f == face
-                L = sizing.segment_lengths(V[E[inter[on], 0]], V[E[inter[on], 1]],
-                                           self.anis[face], self.k[face])
-                longest[on] = np.maximum(longest[on], L)
-        return longest
-
-    def pieces(self, h: float) -> np.ndarray:
-        """Into how many pieces each partition edge is cut before meshing: interface edges so
-        that each piece is ≤ h in both sides' metrics; others 1 (their face mesher splits them)."""
-        pieces = np.ones(len(self.part.edges), np.int64)
-        pieces[self.part.interface] = np.maximum(
-            1, np.ceil(self.longest / (BOUNDARY_FACTOR * h))).astype(np.int64)
-        return pieces
-
     def count(self, h: float, faces: list, thin: bool = False) -> float:
         """Expected vertices the faces `faces` add at metric edge length h: Euler's estimate
         per face (mesher.sizing), less one count of every interface vertex they share with
         another face (counted on both sides, or already there)."""
-        mine = np.zeros(len(self.faces), bool)
-        mine[faces] = True
-        if not hasattr(self, "_seg_face"):       # every face's segment lengths, concatenated
-            self._seg_len = np.concatenate(self.lengths)
-            self._seg_face = np.repeat(np.arange(len(self.faces)), [len(L) for L in self.lengths])
-            self._area_arr = np.asarray(self.area, float)
-            # a face is thin when its longest side is THIN_ASPECT times its width in its metric
-            longest = np.array([L.max() for L in self.lengths])
-            w = np.where(THIN_ASPECT * self.width < longest, THIN * self.width, np.inf)
-            self._thin_step = w[self._seg_face]
+        mine = np.isin(np.arange(len(self.faces)), faces)
         # a face w wide in its metric keeps its boundary unencroached with pieces ≲ THIN·w
         # whatever h is: a thin face's boundary count, not its area, sets its vertices
-        step = (np.minimum(BOUNDARY_FACTOR * h, self._thin_step) if thin
-                else np.full(len(self._seg_len), BOUNDARY_FACTOR * h))
+        step = np.minimum(BOUNDARY_FACTOR * h, self._thin_step) if thin else BOUNDARY_FACTOR * h
         pieces = np.maximum(1, np.ceil(self._seg_len / step))          # per face segment
-        on = mine[self._seg_face]
-        nb = np.bincount(self._seg_face[on], pieces[on], minlength=len(self.faces))[mine]
+        nb = np.bincount(self._seg_face, pieces, minlength=len(self.faces))[mine]
         # Euler per face, M = 2N − N_b − 2 triangles: by area (and at least N_b − 2)
-        tri = self._area_arr[mine] / sizing.equilateral_area(h)
+        tri = self.area[mine] / sizing.equilateral_area(h)
         if thin:
             tri = np.maximum(tri, nb - 2)
         n = float(0.5 * (tri + nb + 2).sum())
         # an interface edge's points counted by both sides, or there already: the fewer side's
-        # pieces (its inner points and one end) once less
+        # pieces (the cut's, the more side's, when not thin) less once
         ef = self.part.edge_faces[self._inter]
         shared = mine[ef[:, 0]] | mine[ef[:, 1]]
-        both = (np.minimum(pieces[self._side[:, 0]], pieces[self._side[:, 1]]) if thin
-                else self.pieces(h)[self._inter])
+        both = (np.minimum if thin else np.maximum)(pieces[self._side[:, 0]], pieces[self._side[:, 1]])
         return n - float(both[shared].sum())
 
     def _size_for(self, faces: list, n: float, thin: bool = False) -> float:
-        return sizing.size_for_count(lambda h: self.count(h, faces, thin), n, sum(self.area),
-                                     sum(float(L.sum()) for L in self.lengths), steps=100)
+        return sizing.size_for_count(lambda h: self.count(h, faces, thin), n, *self._total, steps=100)
 
     def size_rest(self, rest: list, n_done: int) -> None:
         """Size the faces `rest` still to mesh for what the target leaves after `n_done`
@@ -204,14 +170,13 @@ class MediaPlan:
         n = self.target - vertex_count(meshes.values()) + shared
         return n if n > len(dom.seeds) else None
 
-    def _cuts(self, pieces: np.ndarray) -> dict[int, np.ndarray]:
-        """Evenly spaced points on every interface edge cut into more than one piece."""
+    def _cuts(self, h: float) -> dict[int, np.ndarray]:
+        """Points cutting each interface edge evenly into pieces ≤ h in both sides' metrics (the
+        other edges are split by their face mesher)."""
         V, E = self.part.points, self.part.edges
-        out = {}
-        for e in np.flatnonzero(pieces > 1):
-            t = (np.arange(1, pieces[e]) / pieces[e])[:, None]
-            out[int(e)] = V[E[e, 0]] + t * (V[E[e, 1]] - V[E[e, 0]])
-        return out
+        pieces = np.maximum(1, np.ceil(self.longest / (BOUNDARY_FACTOR * h))).astype(np.int64)
+        return {int(e): V[E[e, 0]] + (np.arange(1, n) / n)[:, None] * (V[E[e, 1]] - V[E[e, 0]])
+                for e, n in zip(self._inter, pieces) if n > 1}
 
     def size_of(self, i: int) -> float:
         """The face mesher's `size`: h in the user's metric ∇²s_r (= h·√k_r)."""

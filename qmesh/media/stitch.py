@@ -12,6 +12,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from qmesh.errors import QmeshError
+from qmesh.mesher.conform import marked
 from qmesh.triangle_mesh import Mesh
 
 
@@ -28,18 +29,12 @@ def stitch(part, meshes: list, face_regions: list, domain) -> Mesh:
     T = np.concatenate([vid[m.triangles + o] for m, o in zip(meshes, offs)])
     regions = np.concatenate([np.full(m.n_triangles, r) for m, r in zip(meshes, face_regions)])
     # fixed: the input points of the user's domain and regions (the partition's vertices)
-    fixed = np.zeros(len(U), bool)
-    key = {tuple(x): i for i, x in enumerate(U)}
-    for x in part.points:
-        i = key.get(tuple(x))
-        if i is not None:
-            fixed[i] = True
+    fixed = marked(U, part.points)
     # boundary edges: the face meshes' edges on ∂Ω, with the user's tags
     be, bt = [], []
     for m, o in zip(meshes, offs):
         e = m.boundary_tags - 1
-        on = part.edge_tag[e] > 0
-        on &= (part.edge_faces[e] < 0).any(axis=1)
+        on = (part.edge_tag[e] > 0) & (part.edge_faces[e] < 0).any(axis=1)
         be.append(vid[m.boundary_edges[on] + o])
         bt.append(part.edge_tag[e[on]])
     return Mesh(U, T, fixed, np.concatenate(be), np.concatenate(bt), domain.tag_names,
