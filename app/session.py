@@ -5,8 +5,8 @@ Steps and which one is shown). Every action returns an `Outcome`:
 
 - `change(name, value)` / `change(**changes)`: applied; adjusted (a dependent value moved with
   it, VB and the target, and the message says so); refused (the reason; everything kept);
-  unchanged. A new parameter set is checked, measured against the memory budget
-  (`qmesh.mesher.budget`) and triangulated *before* it replaces the run on screen, so a refusal
+  unchanged. A new parameter set is checked, its whole request (mesher, kept stages, measures
+  and views) measured against the memory budget (`qmesh_view.memory`) and triangulated *before* it replaces the run on screen, so a refusal
   or any exception (MemoryError, RecursionError …) leaves the previous mesh and history in place.
 - `apply_s(text)`, `upload(name, content)`, `step()`, `iterate()`, `scrub(i)`, `reset()`.
 - `run(on_step, work=…)`: the one animated run loop (async), stopped by `stop()` or by the next
@@ -28,10 +28,11 @@ import warnings
 from dataclasses import asdict, dataclass
 
 from qmesh.errors import QmeshError, QmeshWarning
-from qmesh.mesher import budget, diagnose
+from qmesh.mesher import diagnose
 
+from . import memory
 from .controller import PARAMS, Controller, Params, _checked, reconcile
-from .problem import FILE_PREFIX, domain_names, read_upload, varying
+from .problem import FILE_PREFIX, domain_names, read_upload
 
 REGION_WORD = re.compile(r"\bregion (\d+)\b(?! \()")
 RUN_PAUSE = 0.05     # seconds between animated stages, so every frame reaches the screen
@@ -175,7 +176,9 @@ class Session:
         return REGION_WORD.sub(name, text)
 
     def _check_budget(self, p: Params) -> None:
-        budget.check(p.target_vertices, varying=varying(p), budget=self.memory_budget)
+        """Refuse `p` when its whole request (mesher, kept stages, measures, views) would not
+        fit beside what the process holds now (`qmesh_view.memory`)."""
+        memory.check(p.target_vertices, memory.kind_of(p), self.memory_budget)
 
     def _start(self, p: Params, uploads: dict | None = None) -> None:
         """Build the run of `p` (its first triangulation); swap it in only when that worked."""
