@@ -9,9 +9,11 @@ e_i the edge vector opposite corner i (∇φ_i = J e_i / 2|T|, Jᵀ Q J = adj Q)
 q_ij = Σ_T q_ij^T (two triangles inside, one on the boundary) is ≥ 0 by more than the error the
 means carry (their quadrature's bound, ‖δQ̄‖·|e_i||e_j|/4|T| per share) and round-off. Each
 round assembles the shares of the triangles that changed; an edge that fails is flipped when
-its quadrilateral is convex and the other diagonal does better, else split at its midpoint
-(smaller triangles see a more nearly constant Q); until none fails or the rounds run out, which
-is then said, never passed over.
+its quadrilateral is convex and the flip lowers the deficit of the quadrilateral's five edges
+(a flip judged on its own edge alone mends it by breaking a side, and such flips cycle without
+end), else split at the first of a few points along it that leaves the fewest failing edges
+around it (the midpoint first: smaller triangles see a more nearly constant Q); until none
+fails or the rounds run out, which is then said, never passed over.
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from qmesh.conductivity.anisotropy import adj2
+from qmesh.conductivity.anisotropy import adj2, shape_metric
 from qmesh.geometry import topology
 from qmesh.geometry.triangles import signed_areas
 from qmesh.triangle_mesh import Mesh
@@ -29,6 +31,8 @@ from qmesh.triangle_mesh import Mesh
 ROUND = 1e-12       # q_ij may fall below 0 by this share of Σ|q_ij^T| (round-off of the assembly)
 MAX_ROUNDS = 400    # rounds of flips and splits before the remaining edges are reported
 STALL = 30          # ... or rounds without fewer failing edges than the best so far
+GAIN = 1e-9         # a flip must lower its quadrilateral's deficit by this share at least
+SPLIT_AT = 0.1      # an edge is split no nearer its ends than this share of it
 SHORTEST = 1e-9     # edges shorter than this share of the domain's extent are not split
 
 
@@ -79,7 +83,7 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS) -> tuple[Mesh, Cert
         since += 1
         if not len(h) or rounds == max_rounds or since > STALL:
             break
-        done = _flips(P, T, twin, h, q, field)
+        done = _flips(P, T, twin, h, s, b, field)
         if len(done):
             t = np.concatenate([done // 3, twin[done] // 3])
             T, twin = topology.flip(T, twin, done)
@@ -88,7 +92,8 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS) -> tuple[Mesh, Cert
             keep = _longer(P, T, h, shortest)
             if not keep.any():
                 break
-            P, T, twin, fixed, out, t = _splits(P, T, twin, fixed, out, h[keep], q[keep])
+            P, T, twin, fixed, out, t = _splits(P, T, twin, fixed, out, h[keep], q[keep],
+                                                s, b, Qbar, field)
             added = len(P) - mesh.n_vertices
         Qbar, err = _refresh(field, P, T, Qbar, err, t)
     worst = float(slack.min()) if len(slack) else 0.0
@@ -130,8 +135,11 @@ def _independent(h, q, tris):
     return (best[at].reshape(cols.shape) == rank[:, None]).all(axis=1)
 
 
-def _flips(P, T, twin, h, q, field):
-    """The failing interior edges whose flip is valid and makes the new diagonal pass better."""
+def _flips(P, T, twin, h, s, b, field):
+    """Flips of failing interior edges that lower the deficit Σ max(0, bound − q_ij) over the
+    five edges of their quadrilateral (its diagonal and its four sides, whose shares from
+    outside it stay): a flip that mends its own edge by breaking a side is not taken, so the
+    total deficit only falls and the flips end. No two chosen flips touch one edge."""
     inner = h[twin[h] >= 0]
     if not len(inner):
         return inner
@@ -144,42 +152,144 @@ def _flips(P, T, twin, h, q, field):
     ok = (signed_areas(P, new) > 0).reshape(2, -1).all(axis=0)     # a convex quadrilateral
     if not ok.any():
         return inner[:0]
-    inner, q_old = inner[ok], q[twin[h] >= 0][ok]
+    inner, g, t1, e1, t2, e2 = inner[ok], g[ok], t1[ok], e1[ok], t2[ok], e2[ok]
     new = new.reshape(2, -1, 3)[:, ok].reshape(-1, 3)
-    Qn, en = field.means_with_error(P, new)
-    s, b = shares(P, new, np.asarray(Qn, dtype=float), np.asarray(en, dtype=float))
     k = len(inner)
-    s, b = s.reshape(2 * k, 3), b.reshape(2 * k, 3)
-    q_new = s[:k, 1] + s[k:, 2]                   # b→a in (u, b, a), a→b in (b, v, a)
-    b_new = b[:k, 1] + b[k:, 2]
-    better = q_new - b_new > q_old
-    cand, qc = inner[better], q_old[better]
-    pick = _independent(cand, qc, (cand // 3, twin[cand] // 3))
+    # the sides v→a, a→u (in t1) and u→b, b→v (in t2), and their shares from outside
+    sides = np.stack([3 * t1 + topology.NXT[e1], 3 * t1 + topology.PRV[e1],
+                      3 * t2 + topology.NXT[e2], 3 * t2 + topology.PRV[e2]], axis=1)
+    across = twin[sides]
+    out_s = np.where(across >= 0, s[np.maximum(across, 0)], 0.0)
+    out_b = np.where(across >= 0, b[np.maximum(across, 0)], 0.0)
+    before = (_deficit(s[inner] + s[g], b[inner] + b[g])
+              + _deficit(s[sides] + out_s, b[sides] + out_b).sum(axis=1))
+    Qn, en = field.means_with_error(P, new)
+    sn, bn = shares(P, new, np.asarray(Qn, dtype=float), np.asarray(en, dtype=float))
+    sn, bn = sn.reshape(2, k, 3), bn.reshape(2, k, 3)
+    # (u, b, a) holds u→b, b→a, a→u; (b, v, a) holds b→v, v→a, a→b
+    pick_t, pick_e = np.array([1, 0, 0, 1]), np.array([1, 2, 0, 0])   # v→a, a→u, u→b, b→v
+    side_s, side_b = sn[pick_t, :, pick_e].T, bn[pick_t, :, pick_e].T
+    after = (_deficit(sn[0, :, 1] + sn[1, :, 2], bn[0, :, 1] + bn[1, :, 2])
+             + _deficit(side_s + out_s, side_b + out_b).sum(axis=1))
+    gain = before - after
+    better = gain > GAIN * before
+    cand = inner[better]
+    if not len(cand):
+        return cand
+    M = len(T)
+    near = np.where(across >= 0, across // 3, M + 4 * np.arange(k)[:, None] + np.arange(4))
+    tris = (t1[better], t2[better]) + tuple(near[better].T)
+    pick = _independent(cand, -gain[better], tris)
     return cand[pick]
 
 
-def _splits(P, T, twin, fixed, out, h, q):
-    """Split failing edges at their midpoints, boundary ones first (one per triangle)."""
+def _deficit(q, bound):
+    """How far q_ij falls short of its error bound (0 for an edge that passes)."""
+    return np.maximum(bound - q, 0.0)
+
+
+def _splits(P, T, twin, fixed, out, h, q, s, b, Qbar, field):
+    """Split failing edges, boundary ones first (one per triangle), each at the best of a few
+    points along it (`_split_points`)."""
     boundary = twin[h] < 0
     if boundary.any():
         hb, qb = h[boundary], q[boundary]
         hb = hb[_independent(hb, qb, (hb // 3,))]
         n = len(P)
-        u, v = T[hb // 3, hb % 3], T[hb // 3, topology.NXT[hb % 3]]
+        u = T[hb // 3, hb % 3]
+        X = _split_points(P, T, twin, hb, s, b, Qbar, field)
         T, twin = topology.split_boundary_edges(T, twin, hb, n + np.arange(len(hb)))
         t = np.concatenate([hb // 3, len(T) - len(hb) + np.arange(len(hb))])
         new_out = out[u]
     else:
         hi = h[_independent(h, q, (h // 3, twin[h] // 3))]
         n = len(P)
-        u, v = T[hi // 3, hi % 3], T[hi // 3, topology.NXT[hi % 3]]
+        X = _split_points(P, T, twin, hi, s, b, Qbar, field)
         t = np.concatenate([hi // 3, twin[hi] // 3, len(T) + np.arange(2 * len(hi))])
         T, twin = topology.split_edges(T, twin, hi, n + np.arange(len(hi)))
         new_out = np.full(len(hi), -1, np.int64)
-    P = np.concatenate([P, 0.5 * (P[u] + P[v])])
-    fixed = np.concatenate([fixed, np.zeros(len(u), bool)])
+    P = np.concatenate([P, X])
+    fixed = np.concatenate([fixed, np.zeros(len(X), bool)])
     out = np.concatenate([out, new_out])
     return P, T, twin, fixed, out, t
+
+
+def _right_angles(P, u, v, a, H):
+    """Where along u→v (0 at u, 1 at v) a point p makes a right angle, in the metric H, at p
+    in (u, p, a) (the foot of the altitude from a), at a in (u, p, a), and at a in (p, v, a).
+    Between the first and the second (the third) the triangle (u, p, a) ((p, v, a)) has no
+    obtuse angle at p or a."""
+    e, du, dv = P[v] - P[u], P[u] - P[a], P[v] - P[a]
+    Hu, Hv = np.einsum("kij,kj->ki", H, du), np.einsum("kij,kj->ki", H, dv)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        foot = -np.einsum("ki,ki->k", e, Hu) / np.einsum("ki,ki->k", e, np.einsum("kij,kj->ki", H, e))
+        at_a_first = -np.einsum("ki,ki->k", du, Hu) / np.einsum("ki,ki->k", e, Hu)
+        at_a_second = -np.einsum("ki,ki->k", du, Hv) / np.einsum("ki,ki->k", e, Hv)
+    return foot, at_a_first, at_a_second
+
+
+def _split_points(P, T, twin, h, s, b, Qbar, field):
+    """For each edge u→v of the half-edges h (all interior or all on the boundary), the first
+    of a few candidate points whose split leaves the fewest failing edges among those it makes
+    and the sides of the triangles it splits, their means recomputed: the midpoint, the
+    quarter points, then for each opposite corner a (in its own triangle's metric adj Q̄_T)
+    the foot of its altitude and the middles of the spans where (u, p, a) or (p, v, a) has no
+    obtuse angle at p or a. A midpoint leaves an obtuse angle at a obtuse in one of the halves,
+    whose edges then fail in turn; a point in such a span mends it in one step."""
+    k = len(h)
+    t1, e1 = np.divmod(h, 3)
+    u, v, a = T[t1, e1], T[t1, topology.NXT[e1]], T[t1, topology.PRV[e1]]
+    inner = bool(k) and bool(twin[h[0]] >= 0)
+    H = shape_metric(Qbar)
+    apexes = [(a, t1)]
+    sides = [3 * t1 + topology.NXT[e1], 3 * t1 + topology.PRV[e1]]            # v→a, a→u
+    if inner:
+        g = twin[h]
+        t2, e2 = np.divmod(g, 3)
+        bb = T[t2, topology.PRV[e2]]
+        apexes.append((bb, t2))
+        sides += [3 * t2 + topology.NXT[e2], 3 * t2 + topology.PRV[e2]]       # u→b, b→v
+    cols = [np.full(k, 0.5), np.full(k, 0.25), np.full(k, 0.75)]
+    for corner, t in apexes:
+        foot, first, second = _right_angles(P, u, v, corner, H[t])
+        cols += [foot, 0.5 * (foot + first), 0.5 * (foot + second)]
+    where = np.column_stack(cols)
+    where = np.clip(np.where(np.isfinite(where), where, 0.5), SPLIT_AT, 1.0 - SPLIT_AT)
+    c = where.shape[1]
+    X = P[u][:, None] + where[..., None] * (P[v] - P[u])[:, None]              # (k, c, 2)
+    Pc = np.concatenate([P, X.reshape(-1, 2)])
+    p = len(P) + np.arange(k * c)
+    U, V, A = (np.repeat(z, c) for z in (u, v, a))
+    if inner:
+        B = np.repeat(bb, c)
+        new = np.concatenate([np.column_stack(z) for z in
+                              ((U, p, A), (p, V, A), (V, p, B), (p, U, B))])
+    else:
+        new = np.concatenate([np.column_stack(z) for z in ((U, p, A), (p, V, A))])
+    Qn, en = field.means_with_error(Pc, new)
+    sn, bn = shares(Pc, new, np.asarray(Qn, dtype=float), np.asarray(en, dtype=float))
+    sn, bn = sn.reshape(-1, k * c, 3), bn.reshape(-1, k * c, 3)
+    across = twin[np.stack(sides, axis=1)]
+    out_s = np.repeat(np.where(across >= 0, s[np.maximum(across, 0)], 0.0), c, axis=0)
+    out_b = np.repeat(np.where(across >= 0, b[np.maximum(across, 0)], 0.0), c, axis=0)
+    # (u, p, a): u→p, p→a, a→u; (p, v, a): p→v, v→a, a→p; (v, p, b): v→p, p→b, b→v;
+    # (p, u, b): p→u, u→b, b→p (triangle, corner) of each made edge and each side
+    if inner:
+        made = [((0, 0), (3, 0)), ((1, 0), (2, 0)), ((0, 1), (1, 2)), ((2, 1), (3, 2))]
+        kept = [(1, 1), (0, 2), (3, 1), (2, 2)]                 # v→a, a→u, u→b, b→v
+    else:
+        made = [((0, 0),), ((1, 0),), ((0, 1), (1, 2))]
+        kept = [(1, 1), (0, 2)]
+    failing = np.zeros((k, c), np.int64)
+    for parts, extra, extra_b in ([(pairs, 0.0, 0.0) for pairs in made]
+                                  + [(((i, j),), out_s[:, m], out_b[:, m])
+                                     for m, (i, j) in enumerate(kept)]):
+        q = sum(sn[i, :, j] for i, j in parts) + extra
+        bound = sum(bn[i, :, j] for i, j in parts) + extra_b
+        scale = sum(np.abs(sn[i, :, j]) for i, j in parts) + np.abs(extra)
+        failing += (~(q - bound >= -ROUND * scale)).reshape(k, c)
+    order = np.argmin(failing, axis=1)             # the first of the fewest failing: midpoint first
+    return X[np.arange(k), order]
 
 
 def _refresh(field, P, T, Qbar, err, t):

@@ -1,0 +1,101 @@
+"""The repair pass (qmesh/fields/certify.py): its flips only lower the total deficit (so they end),
+its splits never put a new vertex off the edge they split, and a raster whose triangles are
+smaller than its cells — where flips judged on their own edge alone cycled without end — is
+certified on means computed here by clipping."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+from scipy.spatial import Delaunay
+
+import qmesh
+from qmesh.fields import certify as C
+from qmesh.geometry import topology
+from tests.fields.reference import cell_tensors
+from tests.fields.test_field_mesh import (UNIT, meshed, positive_off_diagonals,
+                                          raster_reference_means)
+
+
+def random_raster(seed, cells, decades):
+    """Cells all different: k1 lognormal, k2 = k1 / 10^U(0, decades), any angle."""
+    rng = np.random.default_rng(seed)
+    k1 = np.exp(rng.normal(0.0, 1.0, (cells, cells)))
+    k2 = k1 / 10.0 ** rng.uniform(0.0, decades, (cells, cells))
+    angle = rng.uniform(0.0, 180.0, (cells, cells))
+    edges = np.linspace(0.0, 1.0, cells + 1)
+    return edges, k1, k2, angle
+
+
+def square_mesh(seed, n):
+    """The Delaunay triangulation (counter-clockwise) of the unit square's corners and n random
+    points inside."""
+    rng = np.random.default_rng(seed)
+    P = np.concatenate([[(0, 0), (1, 0), (1, 1), (0, 1)], rng.uniform(0.02, 0.98, (n, 2))])
+    T = Delaunay(P).simplices
+    A, B = P[T[:, 1]] - P[T[:, 0]], P[T[:, 2]] - P[T[:, 0]]
+    cw = A[:, 0] * B[:, 1] - A[:, 1] * B[:, 0] < 0
+    T[cw] = T[cw][:, [0, 2, 1]]
+    return P, T.astype(np.int64)
+
+
+def total_deficit(P, T, field):
+    """Σ over the edges of max(0, bound − q_ij), from the means of `field` computed afresh."""
+    Qbar, err = field.means_with_error(P, T)
+    s, b = C.shares(P, T, np.asarray(Qbar), np.asarray(err))
+    twin = topology.twins(T)
+    g = np.where(twin >= 0, twin, np.arange(len(twin)))
+    q = s + np.where(twin >= 0, s[g], 0.0)
+    bound = b + np.where(twin >= 0, b[g], 0.0)
+    once = (twin < 0) | (np.arange(len(twin)) < twin)
+    return float(np.maximum(bound - q, 0.0)[once].sum()), s, b, twin
+
+
+@settings(max_examples=15, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), n=st.integers(30, 300), cells=st.integers(2, 12))
+def test_a_round_of_flips_lowers_the_total_deficit(seed, n, cells):
+    P, T = square_mesh(seed, n)
+    edges, k1, k2, angle = random_raster(seed, cells, 3.0)
+    field = qmesh.TensorField.from_raster(edges, edges, k1, k2, angle)
+    before, s, b, twin = total_deficit(P, T, field)
+    h, _, _ = C._failing(s, b, twin)
+    done = C._flips(P, T, twin, h, s, b, field)
+    if not len(done):
+        return
+    T2, _ = topology.flip(T, twin, done)
+    after = total_deficit(P, T2, field)[0]
+    assert after < before
+
+
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), n=st.integers(30, 200))
+def test_split_points_lie_inside_the_edges_they_split(seed, n):
+    P, T = square_mesh(seed, n)
+    rng = np.random.default_rng(seed)
+    edges, k1, k2, angle = random_raster(seed, 6, 2.0)
+    field = qmesh.TensorField.from_raster(edges, edges, k1, k2, angle)
+    Qbar, err = field.means_with_error(P, T)
+    Qbar, err = np.asarray(Qbar), np.asarray(err)
+    s, b = C.shares(P, T, Qbar, err)
+    twin = topology.twins(T)
+    for inner in (True, False):
+        h = np.flatnonzero((twin >= 0) == inner)
+        h = h[C._independent(h, rng.random(len(h)), (h // 3, np.where(twin[h] >= 0, twin[h], h) // 3))]
+        X = C._split_points(P, T, twin, h, s, b, Qbar, field)
+        u, v = P[T[h // 3, h % 3]], P[T[h // 3, topology.NXT[h % 3]]]
+        t = np.einsum("ki,ki->k", X - u, v - u) / np.einsum("ki,ki->k", v - u, v - u)
+        assert np.all((t >= C.SPLIT_AT - 1e-12) & (t <= 1 - C.SPLIT_AT + 1e-12))
+        off = np.abs((X - u)[:, 0] * (v - u)[:, 1] - (X - u)[:, 1] * (v - u)[:, 0])
+        assert np.all(off <= 1e-12 * np.einsum("ki,ki->k", v - u, v - u))
+
+
+@pytest.mark.slow(10)
+@pytest.mark.parametrize("seed, cells, target, decades", [(1, 40, 2000, 2.0), (3, 30, 2000, 3.0)])
+def test_rasters_finer_meshed_than_their_cells_are_certified(seed, cells, target, decades):
+    """About two triangles per cell, each cell's own anisotropy up to 10^decades: the repair
+    used to flip the same edges back and forth until it stalled, and warned."""
+    edges, k1, k2, angle = random_raster(seed, cells, decades)
+    m, failing = meshed(UNIT, qmesh.TensorField.from_raster(edges, edges, k1, k2, angle), target)
+    assert failing == 0
+    ref = raster_reference_means(edges, edges, cell_tensors(k1, k2, angle), m.points, m.triangles)
+    assert np.allclose(m.conductivity, ref, rtol=1e-9, atol=1e-12)
+    assert positive_off_diagonals(m.points, m.triangles, ref) == 0
