@@ -4,7 +4,8 @@
     python tests/view/make_baselines.py --app    # also browser screenshots of the whole app:
                                                  # app.png (the chapter's case) and
                                                  # app_holes.png (a plate with three holes),
-                                                 # app_layered.png (the layered medium)
+                                                 # app_layered.png (the layered medium),
+                                                 # app_inclusion.png (the inclusion medium)
 
 Run it only when the drawing or the mesher changed on purpose, then LOOK at every image written.
 """
@@ -67,6 +68,7 @@ def main() -> None:
         write_app(cases.BASELINES / "app.png")
         write_app(cases.BASELINES / "app_holes.png", "plate with holes")
         write_app(cases.BASELINES / "app_layered.png", "layered")
+        write_app(cases.BASELINES / "app_inclusion.png", "inclusion")
 
 
 if __name__ == "__main__":
