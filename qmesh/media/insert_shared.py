@@ -1,15 +1,12 @@
 """Points a neighbour put on an interface, inserted into a finished face mesh without re-meshing.
 
-MEDIA.md §2: an interface edge needs the same vertices on both sides. When a face mesher splits
-an interface subsegment (to keep q_ij ≥ 0 in its own metric), the face on the other side,
-already meshed, gets the point by splitting its boundary edge there
-(`topology.split_boundary_edges`) and restoring the Q-Delaunay property by flips in its own
-metric (`triangulate.restore`). A boundary edge a point then encroaches in this face's metric
-(a small metric angle at a corner) is split as the mesher splits its own
-(`conform.encroached`, `conform.split_points`: concentric shells next to an input point), and
-the points that land on an interface go on to that neighbour in turn. Interior edges are
-locally Q-Delaunay after the flips and no boundary edge is encroached, so every share of q_ij
-in this face stays ≥ 0.
+MEDIA.md §2: an interface edge needs the same vertices on both sides. A point a face mesher split
+into an interface subsegment goes into the finished face across it: its boundary edge is split
+there (`topology.split_boundary_edges`), flips restore the Q-Delaunay property in that face's
+metric (`triangulate.restore`), and a boundary edge the point then encroaches there (a small
+metric angle at a corner) is split as the mesher splits its own (`conform.encroached`,
+`split_points`: concentric shells by an input point), the points landing on an interface going on
+in turn. So every share of q_ij in this face stays ≥ 0.
 """
 
 from __future__ import annotations

@@ -145,10 +145,11 @@ def _face_steps(plan: MediaPlan, i: int, extra: dict, options: dict, notes: list
     except QmeshError as e:
         raise plan.too_small(i) or e from None
     said: list = []
-    aim = plan.last_face_target(i, dom, meshes)
+    last_face = plan.last_face(i, dom, meshes)
     for k in range(FINER + 1):
         try:
-            sizing = {"size": plan.size_of(i) / 2**k} if aim is None or k else {"target_vertices": aim}
+            h = plan.h_rest * np.sqrt(plan.k[i]) / 2**k      # h in the user's metric ∇²s_r: h·√k_r
+            sizing = {"size": h} if last_face is None or k else last_face
             for last in _recording(loop.iterate(dom, plan.anis[i], **sizing, **options), said):
                 yield last
             break

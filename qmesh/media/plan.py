@@ -9,7 +9,7 @@ start from the same points.
 
 A face thin or sharp in its own metric needs more vertices than its area says, so the faces
 still to come are sized again before each face (`size_rest`), and the largest, meshed last, is
-given the count that remains (`last_face_target`): the run lands on N without a second run.
+given the count that remains (`last_face`): the run lands on N without a second run.
 """
 
 from __future__ import annotations
@@ -36,6 +36,8 @@ LEAST_SHARE = 0.5  # faces whose least count is this share of the target are siz
 THIN = 0.25      # a face w wide in its metric needs boundary pieces about this many w long
 TINY = 1e-5      # a face this small (× the domain's size) that cannot be meshed is named as the cause
 SLACK = 0.03     # ... and only when the faces done so far put the run this share off its target
+ROUND = 1e-6     # lengths this close count as equal (the face mesher measures them in its own frame)
+WHOLE = 0.01     # shared pieces up to this share longer than the last face's h are kept whole
 
 
 class MediaPlan:
@@ -111,11 +113,10 @@ class MediaPlan:
         if ext[j] > TINY * D:
             return None
         where = "" if j == i else f", and {self.face_name(i)} around it cannot be meshed"
-        return QmeshError(f"{self.face_name(j)} is {ext[j]:.3g} across, {ext[j] / D:.2g} × the "
-                          f"domain's size{where}: the points its metric needs on its edges come "
-                          "closer together than floating point resolves beside the rest of the "
-                          "domain; enlarge it, or leave it out (give that area its neighbour's "
-                          "conductivity)")
+        return QmeshError(f"{self.face_name(j)} is {ext[j]:.3g} across, {ext[j] / D:.2g} × the domain's "
+                          f"size{where}: the points its metric needs on its edges come closer together "
+                          "than floating point resolves beside the rest of the domain; enlarge it, or "
+                          "leave it out (give that area its neighbour's conductivity)")
 
     def count(self, h: float, faces: list, thin: bool = False) -> float:
         """Expected vertices the faces `faces` add at metric edge length h: Euler's estimate
@@ -159,16 +160,24 @@ class MediaPlan:
             h = self._size_for(rest, self.target - n_done, thin=True)
             self.h_rest = float(np.clip(h, self.h_rest, self.h_euler * COARSER))
 
-    def last_face_target(self, i: int, dom: Any, meshes: dict) -> int | None:
+    def last_face(self, i: int, dom: Any, meshes: dict) -> dict | None:
         """For the last face, the vertex count that lands the run on target_vertices (its own
         run then budgets the splits its boundary needs, `mesher.plan`); None for the others,
-        which are sized by h, or when the target leaves it no room."""
+        which are sized by h, or when the target leaves it no room. When the h of that count is
+        a hair shorter than the interface pieces its finished neighbours share (it would split
+        each in two and hand the halves back, where flips alone take them in), the pieces' size."""
         if self.target is None or i != self.order[-1] or not meshes:
             return None
         known = np.concatenate([m.points[np.unique(m.boundary_edges)] for m in meshes.values()])
         shared = int((cKDTree(known).query(dom.seeds)[0] == 0).sum())
         n = self.target - vertex_count(meshes.values()) + shared
-        return n if n > len(dom.seeds) else None
+        if n <= len(dom.seeds):
+            return None
+        a, k, L = self.anis[i], self.k[i], sizing.metric_edge_lengths(dom, self.anis[i], self.k[i])
+        h = sizing.size_for_vertices(sizing.metric_area_scaled(dom, a, k), L, n, BOUNDARY_FACTOR)
+        cut = float(L[self.part.interface[dom.segment_tags - 1]].max(initial=0)) / BOUNDARY_FACTOR
+        return ({"size": cut * (1 + ROUND) * np.sqrt(k)} if h * (1 - ROUND) <= cut <= h * (1 + WHOLE)
+                else {"target_vertices": n})                     # h·√k_r: h in the user's metric
 
     def _cuts(self, h: float) -> dict[int, np.ndarray]:
         """Points cutting each interface edge evenly into pieces ≤ h in both sides' metrics (the
@@ -178,9 +187,6 @@ class MediaPlan:
         return {int(e): V[E[e, 0]] + (np.arange(1, n) / n)[:, None] * (V[E[e, 1]] - V[E[e, 0]])
                 for e, n in zip(self._inter, pieces) if n > 1}
 
-    def size_of(self, i: int) -> float:
-        """The face mesher's `size`: h in the user's metric ∇²s_r (= h·√k_r)."""
-        return self.h_rest * np.sqrt(self.k[i])
 
 
 def vertex_count(meshes: Iterable[Mesh]) -> int:

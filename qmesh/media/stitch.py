@@ -31,11 +31,9 @@ def stitch(part, meshes: list, face_regions: list, domain) -> Mesh:
     # fixed: the input points of the user's domain and regions (the partition's vertices)
     fixed = marked(U, part.points)
     # boundary edges: the face meshes' edges on ∂Ω, with the user's tags
-    be, bt = [], []
-    for m, o in zip(meshes, offs):
-        e = m.boundary_tags - 1
-        on = (part.edge_tag[e] > 0) & (part.edge_faces[e] < 0).any(axis=1)
-        be.append(vid[m.boundary_edges[on] + o])
-        bt.append(part.edge_tag[e[on]])
+    e = [m.boundary_tags - 1 for m in meshes]
+    on = [(part.edge_tag[k] > 0) & (part.edge_faces[k] < 0).any(axis=1) for k in e]
+    be = [vid[m.boundary_edges[o] + off] for m, o, off in zip(meshes, on, offs)]
+    bt = [part.edge_tag[k[o]] for k, o in zip(e, on)]
     return Mesh(U, T, fixed, np.concatenate(be), np.concatenate(bt), domain.tag_names,
                 regions, domain.region_names)

@@ -75,3 +75,23 @@ def test_the_isosceles_triangle_is_the_best_with_a_given_angle(alpha):
     q = measure.quality(mesh, qmesh.Anisotropy.constant(np.eye(2)))
     assert q.max() == pytest.approx(best_quality(alpha), rel=1e-12)
     assert q[np.argmin(abs(t - 1))] == q.max()
+
+
+@pytest.mark.parametrize("n", [2000, 8000])
+def test_the_last_face_leaves_the_finished_faces_interfaces_whole(n):
+    """FVCA5 test 7's barrier is meshed first; at 8000 its interface pieces are exactly the
+    count's h long, which the last face's own count sized a hair finer and split every one of
+    them in two, handed back to the barrier (flips only: its triangles fell to 0.56). The
+    barrier's vertices when it is done are all it has at the end."""
+    domain, cond, _ = media_cases.fvca7()
+    band = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", qmesh.QmeshWarning)
+        for step in qmesh.iterate(domain, cond, target_vertices=n):
+            tags = step.mesh.region_tags
+            if (tags == 1).all():                   # the barrier alone: its run's steps
+                band = np.unique(step.mesh.triangles)
+    m = step.mesh
+    check_mesh(domain, cond, m)
+    assert len(np.unique(m.triangles[m.region_tags == 1])) == len(band) > 0
+    assert abs(m.n_vertices - n) <= 0.01 * n
