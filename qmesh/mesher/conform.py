@@ -277,6 +277,87 @@ def _encroaching_free(domain, P, edge_id, anisotropy, h, far=None) -> np.ndarray
     return keep
 
 
+def _in_ellipses(X, a, b, tree, ids, anisotropy, P):
+    """Pairs (k, j): point ids[j'] (a point of `tree`, built on X[ids]) encroaches subsegment
+    a[k]→b[k], by the exact test `encroached` on the k-d tree's candidates (metric discs)."""
+    if not len(a) or tree is None:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    M = 0.5 * (X[a] + X[b])
+    # `encroached` asks |C − M| < r(1 − 4e-9): the ends (at r) stay out of a disc this wide,
+    # so most discs are empty; they are counted first and listed only where a point lies
+    r = 0.5 * np.hypot(*(X[b] - X[a]).T) * (1 - 1e-9)
+    some = np.flatnonzero(tree.query_ball_point(M, r, return_length=True) > 0)
+    hits = tree.query_ball_point(M[some], r[some])
+    count = np.fromiter((len(h) for h in hits), np.int64, len(hits))
+    k = np.repeat(some, count)
+    j = ids[np.fromiter((i for h in hits for i in h), np.int64, int(count.sum()))]
+    other = (j != a[k]) & (j != b[k])
+    k, j = k[other], j[other]
+    enc = encroached(P[a[k]], P[b[k]], P[j], anisotropy)
+    return k[enc], j[enc]
+
+
+def _split_crowded(domain, P, edge_id, pinned, place, anisotropy, size, max_points):
+    """Constant Q, before a Qhull build: subsegments whose diametral ellipse holds another
+    boundary point (or, longer than LONG·h, any point) split, and the free interior points in
+    the ellipse of a shorter one dropped, until no ellipse holds a point.
+
+    A subsegment is an unencroached edge of the Q-Delaunay triangulation exactly when its
+    diametral ellipse holds no point (the apex on a side lies in it whenever any point of that
+    side does), so this is the fixed point `_conforming`'s rounds reach, found with a k-d tree
+    instead of one Qhull build per step: across a part thin in the metric each split encroaches
+    the opposite side's subsegments in turn, one Qhull build per step before. The points split
+    in for another boundary point are pinned, as the rounds pin them. None when the splits
+    would pass `max_points` (a corner too sharp for the run): the rounds then find the cause
+    (round-off crowding at the corner, or too many points) as they did."""
+    from scipy.spatial import cKDTree
+    n_seeds = len(domain.seeds)
+    A, Bend = domain.segment_ends
+    seg_len2 = np.einsum("ki,ki->k", Bend - A, Bend - A)
+    L = np.linalg.cholesky(anisotropy.H)
+    X = P @ L
+    inner = np.flatnonzero((np.arange(len(P)) >= n_seeds) & (edge_id < 0))
+    itree = cKDTree(X[inner]) if len(inner) else None
+    alive = np.ones(len(P), bool)
+    n_old = len(P)           # subsegments with an end at or past n_old are new
+    for _ in range(MAX_ROUNDS):
+        on = edge_id >= 0
+        t = np.zeros(len(P))
+        t[on] = np.einsum("ki,ki->k", P[on] - A[edge_id[on]], Bend[edge_id[on]] - A[edge_id[on]]) \
+            / seg_len2[edge_id[on]]
+        a, b = _subsegments(domain, n_seeds, edge_id, t)
+        L2 = metric_lengths2(P[a], P[b], anisotropy)
+        short = L2 <= (LONG * size) ** 2
+        bnd = np.flatnonzero((np.arange(len(P)) < n_seeds) | on)
+        kb, _ = _in_ellipses(X, a, b, cKDTree(X[bnd]), bnd, anisotropy, P)
+        # interior points: every long subsegment, and the new ones (short ones were cleared)
+        look = np.flatnonzero(~short | (a >= n_old) | (b >= n_old))
+        ki, ji = _in_ellipses(X, a[look], b[look], itree, inner, anisotropy, P)
+        live = alive[ji]
+        ki, ji = look[ki][live], ji[live]
+        drop = np.unique(ji[short[ki]])
+        split = np.zeros(len(a), bool)
+        split[kb] = True
+        split[ki[~short[ki]]] = True
+        split &= L2 > SHORTEST ** 2
+        if not len(drop) and not split.any():
+            break
+        alive[drop] = False
+        a, b = a[split], b[split]
+        n = int(alive.sum())
+        if max_points is not None and n + len(a) > max_points:
+            return None
+        new = split_points(P[a], P[b], a < n_seeds, b < n_seeds, anisotropy)
+        n_old = len(P)
+        P = np.concatenate([P, new])
+        X = np.concatenate([X, new @ L])
+        edge_id = np.concatenate([edge_id, np.where(a < n_seeds, a, edge_id[a])])
+        pinned = np.concatenate([pinned, np.ones(len(a), bool)])
+        place = np.concatenate([place, np.full(len(a), -1, np.int64)])
+        alive = np.concatenate([alive, np.ones(len(a), bool)])
+    return P[alive], edge_id[alive], pinned[alive], place[alive]
+
+
 def conforming_delaunay(domain, P: np.ndarray, edge_id: np.ndarray, anisotropy, h: float,
                         max_points: int | None = None, pinned: np.ndarray | None = None,
                         target: int | None = None, rng=None, lattice=None) -> Conforming:
@@ -324,7 +405,14 @@ def _conforming(domain, P, edge_id, anisotropy, size, max_points, pinned, place,
             far = (place >= 0) & lattice[1][np.maximum(place, 0)]
         keep = _encroaching_free(domain, P, edge_id, anisotropy, size, far)
         P, edge_id, pinned, place = P[keep], edge_id[keep], pinned[keep], place[keep]
+    presplit = anisotropy.is_constant
     for _ in range(MAX_ROUNDS):
+        crowded = _split_crowded(domain, P, edge_id, pinned, place, anisotropy, size,
+                                 max_points) if presplit else None
+        if crowded is None:
+            presplit = False          # past the run's points: the rounds name the cause
+        else:
+            P, edge_id, pinned, place = crowded
         n = len(P)
         t = np.zeros(n)
         on = edge_id >= 0

@@ -292,8 +292,8 @@ def _check_followable(domain, anisotropy, h: float, n: int) -> None:
               and more < sizing.MAX_VERTICES else "no mesh of a usable size would follow it")
     raise QmeshError(f"s varies faster than a mesh of {n} interior vertices can follow: over "
                      f"{100 * share:.0f}% of the domain's metric area its Hessian changes more than "
-                     f"{FOLLOW:g}× across one element; {advice} (ask for more vertices, or a "
-                     f"gentler s)")
+                     f"{FOLLOW:g}× across one element; {advice} (ask for more vertices: a larger "
+                     f"target_vertices or a smaller size; or a gentler s)")
 
 
 def initial_points(domain, anisotropy, n: int, rng) -> np.ndarray:

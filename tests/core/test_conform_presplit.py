@@ -1,0 +1,78 @@
+"""The splits a part thin in the metric needs before its first Qhull build (conform._split_crowded).
+
+Across a strip thin in its metric each split encroaches the opposite side's subsegments in turn;
+these splits are made with a k-d tree before Qhull runs, so the initial conforming
+triangulation takes one build where it took one per step. Checked here: the boundary points
+are those the build-by-build rounds reach (the rounds alone, with the pre-pass switched off, are
+the reference), no vertex lies in a boundary edge's diametral ellipse (written out from
+GEOMETRY.md §1), and the builds stay few.
+"""
+
+from unittest import mock
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import qmesh
+from qmesh import measure
+from qmesh.mesher import conform
+
+
+def _first_step(domain, anisotropy, n, presplit=True):
+    """The first Step (the initial conforming triangulation) and the Qhull builds it took."""
+    builds = [0]
+    build = conform.first_triangulation
+
+    def counted(*a, **k):
+        builds[0] += 1
+        return build(*a, **k)
+    off = {} if presplit else {"_split_crowded": lambda *a, **k: None}
+    with mock.patch.multiple(conform, first_triangulation=counted, **off):
+        step = next(iter(qmesh.iterate(domain, anisotropy, target_vertices=n)))
+    return step, builds[0]
+
+
+def _in_ellipses(mesh, H):
+    """Boundary edges whose diametral ellipse in H holds a vertex: (p−m)ᵀH(p−m) < ¼(b−a)ᵀH(b−a)."""
+    P, E = mesh.points, mesh.boundary_edges
+    a, b = P[E[:, 0]], P[E[:, 1]]
+    m, d = 0.5 * (a + b), b - a
+    r2 = 0.25 * np.einsum("ki,ij,kj->k", d, H, d)
+    D = P[None, :, :] - m[:, None, :]
+    inside = np.einsum("kpi,ij,kpj->kp", D, H, D) < r2[:, None] * (1 - 1e-6)
+    return int(inside.sum())
+
+
+@pytest.mark.slow(30)
+@settings(max_examples=6, deadline=None)
+@given(width=st.floats(0.002, 0.02), angle=st.floats(10, 80), ratio=st.floats(100, 1000),
+       n=st.integers(800, 2500))
+def test_thin_strips_conform_in_few_builds_at_the_rounds_own_points(width, angle, ratio, n):
+    strip = qmesh.Polygon([(0, 0), (1, 0), (1, width), (0, width)])
+    A = qmesh.Anisotropy.principal(1, ratio, angle)
+    try:
+        ref, ref_builds = _first_step(strip, A, n, presplit=False)
+    except qmesh.QmeshError as e:             # too few vertices for the strip: refused alike
+        with pytest.raises(qmesh.QmeshError) as again:
+            _first_step(strip, A, n)
+        assert str(again.value).split(":")[0] == str(e).split(":")[0]
+        return
+    step, builds = _first_step(strip, A, n)
+    m, r = step.mesh, ref.mesh
+    assert builds <= min(ref_builds, 4)
+    on = np.unique(m.boundary_edges)
+    on_ref = np.unique(r.boundary_edges)
+    assert np.array_equal(np.unique(m.points[on], axis=0), np.unique(r.points[on_ref], axis=0))
+    assert _in_ellipses(m, A.H) == 0
+    assert measure.q_nonnegative_fraction(m, A) == 1.0
+
+
+@pytest.mark.slow(17)
+def test_the_rotated_strip_needs_one_build_where_the_rounds_took_many():
+    strip = qmesh.Polygon([(0, 0), (1, 0), (1, 0.005), (0, 0.005)])
+    A = qmesh.Anisotropy.principal(1, 1000, 45)
+    _, builds = _first_step(strip, A, 3000)
+    _, ref_builds = _first_step(strip, A, 3000, presplit=False)
+    assert ref_builds > 3 and builds <= 2
