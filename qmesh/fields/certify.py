@@ -13,7 +13,10 @@ its quadrilateral is convex and the flip lowers the deficit of the quadrilateral
 (a flip judged on its own edge alone mends it by breaking a side, and such flips cycle without
 end), else split at the first of a few points along it that leaves the fewest failing edges
 around it (the midpoint first: smaller triangles see a more nearly constant Q); until none
-fails or the rounds run out, which is then said, never passed over.
+fails or the rounds run out, which is then said, never passed over. Given the metric the mesh
+was made in, the ends of the failing edges first take the mesher's shape step where that mends
+their star without a vertex, and once every edge passes the added vertices take it where that
+improves their star's worst quality and breaks no edge.
 """
 
 from __future__ import annotations
@@ -25,7 +28,9 @@ from numpy.typing import NDArray
 
 from qmesh.conductivity.anisotropy import adj2, shape_metric
 from qmesh.geometry import topology
-from qmesh.geometry.triangles import signed_areas
+from qmesh.geometry.topology import touching
+from qmesh.geometry.triangles import metric_quality, signed_areas
+from qmesh.mesher.adjust import limit_moves, shape_step
 from qmesh.triangle_mesh import Mesh
 
 ROUND = 1e-12       # q_ij may fall below 0 by this share of Σ|q_ij^T| (round-off of the assembly)
@@ -33,6 +38,8 @@ MAX_ROUNDS = 400    # rounds of flips and splits before the remaining edges are 
 STALL = 30          # ... or rounds without fewer failing edges than the best so far
 GAIN = 1e-9         # a flip must lower its quadrilateral's deficit by this share at least
 SPLIT_AT = 0.1      # an edge is split no nearer its ends than this share of it
+RELAX = 2           # rounds of shape steps mending edges before the next split
+SMOOTH = 4          # shape steps of the vertices the splits added, once every edge passes
 SHORTEST = 1e-9     # edges shorter than this share of the domain's extent are not split
 
 
@@ -62,9 +69,13 @@ def shares(P: NDArray[np.float64], T: NDArray[np.int64], Qbar: NDArray[np.float6
     return s.ravel(), bound.ravel()
 
 
-def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS) -> tuple[Mesh, Certificate]:
+def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
+            metric=None) -> tuple[Mesh, Certificate]:
     """`mesh` made to pass on every interior and boundary edge with `field`'s element means,
-    and what that took; the Mesh carries the means (`Mesh.conductivity`)."""
+    and what that took; the Mesh carries the means (`Mesh.conductivity`). With the `metric`
+    the mesh was made in, vertices are also moved by its shape step where that mends edges
+    without a split, and the vertices the splits added are smoothed where that keeps every
+    edge passing."""
     P, T = np.array(mesh.points), np.array(mesh.triangles)
     twin = topology.twins(T)
     fixed = np.array(mesh.fixed)
@@ -75,6 +86,8 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS) -> tuple[Mesh, Cert
     flips = added = 0
     shortest = SHORTEST * float(np.ptp(P, axis=0).max())
     fewest, since = np.inf, 0
+    rng = np.random.default_rng(0)
+    tries = 0                                  # shape steps since the last split
     for rounds in range(max_rounds + 1):
         s, b = shares(P, T, Qbar, err)
         h, q, slack = _failing(s, b, twin)
@@ -84,24 +97,54 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS) -> tuple[Mesh, Cert
         if not len(h) or rounds == max_rounds or since > STALL:
             break
         done = _flips(P, T, twin, h, s, b, field)
+        t = done[:0]
         if len(done):
             t = np.concatenate([done // 3, twin[done] // 3])
             T, twin = topology.flip(T, twin, done)
             flips += len(done)
-        else:
+        elif metric is not None and tries < RELAX:
+            tries += 1
+            ends = _free(T, twin, fixed, _ends(T, h))
+            if len(ends):
+                P, t = _relax(P, T, twin, Qbar, err, s, b, field, metric,
+                              _movers(T, twin, ends, rng), shape=False)
+        if not len(t):
             keep = _longer(P, T, h, shortest)
             if not keep.any():
                 break
             P, T, twin, fixed, out, t = _splits(P, T, twin, fixed, out, h[keep], q[keep],
                                                 s, b, Qbar, field)
             added = len(P) - mesh.n_vertices
+            tries = 0
         Qbar, err = _refresh(field, P, T, Qbar, err, t)
+    if metric is not None and not len(h) and added:
+        new = _free(T, twin, fixed, np.arange(mesh.n_vertices, len(P)))
+        for _ in range(SMOOTH):
+            s, b = shares(P, T, Qbar, err)
+            P, t = _relax(P, T, twin, Qbar, err, s, b, field, metric,
+                          _movers(T, twin, new, rng), shape=True)
+            Qbar, err = _refresh(field, P, T, Qbar, err, t)
+        s, b = shares(P, T, Qbar, err)
+        h, q, slack = _failing(s, b, twin)
     worst = float(slack.min()) if len(slack) else 0.0
     hb = np.flatnonzero(twin < 0)
     tb, kb = np.divmod(hb, 3)
     E = np.column_stack([T[tb, kb], T[tb, topology.NXT[kb]]])
     done_mesh = Mesh(P, T, fixed, E, out[E[:, 0]], mesh.tag_names, conductivity=Qbar)
     return done_mesh, Certificate(rounds, flips, added, len(h), worst)
+
+
+def _ends(T, h):
+    """The two ends of each half-edge h."""
+    return np.concatenate([T[h // 3, h % 3], T[h // 3, topology.NXT[h % 3]]])
+
+
+def _free(T, twin, fixed, v):
+    """The vertices among v that may move: neither seeds nor on the boundary."""
+    on = np.zeros(len(fixed), bool)
+    on[_ends(T, np.flatnonzero(twin < 0))] = True
+    v = topology.sorted_unique(np.asarray(v, np.int64))
+    return v[~fixed[v] & ~on[v]]
 
 
 def _failing(s, b, twin):
@@ -290,6 +333,83 @@ def _split_points(P, T, twin, h, s, b, Qbar, field):
         failing += (~(q - bound >= -ROUND * scale)).reshape(k, c)
     order = np.argmin(failing, axis=1)             # the first of the fewest failing: midpoint first
     return X[np.arange(k), order]
+
+
+def _movers(T, twin, candidates, rng):
+    """Candidate vertices no two of which touch one triangle or two neighbouring triangles, so
+    each edge's shares move with one vertex at most (random priorities, a Luby-style round)."""
+    prio = np.zeros(int(T.max()) + 1)
+    prio[candidates] = 1.0 + rng.random(len(candidates))
+    corner = prio[T]
+    tri = corner.max(axis=1)
+    nb = np.where(twin >= 0, twin // 3, np.repeat(np.arange(len(T)), 3)).reshape(-1, 3)
+    wide = np.maximum(tri, tri[nb].max(axis=1))
+    best = np.zeros(len(prio))
+    np.maximum.at(best, T.ravel(), np.repeat(wide, 3))
+    return candidates[best[candidates] == prio[candidates]]
+
+
+def _relax(P, T, twin, Qbar, err, s, b, field, metric, movers, shape):
+    """Move the vertices `movers` (`_movers`) by the mesher's shape step in `metric`
+    (`adjust.shape_step`, capped by `adjust.limit_moves`) where their star is better for it:
+    no more failing edges and no higher deficit, and fewer or a lower deficit (shape=False: a
+    repair that adds no vertex); no more failing edges, no higher deficit and a better worst
+    metric quality of the star in its own means (shape=True). Returns the new P and the
+    triangles that changed."""
+    n = len(P)
+    mask = np.zeros(n, bool)
+    mask[movers] = True
+    near = T[touching(T, mask)]                # the movers' stars: all a move can change
+    d = shape_step(P, near, metric, mask)
+    _, d = limit_moves(P, near, d)
+    moving = mask & (np.hypot(d[:, 0], d[:, 1]) > 0)
+    star = np.flatnonzero(touching(T, moving))
+    if not len(star):
+        return P, star
+    Pn = P + d
+    Ts = T[star]
+    Qn, en = field.means_with_error(Pn, Ts)
+    Qn, en = np.asarray(Qn, dtype=float), np.asarray(en, dtype=float)
+    sn, bn = shares(Pn, Ts, Qn, en)
+    he = (3 * star[:, None] + np.arange(3)).ravel()
+    local = np.full(len(T), -1, np.int64)
+    local[star] = np.arange(len(star))
+    tw = twin[he]
+    tw_local = np.where(tw >= 0, local[tw // 3], -1)
+    inside = tw_local >= 0
+    tw_he_local = np.where(inside, 3 * tw_local + tw % 3, 0)
+    once = ~inside | (he < tw)                     # each edge of the stars once
+    old_q = s[he] + np.where(tw >= 0, s[np.maximum(tw, 0)], 0.0)
+    old_b = b[he] + np.where(tw >= 0, b[np.maximum(tw, 0)], 0.0)
+    old_c = np.abs(s[he]) + np.where(tw >= 0, np.abs(s[np.maximum(tw, 0)]), 0.0)
+    other = np.where(inside, sn[tw_he_local], np.where(tw >= 0, s[np.maximum(tw, 0)], 0.0))
+    other_b = np.where(inside, bn[tw_he_local], np.where(tw >= 0, b[np.maximum(tw, 0)], 0.0))
+    new_q, new_b = sn + other, bn + other_b
+    new_c = np.abs(sn) + np.abs(other)
+    tri_owner = Ts[np.arange(len(star)), np.argmax(moving[Ts], axis=1)]   # its one mover
+    owner = np.repeat(tri_owner, 3)[once]
+
+    def per_vertex(q, bound, scale):
+        fail = np.bincount(owner, ~(q[once] - bound[once] >= -ROUND * scale[once]), minlength=n)
+        deficit = np.bincount(owner, _deficit(q, bound)[once], minlength=n)
+        return fail, deficit
+    f0, d0 = per_vertex(old_q, old_b, old_c)
+    f1, d1 = per_vertex(new_q, new_b, new_c)
+    flat = np.zeros(n, bool)
+    flat[tri_owner[~(signed_areas(Pn, Ts) > 0)]] = True
+    if shape:
+        q0, q1 = np.full(n, np.inf), np.full(n, np.inf)
+        np.minimum.at(q0, tri_owner, np.nan_to_num(metric_quality(P, Ts, shape_metric(Qbar[star])), nan=0.0))
+        np.minimum.at(q1, tri_owner, np.nan_to_num(metric_quality(Pn, Ts, shape_metric(Qn)), nan=0.0))
+        take = (f1 <= f0) & (d1 <= d0) & (q1 > q0)
+    else:
+        take = (f1 <= f0) & (d1 <= d0) & ((f1 < f0) | (d1 < (1.0 - GAIN) * d0))
+    take &= moving & ~flat
+    if not take.any():
+        return P, star[:0]
+    P = P.copy()
+    P[take] += d[take]
+    return P, np.flatnonzero(touching(T, take))
 
 
 def _refresh(field, P, T, Qbar, err, t):

@@ -58,7 +58,7 @@ def _certified(steps: Iterator[Step], field: Any, metric: Any,
         yield replace(last, converged=False)
     assert last is not None
     warn_if_thin(last.mesh, metric, stacklevel=4)
-    m, cert = certify(last.mesh, field)
+    m, cert = certify(last.mesh, field, metric=metric)
     final = Step("triangulate", last.iteration, m,
                  Stats(m.n_vertices, m.n_triangles, flips=cert.flips, added=cert.added,
                        source=(m, metric)), converged=True)

@@ -1,5 +1,6 @@
 """The repair pass (qmesh/fields/certify.py): its flips only lower the total deficit (so they end),
-its splits never put a new vertex off the edge they split, and a raster whose triangles are
+its splits never put a new vertex off the edge they split, its shape steps add no failing edge,
+and a raster whose triangles are
 smaller than its cells — where flips judged on their own edge alone cycled without end — is
 certified on means computed here by clipping."""
 
@@ -10,7 +11,9 @@ from scipy.spatial import Delaunay
 
 import qmesh
 from qmesh.fields import certify as C
+from qmesh.fields.metric import field_metric
 from qmesh.geometry import topology
+from qmesh.geometry.triangles import signed_areas
 from tests.fields.reference import cell_tensors
 from tests.fields.test_field_mesh import (UNIT, meshed, positive_off_diagonals,
                                           raster_reference_means)
@@ -99,3 +102,30 @@ def test_rasters_finer_meshed_than_their_cells_are_certified(seed, cells, target
     ref = raster_reference_means(edges, edges, cell_tensors(k1, k2, angle), m.points, m.triangles)
     assert np.allclose(m.conductivity, ref, rtol=1e-9, atol=1e-12)
     assert positive_off_diagonals(m.points, m.triangles, ref) == 0
+
+
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), n=st.integers(30, 200), cells=st.integers(2, 10),
+       shape=st.booleans())
+def test_shape_steps_never_add_failing_edges_nor_deficit(seed, n, cells, shape):
+    """A vertex moves only where its star gets better: no edge of the mesh starts failing, the
+    total deficit does not grow, and no triangle turns over."""
+    P, T = square_mesh(seed, n)
+    edges, k1, k2, angle = random_raster(seed, cells, 2.0)
+    field = qmesh.TensorField.from_raster(edges, edges, k1, k2, angle)
+    metric = field_metric(field, 0.1, (np.zeros(2), np.ones(2)))
+    before, s, b, twin = total_deficit(P, T, field)
+    h0, _, _ = C._failing(s, b, twin)
+    Qbar, err = (np.asarray(x) for x in field.means_with_error(P, T))
+    fixed = np.zeros(len(P), bool)
+    fixed[:4] = True
+    movers = C._movers(T, twin, C._free(T, twin, fixed, np.arange(len(P))),
+                       np.random.default_rng(seed))
+    P2, _ = C._relax(P, T, twin, Qbar, err, s, b, field, metric, movers, shape=shape)
+    assert np.all(signed_areas(P2, T) > 0)
+    after, s2, b2, _ = total_deficit(P2, T, field)
+    h1, _, _ = C._failing(s2, b2, twin)
+    assert len(h1) <= len(h0)
+    assert after <= before * (1 + 1e-9) + 1e-15
+    moved = np.flatnonzero(np.any(P2 != P, axis=1))
+    assert np.isin(moved, movers).all()
