@@ -78,8 +78,10 @@ def parser() -> argparse.ArgumentParser:
                    help="start with s(x, y) given as text, e.g. 'exp(x) + y**2' "
                         "(default: the constant Q = diag(0.1, 10))")
     p.add_argument("--memory-budget", type=memory_size, default=None, metavar="SIZE",
-                   help="refuse requests whose estimated memory exceeds SIZE (e.g. 4G, 512M; "
-                        "default: half the memory available when the request is made)")
+                   help="memory the server may hold (e.g. 4G, 512M): a request whose whole "
+                        "estimated cost (mesher, kept stages, measures, views) would not fit "
+                        "beside what the server holds is refused, naming the largest target that "
+                        "fits (default: half the memory available when the request is made)")
     return p
 
 

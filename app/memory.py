@@ -21,10 +21,10 @@ from __future__ import annotations
 from qmesh.errors import QmeshError
 from qmesh.mesher import budget
 
-BYTES_PER_VERTEX = {"constant": 5600, "varying": 6000, "medium": 6000, "field": 6000}
+BYTES_PER_VERTEX = {"constant": 5600, "varying": 6000, "medium": 6000, "field": 7500}
 """Peak resident bytes per vertex of a whole request (the run to its end, every stage kept,
 measured and drawn), by kind of conductivity; `python benchmarks/bench_view_memory.py`."""
-VIRTUAL_BYTES_PER_VERTEX = {"constant": 10000, "varying": 10000, "medium": 10000, "field": 10000}
+VIRTUAL_BYTES_PER_VERTEX = {"constant": 10000, "varying": 10000, "medium": 10000, "field": 12000}
 """The same for the address space (VmPeak), what RLIMIT_AS counts."""
 FIXED_BYTES = 96 * 2**20
 """What any request adds whatever its size (the first triangulation's working arrays, the

@@ -66,7 +66,10 @@ def test_the_estimate_grows_with_the_target_and_exceeds_the_mesher_alone():
 
 
 LIMITED = r"""
-import json, re, resource, sys
+import json, os, re, resource, sys
+os.environ.setdefault("PYVISTA_OFF_SCREEN", "true")
+os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+from qmesh_view.draw import ViewSet
 from qmesh_view.session import Session
 
 def status(field):
@@ -75,17 +78,24 @@ def status(field):
             if line.startswith(field):
                 return int(line.split()[1]) * 1024
 
+views = ViewSet()
 s = Session(target_vertices=300)
-s.controller.finish(); s.status(); s.convergence()        # a first request: imports, caches
+def show():
+    views.draw(s.current, s.anisotropy, domain=s.domain)
+    views.images()
+s.controller.finish(); s.status(); s.convergence(); show()    # a first request, as a server
 limit = status("VmSize:") + int(sys.argv[1])
 resource.setrlimit(resource.RLIMIT_AS, (limit, resource.RLIM_INFINITY))
 out = s.change("target_vertices", 1_000_000)
 most = int(re.search(r"fits is about (\d+)", out.message).group(1)) if out.kind == "refused" else None
 done = s.change("target_vertices", most) if most else None
-while done is not None and done.ok and not s.at_end:
+if done is not None and done.ok:
+    show()
+while done is not None and done.ok and not s.at_end:       # every stage measured and drawn
     done = s.step()
     if done.ok:
         s.status()
+        show()
 rows = s.convergence() if done is not None and done.ok else None
 print(json.dumps({"refused": out.kind == "refused", "message": out.message, "most": most,
                   "done": None if done is None else [done.kind, done.message],
@@ -95,6 +105,8 @@ print(json.dumps({"refused": out.kind == "refused", "message": out.message, "mos
 
 
 def test_under_an_address_space_limit_the_accepted_request_runs_to_its_end():
+    """A real RLIMIT_AS 500 MiB above what a server that drew a first request maps: 1e6 is
+    refused naming the limit, the largest target named is meshed, measured and drawn to its end."""
     room = 500 * MIB
     out = subprocess.run([sys.executable, "-c", LIMITED, str(room)], capture_output=True,
                          text=True, timeout=900)
