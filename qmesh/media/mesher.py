@@ -145,11 +145,10 @@ def _face_steps(plan: MediaPlan, i: int, extra: dict, options: dict, notes: list
     except QmeshError as e:
         raise plan.too_small(i) or e from None
     said: list = []
-    last_face = plan.last_face(i, dom, meshes)
+    first = plan.sizing_of(i, dom, meshes)
     for k in range(FINER + 1):
         try:
-            h = plan.h_rest * np.sqrt(plan.k[i]) / 2**k      # h in the user's metric ∇²s_r: h·√k_r
-            sizing = {"size": h} if last_face is None or k else last_face
+            sizing = {"size": plan.h_rest * np.sqrt(plan.k[i]) / 2**k} if k else first
             for last in _recording(loop.iterate(dom, plan.anis[i], **sizing, **options), said):
                 yield last
             break

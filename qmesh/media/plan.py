@@ -9,7 +9,7 @@ start from the same points.
 
 A face thin or sharp in its own metric needs more vertices than its area says, so the faces
 still to come are sized again before each face (`size_rest`), and the largest, meshed last, is
-given the count that remains (`last_face`): the run lands on N without a second run.
+given the count that remains (`sizing_of`): the run lands on N without a second run.
 """
 
 from __future__ import annotations
@@ -37,7 +37,7 @@ THIN = 0.25      # a face w wide in its metric needs boundary pieces about this 
 TINY = 1e-5      # a face this small (× the domain's size) that cannot be meshed is named as the cause
 SLACK = 0.03     # ... and only when the faces done so far put the run this share off its target
 ROUND = 1e-6     # lengths this close count as equal (the face mesher measures them in its own frame)
-WHOLE = 0.01     # shared pieces up to this share longer than the last face's h are kept whole
+WHOLE = 0.01     # shared pieces up to this share longer than a face's h are kept whole
 
 
 class MediaPlan:
@@ -160,24 +160,23 @@ class MediaPlan:
             h = self._size_for(rest, self.target - n_done, thin=True)
             self.h_rest = float(np.clip(h, self.h_rest, self.h_euler * COARSER))
 
-    def last_face(self, i: int, dom: Any, meshes: dict) -> dict | None:
-        """For the last face, the vertex count that lands the run on target_vertices (its own
-        run then budgets the splits its boundary needs, `mesher.plan`); None for the others,
-        which are sized by h, or when the target leaves it no room. When the h of that count is
+    def sizing_of(self, i: int, dom: Any, meshes: dict) -> dict:
+        """The face mesher's sizing of face i: `size` h·√k_r (h in the user's metric ∇²s_r), or
+        for the last face the count that lands the run on target_vertices when it leaves room
+        (its own run then budgets the splits its boundary needs, `mesher.plan`). When that h is
         a hair shorter than the interface pieces its finished neighbours share (it would split
         each in two and hand the halves back, where flips alone take them in), the pieces' size."""
-        if self.target is None or i != self.order[-1] or not meshes:
-            return None
-        known = np.concatenate([m.points[np.unique(m.boundary_edges)] for m in meshes.values()])
-        shared = int((cKDTree(known).query(dom.seeds)[0] == 0).sum())
-        n = self.target - vertex_count(meshes.values()) + shared
-        if n <= len(dom.seeds):
-            return None
         a, k, L = self.anis[i], self.k[i], sizing.metric_edge_lengths(dom, self.anis[i], self.k[i])
-        h = sizing.size_for_vertices(sizing.metric_area_scaled(dom, a, k), L, n, BOUNDARY_FACTOR)
+        n = 0
+        if self.target is not None and i == self.order[-1] and meshes:
+            known = np.concatenate([m.points[np.unique(m.boundary_edges)] for m in meshes.values()])
+            n = self.target - vertex_count(meshes.values()) + int((cKDTree(known).query(dom.seeds)[0] == 0).sum())
+        count = n > len(dom.seeds)
+        h = sizing.size_for_vertices(sizing.metric_area_scaled(dom, a, k), L, n, BOUNDARY_FACTOR) if count else self.h_rest
         cut = float(L[self.part.interface[dom.segment_tags - 1]].max(initial=0)) / BOUNDARY_FACTOR
-        return ({"size": cut * (1 + ROUND) * np.sqrt(k)} if h * (1 - ROUND) <= cut <= h * (1 + WHOLE)
-                else {"target_vertices": n})                     # h·√k_r: h in the user's metric
+        if h * (1 - ROUND) <= cut <= h * (1 + WHOLE):
+            return {"size": cut * (1 + ROUND) * np.sqrt(k)}
+        return {"target_vertices": n} if count else {"size": h * np.sqrt(k)}
 
     def _cuts(self, h: float) -> dict[int, np.ndarray]:
         """Points cutting each interface edge evenly into pieces ≤ h in both sides' metrics (the
