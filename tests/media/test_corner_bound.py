@@ -95,3 +95,33 @@ def test_the_last_face_leaves_the_finished_faces_interfaces_whole(n):
     check_mesh(domain, cond, m)
     assert len(np.unique(m.triangles[m.region_tags == 1])) == len(band) > 0
     assert abs(m.n_vertices - n) <= 0.01 * n
+
+
+@pytest.mark.parametrize("shorter", [0.002, 0.009])
+def test_a_face_sized_a_hair_under_its_shared_pieces_keeps_them_whole(shorter):
+    """The barrier's interface pieces against an h just under their length: the face mesher
+    at that h would split every one in two; `sizing_of` sizes it at the pieces' length, where
+    it adds no point on them. Well under (a tenth), the h stays: those pieces are too long."""
+    from qmesh.media.faces import face_domain
+    from qmesh.media.plan import MediaPlan
+    from qmesh.mesher import loop, sizing
+
+    domain, cond, _ = media_cases.fvca7()
+    plan = MediaPlan(domain, cond, 8000, None)
+    i = plan.order[0]
+    dom = face_domain(plan.part, plan.faces[i], plan.extra, plan.face_name(i))
+    inter = plan.part.interface[dom.segment_tags - 1]
+    cut = sizing.metric_edge_lengths(dom, plan.anis[i], plan.k[i])[inter].max()
+
+    def added_on_interfaces(size):
+        m = loop.mesh(dom, plan.anis[i], size=size)
+        b = m.boundary_edges[np.isin(m.boundary_tags - 1, np.flatnonzero(plan.part.interface))]
+        return int((np.unique(b) >= len(dom.seeds)).sum())
+
+    plan.h_rest = cut * (1 - shorter)
+    assert added_on_interfaces(plan.h_rest * np.sqrt(plan.k[i])) >= inter.sum()   # each split
+    size = plan.sizing_of(i, dom, {})["size"]
+    assert size >= cut * np.sqrt(plan.k[i])
+    assert added_on_interfaces(size) == 0
+    plan.h_rest = cut * 0.9
+    assert plan.sizing_of(i, dom, {})["size"] == pytest.approx(plan.h_rest * np.sqrt(plan.k[i]))
