@@ -164,8 +164,8 @@ class MediaPlan:
         """The face mesher's sizing of face i: `size` h·√k_r (h in the user's metric ∇²s_r), or
         for the last face the count that lands the run on target_vertices when it leaves room
         (its own run then budgets the splits its boundary needs, `mesher.plan`). When that h is
-        a hair shorter than the interface pieces its finished neighbours share (it would split
-        each in two and hand the halves back, where flips alone take them in), the pieces' size."""
+        a hair shorter than its interface pieces (it would split each in two, and a finished
+        neighbour takes the halves in by flips alone), the pieces' size."""
         a, k, L = self.anis[i], self.k[i], sizing.metric_edge_lengths(dom, self.anis[i], self.k[i])
         n = 0
         if self.target is not None and i == self.order[-1] and meshes:
