@@ -278,8 +278,9 @@ def _encroaching_free(domain, P, edge_id, anisotropy, h, far=None) -> np.ndarray
 
 
 def _in_ellipses(X, a, b, tree, ids, anisotropy, P):
-    """Pairs (k, j): point ids[j'] (a point of `tree`, built on X[ids]) encroaches subsegment
-    a[k]→b[k], by the exact test `encroached` on the k-d tree's candidates (metric discs)."""
+    """Pairs (k, j): point ids[j'] (a point of `tree`, built on X[ids]) on the left of
+    a[k]→b[k] encroaches it, by the exact test `encroached` on the k-d tree's candidates
+    (metric discs in X = P L, which keeps orientation)."""
     if not len(a) or tree is None:
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
     M = 0.5 * (X[a] + X[b])
@@ -291,7 +292,9 @@ def _in_ellipses(X, a, b, tree, ids, anisotropy, P):
     count = np.fromiter((len(h) for h in hits), np.int64, len(hits))
     k = np.repeat(some, count)
     j = ids[np.fromiter((i for h in hits for i in h), np.int64, int(count.sum()))]
-    other = (j != a[k]) & (j != b[k])
+    # on the side of Ω only (on the left of a→b), as the rounds test the apex on that side
+    E, C = X[b[k]] - X[a[k]], X[j] - X[a[k]]
+    other = (j != a[k]) & (j != b[k]) & (E[:, 0] * C[:, 1] - E[:, 1] * C[:, 0] > 0)
     k, j = k[other], j[other]
     enc = encroached(P[a[k]], P[b[k]], P[j], anisotropy)
     return k[enc], j[enc]
@@ -299,12 +302,12 @@ def _in_ellipses(X, a, b, tree, ids, anisotropy, P):
 
 def _split_crowded(domain, P, edge_id, pinned, place, anisotropy, size, max_points):
     """Constant Q, before a Qhull build: subsegments whose diametral ellipse holds another
-    boundary point (or, longer than LONG·h, any point) split, and the free interior points in
-    the ellipse of a shorter one dropped, until no ellipse holds a point.
+    boundary point (or, longer than LONG·h, any point) on the side of Ω split, and the free
+    interior points in the ellipse of a shorter one dropped, until no ellipse holds a point.
 
-    A subsegment is an unencroached edge of the Q-Delaunay triangulation exactly when its
-    diametral ellipse holds no point (the apex on a side lies in it whenever any point of that
-    side does), so this is the fixed point `_conforming`'s rounds reach, found with a k-d tree
+    A subsegment's apex on the side of Ω (the one the rounds test) lies in its diametral
+    ellipse whenever any point of that side does, so this is the fixed point `_conforming`'s
+    rounds reach, found with a k-d tree
     instead of one Qhull build per step: across a part thin in the metric each split encroaches
     the opposite side's subsegments in turn, one Qhull build per step before. The points split
     in for another boundary point are pinned, as the rounds pin them. None when the splits
