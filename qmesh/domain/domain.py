@@ -25,6 +25,7 @@ from qmesh.errors import QmeshError
 
 MAX_POINTS = 10_000_000
 TOUCH = 1e-9    # a point this close (× the domain's size) to a segment not its own touches it
+SMALL = 64      # rings of at most this many points in all are checked pair by pair
 
 Ring = Union[ArrayLike, "Domain"]
 """A ring of points: an (n, 2) array-like, or a `Polygon` / one-ring `Domain` standing for its outline."""
@@ -62,16 +63,20 @@ def _as_points(ring: Ring, name: str) -> NDArray[np.float64]:
     return P
 
 
-def _check_points(P: NDArray[np.float64], name: str) -> None:
-    """Repeated consecutive points are refused (they would be one vertex)."""
-    E = np.roll(P, -1, axis=0) - P
+def _check_points(raw: list[NDArray[np.float64]]) -> None:
+    """Repeated consecutive points are refused (they would be one vertex); all rings at once."""
+    sizes = [len(P) for P in raw]
+    P = np.concatenate(raw)
+    E = P[_next_points(sizes)] - P
     length = np.hypot(E[:, 0], E[:, 1])
     # points closer than round-off at their magnitude cannot be told apart
     tiny = length <= 8 * np.finfo(float).eps * np.abs(P).max(axis=1)
     if tiny.any():
-        i = int(np.flatnonzero(tiny)[0])
-        raise QmeshError(f"{name} has repeated points: point {i} and point {(i + 1) % len(P)} "
-                         f"coincide at {P[i].tolist()}")
+        at = int(np.flatnonzero(tiny)[0])
+        k = int(np.searchsorted(np.cumsum(sizes), at, side="right"))
+        i = at - int(sum(sizes[:k]))
+        raise QmeshError(f"{_ring_name(k)} has repeated points: point {i} and point "
+                         f"{(i + 1) % sizes[k]} coincide at {P[at].tolist()}")
 
 
 def _check_ring_area(P: NDArray[np.float64], name: str) -> float:
@@ -120,8 +125,7 @@ class Domain:
         holes = checks.polygon_list(holes, "holes")
         raw = [_as_points(outer, "the outline")]
         raw += [_as_points(h, _ring_name(k + 1)) for k, h in enumerate(holes)]
-        for k, P in enumerate(raw):
-            _check_points(P, _ring_name(k))
+        _check_points(raw)
         if tags is not None:
             try:
                 tags = list(tags)
@@ -162,14 +166,12 @@ class Domain:
         seeds = np.concatenate(oriented)
         seeds.setflags(write=False)
         self._seeds = seeds
-        offsets = np.cumsum([0] + [len(P) for P in oriented])
-        nxt = np.concatenate([np.roll(np.arange(o, o + len(P)), -1)
-                              for o, P in zip(offsets, oriented)])
-        self._segments = np.column_stack([np.arange(len(seeds)), nxt])
+        sizes = [len(P) for P in oriented]
+        self._segments = np.column_stack([np.arange(len(seeds)), _next_points(sizes)])
         self._segments.setflags(write=False)
         self._segment_tags = np.concatenate(seg_tags)
         self._segment_tags.setflags(write=False)
-        self._ring_of_seed = np.repeat(np.arange(len(oriented)), np.diff(offsets))
+        self._ring_of_seed = np.repeat(np.arange(len(oriented)), sizes)
         self._area = area
 
     @classmethod
@@ -183,6 +185,59 @@ class Domain:
         new._store(rings, [np.full(len(P), k + 1, np.int64) for k, P in enumerate(rings)], area)
         new._tag_names, new._regions, new._region_names, new._partition = {}, (), {}, None
         return new
+
+    @classmethod
+    def _many(cls, rings: Sequence[Ring]) -> list[Domain] | None:
+        """`[Domain(r) for r in rings]` for many small rings (≤ SMALL points each), checked all
+        at once: a thousand regions checked one by one cost more than their partition. None
+        when a ring is large or fails a check; `Domain(r)` one by one then says which, as before."""
+        try:
+            raw = [_as_points(r, "the outline") for r in rings]
+        except QmeshError:
+            return None
+        sizes = np.array([len(P) for P in raw])
+        if not len(raw) or sizes.max() > SMALL:
+            return None
+        try:
+            _check_points(raw)
+        except QmeshError:
+            return None
+        # each ring moved and scaled on its own, as `_normalised` does for one domain
+        P = np.concatenate(raw)
+        start = np.cumsum(sizes) - sizes
+        lo, hi = np.minimum.reduceat(P, start), np.maximum.reduceat(P, start)
+        with np.errstate(over="ignore", invalid="ignore"):
+            d = (hi - lo).max(axis=1)
+        if not np.isfinite(d).all():
+            return None
+        ring = np.repeat(np.arange(len(raw)), sizes)
+        X = (P - (0.5 * lo + 0.5 * hi)[ring]) / d[ring, None]
+        nxt = _next_points(list(sizes))
+        # segment pairs i < j of one ring; (point, segment) pairs of one ring
+        left = (start + sizes)[ring] - np.arange(len(P)) - 1
+        i = np.repeat(np.arange(len(P)), left)
+        j = i + 1 + np.arange(len(i)) - np.repeat(np.cumsum(left) - left, left)
+        sg = np.repeat(np.arange(len(P)), sizes[ring])
+        pt = start[ring][sg] + np.arange(len(sg)) - np.repeat(np.cumsum(sizes[ring]) - sizes[ring], sizes[ring])
+        keep = (pt != sg) & (pt != nxt[sg])
+        pt, sg = pt[keep], sg[keep]
+        xlo, xhi = np.minimum.reduceat(X, start), np.maximum.reduceat(X, start)
+        reach = TOUCH * (xhi - xlo).max(axis=1)
+        if (len(_crossings(X, np.arange(len(P)), nxt, (i, j)))
+                or (_rings.point_segment_distance(X[pt], X[sg], X[nxt[sg]]) <= reach[ring[sg]]).any()):
+            return None
+        out = []
+        for R in raw:
+            try:
+                area = _check_ring_area(R, "the outline")
+            except QmeshError:
+                return None
+            t = np.ones(len(R), np.int64)
+            new = object.__new__(cls)
+            new._store([R if area > 0 else np.roll(R[::-1], 1, axis=0)], [t], abs(area))
+            new._tag_names, new._regions, new._region_names, new._partition = {}, (), {}, None
+            out.append(new)
+        return out
 
     @classmethod
     def from_cells(cls, x: ArrayLike, y: ArrayLike, k1: ArrayLike, k2: ArrayLike,
@@ -355,14 +410,61 @@ def _normalised(raw: list[NDArray[np.float64]]) -> list[NDArray[np.float64]]:
     return [(P - c) / d for P in raw]
 
 
+def _next_points(sizes: list[int]) -> NDArray[np.int64]:
+    """For rings of `sizes` points concatenated, the index of every point's successor on its
+    ring (the last point's is the ring's first)."""
+    n = int(sum(sizes))
+    nxt = np.arange(1, n + 1)
+    ends = np.cumsum(sizes)
+    nxt[ends - 1] = ends - np.asarray(sizes)
+    return nxt
+
+
+def _crossings(pts: NDArray[np.float64], ia: NDArray[np.int64], ib: NDArray[np.int64],
+               pairs: tuple[NDArray[np.int64], NDArray[np.int64]] | None = None) -> NDArray[np.int64]:
+    """`rings.crossings` of the segments pts[ia] → pts[ib]; up to SMALL points, or among the
+    segment `pairs` (i < j) given, over every pair at once (the same pairs, in the same order:
+    the y-sweep's set-up costs more there)."""
+    if pairs is None and len(pts) > SMALL:
+        return _rings.crossings(pts[ia], pts[ib], ia, ib)
+    i, j = np.triu_indices(len(ia), 1) if pairs is None else pairs
+    a, b, c, d = pts[ia[i]], pts[ib[i]], pts[ia[j]], pts[ib[j]]
+    o1, o2, o3, o4 = (_rings._orient(a, b, c), _rings._orient(a, b, d), _rings._orient(c, d, a),
+                      _rings._orient(c, d, b))
+    proper = (o1 * o2 < 0) & (o3 * o4 < 0)
+    touch = (((o1 == 0) & _rings._on_segment(a, b, c)) | ((o2 == 0) & _rings._on_segment(a, b, d))
+             | ((o3 == 0) & _rings._on_segment(c, d, a)) | ((o4 == 0) & _rings._on_segment(c, d, b)))
+    aa, ab, ba = ia[i] == ia[j], ia[i] == ib[j], ib[i] == ia[j]
+    shared = aa | ab | ba | (ib[i] == ib[j])
+    fold = shared & (o1 == 0) & (o2 == 0) & _rings._fold_back(a, b, c, d, aa, ab, ba)
+    bad = np.where(shared, fold, proper | touch)
+    return np.column_stack([i[bad], j[bad]])
+
+
+def _near_points(pts: NDArray[np.float64], ia: NDArray[np.int64], ib: NDArray[np.int64],
+                 reach: float) -> NDArray[np.int64]:
+    """`rings.near_points` of pts against the segments pts[ia] → pts[ib]; up to SMALL points,
+    over every (point, segment) pair at once, the first pair the same as the sweep's (the
+    first segment, then its points from the lowest)."""
+    if len(pts) > SMALL:
+        return _rings.near_points(pts, pts[ia], pts[ib], ia, ib, reach)
+    order = np.argsort(pts[:, 1], kind="stable")
+    sg, pt = np.divmod(np.arange(len(ia) * len(pts)), len(pts))
+    pt = order[pt]
+    keep = (pt != ia[sg]) & (pt != ib[sg])
+    pt, sg = pt[keep], sg[keep]
+    close = _rings.point_segment_distance(pts[pt], pts[ia[sg]], pts[ib[sg]]) <= reach
+    return np.column_stack([pt[close], sg[close]])
+
+
 def _check_simple(raw: list[NDArray[np.float64]]) -> None:
     """No ring crosses itself or another; holes lie inside the outline and outside each other."""
     sizes = [len(P) for P in raw]
     offsets = np.cumsum([0] + sizes)
     pts = np.concatenate(raw)
     ia = np.arange(len(pts))
-    ib = np.concatenate([np.roll(np.arange(o, o + n), -1) for o, n in zip(offsets, sizes)])
-    bad = _rings.crossings(pts[ia], pts[ib], ia, ib)
+    ib = _next_points(sizes)
+    bad = _crossings(pts, ia, ib)
     if len(bad):
         i, j = (int(v) for v in bad[0])
         ri, rj = (int(np.searchsorted(offsets, v, side="right")) - 1 for v in (i, j))
@@ -376,7 +478,7 @@ def _check_simple(raw: list[NDArray[np.float64]]) -> None:
                          f"{seg(ri, si)} of {_ring_name(ri)}")
     # points a hair's breadth from a segment they are not an end of (rings touching, a pinch)
     lo, hi = pts.min(axis=0), pts.max(axis=0)
-    near = _rings.near_points(pts, pts[ia], pts[ib], ia, ib, TOUCH * float((hi - lo).max()))
+    near = _near_points(pts, ia, ib, TOUCH * float((hi - lo).max()))
     if len(near):
         p, s = (int(v) for v in near[0])
         rp, rs = (int(np.searchsorted(offsets, v, side="right")) - 1 for v in (p, s))

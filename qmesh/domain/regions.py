@@ -50,7 +50,11 @@ def attach(domain, regions, region_names, ring_tags, Domain) -> None:
     regions = checks.polygon_list(regions, "regions")
     if len(regions) > MAX_REGIONS:
         raise QmeshError(f"{len(regions)} regions; the limit is {MAX_REGIONS}")
-    regs = tuple(as_region(r, k + 1, Domain) for k, r in enumerate(regions))
+    # plain rings checked together; any that fails (or a large one) checked one by one, to name it
+    plain = [k for k, r in enumerate(regions) if not isinstance(r, Domain)]
+    many = Domain._many([regions[k] for k in plain]) if len(plain) > 1 else None
+    made = dict(zip(plain, many)) if many is not None else {}
+    regs = tuple(made[k] if k in made else as_region(r, k + 1, Domain) for k, r in enumerate(regions))
     domain._regions = regs
     domain._region_names = _names(region_names, len(regs))
     domain._partition = faces_of(domain, regs)

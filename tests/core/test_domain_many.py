@@ -1,0 +1,84 @@
+"""Small rings checked pair by pair, and many regions checked at once (qmesh.domain.domain).
+
+The brute-force crossing and touching tests of up to SMALL points must find what the y-sweep
+of `geometry.rings` finds (the same pairs; the same first pair, which the messages name), and
+`Domain._many` must make exactly the domains `Domain(ring)` makes one by one, or None where one
+of them refuses its ring (the regions are then checked one by one, which names it).
+"""
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import qmesh
+from qmesh.domain import domain as D
+from qmesh.geometry import rings as R
+
+
+def _ring(draw_points, star, flip, repeat):
+    P = np.array(draw_points, float)
+    if star:                                    # a star-shaped (simple) polygon
+        c = P.mean(axis=0)
+        P = P[np.argsort(np.arctan2(*(P - c).T[::-1]))]
+    if flip:
+        P = P[::-1]
+    if repeat and len(P) > 3:
+        P[1] = P[0]
+    return P
+
+
+points = st.lists(st.tuples(st.integers(-8, 8), st.integers(-8, 8)), min_size=3, max_size=14,
+                  unique=True)
+rings = st.builds(_ring, points, st.booleans(), st.booleans(),
+                  st.sampled_from([False] * 5 + [True]))
+
+
+@settings(max_examples=150, deadline=None)
+@given(P=points)
+def test_pairwise_crossings_and_touches_are_the_sweeps(P):
+    P = np.array(P, float) / 8.0
+    ia = np.arange(len(P))
+    ib = D._next_points([len(P)])
+    assert np.array_equal(D._crossings(P, ia, ib), R.crossings(P[ia], P[ib], ia, ib))
+    reach = 0.3
+    mine, sweep = D._near_points(P, ia, ib, reach), R.near_points(P, P[ia], P[ib], ia, ib, reach)
+    assert {tuple(r) for r in mine} == {tuple(r) for r in sweep}
+    if len(sweep):
+        assert tuple(mine[0]) == tuple(sweep[0])
+
+
+@settings(max_examples=120, deadline=None)
+@given(many=st.lists(rings, min_size=2, max_size=6))
+def test_many_rings_make_the_domains_one_by_one_would(many):
+    one_by_one = []
+    for P in many:
+        try:
+            one_by_one.append(qmesh.Domain(P))
+        except qmesh.QmeshError:
+            one_by_one = None
+            break
+    out = D.Domain._many(many)
+    if one_by_one is None:
+        assert out is None
+        return
+    assert out is not None and len(out) == len(one_by_one)
+    for a, b in zip(out, one_by_one):
+        assert np.array_equal(a.seeds, b.seeds)
+        assert np.array_equal(a.segments, b.segments)
+        assert np.array_equal(a.segment_tags, b.segment_tags)
+        assert np.array_equal(a.ring_of_seed, b.ring_of_seed)
+        assert a.area == b.area and a.tag_names == b.tag_names and a.regions == b.regions
+
+
+def test_a_bad_region_among_many_is_named_as_before():
+    hexes = [np.array([[np.cos(t), np.sin(t)] for t in np.pi / 3 * np.arange(6)]) * 0.04 + c
+             for c in np.stack(np.meshgrid(np.linspace(0.1, 0.9, 6), np.linspace(0.1, 0.9, 6)), -1).reshape(-1, 2)]
+    bow = hexes[7][[0, 3, 1, 4, 2, 5]]          # region 8 crosses itself
+    try:
+        qmesh.Domain([(0, 0), (1, 0), (1, 1), (0, 1)], regions=hexes[:7] + [bow] + hexes[8:])
+    except qmesh.QmeshError as e:
+        assert str(e).startswith("region 8: its outline intersects itself")
+    else:
+        raise AssertionError("a self-crossing region was accepted")
+    d = qmesh.Domain([(0, 0), (1, 0), (1, 1), (0, 1)], regions=hexes)
+    assert len(d.partition.faces) == len(hexes) + 1
