@@ -14,9 +14,9 @@ its quadrilateral is convex and the flip lowers the deficit of the quadrilateral
 end), else split at the first of a few points along it that leaves the fewest failing edges
 around it (the midpoint first: smaller triangles see a more nearly constant Q); until none
 fails or the rounds run out, which is then said, never passed over. Given the metric the mesh
-was made in, the ends of the failing edges first take the mesher's shape step where that mends
-their star without a vertex, and once every edge passes the added vertices take it where that
-improves their star's worst quality and breaks no edge.
+was made in, the corners of the triangles beside failing edges first take the mesher's shape
+step where that mends their star without a vertex, and once every edge passes the added
+vertices take it where that improves their star's worst quality and breaks no edge.
 """
 
 from __future__ import annotations
@@ -38,8 +38,10 @@ MAX_ROUNDS = 400    # rounds of flips and splits before the remaining edges are 
 STALL = 30          # ... or rounds without fewer failing edges than the best so far
 GAIN = 1e-9         # a flip must lower its quadrilateral's deficit by this share at least
 SPLIT_AT = 0.1      # an edge is split no nearer its ends than this share of it
-RELAX = 2           # rounds of shape steps mending edges before the next split
+RELAX = 4           # rounds of shape steps mending edges before the next split
 SMOOTH = 4          # shape steps of the vertices the splits added, once every edge passes
+FLOOR = 0.3         # a split or a repairing move keeps the worst metric quality (2.94) of what it
+KEEP = 0.75         # changes above KEEP · min(FLOOR, the worst before) where it can
 SHORTEST = 1e-9     # edges shorter than this share of the domain's extent are not split
 
 
@@ -104,7 +106,7 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
             flips += len(done)
         elif metric is not None and tries < RELAX:
             tries += 1
-            ends = _free(T, twin, fixed, _ends(T, h))
+            ends = _free(T, twin, fixed, _corners(T, twin, h))
             if len(ends):
                 P, t = _relax(P, T, twin, Qbar, err, s, b, field, metric,
                               _movers(T, twin, ends, rng), shape=False)
@@ -137,6 +139,13 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
 def _ends(T, h):
     """The two ends of each half-edge h."""
     return np.concatenate([T[h // 3, h % 3], T[h // 3, topology.NXT[h % 3]]])
+
+
+def _corners(T, twin, h):
+    """The corners of the triangles on either side of each half-edge h: its ends and the
+    corners opposite it, whose angles decide its q_ij."""
+    t = np.concatenate([h // 3, twin[h][twin[h] >= 0] // 3])
+    return T[t].ravel()
 
 
 def _free(T, twin, fixed, v):
@@ -273,8 +282,10 @@ def _right_angles(P, u, v, a, H):
 
 def _split_points(P, T, twin, h, s, b, Qbar, field):
     """For each edge u→v of the half-edges h (all interior or all on the boundary), the first
-    of a few candidate points whose split leaves the fewest failing edges among those it makes
-    and the sides of the triangles it splits, their means recomputed: the midpoint, the
+    of a few candidate points whose split keeps the shapes (KEEP, FLOOR) and leaves the fewest
+    failing edges among those it makes and the sides of the triangles it splits, their means
+    recomputed (a split that mends one more edge with a sliver costs the minimum quality more
+    than the vertex a later split takes): the midpoint, the
     quarter points, then for each opposite corner a (in its own triangle's metric adj Q̄_T)
     the foot of its altitude and the middles of the spans where (u, p, a) or (p, v, a) has no
     obtuse angle at p or a. A midpoint leaves an obtuse angle at a obtuse in one of the halves,
@@ -331,7 +342,14 @@ def _split_points(P, T, twin, h, s, b, Qbar, field):
         bound = sum(bn[i, :, j] for i, j in parts) + extra_b
         scale = sum(np.abs(sn[i, :, j]) for i, j in parts) + np.abs(extra)
         failing += (~(q - bound >= -ROUND * scale)).reshape(k, c)
-    order = np.argmin(failing, axis=1)             # the first of the fewest failing: midpoint first
+    # no triangle worse shaped than KEEP · min(FLOOR, the ones split), then the fewest failing
+    # edges, then the first (the midpoint first)
+    quality = np.nan_to_num(metric_quality(Pc, new, shape_metric(np.asarray(Qn, dtype=float)))
+                            .reshape(-1, k, c).min(axis=0), nan=-1.0)
+    split = [t for _, t in apexes]
+    was = np.minimum.reduce([metric_quality(P, T[t], H[t]) for t in split])
+    worse = quality < KEEP * np.minimum(FLOOR, np.nan_to_num(was, nan=0.0))[:, None]
+    order = np.argmin(failing + 1000 * worse, axis=1)
     return X[np.arange(k), order]
 
 
@@ -352,8 +370,9 @@ def _movers(T, twin, candidates, rng):
 def _relax(P, T, twin, Qbar, err, s, b, field, metric, movers, shape):
     """Move the vertices `movers` (`_movers`) by the mesher's shape step in `metric`
     (`adjust.shape_step`, capped by `adjust.limit_moves`) where their star is better for it:
-    no more failing edges and no higher deficit, and fewer or a lower deficit (shape=False: a
-    repair that adds no vertex); no more failing edges, no higher deficit and a better worst
+    no more failing edges and no higher deficit, and fewer or a lower deficit, and a worst
+    quality kept above KEEP · min(FLOOR, its worst before) (shape=False: a repair that adds no
+    vertex); no more failing edges, no higher deficit and a better worst
     metric quality of the star in its own means (shape=True). Returns the new P and the
     triangles that changed."""
     n = len(P)
@@ -398,18 +417,27 @@ def _relax(P, T, twin, Qbar, err, s, b, field, metric, movers, shape):
     flat = np.zeros(n, bool)
     flat[tri_owner[~(signed_areas(Pn, Ts) > 0)]] = True
     if shape:
-        q0, q1 = np.full(n, np.inf), np.full(n, np.inf)
-        np.minimum.at(q0, tri_owner, np.nan_to_num(metric_quality(P, Ts, shape_metric(Qbar[star])), nan=0.0))
-        np.minimum.at(q1, tri_owner, np.nan_to_num(metric_quality(Pn, Ts, shape_metric(Qn)), nan=0.0))
+        q0, q1 = _star_quality(P, Pn, Ts, Qbar[star], Qn, tri_owner, n)
         take = (f1 <= f0) & (d1 <= d0) & (q1 > q0)
     else:
-        take = (f1 <= f0) & (d1 <= d0) & ((f1 < f0) | (d1 < (1.0 - GAIN) * d0))
+        q0, q1 = _star_quality(P, Pn, Ts, Qbar[star], Qn, tri_owner, n)
+        take = ((f1 <= f0) & (d1 <= d0) & ((f1 < f0) | (d1 < (1.0 - GAIN) * d0))
+                & (q1 >= KEEP * np.minimum(q0, FLOOR)))
     take &= moving & ~flat
     if not take.any():
         return P, star[:0]
     P = P.copy()
     P[take] += d[take]
     return P, np.flatnonzero(touching(T, take))
+
+
+def _star_quality(P, Pn, Ts, Q0, Q1, owner, n):
+    """The worst metric quality (2.94), each triangle in its own means, of the stars before and
+    after their moves, per vertex (inf where it owns none)."""
+    q0, q1 = np.full(n, np.inf), np.full(n, np.inf)
+    np.minimum.at(q0, owner, np.nan_to_num(metric_quality(P, Ts, shape_metric(Q0)), nan=0.0))
+    np.minimum.at(q1, owner, np.nan_to_num(metric_quality(Pn, Ts, shape_metric(Q1)), nan=0.0))
+    return q0, q1
 
 
 def _refresh(field, P, T, Qbar, err, t):
