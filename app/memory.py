@@ -23,9 +23,13 @@ from qmesh.mesher import budget
 
 BYTES_PER_VERTEX = {"constant": 5600, "varying": 6000, "medium": 6000, "field": 7500}
 """Peak resident bytes per vertex of a whole request (the run to its end, every stage kept,
-measured and drawn), by kind of conductivity; `python benchmarks/bench_view_memory.py`."""
+measured and drawn), by kind of conductivity, rounded up from the largest figure
+`python benchmarks/bench_view_memory.py` measured at N = 5e4, 1e5 and 2e5: constant Q 5,120 (the
+mesher alone 840), s = exp(x) + y² 5,754, the inclusion medium 5,479, the rotating field 7,116
+(about 2,400 of each are the views' scenes, about 1,000 the kept stages)."""
 VIRTUAL_BYTES_PER_VERTEX = {"constant": 10000, "varying": 10000, "medium": 10000, "field": 12000}
-"""The same for the address space (VmPeak), what RLIMIT_AS counts."""
+"""The same for the address space (VmPeak), what RLIMIT_AS counts: 9,178, 9,593, 9,658 and
+11,208 measured."""
 FIXED_BYTES = 96 * 2**20
 """What any request adds whatever its size (the first triangulation's working arrays, the
 mesher's and the views' caches): covers the small requests' figures."""
