@@ -515,8 +515,9 @@ def restore_conformity(P, T, twin, edge_id, fixed, pinned, anisotropy,
     corner = edge_id.copy()
     corner[fixed] = np.flatnonzero(fixed)                   # seed k starts segment k
     P0 = P
+    check = None          # the boundary half-edges a round tests (None: all of them)
     for rounds in range(MAX_ROUNDS):
-        hb = np.flatnonzero(twin < 0)
+        hb = np.flatnonzero(twin < 0) if check is None else check[twin[check] < 0]
         tb, eb = np.divmod(hb, 3)
         a, b, c = T[tb, eb], T[tb, topology.NXT[eb]], T[tb, topology.PRV[eb]]
         enc = encroached(P[a], P[b], P[c], anisotropy)
@@ -524,6 +525,7 @@ def restore_conformity(P, T, twin, edge_id, fixed, pinned, anisotropy,
         if not enc.any():
             break
         hb, a, b, c, tb = hb[enc], a[enc], b[enc], c[enc], tb[enc]
+        T0, left = T, hb          # what this round leaves encroached is tested again
         # interior apexes: pushed out when their star stays valid (one edge per vertex)
         free = (edge_id[c] < 0) & ~fixed[c] & (rounds < PUSH_ROUNDS)
         moved = np.zeros(len(hb), bool)
@@ -547,6 +549,7 @@ def restore_conformity(P, T, twin, edge_id, fixed, pinned, anisotropy,
                 cand = (3 * stars[:, None] + np.arange(3)).ravel()
                 T, twin, f = restore(P, T, twin, anisotropy, candidates=cand)
                 flips += f
+                check = _changed(T0, T, left, stars)
                 continue
         # the rest: split, at most one half-edge per triangle
         keep = ~moved
@@ -568,4 +571,16 @@ def restore_conformity(P, T, twin, edge_id, fixed, pinned, anisotropy,
         cand = (3 * touched[:, None] + np.arange(3)).ravel()
         T, twin, f = restore(P, T, twin, anisotropy, candidates=cand)
         flips += f
+        check = _changed(T0, T, left, np.zeros(0, np.int64))
     return Conformed(P, T, twin, edge_id, fixed, pinned, np.arange(n0, len(P)), flips)
+
+
+def _changed(T0, T, left, moved_stars):
+    """The half-edges a round of `restore_conformity` must test after one that made T from T0:
+    those of the triangles it rewrote, added, or moved a vertex of (`moved_stars`), and the
+    ones it left encroached (`left`). No other half-edge's triangle or apex changed, so the
+    encroached ones found are those a test of every boundary half-edge finds, in the same order."""
+    same = min(len(T0), len(T))
+    tri = np.concatenate([np.flatnonzero((T[:same] != T0[:same]).any(axis=1)),
+                          np.arange(same, len(T)), moved_stars])
+    return topology.sorted_unique(np.concatenate([(3 * tri[:, None] + np.arange(3)).ravel(), left]))

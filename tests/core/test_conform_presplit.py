@@ -1,4 +1,5 @@
-"""The splits a part thin in the metric needs before its first Qhull build (conform._split_crowded).
+"""The splits a part thin in the metric needs before its first Qhull build (conform._split_crowded),
+and the rounds of `restore_conformity` that test only what the last round changed.
 
 Across a strip thin in its metric each split encroaches the opposite side's subsegments in turn;
 these splits are made with a k-d tree before Qhull runs, so the initial conforming
@@ -103,3 +104,24 @@ def test_non_convex_domains_split_only_for_points_on_their_own_side(name, angle,
     assert np.array_equal(np.unique(m.points[np.unique(m.boundary_edges)], axis=0),
                           np.unique(r.points[np.unique(r.boundary_edges)], axis=0))
     assert measure.q_nonnegative_fraction(m, A) == 1.0
+
+
+@pytest.mark.slow(15)
+@settings(max_examples=5, deadline=None)
+@given(width=st.floats(0.003, 0.05), angle=st.floats(0, 90), ratio=st.floats(10, 1000),
+       n=st.integers(800, 3000))
+def test_restoring_conformity_on_what_changed_finds_what_a_full_scan_finds(width, angle, ratio, n):
+    """`restore_conformity` tests only the half-edges a round changed or left encroached
+    (`_changed`); with every boundary half-edge tested each round the mesh is the same."""
+    strip = qmesh.Polygon([(0, 0), (1, 0), (1, width), (0, width)])
+    A = qmesh.Anisotropy.principal(1, ratio, angle)
+    try:
+        m = qmesh.mesh(strip, A, target_vertices=n)
+    except qmesh.QmeshError as e:
+        with mock.patch.object(conform, "_changed", lambda *a: None), pytest.raises(qmesh.QmeshError) as again:
+            qmesh.mesh(strip, A, target_vertices=n)
+        assert str(again.value) == str(e)
+        return
+    with mock.patch.object(conform, "_changed", lambda *a: None):
+        full = qmesh.mesh(strip, A, target_vertices=n)
+    assert np.array_equal(m.points, full.points) and np.array_equal(m.triangles, full.triangles)
