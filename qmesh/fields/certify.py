@@ -90,8 +90,8 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
     fewest, since = np.inf, 0
     rng = np.random.default_rng(0)
     tries = 0                                  # shape steps since the last split
+    s, b = shares(P, T, Qbar, err)
     for rounds in range(max_rounds + 1):
-        s, b = shares(P, T, Qbar, err)
         h, q, slack = _failing(s, b, twin)
         if len(h) < fewest:
             fewest, since = len(h), 0
@@ -118,16 +118,15 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
                                                 s, b, Qbar, field)
             added = len(P) - mesh.n_vertices
             tries = 0
-        Qbar, err = _refresh(field, P, T, Qbar, err, t)
+        Qbar, err, s, b = _refresh(field, P, T, Qbar, err, s, b, t)
     if metric is not None and not len(h) and added:
         new = _free(T, twin, fixed, np.arange(mesh.n_vertices, len(P)))
         for _ in range(SMOOTH):
-            s, b = shares(P, T, Qbar, err)
             P, t = _relax(P, T, twin, Qbar, err, s, b, field, metric,
                           _movers(T, twin, new, rng), shape=True)
-            Qbar, err = _refresh(field, P, T, Qbar, err, t)
-        s, b = shares(P, T, Qbar, err)
-        h, q, slack = _failing(s, b, twin)
+            Qbar, err, s, b = _refresh(field, P, T, Qbar, err, s, b, t)
+    s, b = shares(P, T, Qbar, err)             # what is said is assembled afresh
+    h, q, slack = _failing(s, b, twin)
     worst = float(slack.min()) if len(slack) else 0.0
     hb = np.flatnonzero(twin < 0)
     tb, kb = np.divmod(hb, 3)
@@ -440,13 +439,19 @@ def _star_quality(P, Pn, Ts, Q0, Q1, owner, n):
     return q0, q1
 
 
-def _refresh(field, P, T, Qbar, err, t):
-    """The means of the triangles `t` (changed rows, and rows past the old end) recomputed."""
+def _refresh(field, P, T, Qbar, err, s, b, t):
+    """The means of the triangles `t` (changed rows, and rows past the old end) recomputed,
+    and their shares (each round assembles only what changed)."""
     M = len(T)
     if len(Qbar) < M:
         Qbar = np.concatenate([Qbar, np.zeros((M - len(Qbar), 2, 2))])
         err = np.concatenate([err, np.zeros(M - len(err))])
+        s = np.concatenate([s, np.zeros(3 * M - len(s))])
+        b = np.concatenate([b, np.zeros(3 * M - len(b))])
     t = np.unique(t)
     Qn, en = field.means_with_error(P, T[t])
     Qbar[t], err[t] = Qn, en
-    return Qbar, err
+    st, bt = shares(P, T[t], Qbar[t], err[t])
+    rows = (3 * t[:, None] + np.arange(3)).ravel()
+    s[rows], b[rows] = st, bt
+    return Qbar, err, s, b
