@@ -1,5 +1,5 @@
 """Peak memory of a whole viewer request, per vertex: the figures behind
-`qmesh_view.session.VIEW_BYTES_PER_VERTEX`.
+`qmesh_view.memory.BYTES_PER_VERTEX` (and VIRTUAL_BYTES_PER_VERTEX).
 
 A request in `qmesh-view` is more than `qmesh.mesh`: the run keeps every Step of its history,
 the status line measures each stage (κ2 factorises the stiffness matrix), and the three views
@@ -203,7 +203,7 @@ def main() -> None:
             "process that has already served a small request; beside it `qmesh.mesh` alone in its "
             "own process, what `qmesh.mesher.budget` counts. Peaks are /proc/self/status VmHWM. "
             "MB are 10^6 bytes; B/v = (peak − baseline) / N; held B/v is what the finished request still holds (its history, its scenes) over N; VM B/v the address space's peak (VmPeak) above the baseline's VmSize over N, what an address-space limit (RLIMIT_AS) counts. The figures behind "
-            "`qmesh_view.session.VIEW_BYTES_PER_VERTEX`.",
+            "`qmesh_view.memory.BYTES_PER_VERTEX` (and VIRTUAL_BYTES_PER_VERTEX).",
             tables=[report_page.Table(["case", "target", "N", "steps", "base MB", "peak MB",
                                        "view B/v", "held B/v", "mesh B/v", "VM B/v"], rows)])
 
