@@ -35,13 +35,14 @@ def face_domain(part, face, extra: dict, name: str):
                          "single point pinch it; let them share an edge or keep them apart)") from None
 
 
-def points_on_edges(mesh, part, n_seeds: int) -> dict:
+def points_on_edges(mesh, corners: cKDTree, n_seeds: int) -> dict:
     """The vertices a face mesh put on partition edges, beyond its input points: {edge: (k, 2)}
-    (a corner of the partition, round-off copies included, is never a point "on" an edge)."""
+    (a corner of the partition, round-off copies included, is never a point "on" an edge).
+    `corners`: a KD-tree of the partition's points, built once for all its faces."""
     e, v = np.repeat(mesh.boundary_tags - 1, 2), mesh.boundary_edges.ravel()
     ev = np.unique(np.column_stack([e, v])[v >= n_seeds], axis=0)       # by edge, then vertex
-    tol = 1e-12 * float(np.ptp(part.points, axis=0).max())
-    ev = ev[cKDTree(part.points).query(mesh.points[ev[:, 1]])[0] > tol]
+    tol = 1e-12 * float((corners.maxes - corners.mins).max())          # np.ptp of its points
+    ev = ev[corners.query(mesh.points[ev[:, 1]])[0] > tol]
     return {int(k): mesh.points[ev[ev[:, 0] == k, 1]] for k in np.unique(ev[:, 0])}
 
 

@@ -32,7 +32,7 @@ from qmesh.domain.domain import as_domain
 from qmesh.errors import QmeshError, QmeshWarning
 from qmesh.media.faces import face_domain, merge_points, points_on_edges
 from qmesh.media.insert_shared import insert_on_boundary
-from qmesh.media.plan import MediaPlan, vertex_count
+from qmesh.media.plan import FaceMeshes, MediaPlan
 from qmesh.media.stitch import stitch
 from qmesh.mesher import loop
 from qmesh.mesher.diagnose import thin_domain
@@ -95,19 +95,19 @@ def _run(plan: MediaPlan, options: dict, every: bool) -> Iterator[Step]:
     """The faces in the plan's order, each run to its end and shared with the finished ones;
     with `every`, a Step per stage of each face's run; the stitched whole last."""
     extra = dict(plan.extra)                 # interface points shared so far, per edge
-    meshes: dict[int, Mesh] = {}             # the finished faces, in the order they were meshed
+    meshes = FaceMeshes()                    # the finished faces, in the order they were meshed
     notes: list = []                         # (message, category) the faces' runs warned
     cond = {f.region: a for f, a in zip(plan.faces, plan.anis)}
     for at, i in enumerate(plan.order):
         if at:
-            plan.size_rest(plan.order[at:], vertex_count(meshes.values()))
+            plan.size_rest(plan.order[at:], meshes.vertex_count())
         for step in _face_steps(plan, i, extra, options, notes, meshes):
             if every:
                 m = _stitched(plan, {**meshes, i: step.mesh})
                 yield Step(step.stage, step.iteration, m, Stats(m.n_vertices, m.n_triangles,
                            seconds=step.stats.seconds, source=(m, cond)))
         meshes[i] = step.mesh
-        new = points_on_edges(step.mesh, plan.part, int(step.mesh.fixed.sum()))
+        new = points_on_edges(step.mesh, plan.corners, int(step.mesh.fixed.sum()))
         _share(plan, meshes, {e: X for e, X in new.items() if plan.part.interface[e]}, extra)
     m = _stitched(plan, meshes)
     yield Step("triangulate", step.iteration, m, Stats(m.n_vertices, m.n_triangles, source=(m, cond)),
@@ -136,7 +136,7 @@ def _summary(notes: list) -> list:
 
 
 def _face_steps(plan: MediaPlan, i: int, extra: dict, options: dict, notes: list,
-                meshes: dict[int, Mesh]) -> Iterator[Step]:
+                meshes: FaceMeshes) -> Iterator[Step]:
     """Algorithm 2.1 on face i, its Steps as they come. A face thinner (or sharper) in its metric
     than the shared size needs a finer one: its run says "too large", and the size is halved
     for this face, a few times. Its warnings go to `notes`, naming its region."""
@@ -177,7 +177,7 @@ def _stitched(plan: MediaPlan, meshes: dict[int, Mesh]) -> Mesh:
     return stitch(plan.part, list(meshes.values()), [plan.faces[k].region for k in meshes], plan.domain)
 
 
-def _share(plan: MediaPlan, meshes: dict[int, Mesh], new: dict, extra: dict) -> None:
+def _share(plan: MediaPlan, meshes: FaceMeshes, new: dict, extra: dict) -> None:
     """Hand the interface points `new` {edge: points} to the finished faces beside them (and
     into `extra`); the points those must add in turn (a split on an interface) likewise."""
     part, queue = plan.part, [new]

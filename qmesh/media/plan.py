@@ -14,7 +14,6 @@ given the count that remains (`sizing_of`): the run lands on N without a second 
 
 from __future__ import annotations
 
-from collections.abc import Iterable
 from typing import Any
 
 import numpy as np
@@ -49,6 +48,7 @@ class MediaPlan:
         self.domain = domain
         self.part = part = domain.partition
         self.faces = part.faces
+        self.corners = cKDTree(part.points)   # the partition's points, for every face (points_on_edges)
         cond = conductivity_of_regions(domain, conductivity)
         self.anis = [cond[f.region] for f in self.faces]
         if target_vertices is not None and target_vertices <= len(part.points):
@@ -160,7 +160,7 @@ class MediaPlan:
             h = self._size_for(rest, self.target - n_done, thin=True)
             self.h_rest = float(np.clip(h, self.h_rest, self.h_euler * COARSER))
 
-    def sizing_of(self, i: int, dom: Any, meshes: dict) -> dict:
+    def sizing_of(self, i: int, dom: Any, meshes: FaceMeshes) -> dict:
         """The face mesher's sizing of face i: `size` h·√k_r (h in the user's metric ∇²s_r), or
         for the last face the count that lands the run on target_vertices when it leaves room
         (its own run then budgets the splits its boundary needs, `mesher.plan`). When that h is
@@ -170,7 +170,7 @@ class MediaPlan:
         n = 0
         if self.target is not None and i == self.order[-1] and meshes:
             known = np.concatenate([m.points[np.unique(m.boundary_edges)] for m in meshes.values()])
-            n = self.target - vertex_count(meshes.values()) + int((cKDTree(known).query(dom.seeds)[0] == 0).sum())
+            n = self.target - meshes.vertex_count() + int((cKDTree(known).query(dom.seeds)[0] == 0).sum())
         count = n > len(dom.seeds)
         h = sizing.size_for_vertices(sizing.metric_area_scaled(dom, a, k), L, n, BOUNDARY_FACTOR) if count else self.h_rest
         cut = float(L[self.part.interface[dom.segment_tags - 1]].max(initial=0)) / BOUNDARY_FACTOR
@@ -188,12 +188,37 @@ class MediaPlan:
 
 
 
-def vertex_count(meshes: Iterable[Mesh]) -> int:
-    """Vertices of the face meshes stitched together: the interior ones of each, and their
-    boundary vertices once (neighbours share them bit for bit)."""
-    inner, bounds = 0, [np.zeros((0, 2))]
-    for m in meshes:
+class FaceMeshes(dict[int, Mesh]):
+    """The finished face meshes {face: Mesh}, in the order they were meshed, with the vertex
+    count of their stitched whole kept as they are added or replaced: the interior vertices of
+    each, and their boundary points once (neighbours share them bit for bit), each boundary
+    point counted by the faces that hold it. Recounting every face before each face would make
+    a medium's run quadratic in its faces."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self._inner = 0                               # interior vertices of all faces
+        self._held: dict[tuple, int] = {}             # boundary point -> faces holding it
+        self._bound: dict[int, list[tuple]] = {}      # per face: its boundary points
+
+    def __setitem__(self, i: int, m: Mesh) -> None:
+        old = self.get(i)
+        if old is m:
+            return
+        if old is not None:
+            self._inner -= old.n_vertices - len(self._bound[i])
+            for x in self._bound[i]:
+                self._held[x] -= 1
+                if not self._held[x]:
+                    del self._held[x]
         b = np.unique(m.boundary_edges)
-        inner += m.n_vertices - len(b)
-        bounds.append(m.points[b])
-    return inner + len(np.unique(np.concatenate(bounds), axis=0))
+        pts = list(map(tuple, m.points[b].tolist()))  # float tuples: equal as np.unique finds them
+        self._inner += m.n_vertices - len(b)
+        self._bound[i] = pts
+        for x in pts:
+            self._held[x] = self._held.get(x, 0) + 1
+        super().__setitem__(i, m)
+
+    def vertex_count(self) -> int:
+        """Vertices of the face meshes stitched together."""
+        return self._inner + len(self._held)

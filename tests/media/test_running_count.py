@@ -1,0 +1,108 @@
+"""The running vertex count of the finished face meshes (`plan.FaceMeshes`) against a full
+recount, and the partition's KD-tree shared by all faces (`faces.points_on_edges`)."""
+
+import warnings
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+import qmesh
+from qmesh.domain import media_cases
+from qmesh.media import mesher
+from qmesh.media.faces import points_on_edges
+from qmesh.media.plan import FaceMeshes, MediaPlan
+
+P = qmesh.Anisotropy.principal
+INSIDE, OUTSIDE = P(10.0, 1.0, 30.0), P(1.0, 4.0, -20.0)
+
+
+def hexagons(n: int) -> list:
+    k = int(np.ceil(np.sqrt(n)))
+    t = np.pi / 3 * np.arange(6)
+    unit = np.column_stack([np.cos(t), np.sin(t)]) / (3 * k)
+    c = (np.stack(np.meshgrid(np.arange(k), np.arange(k)), -1).reshape(-1, 2)[:n] + 0.5) / k
+    return [ci + unit for ci in c]
+
+
+def recount(meshes) -> int:
+    """The stitched vertex count from scratch: interior vertices of each, boundary points once."""
+    inner, bounds = 0, [np.zeros((0, 2))]
+    for m in meshes:
+        b = np.unique(m.boundary_edges)
+        inner += m.n_vertices - len(b)
+        bounds.append(m.points[b])
+    return inner + len(np.unique(np.concatenate(bounds), axis=0))
+
+
+def test_running_count_equals_a_full_recount_at_every_change(monkeypatch):
+    """30 inclusions, and the inclusion case (whose outside hands points over to the finished
+    inclusion, replacing its mesh): after every face added or replaced, and at every call, the
+    running count is the recount."""
+    seen = {"calls": 0, "replaced": 0}
+
+    class Checked(FaceMeshes):
+        def __setitem__(self, i, m):
+            seen["replaced"] += i in self and self[i] is not m
+            super().__setitem__(i, m)
+            assert FaceMeshes.vertex_count(self) == recount(self.values())
+
+        def vertex_count(self):
+            seen["calls"] += 1
+            n = super().vertex_count()
+            assert n == recount(self.values())
+            return n
+
+    monkeypatch.setattr(mesher, "FaceMeshes", Checked)
+    domain = qmesh.Domain([(0, 0), (1, 0), (1, 1), (0, 1)], regions=hexagons(30))
+    cond = {0: OUTSIDE, **{k: INSIDE for k in range(1, 31)}}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        m = qmesh.mesh(domain, cond, target_vertices=1500)
+        assert seen["calls"] >= 30      # before every face but the first, and for the last
+        assert m.n_vertices > 1000
+        dom, cond, _ = media_cases.inclusion()
+        qmesh.mesh(dom, cond, target_vertices=2000)
+    assert seen["replaced"] > 0         # the replacing path ran too
+
+
+def test_a_replaced_face_gives_back_its_points():
+    """Replacing a face's mesh by another and back restores the count; a face mesh replaced by
+    itself changes nothing."""
+    domain = qmesh.Domain([(0, 0), (1, 0), (1, 1), (0, 1)], regions=hexagons(4))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        a = qmesh.mesh(domain, {0: OUTSIDE, **{k: INSIDE for k in range(1, 5)}}, target_vertices=300)
+        b = qmesh.mesh(domain, {0: OUTSIDE, **{k: INSIDE for k in range(1, 5)}}, target_vertices=150)
+    f = FaceMeshes()
+    f[0] = a
+    f[1] = a                            # the same boundary points twice: counted once
+    assert f.vertex_count() == recount([a, a]) == 2 * a.n_vertices - len(np.unique(a.boundary_edges))
+    f[1] = b
+    assert f.vertex_count() == recount([a, b]) != recount([a, a])
+    f[1] = f[1]
+    f[1] = a
+    assert f.vertex_count() == recount([a, a])
+    assert list(f) == [0, 1]
+
+
+def test_points_on_edges_with_the_shared_tree_is_the_per_face_answer(monkeypatch):
+    """The plan's KD-tree of the partition's points gives what a tree built per face gave."""
+    domain = qmesh.Domain([(0, 0), (1, 0), (1, 1), (0, 1)], regions=hexagons(4))
+    cond = {0: OUTSIDE, **{k: INSIDE for k in range(1, 5)}}
+    plan = MediaPlan(domain, cond, 400, None)
+    found = []
+
+    def both(mesh, corners, n_seeds):
+        assert corners is plan.corners
+        got = points_on_edges(mesh, corners, n_seeds)
+        own = points_on_edges(mesh, cKDTree(np.array(plan.part.points)), n_seeds)
+        assert got.keys() == own.keys() and all(np.array_equal(got[k], own[k]) for k in got)
+        found.append(got)
+        return got
+
+    monkeypatch.setattr(mesher, "points_on_edges", both)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        list(mesher._run(plan, {}, False))
+    assert len(found) == len(plan.faces) == 5
+    assert any(len(p) for p in found)
