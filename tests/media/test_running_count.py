@@ -106,3 +106,40 @@ def test_points_on_edges_with_the_shared_tree_is_the_per_face_answer(monkeypatch
         list(mesher._run(plan, {}, False))
     assert len(found) == len(plan.faces) == 5
     assert any(len(p) for p in found)
+
+
+def full_count(plan, h, faces, thin):
+    """`MediaPlan.count` over every face's segments and every interface edge, masked after."""
+    from qmesh.mesher import sizing
+    from qmesh.mesher.plan import BOUNDARY_FACTOR
+    mine = np.isin(np.arange(len(plan.faces)), faces)
+    step = np.minimum(BOUNDARY_FACTOR * h, plan._thin_step) if thin else BOUNDARY_FACTOR * h
+    pieces = np.maximum(1, np.ceil(plan._seg_len / step))
+    nb = np.bincount(plan._seg_face, pieces, minlength=len(plan.faces))[mine]
+    tri = plan.area[mine] / sizing.equilateral_area(h)
+    if thin:
+        tri = np.maximum(tri, nb - 2)
+    n = float(0.5 * (tri + nb + 2).sum())
+    ef = plan.part.edge_faces[plan._inter]
+    shared = mine[ef[:, 0]] | mine[ef[:, 1]]
+    both = (np.minimum if thin else np.maximum)(pieces[plan._side[:, 0]], pieces[plan._side[:, 1]])
+    return n - float(both[shared].sum())
+
+
+def test_count_over_the_faces_own_segments_is_the_full_count_bit_for_bit():
+    """The count the plan sizes the faces left with, at many h, thin or not, for the faces
+    left at every turn of the run: exactly the full count (the run's h are the same)."""
+    domain = qmesh.Domain([(0, 0), (1, 0), (1, 1), (0, 1)], regions=hexagons(30))
+    cond = {0: OUTSIDE, **{k: INSIDE for k in range(1, 31)}}
+    plan = MediaPlan(domain, cond, 1500, None)
+    hs = plan.h * np.geomspace(1e-3, 1e3, 25)
+    compared = 0
+    for at in range(len(plan.order)):
+        rest = plan.order[at:]
+        for thin in (False, True):
+            counter = plan._counter(rest, thin)
+            for h in hs:
+                assert counter(h) == plan.count(h, rest, thin) == full_count(plan, h, rest, thin)
+                compared += 1
+    assert compared == 31 * 2 * 25
+    assert len({plan.count(h, plan.order, True) for h in hs}) > 5     # it does depend on h
