@@ -62,22 +62,11 @@ def largest_target(room: int, kind: str, *, virtual: bool = False) -> int:
     return max(0, int((room - FIXED_BYTES) // per))
 
 
-def _status_bytes(field: str) -> int:
-    try:
-        with open("/proc/self/status", encoding="ascii") as f:
-            for line in f:
-                if line.startswith(field):
-                    return int(line.split()[1]) * 1024
-    except (OSError, ValueError, IndexError):
-        pass
-    return 0
-
-
 def held_bytes() -> int:
     """Resident memory of this process now (VmRSS), with the views' own when not loaded yet."""
     import sys
     views = 0 if "vtkmodules" in sys.modules else VIEWS_BASE_BYTES
-    return _status_bytes("VmRSS:") + views
+    return (budget.status_bytes("VmRSS:") or 0) + views
 
 
 def _address_space_limit() -> int | None:

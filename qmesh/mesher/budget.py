@@ -63,7 +63,7 @@ def available_bytes() -> int:
     raise QmeshError("cannot tell how much memory is available on this system")
 
 
-def _status_bytes(field: str) -> int | None:
+def status_bytes(field: str) -> int | None:
     """A size field of /proc/self/status (VmSize:, VmRSS:) in bytes, or None."""
     try:
         with open("/proc/self/status", encoding="ascii") as f:
@@ -118,7 +118,7 @@ def process_limits() -> list[tuple[int, str]]:
     except (ImportError, OSError, ValueError, AttributeError):   # not a POSIX system
         soft = unlimited = -1
     if soft != unlimited and soft > 0:
-        used = _status_bytes("VmSize:") or 0
+        used = status_bytes("VmSize:") or 0
         out.append((max(0, soft - used), f"the process's address-space limit (RLIMIT_AS, ulimit -v) of "
                     f"{_gib(soft)}, {_gib(used)} of it in use"))
     for folder in _cgroup_dirs():
