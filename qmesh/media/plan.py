@@ -206,7 +206,6 @@ class MediaPlan:
                 for e, n in zip(self._inter, pieces) if n > 1}
 
 
-
 class FaceMeshes(dict[int, Mesh]):
     """The finished face meshes {face: Mesh}, in the order they were meshed, with the vertex
     count of their stitched whole kept as they are added or replaced: the interior vertices of
