@@ -27,6 +27,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from qmesh.conductivity.anisotropy import adj2, shape_metric
+from qmesh.fields.cache import ElementMeans
 from qmesh.geometry import topology
 from qmesh.geometry.topology import touching
 from qmesh.geometry.triangles import metric_quality, signed_areas
@@ -83,6 +84,7 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
     fixed = np.array(mesh.fixed)
     out = np.full(len(P), -1, np.int64)        # the tag of the boundary edge leaving each vertex
     out[mesh.boundary_edges[:, 0]] = mesh.boundary_tags
+    field = ElementMeans(field)                # each triangle's means computed once
     Qbar, err = field.means_with_error(P, T)
     Qbar, err = np.array(Qbar, dtype=float), np.array(err, dtype=float)
     flips = added = 0
@@ -91,8 +93,14 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
     rng = np.random.default_rng(0)
     tries = 0                                  # shape steps since the last split
     s, b = shares(P, T, Qbar, err)
+    tight = np.zeros(len(T), bool)             # means at the field's own tolerance
     for rounds in range(max_rounds + 1):
         h, q, slack = _failing(s, b, twin)
+        t = _by_bound(s, b, twin, h, tight)
+        if len(t):                             # failing by the bound only: tighter means
+            Qbar, err, s, b = _refresh(field, P, T, Qbar, err, s, b, t, tighten=True)
+            tight[t] = True
+            h, q, slack = _failing(s, b, twin)
         if len(h) < fewest:
             fewest, since = len(h), 0
         since += 1
@@ -119,6 +127,8 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
             added = len(P) - mesh.n_vertices
             tries = 0
         Qbar, err, s, b = _refresh(field, P, T, Qbar, err, s, b, t)
+        tight = np.concatenate([tight, np.zeros(len(T) - len(tight), bool)])
+        tight[t] = False
     if metric is not None and not len(h) and added:
         new = _free(T, twin, fixed, np.arange(mesh.n_vertices, len(P)))
         for _ in range(SMOOTH):
@@ -167,6 +177,19 @@ def _failing(s, b, twin):
     bad = one & ~(q - bound >= -ROUND * scale)          # NaN fails too
     h = np.flatnonzero(bad)
     return h, q[h], slack
+
+
+def _by_bound(s, b, twin, h, tight):
+    """The triangles beside the failing half-edges h whose q_ij ≥ 0 fails only by the means'
+    error bound, and whose means are not yet at the field's own tolerance."""
+    g = twin[h]
+    inner = g >= 0
+    gg = np.maximum(g, 0)
+    q = s[h] + np.where(inner, s[gg], 0.0)
+    scale = np.abs(s[h]) + np.where(inner, np.abs(s[gg]), 0.0)
+    only = q >= -ROUND * scale
+    t = np.concatenate([h[only] // 3, g[only & inner] // 3])
+    return np.unique(t[~tight[t]])
 
 
 def _longer(P, T, h, shortest: float) -> np.ndarray:
@@ -319,7 +342,7 @@ def _split_points(P, T, twin, h, s, b, Qbar, field):
                               ((U, p, A), (p, V, A), (V, p, B), (p, U, B))])
     else:
         new = np.concatenate([np.column_stack(z) for z in ((U, p, A), (p, V, A))])
-    Qn, en = field.means_with_error(Pc, new)
+    Qn, en = getattr(field, "rough", field.means_with_error)(Pc, new)    # compared, not kept
     sn, bn = shares(Pc, new, np.asarray(Qn, dtype=float), np.asarray(en, dtype=float))
     sn, bn = sn.reshape(-1, k * c, 3), bn.reshape(-1, k * c, 3)
     across = twin[np.stack(sides, axis=1)]
@@ -439,9 +462,10 @@ def _star_quality(P, Pn, Ts, Q0, Q1, owner, n):
     return q0, q1
 
 
-def _refresh(field, P, T, Qbar, err, s, b, t):
-    """The means of the triangles `t` (changed rows, and rows past the old end) recomputed,
-    and their shares (each round assembles only what changed)."""
+def _refresh(field, P, T, Qbar, err, s, b, t, tighten=False):
+    """The means of the triangles `t` (changed rows, and rows past the old end) recomputed
+    (`tighten`: at the field's own tolerance, `ElementMeans.tighten`), and their shares (each
+    round assembles only what changed)."""
     M = len(T)
     if len(Qbar) < M:
         Qbar = np.concatenate([Qbar, np.zeros((M - len(Qbar), 2, 2))])
@@ -449,7 +473,7 @@ def _refresh(field, P, T, Qbar, err, s, b, t):
         s = np.concatenate([s, np.zeros(3 * M - len(s))])
         b = np.concatenate([b, np.zeros(3 * M - len(b))])
     t = np.unique(t)
-    Qn, en = field.means_with_error(P, T[t])
+    Qn, en = (field.tighten if tighten else field.means_with_error)(P, T[t])
     Qbar[t], err[t] = Qn, en
     st, bt = shares(P, T[t], Qbar[t], err[t])
     rows = (3 * t[:, None] + np.arange(3)).ravel()

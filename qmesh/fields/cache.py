@@ -1,0 +1,160 @@
+"""The element means the repair asks for, each triangle's computed once (FIELDS.md §2–3).
+
+The repair (certify.py) asks for the means of the same triangles again and again: the flips of a
+failing edge every round until one is taken, the candidates of a split and then the triangles it
+made, a star before and after a move. `ElementMeans` keeps every mean it computed, keyed by the
+triangle's three corners (in any order: Q̄_T and its bound depend on the triangle only), and
+computes only the ones it has not seen.
+
+For a formula or a callable the means are the adaptive quadrature's (`means.adaptive_means`)
+at the tolerance RTOL, looser than the field's own: the certificate holds as long as every edge
+passes by more than the bound the means carry (FIELDS.md §3), and an edge that fails only by its
+bound has the means of its triangles computed again at the field's tolerance (`tighten`). Split
+candidates are compared on `rough` means (the degree-5 rule against its four children, no
+refinement): the split taken is then computed in full. Rasters and constant fields keep their own
+exact means.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from qmesh.conductivity import means as _m
+
+RTOL = 1e-8
+"""The repair's quadrature tolerance: an error bound of at most about this share of ‖Q̄_T‖ (FIELDS.md
+§3); an edge that fails only by its bound is computed again at `means.RTOL`."""
+MIX = np.uint64(0x9E3779B97F4A7C15)   # odd multiplier of the corners' hash (Fibonacci hashing)
+
+
+def _canonical(X: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Corners (k, 3, 2) in lexicographic order (x, then y): one key per triangle."""
+    k = len(X)
+    order = np.lexsort((X[:, :, 1].ravel(), X[:, :, 0].ravel(), np.repeat(np.arange(k), 3)))
+    return X.reshape(-1, 2)[order].reshape(k, 6)
+
+
+def _hash(C: NDArray[np.float64]) -> NDArray[np.uint64]:
+    """A 64-bit hash of the six coordinates of each row (the keys are checked in full after)."""
+    bits = np.ascontiguousarray(C + 0.0).view(np.uint64)      # + 0.0: −0.0 hashes as 0.0
+    h = np.zeros(len(C), np.uint64)
+    for c in range(6):
+        h = (h ^ bits[:, c]) * MIX
+        h ^= h >> np.uint64(29)
+    return h
+
+
+def _member(keys, K):
+    """Which of `keys` are in the sorted array K."""
+    if not len(K):
+        return np.zeros(len(keys), bool)
+    return K[np.minimum(np.searchsorted(K, keys), len(K) - 1)] == keys
+
+
+class ElementMeans:
+    """Means Q̄_T (M, 2, 2) and their error bounds (M,) of a field, cached by triangle.
+
+    `means_with_error(P, T)` as the field's own (at RTOL for formulas); `tighten(P, T)` the same
+    triangles at the field's own tolerance, kept in place of the looser ones; `rough(P, T)` the
+    candidates' means, not kept."""
+
+    def __init__(self, field, rtol: float = RTOL):
+        self.field = field
+        self.rtol = rtol
+        # a formula or a callable: the checked evaluation the field's own quadrature uses
+        self._evaluate = (None if field.is_raster or getattr(field, "_constant", None) is not None
+                          else getattr(field, "_evaluate", None))
+        self._keys = np.empty(0, np.uint64)          # sorted
+        self._rows = np.empty(0, np.int64)           # the row of each key
+        self._new_keys = np.empty(0, np.uint64)      # recent, sorted, merged when large
+        self._new_rows = np.empty(0, np.int64)
+        self._n = 0
+        self._corners = np.empty((1024, 6))
+        self._q = np.empty((1024, 2, 2))
+        self._err = np.empty(1024)
+        self.computed = 0                            # triangles whose means were computed
+
+    def _compute(self, P, T, rtol, depth=_m.MAX_DEPTH):
+        self.computed += len(T)
+        if self._evaluate is None or not len(T):
+            Q, e = self.field.means_with_error(P, T)
+            return np.asarray(Q, dtype=float), np.asarray(e, dtype=float)
+        q, e = _m.adaptive_means(self._evaluate, P[T[:, 0]], P[T[:, 1]], P[T[:, 2]],
+                                 rtol=rtol, max_depth=depth)
+        return _m.full_tensors(q), e
+
+    def _find(self, keys, C):
+        """The row of each key whose corners are C, −1 where none."""
+        row = np.full(len(keys), -1, np.int64)
+        for K, R in ((self._keys, self._rows), (self._new_keys, self._new_rows)):
+            if not len(K):
+                continue
+            at = np.minimum(np.searchsorted(K, keys), len(K) - 1)
+            hit = (K[at] == keys) & (row < 0)
+            cand = R[at[hit]]
+            same = np.all(self._corners[cand] == C[hit], axis=1)
+            row[np.flatnonzero(hit)[same]] = cand[same]
+        return row
+
+    def _store(self, keys, C, Q, e):
+        keys, first = np.unique(keys, return_index=True)
+        fresh = ~_member(keys, self._keys) & ~_member(keys, self._new_keys)   # one row a key
+        keys, first = keys[fresh], first[fresh]
+        k = len(keys)
+        if self._n + k > len(self._err):
+            size = max(2 * len(self._err), self._n + k)
+            self._corners = np.resize(self._corners, (size, 6))
+            self._q = np.resize(self._q, (size, 2, 2))
+            self._err = np.resize(self._err, size)
+        rows = self._n + np.arange(k)
+        self._corners[rows], self._q[rows], self._err[rows] = C[first], Q[first], e[first]
+        self._n += k
+        at = np.searchsorted(self._new_keys, keys)                      # keys sorted by unique
+        self._new_keys = np.insert(self._new_keys, at, keys)
+        self._new_rows = np.insert(self._new_rows, at, rows)
+        if len(self._new_keys) > max(4096, len(self._keys) // 4):      # amortised merge
+            K = np.concatenate([self._keys, self._new_keys])
+            R = np.concatenate([self._rows, self._new_rows])
+            order = np.argsort(K, kind="stable")
+            self._keys, self._rows = K[order], R[order]
+            self._new_keys, self._new_rows = self._new_keys[:0], self._new_rows[:0]
+
+    def means_with_error(self, P, T):
+        """The means and error bounds of the triangles T over P, computed where not seen yet."""
+        P, T = np.asarray(P, dtype=float), np.asarray(T, dtype=np.int64).reshape(-1, 3)
+        C = _canonical(P[T])
+        keys = _hash(C)
+        row = self._find(keys, C)
+        Q, e = np.empty((len(T), 2, 2)), np.empty(len(T))
+        have = row >= 0
+        Q[have], e[have] = self._q[row[have]], self._err[row[have]]
+        miss = np.flatnonzero(~have)
+        if len(miss):
+            Q[miss], e[miss] = self._compute(P, T[miss], self.rtol)
+            self._store(keys[miss], C[miss], Q[miss], e[miss])
+        return Q, e
+
+    def tighten(self, P, T):
+        """The means of the triangles T at the field's own tolerance (`means.RTOL`), kept in
+        place of the ones at RTOL."""
+        P, T = np.asarray(P, dtype=float), np.asarray(T, dtype=np.int64).reshape(-1, 3)
+        if self._evaluate is None or self.rtol <= _m.RTOL:
+            return self.means_with_error(P, T)
+        Q, e = self._compute(P, T, _m.RTOL)
+        C = _canonical(P[T])
+        keys = _hash(C)
+        row = self._find(keys, C)
+        have = row >= 0
+        self._q[row[have]], self._err[row[have]] = Q[have], e[have]
+        if not have.all():
+            self._store(keys[~have], C[~have], Q[~have], e[~have])
+        return Q, e
+
+    def rough(self, P, T):
+        """Means good enough to compare candidates (the degree-5 rule against its four
+        children, not refined; exact for rasters and constants), not kept."""
+        P, T = np.asarray(P, dtype=float), np.asarray(T, dtype=np.int64).reshape(-1, 3)
+        if self._evaluate is None:
+            return self.means_with_error(P, T)
+        return self._compute(P, T, np.inf, depth=0)
