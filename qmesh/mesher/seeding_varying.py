@@ -231,7 +231,9 @@ def _patch_lattices(domain, anisotropy, h: float, Lbar: np.ndarray):
         local = ((i + m) * side + (j + m)).ravel()
         for c in range(0, len(ks), max(1, LATTICE_CHUNK // len(Z))):   # bounded memory
             kc = ks[c:c + max(1, LATTICE_CHUNK // len(Z))]
-            X = Xc[kc, None, :] + np.einsum("kij,nj->kni", B[kc], Z)   # (k, (2mm+1)², 2)
+            X = np.empty((len(kc), len(Z), 2))                          # Xc + B Z: (k, (2mm+1)², 2)
+            for a in (0, 1):      # the two products summed as einsum does, without its slow path
+                X[..., a] = Xc[kc, a, None] + (B[kc, a, 0, None] * Z[:, 0] + B[kc, a, 1, None] * Z[:, 1])
             d = np.abs(X @ Lbar - Yc[kc, None, :]).max(axis=2) / (0.5 * S)
             keep = d <= 2.0 * OVERLAP
             key = kc[:, None] * side * side + local[None, :]
