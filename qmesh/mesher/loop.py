@@ -37,7 +37,7 @@ from qmesh.mesher.options import Options, check_keywords
 from qmesh.mesher.plan import Plan, check_count, plan as plan_run
 from qmesh.mesher.stages import (add_new_points, adjust_vertices, converged,
                                  initial_triangulation, retriangulate)
-from qmesh.mesher.step import Step
+from qmesh.mesher.step import Step, last_step
 
 
 def _algorithm_2_1(plan: Plan, rng) -> Iterator[Step]:
@@ -141,14 +141,9 @@ def mesh(domain, anisotropy, *, target_vertices: int | None = None, size: float 
     about two elements in the metric, saying what N would be needed.
     """
     check_keywords(unknown, iterate, "mesh")
-    if progress is not None and not callable(progress):
-        raise QmeshError(f"progress must be a function of one Step, got {type(progress).__name__}")
-    last = None
-    for last in iterate(domain, anisotropy, target_vertices=target_vertices, size=size,
-                        alpha=alpha, quality_threshold=quality_threshold, min_area=min_area,
-                        max_iterations=max_iterations, seed=seed,
-                        boundary_refinement=boundary_refinement):
-        if progress is not None:
-            progress(last)
+    last = last_step(iterate(domain, anisotropy, target_vertices=target_vertices, size=size,
+                             alpha=alpha, quality_threshold=quality_threshold, min_area=min_area,
+                             max_iterations=max_iterations, seed=seed,
+                             boundary_refinement=boundary_refinement), progress)
     warn_if_thin(last.mesh, anisotropy)   # a domain thinner than two elements: say so
     return last.mesh

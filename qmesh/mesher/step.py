@@ -7,13 +7,14 @@ run therefore costs little more than the final mesh per stage (the GUI scrubs th
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
+from qmesh.errors import QmeshError
 from qmesh.geometry.triangles import metric_hessians, metric_quality
 from qmesh import measure
 from qmesh.measure import triangle_energy
@@ -104,3 +105,16 @@ class Step:
         s = self.stats
         return (f"Step({self.stage!r}, iteration={self.iteration}, N={s.n_vertices}, "
                 f"E={s.energy:.4g}, min_q={s.min_quality:.3f})")
+
+
+def last_step(steps: Iterable[Step], progress: Callable[[Step], object] | None = None) -> Step:
+    """The last of `steps` (a run yields at least one), each given to `progress` first when it
+    is given: the loop behind every `mesh` that runs an `iterate` to its end."""
+    if progress is not None and not callable(progress):
+        raise QmeshError(f"progress must be a function of one Step, got {type(progress).__name__}")
+    last = None
+    for last in steps:
+        if progress is not None:
+            progress(last)
+    assert last is not None
+    return last
