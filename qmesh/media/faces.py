@@ -1,10 +1,7 @@
-"""A face of the partition as a `qmesh.Domain` of its own, with the points shared on its edges.
-
-Each face is meshed by the single-region mesher (Algorithm 2.1), which keeps its input points
-fixed and q_ij ≥ 0 on its boundary edges in its own metric (GEOMETRY.md §1). Interface points
-are given to both neighbours as input points, so both meshes have exactly the same vertices on
-the interface. Segment tags of a face domain are its partition edge + 1, so the face mesh's
-boundary edges say which partition edge they lie on.
+"""A face of the partition as a `qmesh.Domain` of its own, with the points shared on its edges
+as input points, so both neighbours of an interface have exactly the same vertices on it.
+Segment tags of a face domain are its partition edge + 1, so the face mesh's boundary edges say
+which partition edge they lie on.
 """
 
 from __future__ import annotations
@@ -44,10 +41,3 @@ def points_on_edges(mesh, corners: cKDTree, n_seeds: int) -> dict:
     tol = 1e-12 * float((corners.maxes - corners.mins).max())          # np.ptp of its points
     ev = ev[corners.query(mesh.points[ev[:, 1]])[0] > tol]
     return {int(k): mesh.points[ev[ev[:, 0] == k, 1]] for k in np.unique(ev[:, 0])}
-
-
-def merge_points(part, e: int, old: np.ndarray | None, new: np.ndarray) -> np.ndarray:
-    """Points on edge e, old and new, without repeats, ordered along the edge."""
-    a, b = part.points[part.edges[e]]
-    X = np.unique(new if old is None else np.concatenate([old, new]), axis=0)
-    return X[np.argsort((X - a) @ (b - a), kind="stable")]

@@ -2,11 +2,9 @@
 
 MEDIA.md §2: an interface edge needs the same vertices on both sides. A point a face mesher split
 into an interface subsegment goes into the finished face across it: its boundary edge is split
-there (`topology.split_boundary_edges`), flips restore the Q-Delaunay property in that face's
-metric (`triangulate.restore`), and a boundary edge the point then encroaches there (a small
-metric angle at a corner) is split as the mesher splits its own (`conform.encroached`,
-`split_points`: concentric shells by an input point), the points landing on an interface going on
-in turn. So every share of q_ij in this face stays ≥ 0.
+there, flips restore the Q-Delaunay property in that face's metric, and a boundary edge the point
+then encroaches (a small metric angle at a corner) is split as the mesher splits its own, the
+points landing on an interface going on in turn. So every share of q_ij in this face stays ≥ 0.
 """
 
 from __future__ import annotations

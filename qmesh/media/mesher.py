@@ -13,10 +13,6 @@ Algorithm 2.1 itself (`mesher.loop.iterate`), on shared interface points:
         insert the points it added on an interface into the finished neighbours
             (split, flip, split what they encroach: insert_shared.py)
     stitch the face meshes into one Mesh with region_tags                   (stitch.py)
-
-Input points stay fixed, points the face meshers add on the outline or a hole slide as usual,
-interface points are fixed once shared (junctions are input points). Each triangle is meshed,
-adjusted and measured in its own region's metric.
 """
 
 from __future__ import annotations
@@ -30,21 +26,20 @@ import numpy as np
 from qmesh.conductivity.anisotropy import Anisotropy
 from qmesh.domain.domain import as_domain
 from qmesh.errors import QmeshError, QmeshWarning
-from qmesh.media.faces import face_domain, merge_points, points_on_edges
+from qmesh.media.faces import face_domain, points_on_edges
 from qmesh.media.insert_shared import insert_on_boundary
 from qmesh.media.plan import FaceMeshes, MediaPlan
 from qmesh.media.stitch import stitch
 from qmesh.mesher import loop
 from qmesh.mesher.diagnose import thin_domain
 from qmesh.mesher.options import Options
-from qmesh.mesher.step import Stats, Step
+from qmesh.mesher.plan import TOLERANCE    # a mesh this share off target_vertices is warned about
+from qmesh.mesher.step import Stats, Step, last_step
 from qmesh.triangle_mesh import Mesh
 
-FINER = 12             # halvings of the size a face too thin for it may take (6 beyond
-                       # the 64x coarser h a target near the faces' least may give it)
+FINER = 12             # halvings of the size for a face too thin for it (6 beyond plan.COARSER)
 MAX_HANDOVERS = 1000   # rounds of interface points handed between finished faces
 MAX_NOTES = 3          # the faces' warnings shown one by one; beyond, one line counts them
-TOLERANCE = 0.1        # a mesh further than this share from target_vertices is warned about
 _PASSED = ("alpha", "quality_threshold", "max_iterations", "seed", "boundary_refinement")
 
 
@@ -68,13 +63,8 @@ def mesh(domain: Any, conductivity: Any, *, target_vertices: int | None = None, 
          **options: Any) -> Mesh:
     """Mesh a domain with regions to the end: the mesh of the last Step of `iterate` with the
     same arguments; `progress`, when given, is called with every Step."""
-    if progress is not None and not callable(progress):
-        raise QmeshError(f"progress must be a function of one Step, got {type(progress).__name__}")
-    for last in _run(_plan(domain, conductivity, target_vertices, size, min_area, options),
-                     options, progress is not None):
-        if progress is not None:
-            progress(last)
-    return last.mesh              # a run yields at least its last Step
+    plan = _plan(domain, conductivity, target_vertices, size, min_area, options)
+    return last_step(_run(plan, options, progress is not None), progress).mesh
 
 
 def _plan(domain: Any, conductivity: Any, target_vertices: int | None, size: float | None,
@@ -86,8 +76,7 @@ def _plan(domain: Any, conductivity: Any, target_vertices: int | None, size: flo
     if unknown:
         raise QmeshError(f"unknown option {sorted(unknown)[0]!r} for a domain with regions "
                          f"(allowed: target_vertices, size, {', '.join(_PASSED)})")
-    Options.checked(target_vertices=target_vertices, size=size,
-                    **{k: options[k] for k in _PASSED if k in options})
+    Options.checked(target_vertices=target_vertices, size=size, **options)
     return MediaPlan(as_domain(domain), conductivity, target_vertices, size)
 
 
@@ -103,13 +92,13 @@ def _run(plan: MediaPlan, options: dict, every: bool) -> Iterator[Step]:
             plan.size_rest(plan.order[at:], meshes.vertex_count())
         for step in _face_steps(plan, i, extra, options, notes, meshes):
             if every:
-                m = _stitched(plan, {**meshes, i: step.mesh})
+                m = stitch(plan.part, {**meshes, i: step.mesh}, plan.domain)
                 yield Step(step.stage, step.iteration, m, Stats(m.n_vertices, m.n_triangles,
                            seconds=step.stats.seconds, source=(m, cond)))
         meshes[i] = step.mesh
         new = points_on_edges(step.mesh, plan.corners, int(step.mesh.fixed.sum()))
         _share(plan, meshes, {e: X for e, X in new.items() if plan.part.interface[e]}, extra)
-    m = _stitched(plan, meshes)
+    m = stitch(plan.part, meshes, plan.domain)
     yield Step("triangulate", step.iteration, m, Stats(m.n_vertices, m.n_triangles, source=(m, cond)),
                converged=True)
     for message, category in _summary(notes):
@@ -138,8 +127,8 @@ def _summary(notes: list) -> list:
 def _face_steps(plan: MediaPlan, i: int, extra: dict, options: dict, notes: list,
                 meshes: FaceMeshes) -> Iterator[Step]:
     """Algorithm 2.1 on face i, its Steps as they come. A face thinner (or sharper) in its metric
-    than the shared size needs a finer one: its run says "too large", and the size is halved
-    for this face, a few times. Its warnings go to `notes`, naming its region."""
+    than the shared size needs a finer one: its run says "too large", and the size is halved for
+    this face, up to FINER times. Its warnings go to `notes`, naming its region."""
     try:
         dom = face_domain(plan.part, plan.faces[i], extra, plan.face_name(i))
     except QmeshError as e:
@@ -173,10 +162,6 @@ def _recording(steps: Iterator[Step], said: list) -> Iterator[Step]:
         yield step
 
 
-def _stitched(plan: MediaPlan, meshes: dict[int, Mesh]) -> Mesh:
-    return stitch(plan.part, list(meshes.values()), [plan.faces[k].region for k in meshes], plan.domain)
-
-
 def _share(plan: MediaPlan, meshes: FaceMeshes, new: dict, extra: dict) -> None:
     """Hand the interface points `new` {edge: points} to the finished faces beside them (and
     into `extra`); the points those must add in turn (a split on an interface) likewise."""
@@ -186,8 +171,10 @@ def _share(plan: MediaPlan, meshes: FaceMeshes, new: dict, extra: dict) -> None:
         if not queue:
             return
         pts = queue.pop()
-        for e, X in pts.items():
-            extra[e] = merge_points(part, e, extra.get(e), X)
+        for e, X in pts.items():          # old and new, without repeats, ordered along the edge
+            a, b = part.points[part.edges[e]]
+            X = np.unique(X if e not in extra else np.concatenate([extra[e], X]), axis=0)
+            extra[e] = X[np.argsort((X - a) @ (b - a), kind="stable")]
         beside = {int(f) for e in pts for f in part.edge_faces[e] if int(f) in rank}
         for j in sorted(beside, key=lambda f: rank[f]):     # the finished faces beside these edges only
             give = {e: X for e, X in pts.items() if j in part.edge_faces[e]}

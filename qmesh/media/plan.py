@@ -1,9 +1,8 @@
 """Everything a medium's run decides before and between its faces: one sizing for all of them.
 
-MEDIA.md §3: each region r is meshed in its metric ∇²s_r with its magnitude k_r divided out
-(`normalise.hessian_scale`), so one metric edge length h serves every face. N is shared
-between the faces by metric area through the single-region mesher's own relation h ↔ N
-(`mesher.sizing.vertices_for_size`), less the interface vertices that two faces count twice.
+MEDIA.md §3: each region r is meshed in its metric ∇²s_r with its magnitude k_r divided out, so
+one metric edge length h serves every face. N is shared between the faces by metric area through
+the single-region mesher's own relation h ↔ N, less the interface vertices two faces count twice.
 Interfaces are cut beforehand into pieces ≤ h in the metric of both sides, so the neighbours
 start from the same points.
 
@@ -70,30 +69,25 @@ class MediaPlan:
         slot[seg_edge, (part.edge_faces[seg_edge, 1] == self._seg_face).astype(np.int64)] = \
             np.arange(len(seg_edge))
         self._side = slot[self._inter]
-        # an interface edge's metric length in the longer of its two sides' metrics
-        self.longest = self._seg_len[self._side].max(axis=1)
+        self.longest = self._seg_len[self._side].max(axis=1)        # in the longer side's metric
         width = np.array([sizing.hull_metric_width(
             part.points[part.half_from[part.cycle(f.cycles[0])]], a, k)
             for f, a, k in zip(self.faces, self.anis, self.k)])
-        # a face whose longest side is THIN_ASPECT times its width in its metric is thin
         w = np.where(THIN_ASPECT * width < np.array([L.max() for L in lengths]), THIN * width, np.inf)
         self._thin_step = w[self._seg_face]
         self.target = target_vertices
         self.order = sorted(range(len(self.faces)), key=lambda i: self.area[i])   # largest last
-        everything = list(range(len(self.faces)))
         self.thin = False          # sized with the faces' widths from the start
         if target_vertices is not None:
-            # faces whose least count (at any h) is a large share of the target: sized with
-            # their widths from the first face on, so the first ones do not take it all
+            # a least count over LEAST_SHARE of the target: thin from the first face on
             huge = 10.0 * (np.sqrt(self._total[0]) + self._total[1])
-            self.thin = self.count(huge, everything, thin=True) > LEAST_SHARE * target_vertices
-            self.h = self.h_euler = self._size_for(everything, target_vertices)
+            self.thin = self.counter(self.order, thin=True)(huge) > LEAST_SHARE * target_vertices
+            self.h = self.h_euler = self._size_for(self.order, target_vertices)
             if self.thin:      # no coarser than COARSER × Euler's h (a target below the least)
-                self.h = min(self._size_for(everything, target_vertices, True), COARSER * self.h)
+                self.h = min(self._size_for(self.order, target_vertices, True), COARSER * self.h)
         else:
-            self.h = float(size) if size is not None else float(np.mean(self._seg_len))
-            self.h_euler = self.h
-            sizing.check_vertex_count(self.count(self.h, everything), f"size = {self.h:.3g}")
+            self.h = self.h_euler = float(size) if size is not None else float(np.mean(self._seg_len))
+            sizing.check_vertex_count(self.counter(self.order)(self.h), f"size = {self.h:.3g}")
         self.h_rest = self.h
         self.extra = self._cuts(self.h)
 
@@ -119,17 +113,12 @@ class MediaPlan:
                           "than floating point resolves beside the rest of the domain; enlarge it, or "
                           "leave it out (give that area its neighbour's conductivity)")
 
-    def count(self, h: float, faces: list, thin: bool = False) -> float:
-        """Expected vertices the faces `faces` add at metric edge length h: Euler's estimate
-        per face (mesher.sizing), less one count of every interface vertex they share with
-        another face (counted on both sides, or already there)."""
-        return self._counter(faces, thin)(h)
-
-    def _counter(self, faces: list, thin: bool) -> Callable[[float], float]:
-        """`count(·, faces, thin)` as a function of h alone: what h does not change is taken
-        once (a bisection calls it a hundred times, and a run of many faces sizes those left
-        again and again), and only the faces' own segments and the interface edges beside
-        them are read (the same terms in the same order as over all faces: the same sums)."""
+    def counter(self, faces: list, thin: bool = False) -> Callable[[float], float]:
+        """The vertices the faces `faces` add at metric edge length h, as a function of h: Euler's
+        estimate per face (mesher.sizing), less one count of every interface vertex they share
+        with another face (counted on both sides, or already there). What h does not change is
+        taken once (a bisection calls it a hundred times, before many faces), from the faces'
+        own segments and the interface edges beside them."""
         mine = np.zeros(len(self.faces), bool)
         mine[faces] = True
         seg = mine[self._seg_face]                                 # the faces' segments
@@ -141,8 +130,7 @@ class MediaPlan:
         fewer = np.minimum if thin else np.maximum
 
         def count(h: float) -> float:
-            # a face w wide in its metric keeps its boundary unencroached with pieces ≲ THIN·w
-            # whatever h is: a thin face's boundary count, not its area, sets its vertices
+            # thin: a face's boundary pieces (≲ THIN·w whatever h is), not its area, set its count
             step = np.minimum(BOUNDARY_FACTOR * h, w) if thin else BOUNDARY_FACTOR * h
             pieces = np.maximum(1, np.ceil(L / step))                  # per face segment
             nb = np.bincount(at, pieces, minlength=len(area))
@@ -160,36 +148,32 @@ class MediaPlan:
         return count
 
     def _size_for(self, faces: list, n: float, thin: bool = False) -> float:
-        return sizing.size_for_count(self._counter(faces, thin), n, *self._total, steps=100)
+        return sizing.size_for_count(self.counter(faces, thin), n, *self._total, steps=100)
 
     def size_rest(self, rest: list, n_done: int) -> None:
         """Size the faces `rest` still to mesh for what the target leaves after `n_done`
-        vertices, when the run is more than SLACK off course: finer by at most RESIZE than the
-        first h, coarser by up to COARSER (a target near the faces' own minimum needs the
-        coarsest h); without a target the size stays."""
+        vertices, when the run is more than SLACK off course (a target near the faces' own
+        minimum needs the coarsest h); without a target the size stays."""
         if self.target is None or not rest:
             return
-        if abs(n_done + self.count(self.h_rest, rest, self.thin) - self.target) > SLACK * self.target:
+        if abs(n_done + self.counter(rest, self.thin)(self.h_rest) - self.target) > SLACK * self.target:
             h = self._size_for(rest, self.target - n_done, self.thin)
             self.h_rest = float(np.clip(h, self.h / RESIZE, self.h * RESIZE))
-        # the faces left cannot fit what the target leaves even at their least (a face thin in
-        # its metric needs boundary pieces about THIN of its width long, whatever h is): the
+        # the faces left cannot fit what the target leaves even at their least (thin faces): the
         # coarsest h for them, up to COARSER, so N ends near the faces' own minimum
-        if n_done + self.count(self.h_euler * COARSER, rest, thin=True) > (1 + SLACK) * self.target:
+        if n_done + self.counter(rest, thin=True)(self.h_euler * COARSER) > (1 + SLACK) * self.target:
             h = self._size_for(rest, self.target - n_done, thin=True)
             self.h_rest = float(np.clip(h, self.h_rest, self.h_euler * COARSER))
 
     def sizing_of(self, i: int, dom: Any, meshes: FaceMeshes) -> dict:
         """The face mesher's sizing of face i: `size` h·√k_r (h in the user's metric ∇²s_r), or
-        for the last face the count that lands the run on target_vertices when it leaves room
-        (its own run then budgets the splits its boundary needs, `mesher.plan`). When that h is
-        a hair shorter than its interface pieces (it would split each in two, and a finished
-        neighbour takes the halves in by flips alone), the pieces' size."""
+        for the last face the count that lands the run on target_vertices when it leaves room.
+        When that h is a hair shorter than its interface pieces (it would split each in two,
+        and a finished neighbour takes the halves in by flips alone), the pieces' size."""
         a, k, L = self.anis[i], self.k[i], sizing.metric_edge_lengths(dom, self.anis[i], self.k[i])
         n = 0
         if self.target is not None and i == self.order[-1] and meshes:
-            known = np.concatenate([m.points[np.unique(m.boundary_edges)] for m in meshes.values()])
-            n = self.target - meshes.vertex_count() + int((cKDTree(known).query(dom.seeds)[0] == 0).sum())
+            n = self.target - meshes.vertex_count(dom.seeds) + len(dom.seeds)
         count = n > len(dom.seeds)
         h = sizing.size_for_vertices(sizing.metric_area_scaled(dom, a, k), L, n, BOUNDARY_FACTOR) if count else self.h_rest
         cut = float(L[self.part.interface[dom.segment_tags - 1]].max(initial=0)) / BOUNDARY_FACTOR
@@ -208,10 +192,9 @@ class MediaPlan:
 
 class FaceMeshes(dict[int, Mesh]):
     """The finished face meshes {face: Mesh}, in the order they were meshed, with the vertex
-    count of their stitched whole kept as they are added or replaced: the interior vertices of
-    each, and their boundary points once (neighbours share them bit for bit), each boundary
-    point counted by the faces that hold it. Recounting every face before each face would make
-    a medium's run quadratic in its faces."""
+    count of their stitched whole kept as they are added or replaced (a recount before each
+    face would be quadratic in the faces): each one's interior vertices, and the boundary
+    points, which neighbours share bit for bit, once."""
 
     def __init__(self) -> None:
         super().__init__()
@@ -237,6 +220,7 @@ class FaceMeshes(dict[int, Mesh]):
             self._held[x] = self._held.get(x, 0) + 1
         super().__setitem__(i, m)
 
-    def vertex_count(self) -> int:
-        """Vertices of the face meshes stitched together."""
-        return self._inner + len(self._held)
+    def vertex_count(self, adding: Any = ()) -> int:
+        """Vertices of the face meshes stitched together, and of the points `adding` they lack."""
+        lack = sum(x not in self._held for x in map(tuple, np.reshape(adding, (-1, 2)).tolist()))
+        return self._inner + len(self._held) + lack

@@ -16,8 +16,9 @@ from qmesh.mesher.conform import marked
 from qmesh.triangle_mesh import Mesh
 
 
-def stitch(part, meshes: list, face_regions: list, domain) -> Mesh:
-    """One mesh from the face meshes (in partition face order)."""
+def stitch(part, face_meshes: dict, domain) -> Mesh:
+    """One mesh from the face meshes {face: Mesh}."""
+    meshes, face_regions = list(face_meshes.values()), [part.faces[i].region for i in face_meshes]
     offs = np.cumsum([0] + [m.n_vertices for m in meshes])
     P = np.concatenate([m.points for m in meshes])
     U, vid = np.unique(P, axis=0, return_inverse=True)
@@ -27,13 +28,11 @@ def stitch(part, meshes: list, face_regions: list, domain) -> Mesh:
         raise QmeshError(f"two face meshes put vertices {U[pairs[0, 0]].tolist()} and "
                          f"{U[pairs[0, 1]].tolist()} a round-off apart: the interface does not match")
     T = np.concatenate([vid[m.triangles + o] for m, o in zip(meshes, offs)])
-    regions = np.concatenate([np.full(m.n_triangles, r) for m, r in zip(meshes, face_regions)])
+    regions = np.repeat(face_regions, [m.n_triangles for m in meshes])
     # fixed: the input points of the user's domain and regions (the partition's vertices)
     fixed = marked(U, part.points)
     # boundary edges: the face meshes' edges on ∂Ω, with the user's tags
-    e = [m.boundary_tags - 1 for m in meshes]
-    on = [(part.edge_tag[k] > 0) & (part.edge_faces[k] < 0).any(axis=1) for k in e]
-    be = [vid[m.boundary_edges[o] + off] for m, o, off in zip(meshes, on, offs)]
-    bt = [part.edge_tag[k[o]] for k, o in zip(e, on)]
-    return Mesh(U, T, fixed, np.concatenate(be), np.concatenate(bt), domain.tag_names,
-                regions, domain.region_names)
+    e = np.concatenate([m.boundary_tags for m in meshes]) - 1
+    be = np.concatenate([vid[m.boundary_edges + off] for m, off in zip(meshes, offs)])
+    on = (part.edge_tag[e] > 0) & (part.edge_faces[e] < 0).any(axis=1)
+    return Mesh(U, T, fixed, be[on], part.edge_tag[e[on]], domain.tag_names, regions, domain.region_names)
