@@ -57,16 +57,19 @@ def field_metric(field, width: float, box) -> Anisotropy:
     n = np.clip(np.ceil((hi - lo) * GRID / width).astype(int) + 1, 2, MAX_GRID)
     gx, gy = np.linspace(lo[0], hi[0], n[0]), np.linspace(lo[1], hi[1], n[1])
     nodes = np.column_stack([np.repeat(gx, n[1]), np.tile(gy, n[0])])
-    table = shape_metric(smoothed(field, nodes, width, (lo, hi))).reshape(n[0], n[1], 2, 2)
+    table = shape_metric(smoothed(field, nodes, width, (lo, hi))).reshape(-1, 4)
+    table = np.ascontiguousarray(table[:, [0, 1, 3]])           # h11, h12, h22 at node i·n1 + j
 
     def hessian(P: NDArray[np.float64]) -> NDArray[np.float64]:
         P = np.asarray(P, dtype=float)
         u = np.clip((P[:, 0] - lo[0]) / (gx[1] - gx[0]), 0.0, n[0] - 1.0)
         v = np.clip((P[:, 1] - lo[1]) / (gy[1] - gy[0]), 0.0, n[1] - 1.0)
         i, j = np.minimum(u.astype(int), n[0] - 2), np.minimum(v.astype(int), n[1] - 2)
-        fu, fv = (u - i)[:, None, None], (v - j)[:, None, None]
-        return ((1 - fu) * ((1 - fv) * table[i, j] + fv * table[i, j + 1])
-                + fu * ((1 - fv) * table[i + 1, j] + fv * table[i + 1, j + 1]))
+        fu, fv = (u - i)[:, None], (v - j)[:, None]
+        k = i * n[1] + j                                         # the cell's lower-left node
+        at = [np.take(table, k + c, axis=0) for c in (0, 1, n[1], n[1] + 1)]   # take: no slow path
+        h = (1 - fu) * ((1 - fv) * at[0] + fv * at[1]) + fu * ((1 - fv) * at[2] + fv * at[3])
+        return np.take(h, [0, 1, 1, 2], axis=1).reshape(-1, 2, 2)
     return Anisotropy.metric_only(hessian, getattr(field, "label", "") or "tensor field")
 
 
