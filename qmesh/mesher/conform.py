@@ -300,6 +300,26 @@ def _in_ellipses(X, a, b, tree, ids, anisotropy, P):
     return k[enc], j[enc]
 
 
+def _in_ellipses_since(X, a, b, first, n_old, anisotropy, P):
+    """The subsegments a→b whose ellipse holds a boundary point on the side of Ω, after a round
+    that tested every subsegment then standing against every boundary point then, and split in
+    the points n_old, … (all on the boundary): those points encroach the subsegments that
+    stood (both ends before n_old), and every boundary point the new ones. Boundary points are
+    never dropped, so these are the subsegments a test of all against all finds."""
+    from scipy.spatial import cKDTree
+    bnd0, tree0, n_first = first
+    added = np.arange(n_first, len(X))                       # split in since the first round
+    recent = added[added >= n_old]
+    fresh = (a >= n_old) | (b >= n_old)
+    old, new = np.flatnonzero(~fresh), np.flatnonzero(fresh)
+    k_old, _ = _in_ellipses(X, a[old], b[old], cKDTree(X[recent]) if len(recent) else None,
+                            recent, anisotropy, P)
+    k_new, _ = _in_ellipses(X, a[new], b[new], tree0, bnd0, anisotropy, P)
+    k_add, _ = _in_ellipses(X, a[new], b[new], cKDTree(X[added]) if len(added) else None,
+                            added, anisotropy, P)
+    return np.concatenate([old[k_old], new[k_new], new[k_add]])
+
+
 def _split_crowded(domain, P, edge_id, pinned, place, anisotropy, size, max_points):
     """Constant Q, before a Qhull build: subsegments whose diametral ellipse holds another
     boundary point (or, longer than LONG·h, any point) on the side of Ω split, and the free
@@ -323,6 +343,7 @@ def _split_crowded(domain, P, edge_id, pinned, place, anisotropy, size, max_poin
     itree = cKDTree(X[inner]) if len(inner) else None
     alive = np.ones(len(P), bool)
     n_old = len(P)           # subsegments with an end at or past n_old are new
+    first = None             # the boundary points of the first round and their k-d tree
     for _ in range(MAX_ROUNDS):
         on = edge_id >= 0
         t = np.zeros(len(P))
@@ -331,8 +352,12 @@ def _split_crowded(domain, P, edge_id, pinned, place, anisotropy, size, max_poin
         a, b = _subsegments(domain, n_seeds, edge_id, t)
         L2 = metric_lengths2(P[a], P[b], anisotropy)
         short = L2 <= (LONG * size) ** 2
-        bnd = np.flatnonzero((np.arange(len(P)) < n_seeds) | on)
-        kb, _ = _in_ellipses(X, a, b, cKDTree(X[bnd]), bnd, anisotropy, P)
+        if first is None:
+            bnd = np.flatnonzero((np.arange(len(P)) < n_seeds) | on)
+            first = (bnd, cKDTree(X[bnd]), len(P))
+            kb, _ = _in_ellipses(X, a, b, first[1], bnd, anisotropy, P)
+        else:
+            kb = _in_ellipses_since(X, a, b, first, n_old, anisotropy, P)
         # interior points: every long subsegment, and the new ones (short ones were cleared)
         look = np.flatnonzero(~short | (a >= n_old) | (b >= n_old))
         ki, ji = _in_ellipses(X, a[look], b[look], itree, inner, anisotropy, P)

@@ -125,3 +125,40 @@ def test_restoring_conformity_on_what_changed_finds_what_a_full_scan_finds(width
     with mock.patch.object(conform, "_changed", lambda *a: None):
         full = qmesh.mesh(strip, A, target_vertices=n)
     assert np.array_equal(m.points, full.points) and np.array_equal(m.triangles, full.triangles)
+
+
+def _all_against_all(X, a, b, first, n_old, anisotropy, P):
+    """The pre-pass's later rounds as its first: every subsegment against every boundary point."""
+    from scipy.spatial import cKDTree
+    bnd = np.concatenate([first[0], np.arange(first[2], len(X))])
+    k, _ = conform._in_ellipses(X, a, b, cKDTree(X[bnd]), bnd, anisotropy, P)
+    return k
+
+
+@pytest.mark.slow(15)
+@settings(max_examples=6, deadline=None)
+@given(name=st.sampled_from(["strip", "L-shape", "star"]), width=st.floats(0.002, 0.02),
+       angle=st.floats(0, 90), ratio=st.floats(10, 1000), n=st.integers(800, 3000))
+def test_pre_pass_rounds_on_what_was_split_in_find_what_a_full_scan_finds(name, width, angle,
+                                                                          ratio, n):
+    """After its first round the pre-pass tests the subsegments that stood against the points
+    the last round split in, and the new subsegments against every boundary point
+    (`_in_ellipses_since`); testing every subsegment against every boundary point in each
+    round gives the same first triangulation, bit for bit."""
+    from qmesh import domains
+    domain = {"strip": qmesh.Polygon([(0, 0), (1, 0), (1, width), (0, width)]),
+              "star": _star(5, 0.3)}.get(name) or domains.NAMED[name]()
+    A = qmesh.Anisotropy.principal(1, ratio, angle)
+    try:
+        step, _ = _first_step(domain, A, n)
+    except qmesh.QmeshError as e:
+        with mock.patch.object(conform, "_in_ellipses_since", _all_against_all), \
+                pytest.raises(qmesh.QmeshError) as again:
+            _first_step(domain, A, n)
+        assert str(again.value) == str(e)
+        return
+    with mock.patch.object(conform, "_in_ellipses_since", _all_against_all):
+        full, _ = _first_step(domain, A, n)
+    m, r = step.mesh, full.mesh
+    assert np.array_equal(m.points, r.points) and np.array_equal(m.triangles, r.triangles)
+    assert measure.q_nonnegative_fraction(m, A) in (1.0, None)
