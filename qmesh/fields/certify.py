@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from qmesh.conductivity.anisotropy import adj2, shape_metric
+from qmesh.conductivity.anisotropy import Anisotropy, adj2, shape_metric
 from qmesh.fields.cache import ElementMeans
 from qmesh.geometry import topology
 from qmesh.geometry.topology import touching
@@ -41,6 +41,8 @@ GAIN = 1e-9         # a flip must lower its quadrilateral's deficit by this shar
 SPLIT_AT = 0.1      # an edge is split no nearer its ends than this share of it
 RELAX = 4           # rounds of shape steps mending edges before the next split
 SMOOTH = 4          # shape steps of the vertices the splits added, once every edge passes
+POLISH = 6          # then shape steps, in the element means' metric, of the corners of triangles
+                    # below FLOOR
 FLOOR = 0.3         # a split or a repairing move keeps the worst metric quality (2.94) of what it
 KEEP = 0.75         # changes above KEEP · min(FLOOR, the worst before) where it can
 SHORTEST = 1e-9     # edges shorter than this share of the domain's extent are not split
@@ -135,6 +137,23 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
             P, t = _relax(P, T, twin, Qbar, err, s, b, field, metric,
                           _movers(T, twin, new, rng), shape=True)
             Qbar, err, s, b = _refresh(field, P, T, Qbar, err, s, b, t)
+    if metric is not None and not len(h):
+        for _ in range(POLISH):                # the worst shapes, each in its own means
+            low = metric_quality(P, T, shape_metric(Qbar)) < FLOOR
+            poor = _free(T, twin, fixed, T[low].ravel())
+            if not len(poor):
+                break
+            P, t = _relax(P, T, twin, Qbar, err, s, b, field, None,
+                          _movers(T, twin, poor, rng), shape=True)
+            Qbar, err, s, b = _refresh(field, P, T, Qbar, err, s, b, t)
+            low = np.flatnonzero(metric_quality(P, T, shape_metric(Qbar)) < FLOOR)
+            done = _quality_flips(P, T, twin, (3 * low[:, None] + np.arange(3)).ravel(), s, b,
+                                  Qbar, field)
+            if len(done):
+                t = np.concatenate([done // 3, twin[done] // 3])
+                T, twin = topology.flip(T, twin, done)
+                flips += len(done)
+                Qbar, err, s, b = _refresh(field, P, T, Qbar, err, s, b, t)
     s, b = shares(P, T, Qbar, err)             # what is said is assembled afresh
     h, q, slack = _failing(s, b, twin)
     worst = float(slack.min()) if len(slack) else 0.0
@@ -214,9 +233,49 @@ def _flips(P, T, twin, h, s, b, field):
     five edges of their quadrilateral (its diagonal and its four sides, whose shares from
     outside it stay): a flip that mends its own edge by breaking a side is not taken, so the
     total deficit only falls and the flips end. No two chosen flips touch one edge."""
+    c = _flip_candidates(P, T, twin, h, s, b, field)
+    if c is None:
+        return h[:0]
+    inner, before, after, _, _, tris = c
+    gain = before - after
+    better = gain > GAIN * before
+    return _chosen(inner, gain, better, tris)
+
+
+def _quality_flips(P, T, twin, h, s, b, Qbar, field):
+    """Flips of the interior edges h that raise the worst metric quality (2.94) of their two
+    triangles, each in its own means, and raise no deficit of their quadrilateral's five edges
+    (an edge that passes keeps passing)."""
+    c = _flip_candidates(P, T, twin, h, s, b, field)
+    if c is None:
+        return h[:0]
+    inner, before, after, new, Qn, tris = c
+    k = len(inner)
+    t1, t2 = inner // 3, twin[inner] // 3
+    was = np.minimum(metric_quality(P, T[t1], shape_metric(Qbar[t1])),
+                     metric_quality(P, T[t2], shape_metric(Qbar[t2])))
+    now = np.nan_to_num(metric_quality(P, new, shape_metric(Qn)), nan=-1.0).reshape(2, k).min(axis=0)
+    gain = now - np.nan_to_num(was, nan=0.0)
+    better = (after <= before) & (gain > GAIN)
+    return _chosen(inner, gain, better, tris)
+
+
+def _chosen(inner, gain, better, tris):
+    """The candidates `better`, the largest gain first, no two touching one triangle."""
+    cand = inner[better]
+    if not len(cand):
+        return cand
+    pick = _independent(cand, -gain[better], tuple(t[better] for t in tris))
+    return cand[pick]
+
+
+def _flip_candidates(P, T, twin, h, s, b, field):
+    """For the interior half-edges h whose quadrilateral is convex: the half-edges, the deficit
+    of the five edges before and after the flip, the new triangles (2k, 3) and their means, and
+    the triangles each flip touches (None when there are none)."""
     inner = h[twin[h] >= 0]
     if not len(inner):
-        return inner
+        return None
     g = twin[inner]
     t1, e1 = np.divmod(inner, 3)
     t2, e2 = np.divmod(g, 3)
@@ -225,7 +284,7 @@ def _flips(P, T, twin, h, s, b, field):
     new = np.concatenate([np.column_stack([u, bb, a]), np.column_stack([bb, v, a])])
     ok = (signed_areas(P, new) > 0).reshape(2, -1).all(axis=0)     # a convex quadrilateral
     if not ok.any():
-        return inner[:0]
+        return None
     inner, g, t1, e1, t2, e2 = inner[ok], g[ok], t1[ok], e1[ok], t2[ok], e2[ok]
     new = new.reshape(2, -1, 3)[:, ok].reshape(-1, 3)
     k = len(inner)
@@ -238,23 +297,18 @@ def _flips(P, T, twin, h, s, b, field):
     before = (_deficit(s[inner] + s[g], b[inner] + b[g])
               + _deficit(s[sides] + out_s, b[sides] + out_b).sum(axis=1))
     Qn, en = field.means_with_error(P, new)
-    sn, bn = shares(P, new, np.asarray(Qn, dtype=float), np.asarray(en, dtype=float))
+    Qn = np.asarray(Qn, dtype=float)
+    sn, bn = shares(P, new, Qn, np.asarray(en, dtype=float))
     sn, bn = sn.reshape(2, k, 3), bn.reshape(2, k, 3)
     # (u, b, a) holds u→b, b→a, a→u; (b, v, a) holds b→v, v→a, a→b
     pick_t, pick_e = np.array([1, 0, 0, 1]), np.array([1, 2, 0, 0])   # v→a, a→u, u→b, b→v
     side_s, side_b = sn[pick_t, :, pick_e].T, bn[pick_t, :, pick_e].T
     after = (_deficit(sn[0, :, 1] + sn[1, :, 2], bn[0, :, 1] + bn[1, :, 2])
              + _deficit(side_s + out_s, side_b + out_b).sum(axis=1))
-    gain = before - after
-    better = gain > GAIN * before
-    cand = inner[better]
-    if not len(cand):
-        return cand
     M = len(T)
     near = np.where(across >= 0, across // 3, M + 4 * np.arange(k)[:, None] + np.arange(4))
-    tris = (t1[better], t2[better]) + tuple(near[better].T)
-    pick = _independent(cand, -gain[better], tris)
-    return cand[pick]
+    tris = (t1, t2) + tuple(near.T)
+    return inner, before, after, new, Qn, tris
 
 
 def _deficit(q, bound):
@@ -400,7 +454,10 @@ def _relax(P, T, twin, Qbar, err, s, b, field, metric, movers, shape):
     n = len(P)
     mask = np.zeros(n, bool)
     mask[movers] = True
-    near = T[touching(T, mask)]                # the movers' stars: all a move can change
+    star0 = touching(T, mask)
+    near = T[star0]                            # the movers' stars: all a move can change
+    if metric is None:                         # each triangle's own H_T = adj Q̄_T / √det Q̄_T
+        metric = _own_metric(shape_metric(Qbar[star0]))
     d = shape_step(P, near, metric, mask)
     _, d = limit_moves(P, near, d)
     moving = mask & (np.hypot(d[:, 0], d[:, 1]) > 0)
@@ -451,6 +508,15 @@ def _relax(P, T, twin, Qbar, err, s, b, field, metric, movers, shape):
     P = P.copy()
     P[take] += d[take]
     return P, np.flatnonzero(touching(T, take))
+
+
+def _own_metric(H):
+    """The metric of the triangles of a star, each its own H (in the order `shape_step` asks for
+    them: its triangles are the star's, in order): what the quality (2.94) is measured in."""
+    def hessian(X):
+        assert len(X) == len(H)
+        return H
+    return Anisotropy.metric_only(hessian, "element means")
 
 
 def _star_quality(P, Pn, Ts, Q0, Q1, owner, n):
