@@ -38,7 +38,8 @@ Every measurement uses element means Q̄_T computed HERE, not the mesh's: formul
 - κ2 of the Dirichlet matrix (`qmesh.measure.conditioning` with the means computed here);
 - min metric quality (2.94) in each triangle's own H_T = adj Q̄_T / √det Q̄_T (`measure.quality`);
 - seconds: qmesh, the whole run (`qmesh.iterate` to its last Step, which is `qmesh.mesh`); peers,
-  their final calibrated run;
+  their final calibrated run (wall clock; qmesh's CPU seconds, and their ratio to the constant
+  Q's, are in the notes);
 - peak memory: every mesher runs in a fresh subprocess (this script with --worker); its peak RSS
   (VmHWM of /proc/self/status) and, in brackets, the growth over the RSS it had after its imports and
   building the field (the peers' over all their calibration runs);
@@ -438,7 +439,7 @@ def run_mesher(case: Case, mesher: str, n: int, Q=None) -> dict:
     out = {"runs": 1, "warnings": [], "base_kb": base}
     with warnings.catch_warnings(record=True) as said:
         warnings.simplefilter("always", qmesh.QmeshWarning)
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         if mesher == "qmesh":                  # qmesh.mesh is iterate's last Step: certified
             stamps = [t0]
             for step in qmesh.iterate(domain, fld, target_vertices=n):
@@ -457,7 +458,8 @@ def run_mesher(case: Case, mesher: str, n: int, Q=None) -> dict:
         else:
             raise ValueError(mesher)
         seconds = time.perf_counter() - t0
-    out.update(points=np.asarray(m.points), triangles=np.asarray(m.triangles),
+        cpu = time.process_time() - c0
+    out.update(cpu_seconds=cpu, points=np.asarray(m.points), triangles=np.asarray(m.triangles),
                fixed=np.asarray(m.fixed), seconds=out.get("final_seconds", seconds),
                total_seconds=seconds, peak_kb=peak_rss_kb(),
                warnings=[str(w.message) for w in said if issubclass(w.category, qmesh.QmeshWarning)])
@@ -529,8 +531,11 @@ def run(case_names, ns, big, mmg=True, figure_case="fvca5") -> tuple[list[dict],
                                                      / np.linalg.norm(row["Qbar"], axis=(1, 2))))
                     _, area = element_matrices(P, T, row["Qbar"])
                     Qmean = np.einsum("m,mij->ij", area, row["Qbar"]) / area.sum()
-                    row["const_s"] = in_subprocess(case, "constQ", n, Qmean)["seconds"]
-                    row["constfield_s"] = in_subprocess(case, "constfield", n, Qmean)["seconds"]
+                    row["cpu_s"] = r["cpu_seconds"]
+                    c = in_subprocess(case, "constQ", n, Qmean)
+                    row["const_s"], row["const_cpu"] = c["seconds"], c["cpu_seconds"]
+                    c = in_subprocess(case, "constfield", n, Qmean)
+                    row["constfield_s"], row["constfield_cpu"] = c["seconds"], c["cpu_seconds"]
                 if name == figure_case and n == min(ns):
                     kept[mesher] = (P, T, row["rel"])
                 del row["Qbar"], row["rel"]
@@ -589,6 +594,10 @@ def summary(rows) -> list[str]:
     notes.append("qmesh's seconds / constant Q's (Anisotropy; constant TensorField): " + "; ".join(
         f"{r['case']} at {r['target']}: {r['seconds'] / r['const_s']:.0f}× "
         f"({r['seconds'] / r['constfield_s']:.1f}×)" for r in q))
+    notes.append("the same in CPU seconds (time.process_time of each run's process: less "
+                 "sensitive to other processes sharing the cores): " + "; ".join(
+                     f"{r['case']} at {r['target']}: {r['cpu_s']:.2f} s, {r['cpu_s'] / r['const_cpu']:.0f}× "
+                     f"({r['cpu_s'] / r['constfield_cpu']:.1f}×)" for r in q))
     notes.append("qmesh's certify-and-repair pass (its last Step) took: " + "; ".join(
         f"{r['case']} at {r['target']}: {r['certify_s']:.2f} of {r['seconds']:.2f} s" for r in q))
     notes.append("where qmesh's worst triangle (min quality) lies, its centroid: " + "; ".join(
