@@ -248,9 +248,16 @@ def _perturbed_hull(P: np.ndarray, L: np.ndarray, perturbed: np.ndarray,
     lifted = np.column_stack([X, z + PERTURB * u])
     T = None
     if _thin(X):        # nearly one curve once lifted: Qhull's exact merging takes seconds per
-        T = _valid(Q, _lower_facets(lifted, "QJ"))   # 1e4 points, its joggle a hundredth
-        if T is None:
+        # 1e4 points, its joggle a hundredth. The 2-D joggled Delaunay first: the joggled lifted
+        # hull tilts the vertical facets of a straight side's points into flat lower facets
+        # and loses the points the joggle moved off the line (most strips thin in a strong
+        # metric), a whole build for nothing; `restore` settles what either joggle decided
+        try:
             T = _valid(Q, _delaunay(X, "QJ"))
+        except QmeshError:
+            T = None
+        if T is None:
+            T = _valid(Q, _lower_facets(lifted, "QJ"))
     if T is None:
         T = _valid(Q, _lower_facets(lifted, "Qt"))
     if T is None:       # points closer than the perturbation allows: the exact 2-D route
