@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 
 from qmesh.conductivity import means as _m
 
-RTOL = 1e-8
+RTOL = 1e-7
 """The repair's quadrature tolerance: an error bound of at most about this share of ‖Q̄_T‖ (FIELDS.md
 §3); an edge that fails only by its bound is computed again at `means.RTOL`."""
 MIX = np.uint64(0x9E3779B97F4A7C15)   # odd multiplier of the corners' hash (Fibonacci hashing)

@@ -41,11 +41,13 @@ GAIN = 1e-9         # a flip must lower its quadrilateral's deficit by this shar
 SPLIT_AT = 0.1      # an edge is split no nearer its ends than this share of it
 RELAX = 4           # rounds of shape steps mending edges before the next split
 SMOOTH = 4          # shape steps of the vertices the splits added, once every edge passes
-POLISH = 6          # then shape steps, in the element means' metric, of the corners of triangles
+POLISH = 12         # then shape steps, in the element means' metric, of the corners of triangles
                     # below FLOOR
 FLOOR = 0.3         # a split or a repairing move keeps the worst metric quality (2.94) of what it
 KEEP = 0.75         # changes above KEEP · min(FLOOR, the worst before) where it can
 SHORTEST = 1e-9     # edges shorter than this share of the domain's extent are not split
+STEPS = (1.0, 0.5, 0.25)   # a refused shape move is tried at these shares of its step
+IN_LINE = 1e-9      # a boundary vertex this near the line of its neighbours (sine) slides along it
 
 
 @dataclass(frozen=True)
@@ -116,10 +118,11 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
             flips += len(done)
         elif metric is not None and tries < RELAX:
             tries += 1
-            ends = _free(T, twin, fixed, _corners(T, twin, h))
+            tan = _tangents(P, T, twin, fixed)
+            ends = _free(T, twin, fixed, _corners(T, twin, h), tan)
             if len(ends):
                 P, t = _relax(P, T, twin, Qbar, err, s, b, field, metric,
-                              _movers(T, twin, ends, rng), shape=False)
+                              _movers(T, twin, ends, rng), shape=False, tangent=tan)
         if not len(t):
             keep = _longer(P, T, h, shortest)
             if not keep.any():
@@ -132,19 +135,21 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
         tight = np.concatenate([tight, np.zeros(len(T) - len(tight), bool)])
         tight[t] = False
     if metric is not None and not len(h) and added:
-        new = _free(T, twin, fixed, np.arange(mesh.n_vertices, len(P)))
+        tan = _tangents(P, T, twin, fixed)
+        new = _free(T, twin, fixed, np.arange(mesh.n_vertices, len(P)), tan)
         for _ in range(SMOOTH):
             P, t = _relax(P, T, twin, Qbar, err, s, b, field, metric,
-                          _movers(T, twin, new, rng), shape=True)
+                          _movers(T, twin, new, rng), shape=True, tangent=tan)
             Qbar, err, s, b = _refresh(field, P, T, Qbar, err, s, b, t)
     if metric is not None and not len(h):
+        tan = _tangents(P, T, twin, fixed)
         for _ in range(POLISH):                # the worst shapes, each in its own means
             low = metric_quality(P, T, shape_metric(Qbar)) < FLOOR
-            poor = _free(T, twin, fixed, T[low].ravel())
+            poor = _free(T, twin, fixed, T[low].ravel(), tan)
             if not len(poor):
                 break
             P, t = _relax(P, T, twin, Qbar, err, s, b, field, None,
-                          _movers(T, twin, poor, rng), shape=True)
+                          _movers(T, twin, poor, rng), shape=True, tangent=tan)
             Qbar, err, s, b = _refresh(field, P, T, Qbar, err, s, b, t)
             low = np.flatnonzero(metric_quality(P, T, shape_metric(Qbar)) < FLOOR)
             done = _quality_flips(P, T, twin, (3 * low[:, None] + np.arange(3)).ravel(), s, b,
@@ -176,12 +181,36 @@ def _corners(T, twin, h):
     return T[t].ravel()
 
 
-def _free(T, twin, fixed, v):
-    """The vertices among v that may move: neither seeds nor on the boundary."""
+def _free(T, twin, fixed, v, tangent=None):
+    """The vertices among v that may move: neither seeds nor on the boundary, except those
+    that slide along it (`tangent` not 0, `_tangents`)."""
     on = np.zeros(len(fixed), bool)
     on[_ends(T, np.flatnonzero(twin < 0))] = True
+    if tangent is not None:
+        on &= ~np.any(tangent != 0, axis=1)
     v = topology.sorted_unique(np.asarray(v, np.int64))
     return v[~fixed[v] & ~on[v]]
+
+
+def _tangents(P, T, twin, fixed):
+    """The unit tangent (n, 2) of each boundary vertex that may slide along the boundary: not a
+    seed, and in line with its two neighbours along it (inside one straight segment, where
+    the mesher or a split put it); 0 for every other vertex."""
+    hb = np.flatnonzero(twin < 0)
+    tb, kb = np.divmod(hb, 3)
+    a, c = T[tb, kb], T[tb, topology.NXT[kb]]                  # boundary edges a → c
+    nxt, prv = np.full(len(P), -1), np.full(len(P), -1)
+    nxt[a], prv[c] = c, a
+    v = np.flatnonzero((nxt >= 0) & (prv >= 0) & ~fixed)
+    e1, e2 = P[v] - P[prv[v]], P[nxt[v]] - P[v]
+    l1, l2 = np.hypot(*e1.T), np.hypot(*e2.T)
+    line = (np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]) <= IN_LINE * l1 * l2) & \
+        (np.einsum("ki,ki->k", e1, e2) > 0)
+    v = v[line]
+    t = P[nxt[v]] - P[prv[v]]
+    out = np.zeros((len(P), 2))
+    out[v] = t / np.hypot(*t.T)[:, None]
+    return out
 
 
 def _failing(s, b, twin):
@@ -443,14 +472,14 @@ def _movers(T, twin, candidates, rng):
     return candidates[best[candidates] == prio[candidates]]
 
 
-def _relax(P, T, twin, Qbar, err, s, b, field, metric, movers, shape):
+def _relax(P, T, twin, Qbar, err, s, b, field, metric, movers, shape, tangent=None):
     """Move the vertices `movers` (`_movers`) by the mesher's shape step in `metric`
     (`adjust.shape_step`, capped by `adjust.limit_moves`) where their star is better for it:
     no more failing edges and no higher deficit, and fewer or a lower deficit, and a worst
     quality kept above KEEP · min(FLOOR, its worst before) (shape=False: a repair that adds no
     vertex); no more failing edges, no higher deficit and a better worst
     metric quality of the star in its own means (shape=True). Returns the new P and the
-    triangles that changed."""
+    triangles that changed. Vertices with a `tangent` (`_tangents`) move along it only."""
     n = len(P)
     mask = np.zeros(n, bool)
     mask[movers] = True
@@ -459,12 +488,34 @@ def _relax(P, T, twin, Qbar, err, s, b, field, metric, movers, shape):
     if metric is None:                         # each triangle's own H_T = adj Q̄_T / √det Q̄_T
         metric = _own_metric(shape_metric(Qbar[star0]))
     d = shape_step(P, near, metric, mask)
+    if tangent is not None:                    # boundary vertices: the step's share along it
+        d = tangent * np.einsum("ki,ki->k", d, tangent)[:, None] + np.where(
+            np.any(tangent != 0, axis=1)[:, None], 0.0, d)
     _, d = limit_moves(P, near, d)
     moving = mask & (np.hypot(d[:, 0], d[:, 1]) > 0)
+    take = np.zeros(n, bool)
+    for frac in (STEPS if shape else STEPS[:1]):   # a shape move refused is tried shorter
+        if not moving.any():
+            break
+        ok = _accepted(P, T, twin, Qbar, s, b, field, frac * d, moving, shape)
+        d[ok] *= frac
+        take |= ok
+        moving &= ~ok
+    if not take.any():
+        return P, np.empty(0, np.int64)
+    P = P.copy()
+    P[take] += d[take]
+    return P, np.flatnonzero(touching(T, take))
+
+
+def _accepted(P, T, twin, Qbar, s, b, field, d, moving, shape):
+    """Which `moving` vertices (two triangles apart) `_relax` takes moved by d: their stars'
+    edges and shapes judged on the means at the new places."""
+    n = len(P)
     star = np.flatnonzero(touching(T, moving))
     if not len(star):
-        return P, star
-    Pn = P + d
+        return np.zeros(n, bool)
+    Pn = P + np.where(moving[:, None], d, 0.0)
     Ts = T[star]
     Qn, en = field.means_with_error(Pn, Ts)
     Qn, en = np.asarray(Qn, dtype=float), np.asarray(en, dtype=float)
@@ -502,12 +553,9 @@ def _relax(P, T, twin, Qbar, err, s, b, field, metric, movers, shape):
         q0, q1 = _star_quality(P, Pn, Ts, Qbar[star], Qn, tri_owner, n)
         take = ((f1 <= f0) & (d1 <= d0) & ((f1 < f0) | (d1 < (1.0 - GAIN) * d0))
                 & (q1 >= KEEP * np.minimum(q0, FLOOR)))
-    take &= moving & ~flat
-    if not take.any():
-        return P, star[:0]
-    P = P.copy()
-    P[take] += d[take]
-    return P, np.flatnonzero(touching(T, take))
+    return take & moving & ~flat
+
+
 
 
 def _own_metric(H):

@@ -129,3 +129,69 @@ def test_shape_steps_never_add_failing_edges_nor_deficit(seed, n, cells, shape):
     assert after <= before * (1 + 1e-9) + 1e-15
     moved = np.flatnonzero(np.any(P2 != P, axis=1))
     assert np.isin(moved, movers).all()
+
+
+@settings(max_examples=6, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), cells=st.integers(3, 10), target=st.integers(200, 800))
+def test_boundary_vertices_slide_along_the_boundary_only(seed, cells, target):
+    """The repair and the polish slide boundary vertices along their straight piece of the
+    boundary: every boundary vertex stays on the outline or on the hole, the seeds stay put,
+    and every edge still passes on independently computed means."""
+    edges, k1, k2, angle = random_raster(seed, cells, 2.0)
+    domain = qmesh.Domain([(0, 0), (1, 0), (1, 1), (0, 1)],
+                          [qmesh.Polygon([(0.3, 0.3), (0.7, 0.35), (0.6, 0.7)])])
+    F = qmesh.TensorField.from_raster(edges, edges, k1, k2, angle)
+    m, failing = meshed(domain, F, target)
+    assert failing == 0
+    on = np.unique(m.boundary_edges)
+    X = m.points[on]
+    outline = np.minimum(np.minimum(X[:, 0], 1 - X[:, 0]), np.minimum(X[:, 1], 1 - X[:, 1]))
+    A = np.array([(0.3, 0.3), (0.7, 0.35), (0.6, 0.7)])
+    B = np.roll(A, -1, axis=0)
+    E = B - A
+    t = np.clip(np.einsum("kpi,pi->kp", X[:, None] - A, E) / np.einsum("pi,pi->p", E, E), 0, 1)
+    hole = np.hypot(*(X[:, None] - (A + t[..., None] * E)).transpose(2, 0, 1)).min(axis=1)
+    assert np.all(np.minimum(np.abs(outline), hole) <= 1e-12)
+    corners = np.array([(0, 0), (1, 0), (1, 1), (0, 1)] + A.tolist())
+    assert all(np.any(np.all(m.points == c, axis=1)) for c in corners)
+    ref = raster_reference_means(edges, edges, cell_tensors(k1, k2, angle), m.points, m.triangles)
+    assert positive_off_diagonals(m.points, m.triangles, ref) == 0
+
+
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), n=st.integers(30, 200), cells=st.integers(2, 10))
+def test_sliding_vertices_keep_to_their_side(seed, n, cells):
+    """_tangents gives the sides' directions to the boundary points between the corners and
+    nothing to the corners; a shape step moves those points along their side only, and
+    breaks no edge."""
+    rng = np.random.default_rng(seed)
+    P, T = square_mesh(seed, n)
+    u = rng.uniform(0.1, 0.9, 8)
+    side = np.concatenate([np.column_stack([u[:2], [0, 0]]), np.column_stack([[1, 1], u[2:4]]),
+                           np.column_stack([u[4:6], [1, 1]]), np.column_stack([[0, 0], u[6:]])])
+    P = np.concatenate([P, side])
+    T = Delaunay(P).simplices
+    A, B = P[T[:, 1]] - P[T[:, 0]], P[T[:, 2]] - P[T[:, 0]]
+    cw = A[:, 0] * B[:, 1] - A[:, 1] * B[:, 0] < 0
+    T[cw] = T[cw][:, [0, 2, 1]]
+    T = T.astype(np.int64)
+    twin = topology.twins(T)
+    fixed = np.zeros(len(P), bool)
+    fixed[:4] = True
+    tan = C._tangents(P, T, twin, fixed)
+    sliding = np.flatnonzero(np.any(tan != 0, axis=1))
+    assert set(sliding) == set(range(len(P) - 8, len(P)))
+    assert np.allclose(np.abs(tan[sliding]), np.abs(np.round(tan[sliding])))
+    edges, k1, k2, angle = random_raster(seed, cells, 2.0)
+    field = qmesh.TensorField.from_raster(edges, edges, k1, k2, angle)
+    Qbar, err = (np.asarray(x) for x in field.means_with_error(P, T))
+    s, b = C.shares(P, T, Qbar, err)
+    h0, _, _ = C._failing(s, b, twin)
+    movers = C._movers(T, twin, C._free(T, twin, fixed, np.arange(len(P)), tan), rng)
+    P2, _ = C._relax(P, T, twin, Qbar, err, s, b, field, None, movers, shape=True, tangent=tan)
+    on_x = np.isin(P[sliding, 1], (0.0, 1.0))            # sides y = 0, 1 keep their y, else x
+    assert np.array_equal(P2[sliding[on_x], 1], P[sliding[on_x], 1])
+    assert np.array_equal(P2[sliding[~on_x], 0], P[sliding[~on_x], 0])
+    assert np.all(signed_areas(P2, T) > 0)
+    _, s2, b2, _ = total_deficit(P2, T, field)
+    assert len(C._failing(s2, b2, twin)[0]) <= len(h0)
