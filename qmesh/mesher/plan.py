@@ -15,6 +15,7 @@ import numpy as np
 
 from qmesh.errors import QmeshError
 from qmesh.mesher import budget, seeding, sizing
+from qmesh.mesher.diagnose import thin_domain
 from qmesh.mesher.normalise import Normalisation
 from qmesh.mesher.options import Options
 
@@ -106,8 +107,10 @@ def check_count(mesh, plan: Plan) -> None:
     if target is None or abs(n - target) <= TOLERANCE * target:
         return
     if n > target:
+        thin = thin_domain(mesh, plan.norm.user_anisotropy)      # what the input has, if thin
+        why = f". {thin[0].upper()}{thin[1:]}" if thin else ""
         raise QmeshError(f"target_vertices = {target} is too few: keeping every q_ij >= 0 on the "
-                         f"boundary needs {n} vertices here; ask for at least {n}")
+                         f"boundary needs {n} vertices here; ask for at least {n}{why}")
     interior = int((~mesh.boundary).sum())
     why = (" (the domain is thinner than one element at this size, so no interior vertex fits)"
            if interior == 0 else "")

@@ -56,9 +56,29 @@ def test_thin_polygons_mesh_or_are_refused_by_name(aspect, turn, k, angle, n, co
 def test_a_thin_strip_under_a_rotated_strong_anisotropy_meshes():
     """A strip 0.005 wide under principal(1, 1000, 45°): nearly one curve once lifted, which
     Qhull's exact mode resolved in seconds per call; joggled it is a hundredth of that
-    (the time is benchmarks/bench_scale_cases.py's)."""
+    (the times, beside the box's, are benchmarks/bench_thin.py's)."""
     strip = qmesh.Polygon([(0, 0), (1, 0), (1, 0.005), (0, 0.005)])
     m = qmesh.mesh(strip, qmesh.Anisotropy.principal(1, 1000, 45), target_vertices=10000)
     assert abs(m.n_vertices - 10000) <= 1000
     r = qmesh.measure.report(m, qmesh.Anisotropy.principal(1, 1000, 45))
     assert r["q_nonnegative_fraction_boundary"] == 1.0
+
+
+def test_a_strip_too_thin_for_its_target_is_refused_naming_its_metric_width():
+    """The 1 × 0.002 strip under principal(1, 1000, 30°) at N 1e4: its boundary alone needs
+    twice that. The refusal says how many vertices it needs and what the strip has, its width
+    in elements of the metric; the count it names meshes."""
+    import re
+    strip = qmesh.Polygon([(0, 0), (1, 0), (1, 0.002), (0, 0.002)])
+    A = qmesh.Anisotropy.principal(1, 1000, 30)
+    with pytest.raises(qmesh.QmeshError) as e:
+        qmesh.mesh(strip, A, target_vertices=10000)
+    message = str(e.value)
+    need = re.search(r"is too few: keeping every q_ij >= 0 on the boundary needs (\d+) vertices",
+                     message)
+    assert need and int(need.group(1)) > 11000
+    assert re.search(r"[Tt]he domain is [\d.]+ elements wide in the metric", message), message
+    with pytest.warns(qmesh.QmeshWarning, match="elements wide in the metric"):
+        m = qmesh.mesh(strip, A, target_vertices=int(need.group(1)))
+    assert abs(m.n_vertices - int(need.group(1))) <= 0.1 * int(need.group(1))
+    assert qmesh.measure.report(m, A)["q_nonnegative_fraction_boundary"] == 1.0
