@@ -7,7 +7,8 @@ run therefore costs little more than the final mesh per stage (the GUI scrubs th
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Mapping
+import warnings
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -118,3 +119,16 @@ def last_step(steps: Iterable[Step], progress: Callable[[Step], object] | None =
             progress(last)
     assert last is not None
     return last
+
+
+def recording(steps: Iterator[Step], said: list) -> Iterator[Step]:
+    """The steps, with the warnings raised while each is made kept in `said` (a driver of many
+    runs says them once, summed up) instead of shown."""
+    while True:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            step = next(steps, None)
+        said += caught
+        if step is None:
+            return
+        yield step
