@@ -1,10 +1,10 @@
 """Points a neighbour put on an interface, inserted into a finished face mesh without re-meshing.
 
-MEDIA.md §2: an interface edge needs the same vertices on both sides. A point a face mesher split
-into an interface subsegment goes into the finished face across it: its boundary edge is split
-there, flips restore the Q-Delaunay property in that face's metric, and a boundary edge the point
-then encroaches (a small metric angle at a corner) is split as the mesher splits its own, the
-points landing on an interface going on in turn. So every share of q_ij in this face stays ≥ 0.
+MEDIA.md §2. A point a face mesher split into an interface subsegment goes into the finished face
+across it: its boundary edge is split there, flips restore the Q-Delaunay property in that face's
+metric, and a boundary edge the point then encroaches (a small metric angle at a corner) is split
+as the mesher splits its own, the points landing on an interface going on in turn. So every share
+of q_ij in this face stays ≥ 0.
 """
 
 from __future__ import annotations

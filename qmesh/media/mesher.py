@@ -7,11 +7,10 @@ guarantees on its boundary (GEOMETRY.md §1). So each face of the partition is m
 Algorithm 2.1 itself (`mesher.loop.iterate`), on shared interface points:
 
     size every face once, interfaces cut into pieces ≤ h in both metrics   (plan.py)
-    for each face, smallest region first
+    for each face, smallest region first (small faces of one Q together: mesher.components)
         size the faces left for what the target leaves                     (plan.size_rest)
         run Algorithm 2.1 on it, every interface point known so far fixed
-        insert the points it added on an interface into the finished neighbours
-            (split, flip, split what they encroach: insert_shared.py)
+        insert the points it added on an interface into the finished neighbours (insert_shared.py)
     stitch the face meshes into one Mesh with region_tags                   (stitch.py)
 """
 
@@ -31,30 +30,27 @@ from qmesh.media.insert_shared import insert_on_boundary
 from qmesh.media.plan import FaceMeshes, MediaPlan
 from qmesh.media.stitch import stitch
 from qmesh.mesher import loop
+from qmesh.mesher.components import joined, split
 from qmesh.mesher.diagnose import thin_domain
-from qmesh.mesher.options import Options
+from qmesh.mesher.options import Options, check_keywords
 from qmesh.mesher.plan import TOLERANCE    # a mesh this share off target_vertices is warned about
-from qmesh.mesher.step import Stats, Step, last_step
+from qmesh.mesher.step import Stats, Step, last_step, recording
 from qmesh.triangle_mesh import Mesh
 
 FINER = 12             # halvings of the size for a face too thin for it (6 beyond plan.COARSER)
 MAX_HANDOVERS = 1000   # rounds of interface points handed between finished faces
+SMALL = 100            # faces expected to take fewer vertices share a run where they can
 MAX_NOTES = 3          # the faces' warnings shown one by one; beyond, one line counts them
-_PASSED = ("alpha", "quality_threshold", "max_iterations", "seed", "boundary_refinement")
 
 
 def iterate(domain: Any, conductivity: Any, *, target_vertices: int | None = None, size: float | None = None,
             min_area: float | None = None, **options: Any) -> Iterator[Step]:
-    """Mesh a domain with regions, yielding a `Step` after every stage of every face's run of
-    Algorithm 2.1 (its mesh: the faces done so far and this face, stitched) and a last Step,
-    the whole domain, the only one `converged`.
-
-    `conductivity`: one Anisotropy, or {region tag: Anisotropy} covering every region;
-    `target_vertices` N of the stitched mesh (shared between faces by metric area), or `size`
-    the metric edge length h in each region's metric with its size divided out (plan.py);
-    the other options (alpha, quality_threshold, max_iterations, seed, boundary_refinement) go
-    to each face's run. The arguments are checked now.
-    """
+    """Mesh a domain with regions, yielding a `Step` after every stage of every run of Algorithm
+    2.1 (its mesh: the faces done so far and this run's, stitched) and a last Step, the whole
+    domain, the only one `converged`. `conductivity`: one Anisotropy, or {region tag: Anisotropy}
+    covering every region; `target_vertices` N of the stitched mesh, or `size` h in each region's
+    metric with its size divided out (plan.py); the other options (`qmesh.iterate`'s but
+    min_area) go to each run. The arguments are checked now."""
     return _run(_plan(domain, conductivity, target_vertices, size, min_area, options), options, True)
 
 
@@ -72,32 +68,44 @@ def _plan(domain: Any, conductivity: Any, target_vertices: int | None, size: flo
     if min_area is not None:
         raise QmeshError("min_area is a metric area in one metric; with regions each face uses "
                          "its own, so it cannot be given (leave it out)")
-    unknown = set(options) - set(_PASSED)
-    if unknown:
-        raise QmeshError(f"unknown option {sorted(unknown)[0]!r} for a domain with regions "
-                         f"(allowed: target_vertices, size, {', '.join(_PASSED)})")
+    check_keywords(options, loop.iterate, "mesh")        # the options of a run with one Q
     Options.checked(target_vertices=target_vertices, size=size, **options)
     return MediaPlan(as_domain(domain), conductivity, target_vertices, size)
 
 
 def _run(plan: MediaPlan, options: dict, every: bool) -> Iterator[Step]:
-    """The faces in the plan's order, each run to its end and shared with the finished ones;
-    with `every`, a Step per stage of each face's run; the stitched whole last."""
+    """The faces in the plan's order (several in one run: `_group`), each run to its end and shared
+    with the finished ones; with `every`, a Step per stage of each run; the stitched whole last."""
     extra = dict(plan.extra)                 # interface points shared so far, per edge
     meshes = FaceMeshes()                    # the finished faces, in the order they were meshed
     notes: list = []                         # (message, category) the faces' runs warned
     cond = {f.region: a for f, a in zip(plan.faces, plan.anis)}
-    for at, i in enumerate(plan.order):
+    at, alone = 0, set[int]()                # alone: faces of a group whose run failed
+    while at < len(plan.order):
         if at:
             plan.size_rest(plan.order[at:], meshes.vertex_count())
-        for step in _face_steps(plan, i, extra, options, notes, meshes):
-            if every:
-                m = stitch(plan.part, {**meshes, i: step.mesh}, plan.domain)
-                yield Step(step.stage, step.iteration, m, Stats(m.n_vertices, m.n_triangles,
-                           seconds=step.stats.seconds, source=(m, cond)))
-        meshes[i] = step.mesh
-        new = points_on_edges(step.mesh, plan.corners, int(step.mesh.fixed.sum()))
-        _share(plan, meshes, {e: X for e, X in new.items() if plan.part.interface[e]}, extra)
+        faces, doms = _group(plan, at, extra, meshes, alone)
+        said: list = []
+        try:
+            for step in _face_steps(plan, faces, doms, options, said, meshes):
+                if every:
+                    m = stitch(plan.part, {**meshes, **dict(zip(faces, split(step.mesh, doms)))}, plan.domain)
+                    yield Step(step.stage, step.iteration, m, Stats(m.n_vertices, m.n_triangles,
+                               seconds=step.stats.seconds, source=(m, cond)))
+        except QmeshError:
+            if len(faces) == 1:
+                raise
+            alone.update(faces)              # meshed one by one instead
+            continue
+        notes += [(f"{plan.face_name(faces[0])}: {w.message}", w.category) for w in said]
+        for i, mesh in zip(faces, split(step.mesh, doms)):
+            a = plan.anis[i]                 # its shape only: a Q of 1e300 would overflow the areas
+            thin = thin_domain(mesh, Anisotropy.constant(a.matrix / plan.k[i]) if a.is_constant else a)
+            notes += [] if thin is None else [(f"{plan.face_name(i)}: {thin}", QmeshWarning)]
+            meshes[i] = mesh
+            new = points_on_edges(mesh, plan.corners, int(mesh.fixed.sum()))
+            _share(plan, meshes, {e: X for e, X in new.items() if plan.part.interface[e]}, extra)
+        at += len(faces)
     m = stitch(plan.part, meshes, plan.domain)
     yield Step("triangulate", step.iteration, m, Stats(m.n_vertices, m.n_triangles, source=(m, cond)),
                converged=True)
@@ -124,42 +132,51 @@ def _summary(notes: list) -> list:
                                      f"{len(names)} regions ({shown})", QmeshWarning)]
 
 
-def _face_steps(plan: MediaPlan, i: int, extra: dict, options: dict, notes: list,
-                meshes: FaceMeshes) -> Iterator[Step]:
-    """Algorithm 2.1 on face i, its Steps as they come. A face thinner (or sharper) in its metric
-    than the shared size needs a finer one: its run says "too large", and the size is halved for
-    this face, up to FINER times. Its warnings go to `notes`, naming its region."""
-    try:
-        dom = face_domain(plan.part, plan.faces[i], extra, plan.face_name(i))
-    except QmeshError as e:
-        raise plan.too_small(i) or e from None
-    said: list = []
-    first = plan.sizing_of(i, dom, meshes)
-    for k in range(FINER + 1):
+def _group(plan: MediaPlan, at: int, extra: dict, meshes: FaceMeshes, alone: set) -> tuple[list, list]:
+    """The faces meshed in one run from the plan's at-th on, with their domains: it, and while
+    it and they are small, of one constant Q and one sizing, the next ones but the last face
+    that touch none before them (no point in common: `mesher.components`)."""
+    faces: list = []
+    doms: list = []
+    taken: set = set()
+
+    def small(j: int) -> bool:             # and not failed in a group, and of the first's Q
+        a, b = plan.anis[j], plan.anis[plan.order[at]]
+        return (j not in alone and a.is_constant and np.array_equal(a.H, b.H)
+                and plan.counter([j])(plan.h_rest) < SMALL)
+
+    for i in plan.order[at:]:
+        if faces and not (small(faces[0]) and small(i) and i != plan.order[-1]):
+            break
         try:
-            sizing = {"size": plan.h_rest * np.sqrt(plan.k[i]) / 2**k} if k else first
-            for last in _recording(loop.iterate(dom, plan.anis[i], **sizing, **options), said):
+            dom = face_domain(plan.part, plan.faces[i], extra, plan.face_name(i))
+        except QmeshError as e:
+            raise plan.too_small(i) or e from None
+        pts = set(map(tuple, dom.seeds.tolist()))
+        if faces and (taken & pts or
+                      plan.sizing_of(i, dom, meshes) != plan.sizing_of(faces[0], doms[0], meshes)):
+            break
+        faces.append(i)
+        doms.append(dom)
+        taken |= pts
+    return faces, doms
+
+
+def _face_steps(plan: MediaPlan, faces: list, doms: list, options: dict, said: list,
+                meshes: FaceMeshes) -> Iterator[Step]:
+    """Algorithm 2.1 on the faces (one, or several as one domain), its Steps as they come, its
+    warnings in `said`. A face thinner (or sharper) in its metric than the shared size needs a
+    finer one: its run says "too large", and its size is halved, up to FINER times."""
+    i, dom = faces[0], joined(doms)
+    for k in range(FINER + 1 if len(faces) == 1 else 1):
+        try:
+            sizing = {"size": plan.h_rest * np.sqrt(plan.k[i]) / 2**k} if k else plan.sizing_of(i, doms[0], meshes)
+            for last in recording(loop.iterate(dom, plan.anis[i], **sizing, **options), said):
                 yield last
             break
-        except QmeshError as e:
-            if k == FINER or ("too large" not in str(e) and "target_vertices" not in str(e)):
+        except QmeshError as e:          # a group's: meshed one by one instead (`_run`)
+            if len(faces) > 1 or k == FINER or ("too large" not in str(e) and "target_vertices" not in str(e)):
                 raise plan.too_small(i) or QmeshError(f"{plan.face_name(i)}: {e}") from None
-    a = plan.anis[i]                   # its shape only: a Q of 1e300 would overflow the areas
-    thin = thin_domain(last.mesh, Anisotropy.constant(a.matrix / plan.k[i]) if a.is_constant else a)
-    notes += [(f"{plan.face_name(i)}: {m}", c) for m, c in [(w.message, w.category) for w in said]
-              + ([] if thin is None else [(thin, QmeshWarning)])]
-
-
-def _recording(steps: Iterator[Step], said: list) -> Iterator[Step]:
-    """The steps, with the warnings raised while each is made kept in `said`."""
-    while True:
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
-            step = next(steps, None)
-        said += caught
-        if step is None:
-            return
-        yield step
 
 
 def _share(plan: MediaPlan, meshes: FaceMeshes, new: dict, extra: dict) -> None:

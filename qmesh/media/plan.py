@@ -3,8 +3,6 @@
 MEDIA.md §3: each region r is meshed in its metric ∇²s_r with its magnitude k_r divided out, so
 one metric edge length h serves every face. N is shared between the faces by metric area through
 the single-region mesher's own relation h ↔ N, less the interface vertices two faces count twice.
-Interfaces are cut beforehand into pieces ≤ h in the metric of both sides, so the neighbours
-start from the same points.
 
 A face thin or sharp in its own metric needs more vertices than its area says, so the faces
 still to come are sized again before each face (`size_rest`), and the largest, meshed last, is
@@ -70,9 +68,9 @@ class MediaPlan:
             np.arange(len(seg_edge))
         self._side = slot[self._inter]
         self.longest = self._seg_len[self._side].max(axis=1)        # in the longer side's metric
-        width = np.array([sizing.hull_metric_width(
-            part.points[part.half_from[part.cycle(f.cycles[0])]], a, k)
-            for f, a, k in zip(self.faces, self.anis, self.k)])
+        outer = [part.points[part.half_from[part.cycle(f.cycles[0])]] for f in self.faces]
+        self.extent = np.array([np.ptp(X, axis=0).max() for X in outer])     # of each face
+        width = np.array([sizing.hull_metric_width(X, a, k) for X, a, k in zip(outer, self.anis, self.k)])
         w = np.where(THIN_ASPECT * width < np.array([L.max() for L in lengths]), THIN * width, np.inf)
         self._thin_step = w[self._seg_face]
         self.target = target_vertices
@@ -92,33 +90,29 @@ class MediaPlan:
         self.extra = self._cuts(self.h)
 
     def face_name(self, i: int) -> str:
-        r = self.faces[i].region
-        names = self.domain.region_names
+        r, names = self.faces[i].region, self.domain.region_names
         return f"region {r}" + (f" ({names[r]})" if r in names else "")
 
     def too_small(self, i: int) -> QmeshError | None:
-        """Why face i could not be meshed when it, or a face beside it, is tiny next to the
-        domain (TINY × its size or less): the points that face's metric needs on its edges
-        come closer than the round-off of the face around it allows. None otherwise."""
-        part, D, ef = self.part, self.domain.diameter, self.part.edge_faces
-        near = {i} | {int(f) for f in ef[(ef == i).any(axis=1)].ravel() if f >= 0}
-        ext = {j: float(np.ptp(part.points[part.edges[(ef == j).any(axis=1)]].reshape(-1, 2),
-                               axis=0).max()) for j in near}
-        j = min(ext, key=lambda f: ext[f])
-        if ext[j] > TINY * D:
+        """Why face i could not be meshed when it, or a face beside it, is tiny (TINY × the domain's
+        size or less): the points its metric needs on its edges come closer than round-off allows
+        beside the face around it. None otherwise."""
+        D, ef = self.domain.diameter, self.part.edge_faces
+        near = [i] + [int(f) for f in ef[(ef == i).any(axis=1)].ravel() if f >= 0]
+        j = min(near, key=lambda f: self.extent[f])
+        if (x := self.extent[j]) > TINY * D:
             return None
         where = "" if j == i else f", and {self.face_name(i)} around it cannot be meshed"
-        return QmeshError(f"{self.face_name(j)} is {ext[j]:.3g} across, {ext[j] / D:.2g} × the domain's "
-                          f"size{where}: the points its metric needs on its edges come closer together "
-                          "than floating point resolves beside the rest of the domain; enlarge it, or "
-                          "leave it out (give that area its neighbour's conductivity)")
+        return QmeshError(f"{self.face_name(j)} is {x:.3g} across, {x / D:.2g} × the domain's size{where}: "
+                          "the points its metric needs on its edges come closer together than floating "
+                          "point resolves beside the rest of the domain; enlarge it, or leave it out "
+                          "(give that area its neighbour's conductivity)")
 
     def counter(self, faces: list, thin: bool = False) -> Callable[[float], float]:
         """The vertices the faces `faces` add at metric edge length h, as a function of h: Euler's
-        estimate per face (mesher.sizing), less one count of every interface vertex they share
-        with another face (counted on both sides, or already there). What h does not change is
-        taken once (a bisection calls it a hundred times, before many faces), from the faces'
-        own segments and the interface edges beside them."""
+        estimate per face, less one count of every interface vertex they share with another face
+        (counted on both sides, or already there). What h does not change is taken once (a
+        bisection calls it a hundred times), from their segments and interface edges alone."""
         mine = np.zeros(len(self.faces), bool)
         mine[faces] = True
         seg = mine[self._seg_face]                                 # the faces' segments
@@ -166,10 +160,9 @@ class MediaPlan:
             self.h_rest = float(np.clip(h, self.h_rest, self.h_euler * COARSER))
 
     def sizing_of(self, i: int, dom: Any, meshes: FaceMeshes) -> dict:
-        """The face mesher's sizing of face i: `size` h·√k_r (h in the user's metric ∇²s_r), or
-        for the last face the count that lands the run on target_vertices when it leaves room.
-        When that h is a hair shorter than its interface pieces (it would split each in two,
-        and a finished neighbour takes the halves in by flips alone), the pieces' size."""
+        """The face mesher's sizing of face i: `size` h·√k_r (h in the user's metric ∇²s_r), or for
+        the last face the count that lands the run on target_vertices when it leaves room; when h
+        is a hair shorter than its interface pieces (it would split each in two), their size."""
         a, k, L = self.anis[i], self.k[i], sizing.metric_edge_lengths(dom, self.anis[i], self.k[i])
         n = 0
         if self.target is not None and i == self.order[-1] and meshes:
@@ -191,33 +184,26 @@ class MediaPlan:
 
 
 class FaceMeshes(dict[int, Mesh]):
-    """The finished face meshes {face: Mesh}, in the order they were meshed, with the vertex
-    count of their stitched whole kept as they are added or replaced (a recount before each
-    face would be quadratic in the faces): each one's interior vertices, and the boundary
-    points, which neighbours share bit for bit, once."""
+    """The finished face meshes {face: Mesh}, in the order they were meshed, with the vertex count
+    of their stitched whole kept as they are added or replaced (a recount before each face would
+    be quadratic in the faces): their interior vertices, and their boundary points once."""
 
     def __init__(self) -> None:
         super().__init__()
         self._inner = 0                               # interior vertices of all faces
         self._held: dict[tuple, int] = {}             # boundary point -> faces holding it
-        self._bound: dict[int, list[tuple]] = {}      # per face: its boundary points
 
     def __setitem__(self, i: int, m: Mesh) -> None:
         old = self.get(i)
         if old is m:
             return
-        if old is not None:
-            self._inner -= old.n_vertices - len(self._bound[i])
-            for x in self._bound[i]:
-                self._held[x] -= 1
+        for mesh, sign in [(old, -1), (m, 1)] if old is not None else [(m, 1)]:   # out with the old
+            b = np.unique(mesh.boundary_edges)
+            self._inner += sign * (mesh.n_vertices - len(b))
+            for x in map(tuple, mesh.points[b].tolist()):   # float tuples: equal as np.unique finds them
+                self._held[x] = self._held.get(x, 0) + sign
                 if not self._held[x]:
                     del self._held[x]
-        b = np.unique(m.boundary_edges)
-        pts = list(map(tuple, m.points[b].tolist()))  # float tuples: equal as np.unique finds them
-        self._inner += m.n_vertices - len(b)
-        self._bound[i] = pts
-        for x in pts:
-            self._held[x] = self._held.get(x, 0) + 1
         super().__setitem__(i, m)
 
     def vertex_count(self, adding: Any = ()) -> int:

@@ -1,10 +1,7 @@
-"""The face meshes glued into one `qmesh.Mesh` with `region_tags`.
-
-Interface vertices are the same floating-point numbers on both sides (an input point of a face
-mesh comes back bit-exactly, `Normalisation.to_user`), so they merge by exact coordinates; a
-KD-tree then checks that no two distinct vertices are closer than round-off, which would mean
-a crack in the mesh.
-"""
+"""The face meshes glued into one `qmesh.Mesh` with `region_tags`. Interface vertices are the same
+floating-point numbers on both sides (an input point of a face mesh comes back bit-exactly,
+`Normalisation.to_user`), so they merge by exact coordinates; a KD-tree then checks that no two
+distinct vertices are closer than round-off, which would mean a crack in the mesh."""
 
 from __future__ import annotations
 

@@ -17,6 +17,15 @@ def rectangle(w, notched=False):
     return np.array([(0.0, 0.0), (w, 0.0), (w, 1.0), (0.0, 1.0)])
 
 
+def hexagons(n: int) -> list:
+    """n hexagons on a grid in the unit square, radius a third of the spacing (bench_regions)."""
+    k = int(np.ceil(np.sqrt(n)))
+    t = np.pi / 3 * np.arange(6)
+    unit = np.column_stack([np.cos(t), np.sin(t)]) / (3 * k)
+    c = (np.stack(np.meshgrid(np.arange(k), np.arange(k)), -1).reshape(-1, 2)[:n] + 0.5) / k
+    return [ci + unit for ci in c]
+
+
 def star(center, radius, n, rng):
     """A star-shaped polygon with n corners around `center`, radii in [0.6, 1] × radius."""
     t = 2 * np.pi * np.arange(n) / n + rng.uniform(-0.3, 0.3, n) * np.pi / n

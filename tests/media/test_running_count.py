@@ -11,17 +11,10 @@ from qmesh.domain import media_cases
 from qmesh.media import mesher
 from qmesh.media.faces import points_on_edges
 from qmesh.media.plan import FaceMeshes, MediaPlan
+from tests.media.cases import hexagons
 
 P = qmesh.Anisotropy.principal
 INSIDE, OUTSIDE = P(10.0, 1.0, 30.0), P(1.0, 4.0, -20.0)
-
-
-def hexagons(n: int) -> list:
-    k = int(np.ceil(np.sqrt(n)))
-    t = np.pi / 3 * np.arange(6)
-    unit = np.column_stack([np.cos(t), np.sin(t)]) / (3 * k)
-    c = (np.stack(np.meshgrid(np.arange(k), np.arange(k)), -1).reshape(-1, 2)[:n] + 0.5) / k
-    return [ci + unit for ci in c]
 
 
 def recount(meshes) -> int:
@@ -35,9 +28,10 @@ def recount(meshes) -> int:
 
 
 def test_running_count_equals_a_full_recount_at_every_change(monkeypatch):
-    """30 inclusions, and the inclusion case (whose outside hands points over to the finished
-    inclusion, replacing its mesh): after every face added or replaced, and at every call, the
-    running count is the recount."""
+    """30 inclusions of conductivities all different (so each is meshed on its own), and the
+    inclusion case (whose outside hands points over to the finished inclusion, replacing its
+    mesh): after every face added or replaced, and at every call, the running count is the
+    recount."""
     seen = {"calls": 0, "replaced": 0}
 
     class Checked(FaceMeshes):
@@ -53,7 +47,7 @@ def test_running_count_equals_a_full_recount_at_every_change(monkeypatch):
 
     monkeypatch.setattr(mesher, "FaceMeshes", Checked)
     domain = qmesh.Domain([(0, 0), (1, 0), (1, 1), (0, 1)], regions=hexagons(30))
-    cond = {0: OUTSIDE, **{k: INSIDE for k in range(1, 31)}}
+    cond = {0: OUTSIDE, **{k: P(10.0 + k, 1.0, 30.0) for k in range(1, 31)}}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         m = qmesh.mesh(domain, cond, target_vertices=1500)
