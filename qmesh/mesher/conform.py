@@ -550,7 +550,7 @@ def restore_conformity(P, T, twin, edge_id, fixed, pinned, anisotropy,
         if not enc.any():
             break
         hb, a, b, c, tb = hb[enc], a[enc], b[enc], c[enc], tb[enc]
-        T0, left = T, hb          # what this round leaves encroached is tested again
+        left = hb                 # what this round leaves encroached is tested again
         # interior apexes: pushed out when their star stays valid (one edge per vertex)
         free = (edge_id[c] < 0) & ~fixed[c] & (rounds < PUSH_ROUNDS)
         moved = np.zeros(len(hb), bool)
@@ -572,9 +572,10 @@ def restore_conformity(P, T, twin, edge_id, fixed, pinned, anisotropy,
                 moved |= np.isin(c, c[k])
                 stars = _stars(T, c[k], len(P))
                 cand = (3 * stars[:, None] + np.arange(3)).ravel()
-                T, twin, f = restore(P, T, twin, anisotropy, candidates=cand)
+                rows = [stars]
+                T, twin, f = restore(P, T, twin, anisotropy, candidates=cand, rewritten=rows)
                 flips += f
-                check = _changed(T0, T, left, stars)
+                check = _changed(rows, left)
                 continue
         # the rest: split, at most one half-edge per triangle
         keep = ~moved
@@ -594,18 +595,19 @@ def restore_conformity(P, T, twin, edge_id, fixed, pinned, anisotropy,
         pinned = np.concatenate([pinned, fixed[c] | (edge_id[c] >= 0)])
         touched = np.concatenate([hb // 3, len(T) - len(hb) + np.arange(len(hb))])
         cand = (3 * touched[:, None] + np.arange(3)).ravel()
-        T, twin, f = restore(P, T, twin, anisotropy, candidates=cand)
+        rows = [touched]
+        T, twin, f = restore(P, T, twin, anisotropy, candidates=cand, rewritten=rows)
         flips += f
-        check = _changed(T0, T, left, np.zeros(0, np.int64))
+        check = _changed(rows, left)
     return Conformed(P, T, twin, edge_id, fixed, pinned, np.arange(n0, len(P)), flips)
 
 
-def _changed(T0, T, left, moved_stars):
-    """The half-edges a round of `restore_conformity` must test after one that made T from T0:
-    those of the triangles it rewrote, added, or moved a vertex of (`moved_stars`), and the
-    ones it left encroached (`left`). No other half-edge's triangle or apex changed, so the
-    encroached ones found are those a test of every boundary half-edge finds, in the same order."""
-    same = min(len(T0), len(T))
-    tri = np.concatenate([np.flatnonzero((T[:same] != T0[:same]).any(axis=1)),
-                          np.arange(same, len(T)), moved_stars])
+def _changed(rows, left):
+    """The half-edges a round of `restore_conformity` must test after it: those of the triangles
+    it split, added, moved a vertex of, or flipped (`rows`: arrays of rows of T, as the round
+    and `restore(rewritten=…)` list them, not a comparison of every row), and the ones it left
+    encroached (`left`). No other half-edge's triangle or apex changed, so the encroached ones
+    found are those a test of every boundary half-edge finds, in the same order (a row flipped
+    back as it was is tested again, and found as before)."""
+    tri = np.concatenate(rows)
     return topology.sorted_unique(np.concatenate([(3 * tri[:, None] + np.arange(3)).ravel(), left]))

@@ -340,7 +340,8 @@ def _canonical(twin: np.ndarray, h: np.ndarray | None = None) -> np.ndarray:
 
 
 def restore(P: np.ndarray, T: np.ndarray, twin: np.ndarray, anisotropy,
-            candidates: np.ndarray | None = None, max_rounds: int | None = None):
+            candidates: np.ndarray | None = None, max_rounds: int | None = None,
+            rewritten: list | None = None):
     """Flip locally non-regular edges until the triangulation is Q-Delaunay.
 
     Returns (T, twin, number of flips). Each round flips the edges that are the most violated
@@ -350,6 +351,7 @@ def restore(P: np.ndarray, T: np.ndarray, twin: np.ndarray, anisotropy,
     thousands, each touching only the last round's triangles). A metric without s has no
     global lifting, so flips may cycle: after METRIC_ROUNDS the triangulation is kept as it is
     (the tensor field's certification decides its edges on the element means).
+    `rewritten`: a list that receives, each round, the rows of T its flips rewrite.
     """
     if max_rounds is None:
         max_rounds = FIRST_ROUNDS if anisotropy.potential else METRIC_ROUNDS
@@ -375,6 +377,8 @@ def restore(P: np.ndarray, T: np.ndarray, twin: np.ndarray, anisotropy,
         sel = (tri_best[at[:len(bad)]] == rank) & (tri_best[at[len(bad):]] == rank)
         h = bad[sel]
         tri = np.concatenate([h // 3, twin[h] // 3])
+        if rewritten is not None:
+            rewritten.append(tri)
         T, twin = topology.flip(T, twin, h, copy=not owned)
         flips, owned = flips + len(h), True
         touched = (3 * tri[:, None] + np.arange(3)).ravel()
