@@ -11,11 +11,12 @@ from scipy.spatial import cKDTree
 
 from qmesh.domain.domain import Domain
 from qmesh.errors import QmeshError
+from qmesh.mesher.components import Components
 
 
-def face_domain(part, face, extra: dict, name: str):
-    """The Domain of `face`: its cycles' vertices with `extra[e]` (points on partition edge e,
-    ordered from edges[e, 0] to edges[e, 1]) inserted along the way."""
+def face_domain(part, face, extra: dict, name: str, checked: bool = True):
+    """The Domain of `face`: its cycles' vertices with `extra[e]` (points on partition edge e, in
+    order from edges[e, 0]) inserted along the way; unless `checked`, as the partition made it."""
     rings, tags = [], []
     for c in face.cycles:
         pts, tg = [], []
@@ -25,6 +26,8 @@ def face_domain(part, face, extra: dict, name: str):
             tg.append(np.full(len(x) + 1, int(h >> 1) + 1))
         rings.append(np.concatenate(pts))
         tags.append(np.concatenate(tg))
+    if not checked:
+        return Components(rings, tags, [sum(map(len, rings))])
     try:
         return Domain(rings[0], rings[1:], tags=tags)
     except QmeshError as e:
@@ -34,8 +37,8 @@ def face_domain(part, face, extra: dict, name: str):
 
 def points_on_edges(mesh, corners: cKDTree, n_seeds: int) -> dict:
     """The vertices a face mesh put on partition edges, beyond its input points: {edge: (k, 2)}
-    (a corner of the partition, round-off copies included, is never a point "on" an edge).
-    `corners`: a KD-tree of the partition's points, built once for all its faces."""
+    (a corner of the partition, round-off copies included, is never a point "on" an edge:
+    `corners`, a KD-tree of the partition's points)."""
     e, v = np.repeat(mesh.boundary_tags - 1, 2), mesh.boundary_edges.ravel()
     ev = np.unique(np.column_stack([e, v])[v >= n_seeds], axis=0)       # by edge, then vertex
     tol = 1e-12 * float((corners.maxes - corners.mins).max())          # np.ptp of its points

@@ -133,12 +133,9 @@ def _summary(notes: list) -> list:
 
 
 def _group(plan: MediaPlan, at: int, extra: dict, meshes: FaceMeshes, alone: set) -> tuple[list, list]:
-    """The faces meshed in one run from the plan's at-th on, with their domains: it, and while
-    it and they are small, of one constant Q and one sizing, the next ones but the last face
-    that touch none before them (no point in common: `mesher.components`)."""
-    faces: list = []
-    doms: list = []
-    taken: set = set()
+    """The faces of one run from the plan's at-th on, and their domains: it, and while all are small
+    and of its constant Q and sizing, the next ones (not the last) touching none before them."""
+    faces, doms, taken = list[int](), list[Any](), set[tuple]()
 
     def small(j: int) -> bool:             # and not failed in a group, and of the first's Q
         a, b = plan.anis[j], plan.anis[plan.order[at]]
@@ -149,7 +146,7 @@ def _group(plan: MediaPlan, at: int, extra: dict, meshes: FaceMeshes, alone: set
         if faces and not (small(faces[0]) and small(i) and i != plan.order[-1]):
             break
         try:
-            dom = face_domain(plan.part, plan.faces[i], extra, plan.face_name(i))
+            dom = face_domain(plan.part, plan.faces[i], extra, plan.face_name(i), checked=not faces)
         except QmeshError as e:
             raise plan.too_small(i) or e from None
         pts = set(map(tuple, dom.seeds.tolist()))

@@ -23,18 +23,21 @@ from scipy.sparse.csgraph import connected_components
 
 from qmesh.domain.domain import Domain
 from qmesh.errors import QmeshError
+from qmesh.geometry.rings import signed_area
 from qmesh.triangle_mesh import Mesh
 
 
 class Components(Domain):
-    """Disjoint domains as one Ω: their rings side by side (each outline counter-clockwise, each
-    hole clockwise), their areas summed, the bounding box of all their points."""
+    """Disjoint domains as one Ω, from their `rings` (each outline counter-clockwise, each hole
+    clockwise; checked before, as Domains or as the faces of a partition), the rings' segment
+    `tags` and `sizes`, each domain's point count: the rings' signed areas summed, the bounding
+    box of all their points."""
 
-    def __init__(self, parts: Sequence[Domain]) -> None:      # parts already checked one by one
-        self._store([R for d in parts for R in d.rings], [d.segment_tags for d in parts],
-                    float(sum(d.area for d in parts)))
+    def __init__(self, rings: Sequence[NDArray[np.float64]], tags: Sequence[NDArray[np.int64]],
+                 sizes: Sequence[int]) -> None:
+        self._store(list(rings), list(tags), float(sum(signed_area(R) for R in rings)))
         self._tag_names, self._regions, self._region_names, self._partition = {}, (), {}, None
-        self.sizes = np.array([len(d.seeds) for d in parts])
+        self.sizes = np.asarray(sizes)
 
     @property
     def bounds(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -49,7 +52,10 @@ class Components(Domain):
 
 def joined(parts: Sequence[Domain]) -> Domain:
     """The one domain of `parts`, or their `Components`."""
-    return parts[0] if len(parts) == 1 else Components(parts)
+    if len(parts) == 1:
+        return parts[0]
+    return Components([R for d in parts for R in d.rings], [d.segment_tags for d in parts],
+                      [len(d.seeds) for d in parts])
 
 
 def split(mesh: Mesh, parts: Sequence[Domain]) -> list[Mesh]:
