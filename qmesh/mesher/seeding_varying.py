@@ -95,7 +95,8 @@ def _conflicts(X: np.ndarray, H: np.ndarray, r: float, Lbar: np.ndarray):
 
 
 ORIENTATIONS = 64     # groups of major-axis direction in the oriented conflict search
-ROUND_METRIC = 2.0    # metrics less anisotropic than this share one group
+ROUND_METRIC = 16.0   # metrics less anisotropic than this share one group (a tree per group
+                      # over all points costs more than their balls holding up to ~4x more)
 TREE = dict(leafsize=32, balanced_tree=False, compact_nodes=False)   # one tree per group: fast builds
 
 
