@@ -29,12 +29,13 @@ from __future__ import annotations
 import asyncio
 import functools
 import math
+import threading
 from concurrent.futures import ThreadPoolExecutor
 
 from trame.app import TrameApp, asynchronous
 from trame.decorators import change
 from trame.ui.vuetify3 import SinglePageWithDrawerLayout
-from trame.widgets import html
+from trame.widgets import client, html
 from trame.widgets import vtk as vtk_widgets
 from trame.widgets import vuetify3 as v3
 
@@ -54,6 +55,7 @@ CHART_SERIES = (("chart_energy", "energy E per iteration (log scale)", "#1f77b4"
 VIEW_HEIGHT = "calc(100vh - 347px)"   # the views fill the page below the status lines
 TEXT_PARAMS = ("target_vertices", "seed")   # typed: applied on Enter or blur, never per key
 SLIDER_PARAMS = tuple(n for n in PARAMS if n not in TEXT_PARAMS + ("s_text",))
+RUN_EVERY_STAGE = 20_000   # vertices up to which a run draws every stage before the next
 
 
 def convergence_chart(series: dict, field: bool = False) -> dict:
@@ -115,6 +117,9 @@ class QmeshView(TrameApp):
         self._drain_task = None
         self._resume = False             # a Run stopped by a change that may yet be refused
         self._options_changed = False
+        self._drawn = None                # (run, stage index) the views show
+        self._drawer, self._wanted = None, None   # a run's drawing task and its newest stage
+        self._drawing = threading.Event()  # set while that task draws (the worker meshes on)
         self._init_state()
         self.views.draw(self.session.current, self.session.anisotropy, **self._view_options())
         self._build_ui()
@@ -187,31 +192,45 @@ class QmeshView(TrameApp):
         """Worker thread: the convergence series as sparkline data (E on a log10 scale)."""
         return convergence_chart(self.session.convergence(), field=self.session.controller.is_field)
 
-    def _show(self) -> int:
-        """Event loop: draw the shown stage, push its images, the slider and its quick numbers.
+    def _show(self, push: bool = True, index: int | None = None) -> int:
+        """Event loop: draw the shown stage (or stage `index`, which a run has already left),
+        push its images (unless not `push`: the caller awaits `_push_each`), the slider and
+        its quick numbers.
 
         κ2 and the q_ij signs follow from the worker (`_act`); until then the status line
         shows "–" for them, so a large mesh is on screen before it is measured.
         """
         c = self.session
+        i = c.index if index is None else index
         with self.state:
             self.state.history_length = len(c.history)
-            self.state.history_index = c.index
-            self.state.at_end = c.at_end
-            self.state.status_line = status_text(c.status(quick=True))
-        self._redraw()
-        return c.index
+            self.state.history_index = i
+            self.state.at_end = c.at_end and i == c.index
+            self.state.status_line = status_text(c.status(i, quick=True, bare=True))
+        self._redraw(push, i)
+        self._drawn = (c.controller, i)
+        return i
 
-    def _redraw(self) -> None:
+    def _redraw(self, push: bool = True, index: int | None = None) -> None:
         c = self.session
-        self.views.draw(c.current, c.anisotropy, **self._view_options())
+        step = c.current if index is None else c.history[index]
+        self.views.draw(step, c.anisotropy, **self._view_options())
         with self.state:
             self.state.update(legend.state(self.views.legend))
-        self._push()
+        if push:
+            self._push()
 
     def _push(self) -> None:
         for view in self.html_views.values():
             view.update()
+
+    async def _push_each(self) -> None:
+        """Push the views one after the other, giving the loop a turn after each: a frame
+        encoded while the next view renders is sent then, so the browser decodes it meanwhile
+        instead of receiving all three pictures after the last render."""
+        for view in self.html_views.values():
+            view.update()
+            await asyncio.sleep(0)
 
     def _fast_image_delivery(self, **_) -> None:
         """Remote views: frames re-pushed every 10 ms while being encoded (`delivery`)."""
@@ -233,6 +252,28 @@ class QmeshView(TrameApp):
         """Run `fn` in the one worker thread (the mesher and measurements never run on the loop)."""
         return await asyncio.get_running_loop().run_in_executor(self._worker, fn)
 
+    async def _stage_work(self, action, figures: bool = True):
+        """`_work(action)`, and then, still in the worker, the shown stage's own numbers (a
+        Step computes its energy and quality statistics when first asked, a pass over the
+        triangles the event loop would otherwise make before drawing). Without `figures`,
+        above `RUN_EVERY_STAGE` vertices, they are left for after the pictures (`_measure`).
+
+        In a run above `RUN_EVERY_STAGE` vertices the worker goes on to the next stage while
+        the views are still drawing an earlier one (`_drawing`), so the mesher never waits
+        for the pictures; the run then gets the newest stage."""
+        c = self.session
+
+        def act():
+            outcome = action()
+            while (outcome.kind == "applied" and self._drawing.is_set() and c.running
+                   and not c.stopping and not c.at_end
+                   and c.current.mesh.n_vertices > RUN_EVERY_STAGE):
+                outcome = action()
+            if outcome.ok and (figures or c.current.mesh.n_vertices <= RUN_EVERY_STAGE):
+                c.status(quick=True)
+            return outcome
+        return await self._work(act)
+
     async def _act(self, action):
         """Busy while: the session's `action` (worker) → draw (loop) → measure (worker).
 
@@ -242,7 +283,7 @@ class QmeshView(TrameApp):
             self.state.busy = True
         try:
             before = (len(self.session.history), self.session.controller)
-            outcome = await self._work(action)
+            outcome = await self._stage_work(action, figures=False)
             if outcome.ok:
                 await self._after_stage(outcome, before)
             else:
@@ -262,12 +303,58 @@ class QmeshView(TrameApp):
 
     async def _after_stage(self, outcome, before=None) -> None:
         """Show the stage on screen, then measure it (κ2, q_ij signs, warnings) and chart."""
-        c = self.session
-        index = self._show()
+        await self._show_stage()
+        await self._measure(before)
+
+    async def _show_stage(self, outcome=None, index: int | None = None) -> None:
+        """Draw the shown stage (or `index`) and push its pictures (its quick numbers on the
+        status line)."""
+        self._show(push=False, index=index)
         self._messages()
+        await self._push_each()
         await self._frames_sent()
+
+    async def _run_stage(self, outcome) -> None:
+        """After each stage of a run: draw it and wait for its pictures, up to
+        `RUN_EVERY_STAGE` vertices; above, draw it while the mesher goes on (in the worker),
+        and when the views are free again draw the newest stage, leaving out those meshed
+        meanwhile (drawing one takes longer than meshing the next). The run asks for the next
+        stage as soon as this returns (no pause of its own), before the drawing starts."""
+        c = self.session
+        if c.current.mesh.n_vertices <= RUN_EVERY_STAGE:
+            if self._drawer is not None:
+                await self._drawer
+            await self._show_stage()
+            await asyncio.sleep(RUN_PAUSE)
+            return
+        self._wanted = c.index
+        if self._drawer is None or self._drawer.done():
+            self._drawing.set()
+            self._drawer = asynchronous.create_task(self._draw_wanted())
+
+    async def _draw_wanted(self) -> None:
+        """Draw the newest stage a run asked for until the views show it (`_drawing` set
+        meanwhile: the worker meshes on)."""
+        try:
+            while self._wanted is not None and self._drawn != (self.session.controller,
+                                                               self._wanted):
+                await self._show_stage(index=self._wanted)
+        finally:
+            self._drawing.clear()
+
+    async def _measure(self, before=None) -> None:
+        """Worker: the shown stage's κ2, q_ij signs and warnings, and the chart when the
+        history grew (since `before`); shown if that stage is still the one on screen."""
+        c = self.session
+        index = c.index
         grew = before is None or (len(c.history), c.controller) != before
         run = c.controller
+        shown = c.status(index, quick=True, bare=True)
+        if shown["min_quality"] is None and not shown["field"]:   # the figures first
+            quick = await self._work(lambda: c.status(index, quick=True))
+            if c.controller is run and c.index == index:
+                with self.state:
+                    self.state.status_line = status_text(quick)
         status, chart = await self._work(lambda: (c.status(index), self._chart() if grew else None))
         if c.controller is run and c.index == index:
             with self.state:
@@ -311,19 +398,41 @@ class QmeshView(TrameApp):
         asynchronous.create_task(self._run())
 
     async def _run(self) -> None:
+        """The animated run: every stage drawn with its quick numbers as soon as it is meshed;
+        the stage it stops at is measured (κ2, q_ij signs, chart) once it has stopped, busy
+        meanwhile (not when a change is waiting: it re-meshes). Measuring every stage on the
+        way (κ2 costs the most of all at a large N) would hold the mesher back for numbers
+        that are replaced a moment later."""
         with self.state:
             self.state.running = True
+        measure = False
+        self._drawer, self._wanted = None, None
         try:
-            outcome = await self.session.run(self._after_stage, work=self._work, pause=RUN_PAUSE)
+            outcome = await self.session.run(self._run_stage, work=self._stage_work, pause=0)
+            if self._drawer is not None:
+                await self._drawer
+            if self._drawn != (self.session.controller, self.session.index):   # where it stopped
+                await self._show_stage()
             if not outcome.ok:
                 self._messages()
         except Exception as e:                        # noqa: BLE001  drawing or measuring
             self.session.action_messages = [describe(e)]
             self._messages()
         finally:
-            with self.state:
+            measure = not self.state.busy and not self.session.has_pending()
+            with self.state:                          # one flush: never idle in between
                 self.state.running = False
                 self.state.at_end = self.session.at_end
+                self.state.busy = self.state.busy or measure
+        if measure:
+            try:
+                await self._measure()
+            except Exception as e:                    # noqa: BLE001  measuring
+                self.session.action_messages = [describe(e)]
+                self._messages()
+            finally:
+                with self.state:
+                    self.state.busy = False
 
     # ------------------------------------------------------------------ reactions
     @change("history_index")
@@ -487,6 +596,7 @@ class QmeshView(TrameApp):
             with layout.drawer:
                 self._parameters()
             with layout.content:
+                client.Script(delivery.ARRAY_BUFFER_SOCKET)   # frames decoded on arrival
                 self._main()
         self.ui = layout
 

@@ -151,6 +151,7 @@ class Controller:
         self.params = _checked(Params(**params))
         self.uploads: dict[str, qmesh.Domain] = {} if uploads is None else uploads
         self._cache: dict[int, dict] = {}
+        self._figures: dict[int, dict] = {}   # quick rows with the Step's figures, by stage
         self.reset()
 
     # ------------------------------------------------------------------ the run
@@ -208,6 +209,7 @@ class Controller:
                                   target_vertices=p.target_vertices, alpha=p.alpha, seed=p.seed)
         self.history: list[qmesh.Step] = []
         self._cache.clear()
+        self._figures.clear()
         self.done = False
         self.index = 0
         self._pull()
@@ -297,33 +299,41 @@ class Controller:
         return self.current
 
     # ------------------------------------------------------------------ measurements
-    def status(self, index: int | None = None, *, quick: bool = False) -> dict:
+    def status(self, index: int | None = None, *, quick: bool = False,
+               bare: bool = False) -> dict:
         """The status line's numbers for stage `index` (default: the one shown).
 
         `quick=True` answers at once from the Step's own statistics, with the fraction of
         q_ij ≥ 0 and κ2 only if they were measured before (else None); measured rows are cached.
+        `bare=True` (with quick) leaves out the energy and quality figures too unless measured
+        before: a Step computes them on first access (a pass over the triangles).
         """
         i = self.index if index is None else int(index)
         row = self._cache.get(i)
-        if row is None:
+        if row is None and quick:
+            row = self._figures.get(i)
+            if row is None:
+                row = _stats_row(self.history[i], field=self.is_field, figures=not bare)
+                if not bare:
+                    self._figures[i] = row
+        elif row is None:
             step = self.history[i]
             row = _stats_row(step, field=self.is_field)
-            if not quick:
-                try:
-                    if not getattr(self._anisotropy, "is_constant", True):   # s as text
-                        row["q_nonnegative_sh"] = measure.sh_convex_fraction(step.mesh, self._anisotropy)
-                    conductivity = self.conductivity_of(step)     # a field: per-triangle means
-                    if self.is_field:          # each triangle in its own mean's metric
-                        q = measure.quality(step.mesh, conductivity)
-                        q = q[np.isfinite(q)]
-                        if len(q):
-                            row["min_quality"], row["mean_quality"] = float(q.min()), float(q.mean())
-                    row["q_nonnegative"] = measure.q_nonnegative_fraction(step.mesh, conductivity)
-                    kappa = measure.conditioning(step.mesh, conductivity)
-                    row["kappa2"], row["kappa2_reason"] = kappa.kappa2, kappa.reason
-                except QmeshError as e:     # degenerate triangles mid-run: no stiffness matrix
-                    row["kappa2_reason"] = str(e)
-                self._cache[i] = row
+            try:
+                if not getattr(self._anisotropy, "is_constant", True):   # s as text
+                    row["q_nonnegative_sh"] = measure.sh_convex_fraction(step.mesh, self._anisotropy)
+                conductivity = self.conductivity_of(step)     # a field: per-triangle means
+                if self.is_field:          # each triangle in its own mean's metric
+                    q = measure.quality(step.mesh, conductivity)
+                    q = q[np.isfinite(q)]
+                    if len(q):
+                        row["min_quality"], row["mean_quality"] = float(q.min()), float(q.mean())
+                row["q_nonnegative"] = measure.q_nonnegative_fraction(step.mesh, conductivity)
+                kappa = measure.conditioning(step.mesh, conductivity)
+                row["kappa2"], row["kappa2_reason"] = kappa.kappa2, kappa.reason
+            except QmeshError as e:     # degenerate triangles mid-run: no stiffness matrix
+                row["kappa2_reason"] = str(e)
+            self._cache[i] = row
         return dict(row, history_length=len(self.history), done=self.done)
 
     def convergence(self) -> dict:
@@ -341,16 +351,18 @@ class Controller:
                 "n_vertices": [r["n_vertices"] for r in rows]}
 
 
-def _stats_row(step, field: bool = False) -> dict:
+def _stats_row(step, field: bool = False, figures: bool = True) -> dict:
     """The status numbers a Step carries itself (no stiffness matrix needed). A field's Step
     has no energy (no s), and its quality is measured in each triangle's own mean (`status`),
-    not the smoothed metric the Step's statistics use: "–" until then."""
+    not the smoothed metric the Step's statistics use: "–" until then. Without `figures` the
+    energy and quality are "–" too (not computed here)."""
     st = step.stats
+    figures = figures and not field
     return {"iteration": step.iteration, "stage": step.stage,
             "n_vertices": st.n_vertices, "n_triangles": st.n_triangles,
-            "energy": None if field else st.energy,
-            "min_quality": None if field else st.min_quality,
-            "mean_quality": None if field else st.mean_quality,
+            "energy": st.energy if figures else None,
+            "min_quality": st.min_quality if figures else None,
+            "mean_quality": st.mean_quality if figures else None,
             "q_nonnegative": None, "kappa2": None,
             "kappa2_reason": None, "q_nonnegative_sh": None,
             "added": 0 if step.added is None else len(step.added),

@@ -8,12 +8,39 @@ in a row.
 `fast_image_delivery` sets the wait to `STALE_RETRY` and replaces the retry with a plain one:
 push again every `STALE_RETRY` seconds until the frame is encoded (at most `RETRY_FOR`).
 Used by the trame app and by the widget's live (trame) views.
+
+In the browser, trame's websocket hands every message over as a Blob, which wslink's client reads
+back asynchronously (`Blob.arrayBuffer()`, twice per message): on a busy machine each of those
+reads waited long enough to be a large part of the time from a push to the picture on screen.
+`ARRAY_BUFFER_SOCKET` (a page script) switches the socket to ArrayBuffer messages on its first
+send, and gives ArrayBuffer the `arrayBuffer()` the client calls, so a frame is decoded as soon
+as it arrives.
 """
 
 from __future__ import annotations
 
 STALE_RETRY = 0.01   # seconds between re-pushes of a frame still being encoded
 RETRY_FOR = 2.0      # seconds after which a frame that never got encoded is given up
+
+
+ARRAY_BUFFER_SOCKET = """
+(() => {
+  if (window.__qmeshArrayBufferSocket) return;
+  window.__qmeshArrayBufferSocket = true;
+  if (!ArrayBuffer.prototype.arrayBuffer) {
+    Object.defineProperty(ArrayBuffer.prototype, 'arrayBuffer', {
+      value() { return Promise.resolve(this); }, configurable: true, writable: true});
+  }
+  const send = WebSocket.prototype.send;
+  WebSocket.prototype.send = function (...args) {
+    if (this.binaryType !== 'arraybuffer') this.binaryType = 'arraybuffer';
+    return send.apply(this, args);
+  };
+})();
+"""
+"""A page script: the page's websockets deliver ArrayBuffers, not Blobs, from their next send on
+(the client's first request after the script runs); messages already on their way as Blobs are
+read as before."""
 
 
 def _stale_retry(link):

@@ -76,8 +76,11 @@ def _xyz(P: np.ndarray, z: np.ndarray | float = 0.0) -> np.ndarray:
 
 
 def triangles_polydata(P: np.ndarray, T: np.ndarray, z: np.ndarray | float = 0.0) -> pv.PolyData:
-    """Triangles (M, 3) on points P (N, 2) at heights z as a PolyData."""
-    return pv.PolyData(_xyz(P, z), faces=_faces(T))
+    """Triangles (M, 3) on points P (N, 2) at heights z as a PolyData (VTK's cell array built
+    from the connectivity directly, not parsed from the legacy [3, a, b, c, …] form)."""
+    if len(T) == 0:
+        return pv.PolyData(_xyz(P, z))
+    return pv.PolyData.from_regular_faces(_xyz(P, z), np.ascontiguousarray(T))
 
 
 def points_polydata(P: np.ndarray, z: np.ndarray | float = 0.0) -> pv.PolyData:
@@ -477,8 +480,9 @@ def projected(step, *, arrow_scale: float = 1.0, min_move: float = 0.0) -> Proje
         arrows, n_moved = pv.PolyData(), 0
     tri = triangles_polydata(P, m.triangles)
     T = m.triangles
-    u, v = P[T[:, 1]] - P[T[:, 0]], P[T[:, 2]] - P[T[:, 0]]
-    area = 0.5 * np.abs(u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0])
+    x, y = P[:, 0], P[:, 1]
+    ax, ay = x[T[:, 0]], y[T[:, 0]]
+    area = 0.5 * np.abs((x[T[:, 1]] - ax) * (y[T[:, 2]] - ay) - (y[T[:, 1]] - ay) * (x[T[:, 2]] - ax))
     tri.cell_data["log_area"] = np.log10(np.maximum(area, 1e-300))   # colour when crowded
     tags = np.asarray(m.region_tags)
     interfaces = pv.PolyData()
@@ -513,19 +517,25 @@ SAMPLE_CELLS = 36            # grid cells across the domain's width for the samp
 
 def sample_outlines(P: np.ndarray, T: np.ndarray, cells: int = SAMPLE_CELLS) -> pv.PolyData:
     """A decimated wireframe: the outline of one triangle per cell of a `cells`-wide grid (the
-    one whose centroid is nearest the cell's centre), so shape, size and direction of the
-    elements stay visible when all edges together would only paint the domain grey."""
+    one whose centroid is nearest the cell's centre, the first of them on a tie), so shape, size
+    and direction of the elements stay visible when all edges together would only paint the
+    domain grey. Each cell's nearest is found by one `minimum.at` pass, not a sort."""
     if len(T) == 0:
         return pv.PolyData()
-    C = P[T].mean(axis=1)
-    lo = C.min(axis=0)
-    g = max(float(np.ptp(C, axis=0).max()) / cells, 1e-300)
-    ij = np.floor((C - lo) / g).astype(np.int64)
-    off = np.linalg.norm((C - lo) / g - ij - 0.5, axis=1)
-    key = ij[:, 0] * (cells + 2) + ij[:, 1]
-    order = np.lexsort((off, key))                       # per cell, the most central first
-    first = order[np.r_[True, key[order][1:] != key[order][:-1]]]
-    E = T[first][:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    x, y = P[:, 0], P[:, 1]
+    cx = (x[T[:, 0]] + x[T[:, 1]] + x[T[:, 2]]) / 3
+    cy = (y[T[:, 0]] + y[T[:, 1]] + y[T[:, 2]]) / 3
+    x0, y0 = cx.min(), cy.min()
+    g = max(float(max(cx.max() - x0, cy.max() - y0)) / cells, 1e-300)
+    u, v = (cx - x0) / g, (cy - y0) / g
+    i, j = np.floor(u), np.floor(v)
+    off = np.hypot(u - i - 0.5, v - j - 0.5)
+    key = i.astype(np.int64) * (cells + 2) + j.astype(np.int64)
+    best = np.full(int(key.max()) + 1, np.inf)
+    np.minimum.at(best, key, off)                        # per cell, the smallest offset
+    nearest = np.flatnonzero(off == best[key])
+    _, first = np.unique(key[nearest], return_index=True)   # cells in order, lowest index
+    E = T[nearest[first]][:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
     lift = 1e-3 * max(float(np.ptp(P, axis=0).max()), 1e-300)     # just above the triangles
     return pv.PolyData(_xyz(P, lift), lines=_lines(E))
 

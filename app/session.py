@@ -101,11 +101,13 @@ class Session:
     def domain_names(self) -> list[str]:
         return domain_names(self.uploads)
 
-    def status(self, index: int | None = None, *, quick: bool = False) -> dict:
+    def status(self, index: int | None = None, *, quick: bool = False,
+               bare: bool = False) -> dict:
         """The status line's numbers of stage `index` (default: shown) and its `notes`: the
-        warnings about that stage (a domain too thin for the size, κ2 undefined)."""
+        warnings about that stage (a domain too thin for the size, κ2 undefined); `quick` and
+        `bare` as `Controller.status`."""
         i = self.index if index is None else int(index)
-        row = self._run.status(i, quick=quick)
+        row = self._run.status(i, quick=quick, bare=bare)
         row["notes"] = [] if quick else self._stage_notes(i, row)
         return row
 
@@ -337,3 +339,8 @@ class Session:
     def stop(self) -> None:
         """Ask a `run` to return after its current stage."""
         self._stop.set()
+
+    @property
+    def stopping(self) -> bool:
+        """True once a `run` was asked to stop (`stop()` or a submitted change)."""
+        return self._stop.is_set()

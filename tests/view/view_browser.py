@@ -175,16 +175,51 @@ LATENCY_PROBE = """
   }, true);
   for (const type of ['click', 'keydown'])
     document.addEventListener(type, e => qv.input.push(performance.timeOrigin + e.timeStamp), true);
+  // the status line: every text it shows, with the time it changed
+  qv.status = [];
+  const line = document.querySelector('#status-line');
+  const note = () => { const text = line.textContent.trim();
+                       const last = qv.status[qv.status.length - 1];
+                       if (!last || last[1] !== text) qv.status.push([now(), text]); };
+  if (line) { note(); new MutationObserver(note).observe(line, {childList: true, subtree: true,
+                                                                 characterData: true}); }
 })();
 """
-"""An init script (`page.add_init_script`) that timestamps, in the page, every input event and
-every new picture of a view: a WebGL draw into its canvas (local views) or a new image in its
-<img> with a pixel checksum (remote views). No screen recorder: it would cost the CPU it measures."""
+"""A script (evaluated once the page is drawn) that timestamps, in the page, every input event,
+every new picture of a view (a WebGL draw into its canvas for local views, a new image in its
+<img> with a pixel checksum for remote views) and every text the status line shows. No screen
+recorder: it would cost the CPU it measures."""
 
 
 def probe_marks(page) -> dict:
-    """{"input": [epoch ms…], "frames": {view: [[epoch ms, "gl" | checksum], …]}} so far."""
+    """{"input": [epoch ms…], "frames": {view: [[epoch ms, "gl" | checksum], …]},
+    "status": [[epoch ms, text], …]} so far."""
     return page.evaluate("() => window.__qv")
+
+
+def run_latency(page, action, timeout: float = 300.0, names=VIEWS) -> dict:
+    """Seconds from the input event of `action()` (a click on Run) to the end of the run:
+    "converged" when the status line first says so and every view shows its last picture
+    (the later of the two), and "measured" when that line also shows κ2 (measured after the
+    views, in the app's worker). Waits until the app is idle again; None for what never came."""
+    n_input = len(probe_marks(page)["input"])
+    action()
+    until(lambda: "converged" in status(page) or None, timeout, "the run to converge")
+    wait_idle(page, timeout)
+    page.wait_for_timeout(500)                       # frames of the last stage still on the way
+    marks = probe_marks(page)
+    t_in = marks["input"][n_input]
+    said = [t for t, text in marks["status"] if t > t_in and "converged" in text]
+    measured = [t for t, text in marks["status"]
+                if t > t_in and "converged" in text and "κ2 = –" not in text]
+    frames = [max((t for t, _ in marks["frames"].get(n, []) if t > t_in), default=None)
+              for n in names]
+    out = {"converged": None, "measured": None}
+    if said and all(f is not None for f in frames):
+        out["converged"] = (max(said[0], *frames) - t_in) / 1000
+    if measured:
+        out["measured"] = (measured[0] - t_in) / 1000
+    return out
 
 
 def click_latency(page, action, names=VIEWS, timeout: float = 10.0) -> dict:
