@@ -29,7 +29,7 @@ from qmesh.media.faces import face_domain, points_on_edges
 from qmesh.media.insert_shared import insert_on_boundary
 from qmesh.media.plan import FaceMeshes, MediaPlan
 from qmesh.media.stitch import stitch
-from qmesh.mesher import loop
+from qmesh.mesher import loop, sizing
 from qmesh.mesher.components import joined, split
 from qmesh.mesher.diagnose import thin_domain
 from qmesh.mesher.options import Options, check_keywords
@@ -39,7 +39,7 @@ from qmesh.triangle_mesh import Mesh
 
 FINER = 12             # halvings of the size for a face too thin for it (6 beyond plan.COARSER)
 MAX_HANDOVERS = 1000   # rounds of interface points handed between finished faces
-SMALL = 100            # faces expected to take fewer vertices share a run where they can
+SMALL = 200            # faces expected to take fewer triangles share a run where they can
 MAX_NOTES = 3          # the faces' warnings shown one by one; beyond, one line counts them
 
 
@@ -135,12 +135,12 @@ def _summary(notes: list) -> list:
 def _group(plan: MediaPlan, at: int, extra: dict, meshes: FaceMeshes, alone: set) -> tuple[list, list]:
     """The faces of one run from the plan's at-th on, and their domains: it, and while all are small
     and of its constant Q and sizing, the next ones (not the last) touching none before them."""
-    faces, doms, taken = list[int](), list[Any](), set[tuple]()
+    faces, doms, taken, first = list[int](), list[Any](), set[tuple](), dict[str, Any]()
 
     def small(j: int) -> bool:             # and not failed in a group, and of the first's Q
         a, b = plan.anis[j], plan.anis[plan.order[at]]
         return (j not in alone and a.is_constant and np.array_equal(a.H, b.H)
-                and plan.counter([j])(plan.h_rest) < SMALL)
+                and plan.area[j] / sizing.equilateral_area(plan.h_rest) < SMALL)
 
     for i in plan.order[at:]:
         if faces and not (small(faces[0]) and small(i) and i != plan.order[-1]):
@@ -149,10 +149,10 @@ def _group(plan: MediaPlan, at: int, extra: dict, meshes: FaceMeshes, alone: set
             dom = face_domain(plan.part, plan.faces[i], extra, plan.face_name(i), checked=not faces)
         except QmeshError as e:
             raise plan.too_small(i) or e from None
-        pts = set(map(tuple, dom.seeds.tolist()))
-        if faces and (taken & pts or
-                      plan.sizing_of(i, dom, meshes) != plan.sizing_of(faces[0], doms[0], meshes)):
+        pts, size = set(map(tuple, dom.seeds.tolist())), plan.sizing_of(i, dom, meshes)
+        if faces and (taken & pts or size != first):
             break
+        first = size if not faces else first
         faces.append(i)
         doms.append(dom)
         taken |= pts
