@@ -160,7 +160,7 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
                 flips += len(done)
                 Qbar, err, s, b = _refresh(field, P, T, Qbar, err, s, b, t)
     s, b = shares(P, T, Qbar, err)             # what is said is assembled afresh
-    h, q, slack = _failing(s, b, twin)
+    h, q, slack = _failing(s, b, twin, slack=True)
     worst = float(slack.min()) if len(slack) else 0.0
     hb = np.flatnonzero(twin < 0)
     tb, kb = np.divmod(hb, 3)
@@ -213,18 +213,34 @@ def _tangents(P, T, twin, fixed):
     return out
 
 
-def _failing(s, b, twin):
-    """The failing edges (one half-edge each), their q_ij, and every edge's relative slack."""
+def _failing(s, b, twin, slack=False):
+    """The failing edges (one half-edge each), their q_ij, and (`slack`) every edge's relative
+    slack (else None). An edge both of whose shares pass their own bounds passes (rounding is
+    monotone): only the others are summed."""
+    maybe = np.flatnonzero(~(s >= b))                   # NaN too
+    g = twin[maybe]
+    mark = np.zeros(len(s), bool)
+    mark[np.where((g >= 0) & (g < maybe), g, maybe)] = True          # each edge once
+    h = np.flatnonzero(mark)
+    g = twin[h]
+    inner = g >= 0
+    gg = np.where(inner, g, 0)
+    q = s[h] + np.where(inner, s[gg], 0.0)
+    bound = b[h] + np.where(inner, b[gg], 0.0)
+    scale = np.abs(s[h]) + np.where(inner, np.abs(s[gg]), 0.0)
+    bad = ~(q - bound >= -ROUND * scale)                # NaN fails too
+    return h[bad], q[bad], (_slack(s, b, twin) if slack else None)
+
+
+def _slack(s, b, twin):
+    """Every edge's q_ij − bound over Σ|q_ij^T| (each edge once)."""
     g = np.where(twin >= 0, twin, np.arange(len(twin)))
     inner = twin >= 0
     q = s + np.where(inner, s[g], 0.0)
     bound = b + np.where(inner, b[g], 0.0)
     scale = np.abs(s) + np.where(inner, np.abs(s[g]), 0.0)
     one = ~inner | (np.arange(len(twin)) < twin)            # each edge once
-    slack = (q - bound)[one] / np.where(scale[one] > 0, scale[one], 1.0)
-    bad = one & ~(q - bound >= -ROUND * scale)          # NaN fails too
-    h = np.flatnonzero(bad)
-    return h, q[h], slack
+    return (q - bound)[one] / np.where(scale[one] > 0, scale[one], 1.0)
 
 
 def _by_bound(s, b, twin, h, tight):
