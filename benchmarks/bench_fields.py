@@ -351,6 +351,36 @@ def positive_off_diagonals(P, T, Qbar) -> tuple[int, int, np.ndarray]:
     return int((bad & (counts == 2)).sum()), int((bad & (counts == 1)).sum()), rel[inv].reshape(-1, 3)
 
 
+def corner_bound(P, T, Qbar) -> float:
+    """What the corners of Ω allow the min quality to be, on this mesh: a triangle with a corner
+    c on the boundary has its angle at c inside the boundary's wedge there, in any linear metric,
+    so at most the wedge's angle α in its own H_T; and a triangle with an angle α < 60° has metric
+    quality (2.94) at most the isosceles one's, 2√3 sin α / (2 + 4 sin²(α/2)). The smallest over
+    the boundary vertices and their triangles (1 where every wedge is 60° or wider)."""
+    X = P[T]
+    cw = ((X[:, 1, 0] - X[:, 0, 0]) * (X[:, 2, 1] - X[:, 0, 1])
+          - (X[:, 1, 1] - X[:, 0, 1]) * (X[:, 2, 0] - X[:, 0, 0])) < 0
+    T = np.where(cw[:, None], T[:, [0, 2, 1]], T)                # Ω to the left of a → b
+    a, b = T.ravel(), T[:, [1, 2, 0]].ravel()
+    _, inv, counts = edges_of(T)
+    out = counts[inv] == 1
+    nxt, prv = np.full(len(P), -1), np.full(len(P), -1)
+    nxt[a[out]], prv[b[out]] = b[out], a[out]
+    c, t = T.ravel(), np.repeat(np.arange(len(T)), 3)
+    on = nxt[c] >= 0
+    c, t = c[on], t[on]
+    u, v = P[nxt[c]] - P[c], P[prv[c]] - P[c]
+    Q = Qbar[t]
+    adj = np.stack([np.stack([Q[:, 1, 1], -Q[:, 0, 1]], -1), np.stack([-Q[:, 1, 0], Q[:, 0, 0]], -1)], -2)
+    R = np.linalg.cholesky(0.5 * (adj + np.swapaxes(adj, 1, 2)))   # H = R Rᵀ: metric vectors Rᵀx
+    U, V = np.einsum("kji,kj->ki", R, u), np.einsum("kji,kj->ki", R, v)
+    alpha = np.arctan2(U[:, 0] * V[:, 1] - U[:, 1] * V[:, 0], (U * V).sum(axis=1)) % (2 * np.pi)
+    alpha = alpha[alpha < np.pi / 3]
+    if not len(alpha):
+        return 1.0
+    return float((2 * np.sqrt(3) * np.sin(alpha) / (2 + 4 * np.sin(alpha / 2) ** 2)).min())
+
+
 def assemble(P, T, Qbar) -> tuple[sp.csr_matrix, np.ndarray, np.ndarray]:
     """The global stiffness matrix, the boundary vertices' mask, the areas."""
     Ke, area = element_matrices(P, T, Qbar)
@@ -503,6 +533,7 @@ def measure_mesh(case: Case, P, T, fixed, problem=None) -> dict:
     out = {"N": int(len(P)), "pos_in": n_in, "pos_b": n_b, "mp": v, "mp_worst": worst,
            "kappa2": measure.conditioning(mesh, Qbar).kappa2,
            "min_q": float(np.nanmin(quality)), "stretch": median_stretch(P, T),
+           "corner_bound": corner_bound(P, T, Qbar),
            "worst_at": P[T[int(np.nanargmin(quality))]].mean(axis=0).round(3).tolist(),
            "Qbar": Qbar, "rel": rel}
     if case.kind == "formula":
@@ -603,6 +634,10 @@ def summary(rows) -> list[str]:
     notes.append("where qmesh's worst triangle (min quality) lies, its centroid: " + "; ".join(
         f"{r['case']} at {r['target']}: {r['min_q']:.3f} at ({r['worst_at'][0]}, {r['worst_at'][1]})"
         for r in q))
+    notes.append("the min quality the corners of Ω allow on qmesh's mesh (a triangle's angle at a "
+                 "corner is at most the corner's angle in the triangle's own metric; an angle α "
+                 "< 60° allows at most 2√3 sin α / (2 + 4 sin²(α/2))), and qmesh's min quality: " + "; ".join(
+                     f"{r['case']} at {r['target']}: {r['corner_bound']:.3f} / {r['min_q']:.3f}" for r in q))
     notes.append("median stretch of the triangles (longest edge / its altitude, 1 for an "
                  "equilateral), qmesh / MMG2D / Triangle: " + "; ".join(
                      f"{r['case']} at {r['target']}: " + " / ".join(

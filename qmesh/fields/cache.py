@@ -63,7 +63,8 @@ class ElementMeans:
         self.field = field
         self.rtol = rtol
         # a formula or a callable: the checked evaluation the field's own quadrature uses
-        self._evaluate = (None if field.is_raster or getattr(field, "_constant", None) is not None
+        self._evaluate = (None if getattr(field, "is_raster", False)
+                          or getattr(field, "_constant", None) is not None
                           else getattr(field, "_evaluate", None))
         self._keys = np.empty(0, np.uint64)          # sorted
         self._rows = np.empty(0, np.int64)           # the row of each key
