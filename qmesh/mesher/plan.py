@@ -9,7 +9,7 @@ run twice to land on the target.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -45,13 +45,16 @@ class Plan:
     def budget_splits(self, n_built: int, n_seeds: int) -> "Plan | None":
         """A plan that leaves the conformity's splits room within the target, when the first
         triangulation (`n_built` vertices) already carries N more than TOLERANCE past it; None
-        when it does not, or when no interior would be left to give away."""
+        when it does not, or when no interior would be left to give away. Its cap is at least
+        this plan's: the boundary needs as many splits again, and a cap sized for the smaller
+        interior would refuse them naming a count below both N and the target."""
         if self.target is None or n_built <= (1 + TOLERANCE) * self.target:
             return None
         aim = self.aim - (n_built - self.target)
         if aim <= n_seeds:
             return None
-        return _sized(self.norm, self.options, aim, self.area_m, self.lengths)
+        smaller = _sized(self.norm, self.options, aim, self.area_m, self.lengths)
+        return replace(smaller, cap=max(smaller.cap, self.cap))
 
     @property
     def boundary_factor(self) -> float | None:

@@ -2,6 +2,8 @@
 refused naming the corner and what to do; a disk whose target barely exceeds its boundary
 points meshes (the flips along its needle-thin metric take thousands of rounds)."""
 
+import warnings
+
 import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
@@ -82,3 +84,45 @@ def test_a_strip_too_thin_for_its_target_is_refused_naming_its_metric_width():
         m = qmesh.mesh(strip, A, target_vertices=int(need.group(1)))
     assert abs(m.n_vertices - int(need.group(1))) <= 0.1 * int(need.group(1))
     assert qmesh.measure.report(m, A)["q_nonnegative_fraction_boundary"] == 1.0
+
+
+@settings(max_examples=5, deadline=None)
+@given(width=st.floats(0.001, 0.01), angle=st.floats(0.0, 90.0), ratio=st.floats(100.0, 1000.0),
+       n=st.integers(4100, 8000))
+def test_thin_strips_past_the_exact_hull_mesh_validly_or_are_refused_by_name(width, angle, ratio, n):
+    """Strips thin in their metric with more points than Qhull's exact hull takes (the joggled
+    2-D Delaunay, the pre-pass's rounds on what was split in, the conformity's rounds on what
+    changed): a mesh of the strip's area with every q_ij ≥ 0 and N within 10% of the target,
+    or a refusal that names the count the boundary needs."""
+    strip = qmesh.Polygon([(0, 0), (1, 0), (1, width), (0, width)])
+    A = qmesh.Anisotropy.principal(1, ratio, angle)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", qmesh.QmeshWarning)
+            m = qmesh.mesh(strip, A, target_vertices=n)
+    except qmesh.QmeshError as e:
+        message = str(e)
+        assert "please report" not in message
+        assert "is too few" in message or "° in the metric" in message, message
+        return
+    P, T = m.points, m.triangles
+    areas = 0.5 * np.cross(P[T[:, 1]] - P[T[:, 0]], P[T[:, 2]] - P[T[:, 0]])
+    assert areas.min() > 0 and np.isclose(areas.sum(), width, rtol=1e-9)
+    assert abs(m.n_vertices - n) <= 0.1 * n
+    r = qmesh.measure.report(m, A)
+    assert r["q_nonnegative_fraction_boundary"] == 1.0
+    assert r["q_nonnegative_fraction"] in (1.0, None)
+
+
+def test_a_second_sized_run_refused_names_a_count_above_the_target():
+    """The first run of this strip ends far past its target (its boundary needs the splits), so
+    a second run is sized for a smaller interior; its splits are as many again, and they are
+    capped as the first run's were: the refusal names what they need, not a count below the
+    target (it said 'needs more than 1912 vertices' for a target of 4100)."""
+    import re
+    w = 0.001953125
+    strip = qmesh.Polygon([(0, 0), (1, 0), (1, w), (0, w)])
+    with pytest.raises(qmesh.QmeshError) as e:
+        qmesh.mesh(strip, qmesh.Anisotropy.principal(1, 100, 0), target_vertices=4100)
+    need = re.search(r"needs (?:more than )?(\d+) vertices", str(e.value))
+    assert need and int(need.group(1)) > 4100, str(e.value)
