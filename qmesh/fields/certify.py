@@ -39,9 +39,9 @@ MAX_ROUNDS = 400    # rounds of flips and splits before the remaining edges are 
 STALL = 30          # ... or rounds without fewer failing edges than the best so far
 GAIN = 1e-9         # a flip must lower its quadrilateral's deficit by this share at least
 SPLIT_AT = 0.1      # an edge is split no nearer its ends than this share of it
-RELAX = 4           # rounds of shape steps mending edges before the next split
+RELAX = 3           # rounds of shape steps mending edges before the next split
 SMOOTH = 4          # shape steps of the vertices the splits added, once every edge passes
-POLISH = 12         # then shape steps, in the element means' metric, of the corners of triangles
+POLISH = 6          # then shape steps, in the element means' metric, of the corners of triangles
                     # below FLOOR
 FLOOR = 0.3         # a split or a repairing move keeps the worst metric quality (2.94) of what it
 KEEP = 0.75         # changes above KEEP · min(FLOOR, the worst before) where it can
