@@ -15,8 +15,12 @@ end), else split at the first of a few points along it that leaves the fewest fa
 around it (the midpoint first: smaller triangles see a more nearly constant Q); until none
 fails or the rounds run out, which is then said, never passed over. Given the metric the mesh
 was made in, the corners of the triangles beside failing edges first take the mesher's shape
-step where that mends their star without a vertex, and once every edge passes the added
-vertices take it where that improves their star's worst quality and breaks no edge.
+step where that mends their star without a vertex (a boundary vertex between two corners slides
+along its side), and once every edge passes the added vertices take it where that improves
+their star's worst quality and breaks no edge; then the corners of the triangles below FLOOR
+take it in each triangle's own metric adj Q̄_T / √det Q̄_T (the metric quality 2.94 is measured
+in: a full, half or quarter step), and their edges flip where that raises the worse of the two
+and raises no deficit. The means come from `cache.ElementMeans`: each triangle's computed once.
 """
 
 from __future__ import annotations
