@@ -63,6 +63,8 @@ def _build(plan: Plan, rng):
     if not anisotropy.is_constant:
         inner = seeding_varying.initial_points(domain, anisotropy,
                                                int(LATTICE_FILL * (plan.expected - n_b)), rng)
+    elif target is None and hasattr(domain, "lattice_points"):   # disjoint domains (components.py)
+        inner = domain.lattice_points(anisotropy.H, h, rng)
     else:
         lattice = (seeding.metric_lattice(domain, anisotropy.H, h, rng) if target is None else
                    seeding.lattice_for_count(domain, anisotropy.H, LATTICE_FILL * (target - n_b), rng))
