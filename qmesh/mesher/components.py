@@ -6,9 +6,10 @@ size, and touch nowhere, can be meshed together: every stage is local to a trian
 vertex's star, Qhull's triangles outside Ω are dropped as for a domain with holes (Ω lies on the
 left of every segment), and encroachment is tested on Ω's side of a segment only. The run sees
 one domain whose rings are all the domains' rings; its input points come first, domain after
-domain, so each domain's mesh keeps its own input points first (and bit for bit). What is the
-run's, not each domain's: one lattice (a domain alone gets one placed on its own extent, so the
-meshes differ), one insertion budget, one test of convergence.
+domain, so each domain's mesh keeps its own input points first (and bit for bit). Each domain
+is seeded with its own metric lattice, placed on its own extent as it would be alone (one lattice
+across all would leave a small domain's interior points to chance); what is the run's, not each
+domain's: the lattices' jitter drawn in turn, one insertion budget, one test of convergence.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from scipy.sparse.csgraph import connected_components
 from qmesh.domain.domain import Domain
 from qmesh.errors import QmeshError
 from qmesh.geometry.rings import signed_area
+from qmesh.mesher.seeding import metric_lattice
 from qmesh.triangle_mesh import Mesh
 
 
@@ -42,6 +44,20 @@ class Components(Domain):
     @property
     def bounds(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         return self.seeds.min(axis=0), self.seeds.max(axis=0)
+
+    def lattice_points(self, H: NDArray[np.float64], h: float, rng: np.random.Generator) -> NDArray[np.float64]:
+        """A run's first interior points (constant Q, a size): each domain's own metric lattice,
+        placed on its own extent as it would be alone (`seeding.metric_lattice`), not one across
+        all, whose place in a small domain would be left to chance."""
+        first = np.cumsum([0] + [len(R) for R in self.rings])
+        part = np.repeat(np.arange(len(self.sizes)), self.sizes)[first[:-1]]       # of each ring
+        out = [np.zeros((0, 2))]
+        for p in range(len(self.sizes)):
+            r = np.flatnonzero(part == p)
+            one = Components([self.rings[k] for k in r], [self.segment_tags[first[k]:first[k + 1]] for k in r],
+                             [int(self.sizes[p])])
+            out.append(metric_lattice(one, H, h, rng).points)
+        return np.concatenate(out)
 
     def scaled(self, center: Any, scale: float) -> Domain:
         new = Domain.scaled(self, center, scale)

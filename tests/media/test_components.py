@@ -126,3 +126,27 @@ def test_a_face_taken_as_the_partition_made_it_is_the_checked_face():
         assert all(np.array_equal(r, s) for r, s in zip(a.rings, b.rings))
         assert np.array_equal(a.segments, b.segments) and np.array_equal(a.segment_tags, b.segment_tags)
         assert b.area == pytest.approx(a.area, rel=1e-12)
+
+
+def test_each_part_is_seeded_with_its_own_lattice():
+    """Components.lattice_points: each part's metric lattice as seeding makes it for that part
+    alone (the jitter drawn part after part), so a small part is seeded as it would be alone."""
+    from qmesh.mesher.seeding import metric_lattice
+    ps = parts()
+    H = np.array([[2.0, 0.3], [0.3, 1.0]])
+    got = joined(ps).lattice_points(H, 0.05, np.random.default_rng(3))
+    rng = np.random.default_rng(3)
+    alone = np.concatenate([metric_lattice(d, H, 0.05, rng).points for d in ps])
+    assert len(alone) > 100 and np.array_equal(got, alone)
+
+
+def test_inclusions_in_one_run_keep_their_interior_vertices():
+    """300 inclusions 1.5 elements wide at N 5000: one lattice across all of them left most
+    without an interior vertex (a thin-domain warning each); their own lattices, as alone, none."""
+    domain = qmesh.Domain([(0, 0), (1, 0), (1, 1), (0, 1)], regions=hexagons(300))
+    cond = {0: OUTSIDE, **{k: INSIDE for k in range(1, 301)}}
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        m = qmesh.mesh(domain, cond, target_vertices=5000)
+    assert not said and abs(m.n_vertices - 5000) <= 500
+    assert measure.report(m, cond)["q_nonnegative_fraction"] == 1.0
