@@ -256,10 +256,14 @@ def _scene_points(plotter: pv.Plotter, names, most: int = 4000) -> np.ndarray:
 
 
 def new_plotter(window_size=WINDOW_SIZE) -> pv.Plotter:
-    """An off-screen plotter without multisampling: MSAA costs ~4× per frame on llvmpipe."""
+    """An off-screen plotter without multisampling (MSAA costs ~4× per frame on llvmpipe) and
+    without order-independent translucency: the one translucent layer (the lifted view's s(x))
+    looks the same blended plainly, and VTK's weighted-OIT pass (floating-point buffers
+    composited over the whole window) doubled the lifted view's frame time on llvmpipe."""
     system.require_rendering()
     plotter = pv.Plotter(off_screen=True, window_size=list(window_size))
     plotter.render_window.SetMultiSamples(0)
+    plotter.renderer.SetUseOIT(False)
     plotter.set_background(BACKGROUND)
     return plotter
 
