@@ -48,7 +48,8 @@ SMOOTH = 4          # shape steps of the vertices the splits added, once every e
 POLISH = 6          # then shape steps, in the element means' metric, of the corners of triangles
                     # below FLOOR
 FLOOR = 0.3         # a split or a repairing move keeps the worst metric quality (2.94) of what it
-KEEP = 0.75         # changes above KEEP · min(FLOOR, the worst before) where it can
+KEEP = 0.75         # changes above KEEP · min(FLOOR, the worst before) where it can (a repairing
+                    # move: above min(the worst before, KEEP · FLOOR))
 SHORTEST = 1e-9     # edges shorter than this share of the domain's extent are not split
 STEPS = (1.0, 0.5, 0.25)   # a refused shape move is tried at these shares of its step
 IN_LINE = 1e-9      # a boundary vertex this near the line of its neighbours (sine) slides along it
@@ -496,8 +497,8 @@ def _relax(P, T, twin, Qbar, err, s, b, field, metric, movers, shape, tangent=No
     """Move the vertices `movers` (`_movers`) by the mesher's shape step in `metric`
     (`adjust.shape_step`, capped by `adjust.limit_moves`) where their star is better for it:
     no more failing edges and no higher deficit, and fewer or a lower deficit, and a worst
-    quality kept above KEEP · min(FLOOR, its worst before) (shape=False: a repair that adds no
-    vertex); no more failing edges, no higher deficit and a better worst
+    quality kept above min(its worst before, KEEP · FLOOR) (shape=False: a repair that adds no
+    vertex; a star already worse than that, such as a sharp corner's, gets no worse); no more failing edges, no higher deficit and a better worst
     metric quality of the star in its own means (shape=True). Returns the new P and the
     triangles that changed. Vertices with a `tangent` (`_tangents`) move along it only."""
     n = len(P)
@@ -572,7 +573,7 @@ def _accepted(P, T, twin, Qbar, s, b, field, d, moving, shape):
     else:
         q0, q1 = _star_quality(P, Pn, Ts, Qbar[star], Qn, tri_owner, n)
         take = ((f1 <= f0) & (d1 <= d0) & ((f1 < f0) | (d1 < (1.0 - GAIN) * d0))
-                & (q1 >= KEEP * np.minimum(q0, FLOOR)))
+                & (q1 >= np.minimum(q0, KEEP * FLOOR)))
     return take & moving & ~flat
 
 
