@@ -103,8 +103,8 @@ def _run(plan: MediaPlan, options: dict, every: bool) -> Iterator[Step]:
             thin = thin_domain(mesh, Anisotropy.constant(a.matrix / plan.k[i]) if a.is_constant else a)
             notes += [] if thin is None else [(f"{plan.face_name(i)}: {thin}", QmeshWarning)]
             meshes[i] = mesh
-            new = points_on_edges(mesh, plan.corners, int(mesh.fixed.sum()))
-            _share(plan, meshes, {e: X for e, X in new.items() if plan.part.interface[e]}, extra)
+        new = points_on_edges(step.mesh, plan.corners, int(step.mesh.fixed.sum()))   # all at once
+        _share(plan, meshes, {e: X for e, X in new.items() if plan.part.interface[e]}, extra)
         at += len(faces)
     m = stitch(plan.part, meshes, plan.domain)
     yield Step("triangulate", step.iteration, m, Stats(m.n_vertices, m.n_triangles, source=(m, cond)),

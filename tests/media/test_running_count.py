@@ -82,9 +82,10 @@ def test_a_replaced_face_gives_back_its_points():
 
 
 def test_points_on_edges_with_the_shared_tree_is_the_per_face_answer(monkeypatch):
-    """The plan's KD-tree of the partition's points gives what a tree built per face gave."""
+    """The plan's KD-tree of the partition's points gives what a tree built per run gave (the
+    inclusions' conductivities all different, so each face has its own run)."""
     domain = qmesh.Domain([(0, 0), (1, 0), (1, 1), (0, 1)], regions=hexagons(4))
-    cond = {0: OUTSIDE, **{k: INSIDE for k in range(1, 5)}}
+    cond = {0: OUTSIDE, **{k: P(10.0 + k, 1.0, 30.0) for k in range(1, 5)}}
     plan = MediaPlan(domain, cond, 400, None)
     found = []
 
