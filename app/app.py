@@ -56,6 +56,9 @@ VIEW_HEIGHT = "calc(100vh - 347px)"   # the views fill the page below the status
 TEXT_PARAMS = ("target_vertices", "seed")   # typed: applied on Enter or blur, never per key
 SLIDER_PARAMS = tuple(n for n in PARAMS if n not in TEXT_PARAMS + ("s_text",))
 RUN_EVERY_STAGE = 20_000   # vertices up to which a run draws every stage before the next
+MEASURE_AFTER = 0.1        # seconds from the pictures sent to the measurements started: the
+#                            browser shows them first (the status and chart updates that follow
+#                            the measurements made it decode the last picture later)
 
 
 def convergence_chart(series: dict, field: bool = False) -> dict:
@@ -225,12 +228,13 @@ class QmeshView(TrameApp):
             view.update()
 
     async def _push_each(self) -> None:
-        """Push the views one after the other, giving the loop a turn after each: a frame
-        encoded while the next view renders is sent then, so the browser decodes it meanwhile
-        instead of receiving all three pictures after the last render."""
+        """Push the views one after the other, giving the loop a moment after each (its due
+        re-pushes and sends run before the next render): a frame encoded while the next view
+        renders is sent then, so the browser decodes it meanwhile instead of receiving all
+        three pictures after the last render."""
         for view in self.html_views.values():
             view.update()
-            await asyncio.sleep(0)
+            await asyncio.sleep(delivery.STALE_RETRY / 5)
 
     def _fast_image_delivery(self, **_) -> None:
         """Remote views: frames re-pushed every 10 ms while being encoded (`delivery`)."""
@@ -304,6 +308,7 @@ class QmeshView(TrameApp):
     async def _after_stage(self, outcome, before=None) -> None:
         """Show the stage on screen, then measure it (κ2, q_ij signs, warnings) and chart."""
         await self._show_stage()
+        await asyncio.sleep(MEASURE_AFTER)
         await self._measure(before)
 
     async def _show_stage(self, outcome=None, index: int | None = None) -> None:
@@ -426,6 +431,7 @@ class QmeshView(TrameApp):
                 self.state.busy = self.state.busy or measure
         if measure:
             try:
+                await asyncio.sleep(MEASURE_AFTER)
                 await self._measure()
             except Exception as e:                    # noqa: BLE001  measuring
                 self.session.action_messages = [describe(e)]
