@@ -54,13 +54,18 @@ def inside(P: np.ndarray, A: np.ndarray, B: np.ndarray) -> np.ndarray:
 def distance(P: np.ndarray, A: np.ndarray, B: np.ndarray, reach: float) -> np.ndarray:
     """Distance from each point to the nearest segment A→B, or inf where none is within `reach`.
 
-    Many points: a grid first rules out the points far from every segment (`_grid`), and pairs
-    each point of the band along the boundary with the segments that pass near its cell only
-    (or, where that list would be long, with the segments of its y-band)."""
+    Many points, or y-bands that would pair each point with many segments (rings side by
+    side): a grid first rules out the points far from every segment (`_grid`), and pairs each
+    point of the band along the boundary with the segments that pass near its cell only (or,
+    where that list would be long, with the segments of its y-band). Either way, the same
+    distances."""
     P = np.asarray(P, dtype=float)
-    grid = _grid(P, A, B, reach) if len(P) + len(A) >= GRID_MIN else None
+    size = len(P) + len(A)
+    order = None if size >= GRID_MIN else np.argsort(P[:, 1], kind="stable")
+    many = order is None or _band_pairs(P[order, 1], A, B, reach) > GRID_PAIRS * size
+    grid = _grid(P, A, B, reach) if many else None
     if grid is None:
-        return _distance(P, A, B, reach)
+        return _distance(P, A, B, reach, order)
     far, cell, reg_cell, reg_seg = grid
     out = np.full(len(P), np.inf)
     near = np.flatnonzero(~far)
@@ -78,6 +83,7 @@ def distance(P: np.ndarray, A: np.ndarray, B: np.ndarray, reach: float) -> np.nd
 
 
 GRID_MIN = 20_000       # points and segments from which `distance` uses the grid
+GRID_PAIRS = 8          # ... or fewer, when the y-bands would pair them this many times over
 REGISTER_MAX = 4        # cell registrations (25 per cell a segment passes) per point and segment
 REGISTER_FLOOR = 4_000_000   # registrations allowed whatever the counts (32 MB of keys)
 
@@ -143,11 +149,20 @@ def _grid(P: np.ndarray, A: np.ndarray, B: np.ndarray, reach: float):
     return ~marked[cell], cell, reg_cell, reg_seg
 
 
-def _distance(P: np.ndarray, A: np.ndarray, B: np.ndarray, reach: float) -> np.ndarray:
+def _band_pairs(ys: np.ndarray, A: np.ndarray, B: np.ndarray, reach: float) -> int:
+    """How many (point, segment) pairs `_distance` would test: the sorted point ordinates `ys`
+    inside each segment's y-range widened by `reach` (many rings side by side: many per point)."""
+    ylo = np.minimum(A[:, 1], B[:, 1]) - reach
+    yhi = np.maximum(A[:, 1], B[:, 1]) + reach
+    return int(np.maximum(np.searchsorted(ys, yhi, side="right") - np.searchsorted(ys, ylo, side="left"), 0).sum())
+
+
+def _distance(P: np.ndarray, A: np.ndarray, B: np.ndarray, reach: float,
+              order: np.ndarray | None = None) -> np.ndarray:
     best = np.full(len(P), np.inf)
     ylo = np.minimum(A[:, 1], B[:, 1]) - reach
     yhi = np.maximum(A[:, 1], B[:, 1]) + reach
-    for pt, sg in _pairs(P[:, 1], ylo, yhi):
+    for pt, sg in _pairs(P[:, 1], ylo, yhi, order):
         np.minimum.at(best, pt, point_segment_distance(P[pt], A[sg], B[sg]))
     return np.where(best <= reach, best, np.inf)
 

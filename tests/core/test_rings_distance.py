@@ -65,3 +65,27 @@ def test_both_pairings_of_the_band_give_the_y_band_distances(monkeypatch, regist
     for reach in (4e-3, 5e-2):
         assert (rings._grid(P, A, B, reach)[2] is None) == (register_max == 0)
         np.testing.assert_array_equal(rings.distance(P, A, B, reach), rings._distance(P, A, B, reach))
+
+
+def test_few_points_among_many_rings_side_by_side_take_the_grid(monkeypatch):
+    """Below GRID_MIN, 400 hexagons on a grid put about 80 segments in every y-band: `distance`
+    takes the grid (the bands would pair each point with them all) and still gives what the
+    y-bands give, bit for bit."""
+    k = 20
+    t = np.pi / 3 * np.arange(6)
+    unit = np.column_stack([np.cos(t), np.sin(t)]) / (3 * k)
+    centres = (np.stack(np.meshgrid(np.arange(k), np.arange(k)), -1).reshape(-1, 2) + 0.5) / k
+    A = np.concatenate([c + unit for c in centres])
+    B = np.concatenate([c + np.roll(unit, -1, axis=0) for c in centres])
+    P = np.random.default_rng(5).uniform(0, 1, (3000, 2))
+    reach = 0.2 / k
+    size = len(P) + len(A)
+    assert size < rings.GRID_MIN
+    order = np.argsort(P[:, 1], kind="stable")
+    assert rings._band_pairs(P[order, 1], A, B, reach) > rings.GRID_PAIRS * size
+    used = []
+    monkeypatch.setattr(rings, "_grid", lambda *a, _g=rings._grid: used.append(1) or _g(*a))
+    got = rings.distance(P, A, B, reach)
+    assert used, "the grid was not used"
+    np.testing.assert_array_equal(got, rings._distance(P, A, B, reach))
+    assert np.isfinite(got).any() and not np.isfinite(got).all()
