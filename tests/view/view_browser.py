@@ -205,7 +205,9 @@ def run_latency(page, action, timeout: float = 300.0, names=VIEWS) -> dict:
     n_input = len(probe_marks(page)["input"])
     action()
     until(lambda: "converged" in status(page) or None, timeout, "the run to converge")
-    wait_idle(page, timeout)
+    page.wait_for_function("() => !document.querySelector('#btn-run').textContent"
+                           ".includes('Stop')", timeout=timeout * 1000)   # the run has ended
+    wait_idle(page, timeout)                         # and the stage it ended at is measured
     page.wait_for_timeout(500)                       # frames of the last stage still on the way
     marks = probe_marks(page)
     t_in = marks["input"][n_input]
