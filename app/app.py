@@ -9,7 +9,8 @@ Views render on the server (`remote`, the default) or in the browser (`local`, v
 Remote is the default because it reaches the screen sooner, the more so the larger the mesh
 (`benchmarks/bench_view.py --browser` measures both, from the input to the changed picture in
 Chromium), and because vtk.js draws the translucent s(x) over the facets of s_h wrongly. Remote
-frames are re-pushed every 10 ms while still being encoded, not after trame-vtk's 0.5 s wait
+frames are re-pushed every 10 ms while still being encoded, not after trame-vtk's 0.5 s wait, each
+view's as soon as it is encoded, and the page's websocket hands them over as ArrayBuffers
 (`qmesh_view.delivery`).
 
 Every control is bound to one `qmesh_view.session.Session` (the parameters in force, the run,
@@ -21,7 +22,10 @@ refused), never echoing a change back. Refusals and warnings go to `messages`, a
 line beside the status line, so the views never move.
 
 The mesher and the measurements run in one worker thread so the page never freezes (`busy`
-greys the buttons and shows a progress bar); VTK renders only on the event loop's thread.
+greys the buttons and shows a progress bar); VTK renders only on the event loop's thread. The
+pictures of a stage go out first, its measurements (κ2, q_ij signs, chart) follow; a Run measures
+only the stage it stops at, and above `RUN_EVERY_STAGE` vertices it meshes on while the views
+draw, showing the newest stage each time they are free.
 """
 
 from __future__ import annotations
