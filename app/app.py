@@ -352,8 +352,9 @@ class QmeshView(TrameApp):
             self._drawing.clear()
 
     async def _measure(self, before=None) -> None:
-        """Worker: the shown stage's κ2, q_ij signs and warnings, and the chart when the
-        history grew (since `before`); shown if that stage is still the one on screen."""
+        """Worker: the shown stage's κ2, q_ij signs and warnings, then the chart when the
+        history grew (since `before`: κ2 of every iteration not measured yet, one factorisation
+        each); each shown as soon as it is known, if that stage is still the one on screen."""
         c = self.session
         index = c.index
         grew = before is None or (len(c.history), c.controller) != before
@@ -364,13 +365,16 @@ class QmeshView(TrameApp):
             if c.controller is run and c.index == index:
                 with self.state:
                     self.state.status_line = status_text(quick)
-        status, chart = await self._work(lambda: (c.status(index), self._chart() if grew else None))
+        status = await self._work(lambda: c.status(index))
         if c.controller is run and c.index == index:
             with self.state:
                 self.state.status_line = status_text(status)
-                if chart is not None:
-                    self.state.update(chart)
             self._messages(status["notes"])
+        if grew:
+            chart = await self._work(self._chart)
+            if c.controller is run and c.index == index:
+                with self.state:
+                    self.state.update(chart)
 
     def _start(self, action) -> None:
         if self.state.busy or self.state.running:
