@@ -48,8 +48,9 @@ MIN_BUDGET = 1 << 19
 """Pieces refined per level: at most max(4 M, MIN_BUDGET) for M triangles, the worst first, so
 a field that never converges (a discontinuity, a singular point) costs a bounded amount of work; its
 error bound says so."""
-CHUNK = 1 << 15
-"""Pieces evaluated at once (7 points each): bounds the memory of one evaluation."""
+CHUNK = 1 << 13
+"""Pieces evaluated at once (7 points each): bounds the memory of one evaluation (a few MB: larger
+batches gain nothing per point)."""
 
 # Dunavant (1985), Table I, degree 5 (the Radon–Stroud T2:5-1 rule): barycentric points, weights
 # summing to 1; exact for polynomials of degree ≤ 5 on a triangle.
@@ -84,23 +85,42 @@ def _sum_by(index: NDArray[np.intp], values: Array, n: int) -> Array:
 
 # --------------------------------------------------------------------------- formulas
 
+def _rule_points(a: Array, b: Array, c: Array) -> Array:
+    """The rule's 7 points on each triangle (a, b, c) (k, 2) → (7 k, 2), triangle by triangle:
+    w0 a + w1 b + w2 c, one rule point at a time over all the triangles."""
+    P = np.empty((len(a), 7, 2))
+    for r, (w0, w1, w2) in enumerate(RULE_BARY):
+        P[:, r] = w0 * a + w1 * b + w2 * c
+    return P.reshape(-1, 2)
+
+
 def rule_averages(evaluate: Evaluate, A: Array, B: Array, C: Array) -> Array:
-    """The 7-point degree-5 rule's average of Q over each triangle (A, B, C) → components (k, 3)."""
+    """The 7-point degree-5 rule's average of Q over each triangle (A, B, C) → components (k, 3),
+    the field evaluated CHUNK triangles at a time (each triangle's average does not depend on the
+    chunks: the same 7 values summed in the same order)."""
     k = len(A)
     out = np.empty((k, 3))
     for s in range(0, k, CHUNK):
         a, b, c = A[s:s + CHUNK], B[s:s + CHUNK], C[s:s + CHUNK]
-        P = (RULE_BARY[None, :, 0, None] * a[:, None] + RULE_BARY[None, :, 1, None] * b[:, None]
-             + RULE_BARY[None, :, 2, None] * c[:, None])                       # (k, 7, 2)
-        q = evaluate(P.reshape(-1, 2)).reshape(len(a), 7, 3)
+        q = evaluate(_rule_points(a, b, c)).reshape(len(a), 7, 3)
         out[s:s + CHUNK] = np.einsum("r,krc->kc", RULE_WEIGHTS, q)
     return out
 
 
-def _children(A: Array, B: Array, C: Array) -> list[tuple[Array, Array, Array]]:
-    """The 4 midpoint children of each triangle, each a quarter of its area, same orientation."""
+def _children(A: Array, B: Array, C: Array) -> tuple[Array, Array, Array]:
+    """The 4 midpoint children of each of k triangles, each a quarter of its area, same
+    orientation, stacked child by child: (4k, 2) corners, child c of triangle t in row c k + t
+    (children 0, 1, 2 at corners A, B, C, child 3 the middle one)."""
     ab, bc, ca = 0.5 * (A + B), 0.5 * (B + C), 0.5 * (C + A)
-    return [(A, ab, ca), (ab, B, bc), (ca, bc, C), (ab, bc, ca)]
+    return (np.concatenate([A, ab, ca, ab]), np.concatenate([ab, B, bc, bc]),
+            np.concatenate([ca, bc, C, ca]))
+
+
+def _fine(kid_avg: Array) -> Array:
+    """The fine average of each of k triangles: the mean of its 4 children's rows (4k, 3)
+    stacked as `_children`'s, summed in the children's order."""
+    k = len(kid_avg) // 4
+    return 0.25 * (kid_avg[:k] + kid_avg[k:2 * k] + kid_avg[2 * k:3 * k] + kid_avg[3 * k:])
 
 
 def adaptive_means(evaluate: Evaluate, A: Array, B: Array, C: Array, rtol: float = RTOL,
@@ -116,16 +136,26 @@ def adaptive_means(evaluate: Evaluate, A: Array, B: Array, C: Array, rtol: float
     average, and its 4^-L d_p to the bound: the bound is the last difference, which for a smooth
     field overestimates the fine rule's error (that shrinks ~64× per level). Work per level is
     capped (MIN_BUDGET); at `max_depth`, or past the cap, pieces end as they are and the bound
-    carries what is left."""
+    carries what is left.
+
+    The field is evaluated in as few calls as CHUNK allows: the triangles and their children
+    together, then all the children of a level's split pieces at once (each piece's rule sums
+    its own 7 points in the same order whatever the batch, so the batching does not change a bit
+    of the result)."""
     M = len(A)
     total, err = np.zeros((M, 3)), np.zeros(M)
     owner = np.arange(M)
-    coarse = rule_averages(evaluate, A, B, C)
+    KA, KB, KC = _children(A, B, C)
+    both = rule_averages(evaluate, np.concatenate([A, KA]), np.concatenate([B, KB]),
+                         np.concatenate([C, KC]))
+    coarse, kid_avg = both[:M], both[M:]
     budget = max(4 * M, MIN_BUDGET)
     for level in range(max_depth + 1):
-        kids = _children(A, B, C)
-        kid_avg = [rule_averages(evaluate, *kid) for kid in kids]
-        fine = 0.25 * (kid_avg[0] + kid_avg[1] + kid_avg[2] + kid_avg[3])
+        if level:
+            KA, KB, KC = _children(A, B, C)
+            kid_avg = rule_averages(evaluate, KA, KB, KC)
+        k = len(A)
+        fine = _fine(kid_avg)
         d = frobenius(fine - coarse)
         share = 0.25 ** level
         estimate = total + _sum_by(owner, share * fine, M)
@@ -144,10 +174,8 @@ def adaptive_means(evaluate: Evaluate, A: Array, B: Array, C: Array, rtol: float
         err += _sum_by(owner[end], share * d[end], M)
         if len(split) == 0:
             break
-        A = np.concatenate([kid[0][split] for kid in kids])
-        B = np.concatenate([kid[1][split] for kid in kids])
-        C = np.concatenate([kid[2][split] for kid in kids])
-        coarse = np.concatenate([avg[split] for avg in kid_avg])
+        rows = (np.arange(4)[:, None] * k + split).ravel()   # the split pieces' children
+        A, B, C, coarse = KA[rows], KB[rows], KC[rows], kid_avg[rows]
         owner = np.tile(owner[split], 4)
     return total, err
 

@@ -90,3 +90,56 @@ def fine_mean(f, tri, levels=4, n=8):
     P = A[:, None] + uv[None, :, 0, None] * (B - A)[:, None] + uv[None, :, 1, None] * (C - A)[:, None]
     Q = f(P[..., 0].ravel(), P[..., 1].ravel()).reshape(len(A), len(w), 2, 2)
     return np.einsum("r,krij->ij", w, Q) / len(A)
+
+
+def adaptive_mean_one_piece_at_a_time(evaluate, tri, rtol, atol=1e-300, max_depth=8):
+    """`means.adaptive_means` of ONE triangle `tri` (3, 2), written out piece by piece: every
+    piece's 7 rule points evaluated in a call of their own, the weighted values summed one at a
+    time, the pieces of a level visited in the order the vectorised code stacks them (child 0 of
+    every split piece, then child 1, …) and their sums taken in that order (as `np.bincount`
+    does), no work cap. `evaluate`: points (n, 2) → components (n, 3). The same arithmetic as the
+    batched code, so the same numbers to the bit. → (mean components (3,), error bound)."""
+    from qmesh.conductivity.means import RULE_BARY, RULE_WEIGHTS
+
+    def norm(q):
+        return np.sqrt(q[0] ** 2 + 2.0 * q[1] ** 2 + q[2] ** 2)
+
+    def rule(a, b, c):
+        q = evaluate(np.array([w0 * a + w1 * b + w2 * c for w0, w1, w2 in RULE_BARY]))
+        s = np.zeros(3)
+        for w, v in zip(RULE_WEIGHTS, q):
+            s = s + w * v
+        return s
+
+    def children(a, b, c):
+        ab, bc, ca = 0.5 * (a + b), 0.5 * (b + c), 0.5 * (c + a)
+        return [(a, ab, ca), (ab, b, bc), (ca, bc, c), (ab, bc, ca)]
+
+    def ordered_sum(values, zero):
+        s = zero
+        for v in values:
+            s = s + v
+        return s
+
+    a, b, c = (np.asarray(p, float) for p in tri)
+    pieces = [((a, b, c), rule(a, b, c))]
+    total, err = np.zeros(3), 0.0
+    for level in range(max_depth + 1):
+        share = 0.25 ** level
+        kids, avgs, fine, d = [], [], [], []
+        for corners, coarse in pieces:
+            k = children(*corners)
+            v = [rule(*kid) for kid in k]
+            f = 0.25 * (v[0] + v[1] + v[2] + v[3])
+            kids.append(k), avgs.append(v), fine.append(f), d.append(norm(f - coarse))
+        estimate = total + ordered_sum([share * f for f in fine], np.zeros(3))
+        tol = rtol * norm(estimate) + atol
+        settled = err + ordered_sum([share * x for x in d], 0.0) <= tol
+        end = [settled or x <= tol or level == max_depth for x in d]
+        total = total + ordered_sum([share * f for f, e in zip(fine, end) if e], np.zeros(3))
+        err = err + ordered_sum([share * x for x, e in zip(d, end) if e], 0.0)
+        split = [p for p, e in enumerate(end) if not e]
+        if not split:
+            break
+        pieces = [(kids[p][c], avgs[p][c]) for c in range(4) for p in split]
+    return total, err

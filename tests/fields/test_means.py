@@ -104,6 +104,41 @@ def test_means_of_smooth_fields_within_their_bound(name, seed, cx, cy, scale):
     assert err[0] <= 1e-9 * np.linalg.norm(expected)
 
 
+@pytest.mark.parametrize("name", ["fvca5_texts", "plasma_texts", "principal_texts"])
+@pytest.mark.parametrize("rtol, depth", [(1e-10, 8), (1e-7, 8), (1e-14, 2), (np.inf, 0)])
+def test_batched_means_equal_piece_by_piece_quadrature_bit_for_bit(name, rtol, depth):
+    """The quadrature evaluates all the pieces of a level, of all the triangles, in a few batched
+    calls: the means and bounds of many triangles at once are, to the bit, those of the same
+    algorithm written out one triangle and one piece at a time (`reference`), at the field's
+    tolerance, the repair's, at the depth cap and unrefined."""
+    from qmesh.conductivity import means as _m
+    field = {
+        "fvca5_texts": lambda: qmesh.TensorField.from_expressions(
+            "(0.001*x**2 + y**2)/(x**2 + y**2)", "(0.001 - 1)*x*y/(x**2 + y**2)",
+            "(x**2 + 0.001*y**2)/(x**2 + y**2)"),
+        "plasma_texts": lambda: qmesh.TensorField.from_expressions(
+            "1e-4 + (1 - 1e-4)*(4*(y - 0.5))**2/((2*(x - 0.5))**2 + (4*(y - 0.5))**2)",
+            "-(1 - 1e-4)*(2*(x - 0.5))*(4*(y - 0.5))/((2*(x - 0.5))**2 + (4*(y - 0.5))**2)",
+            "1e-4 + (1 - 1e-4)*(2*(x - 0.5))**2/((2*(x - 0.5))**2 + (4*(y - 0.5))**2)"),
+        "principal_texts": SMOOTH["principal_texts"][0],
+    }[name]()
+    rng = np.random.default_rng(7)
+    centres = rng.uniform(0.1, 0.9, (400, 2))
+    sizes = rng.choice([0.3, 0.05, 0.01], 400)
+    away = np.linalg.norm(centres - 0.5, axis=1) > 0.1 + 1.5 * sizes   # from plasma's O-point
+    tris = np.array([_triangle(rng, c, s) for c, s in zip(centres[away][:40], sizes[away][:40])])
+    flip = rng.random(40) < 0.3                 # some clockwise
+    tris[flip] = tris[flip][:, ::-1]
+    q, e = _m.adaptive_means(field._evaluate, tris[:, 0], tris[:, 1], tris[:, 2], rtol=rtol,
+                             max_depth=depth)
+    one = [ref.adaptive_mean_one_piece_at_a_time(field._evaluate, t, rtol, max_depth=depth) for t in tris]
+    assert np.array_equal(q, np.array([m for m, _ in one]))
+    assert np.array_equal(e, np.array([b for _, b in one]))
+    if rtol == 1e-10:                            # and the field's own means are these
+        m, b = field.means_with_error(tris.reshape(-1, 2), np.arange(3 * len(tris)).reshape(-1, 3))
+        assert np.array_equal(m, _m.full_tensors(q)) and np.array_equal(b, e)
+
+
 def test_singular_corner_keeps_a_bound():
     """A triangle with a vertex at FVCA5 test 5's rotation centre: Q has no limit there; the
     quadrature never evaluates the vertex, stops at its depth cap, and the exact mean (K depends
