@@ -10,6 +10,7 @@ tiny rings lose no more than round-off relative to their own size.
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from qmesh.geometry.topology import sorted_unique
 
@@ -200,7 +201,15 @@ def crossings(A: np.ndarray, B: np.ndarray, ia: np.ndarray, ib: np.ndarray) -> n
     found = []
     # segment j meets segment i's y-range if ylo[j] lies in [ylo[i], yhi[i]] or j starts below i
     # and reaches it; counting each pair from the one with the lower ylo covers both cases.
-    for i, j in _pairs(ylo, ylo, yhi):
+    # Where the y-bands hold many segments each (rings side by side), balls around the
+    # segments' pieces give the candidates instead: the same test on them, the same pairs.
+    cand = None
+    if len(A) >= GRID_MIN:
+        order = np.argsort(ylo, kind="stable")
+        if _band_pairs(ylo[order], A, B, 0.0) > GRID_PAIRS * len(A):
+            cand = _ball_segment_pairs(A, B)
+    chunks = _pairs(ylo, ylo, yhi) if cand is None else _chunks(*cand)
+    for i, j in chunks:
         keep = (i != j) & ((ylo[i] > ylo[j]) | ((ylo[i] == ylo[j]) & (i > j)))
         i, j = i[keep], j[keep]                 # ylo[j] ≤ ylo[i] ≤ yhi[j]: y-ranges overlap
         keep = (xlo[i] <= xhi[j]) & (xlo[j] <= xhi[i])
@@ -257,16 +266,100 @@ def scanline_intervals(y: np.ndarray, A: np.ndarray, B: np.ndarray):
 
 def near_points(P: np.ndarray, A: np.ndarray, B: np.ndarray, ia: np.ndarray, ib: np.ndarray,
                 reach: float) -> np.ndarray:
-    """Pairs (point, segment) with the point within `reach` of a segment it is not an end of."""
+    """Pairs (point, segment) with the point within `reach` of a segment it is not an end of,
+    by segment, then by the points' ordinates (as the y-sweep meets them).
+
+    Where the y-bands would pair each point with many segments (rings side by side: a raster's
+    rows of cells), the candidates come from balls around the segments' pieces instead
+    (`_ball_pairs`); the same test then keeps the same pairs, sorted into the sweep's order."""
+    size = len(P) + len(A)
+    order = np.argsort(P[:, 1], kind="stable")
+    if size >= GRID_MIN and _band_pairs(P[order, 1], A, B, reach) > GRID_PAIRS * size:
+        cand = _ball_pairs(P, A, B, reach)
+        if cand is not None:
+            pt, sg = cand
+            keep = (pt != ia[sg]) & (pt != ib[sg])
+            pt, sg = pt[keep], sg[keep]
+            close = point_segment_distance(P[pt], A[sg], B[sg]) <= reach
+            pt, sg = pt[close], sg[close]
+            rank = np.empty(len(P), np.int64)
+            rank[order] = np.arange(len(P))
+            by = np.lexsort((rank[pt], sg))
+            return np.column_stack([pt[by], sg[by]])
     ylo = np.minimum(A[:, 1], B[:, 1]) - reach
     yhi = np.maximum(A[:, 1], B[:, 1]) + reach
     found = []
-    for pt, sg in _pairs(P[:, 1], ylo, yhi):
+    for pt, sg in _pairs(P[:, 1], ylo, yhi, order):
         keep = (pt != ia[sg]) & (pt != ib[sg])
         pt, sg = pt[keep], sg[keep]
         close = point_segment_distance(P[pt], A[sg], B[sg]) <= reach
         found.append(np.column_stack([pt[close], sg[close]]))
     return np.concatenate(found) if found else np.empty((0, 2), np.int64)
+
+
+def _pieces(A: np.ndarray, B: np.ndarray, n: int):
+    """Segments cut into pieces no longer than about the median segment: (segment, centre,
+    class q) per piece, each piece within 2**(q - 1) of its centre; None if not finite."""
+    L = np.hypot(*(B - A).T)
+    scale = float(np.abs(np.concatenate([A, B])).max()) if len(A) else 0.0
+    if not (np.isfinite(L).all() and np.isfinite(scale)) or not len(A):
+        return None
+    h = max(float(np.median(L)), float(L.sum()) / (4 * n), 1e-300)
+    k = np.maximum(np.ceil(L / h), 1).astype(np.int64)
+    seg = np.repeat(np.arange(len(A)), k)
+    t = (np.arange(k.sum()) - np.repeat(np.cumsum(k) - k, k) + 0.5) / k[seg]
+    C = A[seg] + t[:, None] * (B[seg] - A[seg])
+    ell = np.maximum(L / k, max(h * 1e-12, 4 * np.finfo(float).eps * scale, 1e-300))[seg]
+    q = np.ceil(np.log2(ell)).astype(np.int64)
+    return seg, C, q, 8 * np.finfo(float).eps * scale
+
+
+def _ball_pairs(P: np.ndarray, A: np.ndarray, B: np.ndarray, reach: float):
+    """(point, segment) pairs, each once, among which every point within `reach` of a segment:
+    balls around the pieces of `_pieces`, one radius a class (a point that near a segment is
+    that near one of its pieces, so within half the piece's length plus `reach` of its centre);
+    None where the pieces are not finite."""
+    cut = _pieces(A, B, len(P) + len(A))
+    if cut is None or not len(P) or not np.isfinite(P).all():
+        return None
+    seg, C, q, slack = cut
+    tree = cKDTree(P)
+    pts, sgs = [], []
+    for cls in np.unique(q):
+        mine = np.flatnonzero(q == cls)
+        r = (float(2.0 ** (cls - 1)) + reach) * (1 + 1e-9) + slack
+        hit = tree.sparse_distance_matrix(cKDTree(C[mine]), r, output_type="ndarray")
+        pts.append(hit["i"].astype(np.int64))
+        sgs.append(seg[mine[hit["j"]]])
+    key = sorted_unique(np.concatenate(sgs) * np.int64(len(P)) + np.concatenate(pts))
+    return key % len(P), key // len(P)
+
+
+def _ball_segment_pairs(A: np.ndarray, B: np.ndarray):
+    """Segment pairs (i, j), each pair both ways, among which every pair that touches: pieces
+    of `_pieces` whose balls meet, a class's pieces against the pieces of its class or below."""
+    cut = _pieces(A, B, len(A))
+    if cut is None:
+        return None
+    seg, C, q, slack = cut
+    tree = cKDTree(C)
+    keys = []
+    for cls in np.unique(q):
+        mine = np.flatnonzero(q == cls)
+        r = float(2.0 ** cls) * (1 + 1e-9) + slack
+        hit = tree.sparse_distance_matrix(cKDTree(C[mine]), r, output_type="ndarray")
+        other, me = hit["i"].astype(np.int64), mine[hit["j"]]
+        low = q[other] <= cls
+        a, b = seg[me[low]], seg[other[low]]
+        keys.append(np.concatenate([a * np.int64(len(A)) + b, b * np.int64(len(A)) + a]))
+    key = sorted_unique(np.concatenate(keys))
+    return key // len(A), key % len(A)
+
+
+def _chunks(i: np.ndarray, j: np.ndarray):
+    """The pairs (i, j) in chunks of MAX_PAIRS."""
+    for k in range(0, len(i), MAX_PAIRS):
+        yield i[k:k + MAX_PAIRS], j[k:k + MAX_PAIRS]
 
 
 def segment_of(P: np.ndarray, A: np.ndarray, B: np.ndarray, reach: float) -> np.ndarray:

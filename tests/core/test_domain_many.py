@@ -82,3 +82,48 @@ def test_a_bad_region_among_many_is_named_as_before():
         raise AssertionError("a self-crossing region was accepted")
     d = qmesh.Domain([(0, 0), (1, 0), (1, 1), (0, 1)], regions=hexes)
     assert len(d.partition.faces) == len(hexes) + 1
+
+
+def _raster_segments(n, seed, jitter):
+    """A raster's cell edges (each edge once) with its corners, corners nudged by `jitter`
+    cell sizes and some edges bent onto neighbours: many segments per horizontal band."""
+    rng = np.random.default_rng(seed)
+    g = np.linspace(0.0, 1.0, n + 1)
+    X, Y = np.meshgrid(g, g)
+    P = np.column_stack([X.ravel(), Y.ravel()]) + jitter / n * rng.standard_normal(((n + 1) ** 2, 2))
+    idx = np.arange((n + 1) ** 2).reshape(n + 1, n + 1)
+    ia = np.concatenate([idx[:, :-1].ravel(), idx[:-1, :].ravel()])
+    ib = np.concatenate([idx[:, 1:].ravel(), idx[1:, :].ravel()])
+    bent = rng.random(len(ia)) < 0.01                 # some edges reach past a neighbour
+    ib = np.where(bent, np.minimum(ib + 2, len(P) - 1), ib)
+    long = rng.choice(len(ia), 20, replace=False)     # and a few long ones across the raster
+    ib[long] = rng.choice(len(P), 20)
+    keep = ia != ib
+    return P, ia[keep], ib[keep]
+
+
+@settings(max_examples=4, deadline=None)
+@given(seed=st.integers(0, 1000), jitter=st.sampled_from([0.0, 1e-10, 0.02]),
+       offset=st.sampled_from([0.0, 1e8]), scale=st.sampled_from([1.0, 1e-9]))
+def test_raster_balls_find_what_the_sweep_finds(seed, jitter, offset, scale):
+    """Rasters are many segments a band: candidates from balls around the segments' pieces,
+    then the sweep's test, must give the sweep's pairs in the sweep's order."""
+    P, ia, ib = _raster_segments(110, seed, jitter)
+    P = (P + offset) * scale                          # far off, or tiny cells
+    reach = 1e-9 * scale + 0.01 * scale / 110 * (jitter > 0.01)
+    A, B = P[ia], P[ib]
+    size = len(P) + len(A)
+    assert size >= R.GRID_MIN                          # the balls' route, not the sweep's
+    order = np.argsort(P[:, 1], kind="stable")
+    assert R._band_pairs(P[order, 1], A, B, reach) > R.GRID_PAIRS * size
+    near, cross = R.near_points(P, A, B, ia, ib, reach), R.crossings(A, B, ia, ib)
+    saved = R.GRID_MIN
+    R.GRID_MIN = 10 ** 12                              # the y-sweep alone
+    try:
+        near0, cross0 = R.near_points(P, A, B, ia, ib, reach), R.crossings(A, B, ia, ib)
+    finally:
+        R.GRID_MIN = saved
+    assert len(cross0) and np.array_equal(cross, cross0)
+    assert np.array_equal(near, near0)
+    if jitter > 0.01:
+        assert len(near0)
