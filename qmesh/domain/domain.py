@@ -347,7 +347,7 @@ class Domain:
 
     def scaled(self, center: ArrayLike, scale: float) -> Domain:
         """The same domain in coordinates (x − center) / scale (tags kept, no re-validation)."""
-        new = object.__new__(Domain)
+        new = object.__new__(type(self))               # a subclass stays itself
         new.__dict__.update(self.__dict__)
         new.__dict__.pop("_triangulation", None)        # a cache in the old coordinates
         rings = []

@@ -60,8 +60,7 @@ class Components(Domain):
         return np.concatenate(out)
 
     def scaled(self, center: Any, scale: float) -> Domain:
-        new = Domain.scaled(self, center, scale)
-        new.__class__ = Components
+        new = Domain.scaled(self, center, scale)        # the area of all outlines, not of one
         new._area = self._area / scale**2
         return new
 
