@@ -16,13 +16,13 @@ from dataclasses import replace
 from typing import Any
 
 from qmesh.domain.domain import as_domain
-from qmesh.errors import QmeshError, QmeshWarning
+from qmesh.errors import QmeshWarning
 from qmesh.fields.certify import certify
 from qmesh.fields.metric import field_metric, smoothing_width
 from qmesh.mesher import loop
 from qmesh.mesher.diagnose import warn_if_thin
 from qmesh.mesher.plan import TOLERANCE
-from qmesh.mesher.step import Stats, Step
+from qmesh.mesher.step import Stats, Step, last_step
 from qmesh.triangle_mesh import Mesh
 
 
@@ -41,14 +41,7 @@ def mesh(domain: Any, field: Any, *, progress: Callable[[Step], object] | None =
          **options: Any) -> Mesh:
     """The mesh of the last Step of `iterate` with the same arguments; `progress`, when given,
     is called with every Step."""
-    if progress is not None and not callable(progress):
-        raise QmeshError(f"progress must be a function of one Step, got {type(progress).__name__}")
-    last = None
-    for last in iterate(domain, field, **options):
-        if progress is not None:
-            progress(last)
-    assert last is not None           # a run yields at least its last Step
-    return last.mesh
+    return last_step(iterate(domain, field, **options), progress).mesh
 
 
 def _certified(steps: Iterator[Step], field: Any, metric: Any,
