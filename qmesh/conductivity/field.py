@@ -343,14 +343,21 @@ class TensorField:
 
     # ---------------------------------------------------------------- means
 
+    @property
+    def means_exact(self) -> bool:
+        """True for a constant field and a raster: their element means are exact (to round-off)
+        whatever the quadrature's tolerance."""
+        return self._constant is not None or self._raster is not None
+
     def means(self, points: ArrayLike, triangles: ArrayLike) -> Array:
         """Element means Q̄_T = (1/|T|) ∫_T Q (FIELDS.md §2) of the triangles (M, 3) over points
         (n, 2) → (M, 2, 2). See `means_with_error`."""
         return self.means_with_error(points, triangles)[0]
 
-    def means_with_error(self, points: ArrayLike, triangles: ArrayLike) -> tuple[Array, Array]:
+    def means_with_error(self, points: ArrayLike, triangles: ArrayLike, *, rtol: float = _m.RTOL,
+                         max_depth: int = _m.MAX_DEPTH) -> tuple[Array, Array]:
         """Element means (M, 2, 2) and a bound of their error per triangle (M,) in the Frobenius
-        norm.
+        norm; `rtol` and `max_depth` are the adaptive quadrature's (formulas and callables only).
 
         - constant fields: Q itself, error 0;
         - formulas and callables: adaptive quadrature (`means.adaptive_means`: Dunavant's degree-5
@@ -374,7 +381,8 @@ class TensorField:
             assert self.bounds is not None
             q, err = _m.raster_means(self._raster, np.clip(P, *self.bounds), T)
             return _m.full_tensors(q), err
-        q, err = _m.adaptive_means(self._evaluate, P[T[:, 0]], P[T[:, 1]], P[T[:, 2]])
+        q, err = _m.adaptive_means(self._evaluate, P[T[:, 0]], P[T[:, 1]], P[T[:, 2]],
+                                   rtol=rtol, max_depth=max_depth)
         return _m.full_tensors(q), err
 
     def box_means(self, P: ArrayLike, half_width: ArrayLike) -> Array:

@@ -62,10 +62,6 @@ class ElementMeans:
     def __init__(self, field, rtol: float = RTOL):
         self.field = field
         self.rtol = rtol
-        # a formula or a callable: the checked evaluation the field's own quadrature uses
-        self._evaluate = (None if getattr(field, "is_raster", False)
-                          or getattr(field, "_constant", None) is not None
-                          else getattr(field, "_evaluate", None))
         self._keys = np.empty(0, np.uint64)          # sorted
         self._rows = np.empty(0, np.int64)           # the row of each key
         self._new_keys = np.empty(0, np.uint64)      # recent, sorted, merged when large
@@ -78,12 +74,8 @@ class ElementMeans:
 
     def _compute(self, P, T, rtol, depth=_m.MAX_DEPTH):
         self.computed += len(T)
-        if self._evaluate is None or not len(T):
-            Q, e = self.field.means_with_error(P, T)
-            return np.asarray(Q, dtype=float), np.asarray(e, dtype=float)
-        q, e = _m.adaptive_means(self._evaluate, P[T[:, 0]], P[T[:, 1]], P[T[:, 2]],
-                                 rtol=rtol, max_depth=depth)
-        return _m.full_tensors(q), e
+        Q, e = self.field.means_with_error(P, T, rtol=rtol, max_depth=depth)
+        return np.asarray(Q, dtype=float), np.asarray(e, dtype=float)
 
     def _find(self, keys, C):
         """The row of each key whose corners are C, −1 where none."""
@@ -140,7 +132,7 @@ class ElementMeans:
         """The means of the triangles T at the field's own tolerance (`means.RTOL`), kept in
         place of the ones at RTOL."""
         P, T = np.asarray(P, dtype=float), np.asarray(T, dtype=np.int64).reshape(-1, 3)
-        if self._evaluate is None or self.rtol <= _m.RTOL:
+        if self.field.means_exact or self.rtol <= _m.RTOL:
             return self.means_with_error(P, T)
         Q, e = self._compute(P, T, _m.RTOL)
         C = _canonical(P[T])
@@ -156,6 +148,6 @@ class ElementMeans:
         """Means good enough to compare candidates (the degree-5 rule against its four
         children, not refined; exact for rasters and constants), not kept."""
         P, T = np.asarray(P, dtype=float), np.asarray(T, dtype=np.int64).reshape(-1, 3)
-        if self._evaluate is None:
+        if self.field.means_exact:
             return self.means_with_error(P, T)
         return self._compute(P, T, np.inf, depth=0)
