@@ -187,6 +187,26 @@ class Domain:
         return new
 
     @classmethod
+    def _known(cls, rings: Sequence[NDArray[np.float64]], tags: Sequence[NDArray[np.int64]]) -> Domain | None:
+        """`Domain(rings[0], rings[1:], tags=tags)` for rings already known simple and disjoint,
+        their holes inside the outline (a face of a checked partition whose cycles share no
+        vertex): stored as that call stores them, area included, without its pair checks. None
+        when a ring has fewer than 3 points, zero area or the other orientation (the outline
+        counter-clockwise, holes clockwise): the call itself then decides."""
+        if min(len(R) for R in rings) < 3:
+            return None
+        try:
+            areas = [_check_ring_area(R, "") for R in rings]
+        except QmeshError:
+            return None
+        if areas[0] < 0 or any(a > 0 for a in areas[1:]):
+            return None
+        new = object.__new__(cls)
+        new._store(list(rings), list(tags), abs(areas[0]) - sum(abs(a) for a in areas[1:]))
+        new._tag_names, new._regions, new._region_names, new._partition = {}, (), {}, None
+        return new
+
+    @classmethod
     def _many(cls, rings: Sequence[Ring]) -> list[Domain] | None:
         """`[Domain(r) for r in rings]` for many small rings (≤ SMALL points each), checked all
         at once: a thousand regions checked one by one cost more than their partition. None

@@ -15,6 +15,7 @@ and a face whose half-edges disagree is an overlap, a region leaving Ω or cross
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import scipy.sparse as sp
@@ -59,19 +60,39 @@ class Partition:
     first_half: np.ndarray    # a half-edge of every cycle
 
     def cycle(self, c: int) -> np.ndarray:
-        """The half-edges of cycle c in walking order (the face on their left)."""
-        h0 = h = int(self.first_half[c])
-        out = []
-        while True:
-            out.append(h)
-            h = int(self.nxt[h])
-            if h == h0:
-                return np.array(out, np.int64)
+        """The half-edges of cycle c in walking order (the face on their left), from first_half[c]."""
+        order, start = self.walk
+        return order[start[c]:start[c + 1]]
 
-    @property
+    @cached_property
+    def walk(self) -> tuple[np.ndarray, np.ndarray]:
+        """Every cycle's half-edges in walking order, cycle after cycle: (half-edges, offsets),
+        cycle c being half-edges[offsets[c]:offsets[c + 1]] from first_half[c]. Taken once for
+        all cycles by pointer doubling (a walk per face is a Python step per half-edge)."""
+        n = len(self.nxt)
+        first = np.zeros(n, bool)
+        first[self.first_half] = True
+        succ = np.where(first, np.arange(n), self.nxt)        # a cycle's first half-edge stays
+        dist = (~first).astype(np.int64)                      # steps to it, doubled each round
+        while True:
+            nxt = succ[succ]
+            if np.array_equal(nxt, succ):
+                break
+            dist += dist[succ]
+            succ = nxt
+        of = np.empty(n, np.int64)
+        of[self.first_half] = np.arange(len(self.first_half))
+        cyc = of[succ]
+        size = np.bincount(cyc, minlength=len(self.first_half))
+        order = np.lexsort(((size[cyc] - dist) % size[cyc], cyc))
+        return order, np.concatenate([[0], np.cumsum(size)])
+
+    @cached_property
     def interface(self) -> np.ndarray:
-        """Edges with a face of Ω on both sides."""
-        return (self.edge_faces >= 0).all(axis=1)
+        """Edges with a face of Ω on both sides (read once per face and hand-over)."""
+        out = (self.edge_faces >= 0).all(axis=1)
+        out.setflags(write=False)
+        return out
 
 
 def partition(rings: list[Ring], segment_tags: list[np.ndarray], size: float) -> Partition:

@@ -16,18 +16,38 @@ from qmesh.mesher.components import Components
 
 def face_domain(part, face, extra: dict, name: str, checked: bool = True):
     """The Domain of `face`: its cycles' vertices with `extra[e]` (points on partition edge e, in
-    order from edges[e, 0]) inserted along the way; unless `checked`, as the partition made it."""
-    rings, tags = [], []
-    for c in face.cycles:
-        pts, tg = [], []
-        for h in part.cycle(c):          # half-edge h runs along edge h >> 1, backwards when odd
-            x = extra.get(int(h >> 1), np.zeros((0, 2)))
-            pts += [part.points[part.half_from[h]][None], x[::-1] if h & 1 else x]
-            tg.append(np.full(len(x) + 1, int(h >> 1) + 1))
-        rings.append(np.concatenate(pts))
-        tags.append(np.concatenate(tg))
+    order from edges[e, 0]) inserted along the way; unless `checked`, as the partition made it.
+    Checked without extra points on its edges, the face is as simple as the partition made it
+    unless a vertex comes back (a pinch): the pair checks run only then (`Domain._known`)."""
+    order, start = part.walk
+    c = np.asarray(face.cycles, np.int64)
+    size = start[c + 1] - start[c]
+    hs = order[np.repeat(start[c] - np.cumsum(size) + size, size) + np.arange(size.sum())]
+    e = hs >> 1                          # half-edge h runs along edge h >> 1, backwards when odd
+    corners = part.points[part.half_from[hs]]
+    xs = [extra.get(k) for k in e.tolist()] if extra else []
+    n = np.fromiter((0 if x is None else len(x) for x in xs), np.int64, len(xs)) if xs else None
+    if n is None or not n.any():
+        R, tags = corners, e + 1
+    else:
+        at = np.arange(len(hs)) + np.cumsum(n) - n           # each corner, its edge's points after it
+        R = np.empty((len(hs) + int(n.sum()), 2))
+        R[at] = corners
+        inner = np.ones(len(R), bool)
+        inner[at] = False
+        R[inner] = np.concatenate([x[::-1] if h & 1 else x for h, x in zip(hs.tolist(), xs) if x is not None and len(x)])
+        tags = np.repeat(e + 1, n + 1)
+        size = np.add.reduceat(n + 1, np.cumsum(size) - size)
+    cut = np.cumsum(size).tolist()
+    rings = [R[a:b] for a, b in zip([0] + cut, cut)]
+    tags = [tags[a:b] for a, b in zip([0] + cut, cut)]
     if not checked:
-        return Components(rings, tags, [sum(map(len, rings))])
+        return Components(rings, tags, [len(R)])
+    if n is None or not n.any():
+        v = part.half_from[hs]
+        known = Domain._known(rings, tags) if len(np.unique(v)) == len(v) else None
+        if known is not None:
+            return known
     try:
         return Domain(rings[0], rings[1:], tags=tags)
     except QmeshError as e:
