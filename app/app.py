@@ -22,10 +22,12 @@ refused), never echoing a change back. Refusals and warnings go to `messages`, a
 line beside the status line, so the views never move.
 
 The mesher and the measurements run in one worker thread so the page never freezes (`busy`
-greys the buttons and shows a progress bar); VTK renders only on the event loop's thread. The
-pictures of a stage go out first, its measurements (κ2, q_ij signs, chart) follow; a Run measures
-only the stage it stops at, and above `RUN_EVERY_STAGE` vertices it meshes on while the views
-draw, showing the newest stage each time they are free.
+greys the buttons and shows a still bar under them: nothing on the page animates, since every
+animation has the browser redraw the page for as long as it runs, `delivery.QUIET_PAGE`); VTK
+renders only on the event loop's thread. The pictures of a stage go out first, its measurements
+(κ2, q_ij signs, chart) follow; a Run measures only the stage it stops at, and above
+`RUN_EVERY_STAGE` vertices it meshes on while the views draw, showing the newest stage each time
+they are free.
 """
 
 from __future__ import annotations
@@ -611,6 +613,7 @@ class QmeshView(TrameApp):
                 self._parameters()
             with layout.content:
                 client.Script(delivery.ARRAY_BUFFER_SOCKET)   # frames decoded on arrival
+                client.Style(delivery.QUIET_PAGE)             # nothing animates meanwhile
                 self._main()
         self.ui = layout
 
@@ -627,7 +630,7 @@ class QmeshView(TrameApp):
                     color=("running ? 'error' : 'primary'",))
             v3.VBtn("Reset", click=self.on_reset, disabled=("busy && !running",), classes="mx-1",
                     variant="tonal", id="btn-reset")
-            v3.VProgressLinear(indeterminate=True, absolute=True, location="bottom",
+            v3.VProgressLinear(model_value=100, absolute=True, location="bottom",
                                v_show=("busy",), color="primary", id="busy")
 
     def _parameters(self) -> None:

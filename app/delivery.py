@@ -15,6 +15,12 @@ reads waited long enough to be a large part of the time from a push to the pictu
 `ARRAY_BUFFER_SOCKET` (a page script) switches the socket to ArrayBuffer messages on its first
 send, and gives ArrayBuffer the `arrayBuffer()` the client calls, so a frame is decoded as soon
 as it arrives.
+
+The browser shares the machine with the server that renders the frames: every animation on the
+page (an indeterminate progress bar, button ripples, CSS transitions) has Chromium lay out,
+paint and composite a new page at the display's frame rate for as long as it runs, a core's
+worth of work in a headless or software-rendered browser, taken from the server while it meshes
+and renders. `QUIET_PAGE` (a style sheet) turns them off; the app's busy bar is a still line.
 """
 
 from __future__ import annotations
@@ -41,6 +47,13 @@ ARRAY_BUFFER_SOCKET = """
 """A page script: the page's websockets deliver ArrayBuffers, not Blobs, from their next send on
 (the client's first request after the script runs); messages already on their way as Blobs are
 read as before."""
+
+
+QUIET_PAGE = """
+*, *::before, *::after { transition: none !important; animation: none !important; }
+.v-ripple__container { display: none !important; }
+"""
+"""A style sheet: no CSS transitions, CSS animations or ripples on the page."""
 
 
 def _stale_retry(link):
