@@ -61,7 +61,7 @@ Resolved = Union["Conductivity", NDArray[np.float64], None]
 array (M, 2, 2), or None for Q = I."""
 
 DENSE_LIMIT = 300
-"""Up to this many unknowns condition_number uses a dense eigvalsh; above it, sparse eigsh.
+"""Up to this many unknowns condition_number uses a dense eigvalsh; above it, the Lanczos path.
 
 The sparse path agrees with the dense one to 1e-13 (constant Q, disk meshes) and is faster from
 a few hundred unknowns on, where eigvalsh's O(n³) cost takes over; hence the low limit."""
@@ -288,25 +288,22 @@ def _refuse_zero_areas(zero: int) -> None:
                          "its stiffness matrix is undefined")
 
 
-_ALL_PAIRS = (np.repeat(np.arange(3), 3), np.tile(np.arange(3), 3))
-
-
-def _element_matrices(P: NDArray[np.float64], T: NDArray[np.int64], anisotropy: Resolved,
-                      regions: NDArray[np.int64] | None = None) -> NDArray[np.float64]:
-    """The element matrices K_T, shape (M, 3, 3) (`_element_entries` for all nine pairs)."""
-    K, zero = _element_entries(P, T, anisotropy, regions, *_ALL_PAIRS)
-    _refuse_zero_areas(zero)
-    return K.reshape(-1, 3, 3)
+_UPPER_PAIRS = (np.array([0, 1, 2, 0, 1, 0]), np.array([0, 1, 2, 1, 2, 2]))   # diagonal, then a < b
 
 
 def _assemble(mesh: Mesh, anisotropy: Resolved, index: NDArray[np.int64], n: int) -> sp.csr_matrix:
-    """Sum the element matrices into an n×n csr matrix; vertex v goes to row index[v] (< 0: dropped)."""
+    """Sum the element matrices into an n×n csr matrix; vertex v goes to row index[v] (< 0: dropped).
+
+    Each K_T's diagonal and upper entries are computed once and the lower ones mirrored, so the
+    matrix is exactly symmetric (its csr arrays are also its csc ones)."""
     T = mesh.triangles
-    Ke = _element_matrices(mesh.points, T, anisotropy, mesh.region_tags)
-    it = index[T]
-    rows = np.broadcast_to(it[:, :, None], Ke.shape).ravel()
-    cols = np.broadcast_to(it[:, None, :], Ke.shape).ravel()
-    data = Ke.ravel()
+    Ke, zero = _element_entries(mesh.points, T, anisotropy, mesh.region_tags, *_UPPER_PAIRS)
+    _refuse_zero_areas(zero)
+    it = index[T].astype(np.int32) if n < 2**31 - 1 else index[T]
+    a, b = _UPPER_PAIRS
+    rows = np.concatenate([it[:, a], it[:, b[3:]]], axis=1).ravel()
+    cols = np.concatenate([it[:, b], it[:, a[3:]]], axis=1).ravel()
+    data = np.concatenate([Ke, Ke[:, 3:]], axis=1).ravel()
     keep = (rows >= 0) & (cols >= 0)
     if not keep.all():
         rows, cols, data = rows[keep], cols[keep], data[keep]
@@ -540,10 +537,10 @@ def conditioning(mesh: Mesh, anisotropy: Given = None, *,
     constants on T (2.69); so K is positive definite exactly when every Q_T is, no triangle is
     degenerate and every connected part of the mesh has a boundary vertex (else the constants on
     that part are in its kernel). These are checked first, from the mesh alone; then
-    "dense" (n ≤ DENSE_LIMIT under "auto"): eigvalsh; "sparse": λ_max by Lanczos on K (eigsh,
-    matrix-vector products only) and λ_min as 1 / the largest eigenvalue of K⁻¹, by Lanczos
-    with K⁻¹ applied by ONE sparse factorisation (SuperLU, symmetric mode: minimum degree on
-    Kᵀ + K, diagonal pivots). `tol` bounds the Lanczos residual relative to the eigenvalue (so
+    "dense" (n ≤ DENSE_LIMIT under "auto"): eigvalsh; "sparse": λ_max by Lanczos on K
+    (matrix-vector products only) and λ_min as 1 / the largest eigenvalue of K⁻¹, by Lanczos
+    with K⁻¹ applied by ONE sparse factorisation (`_inverse`: LDLᵀ by qdldl, else SuperLU in
+    symmetric mode). `tol` bounds the Lanczos residual relative to the eigenvalue (so
     an eigenvalue lies that close); the extreme eigenvalues themselves come out about tol²
     relative (residual² / gap), far below the figures printed. A κ2 above KAPPA_LIMIT is
     round-off and is reported as numerically singular.
@@ -578,13 +575,37 @@ def _conditioning(mesh: Mesh, anisotropy: Resolved, method: str = "auto", tol: f
         return _ratio(float(w[0]), float(w[-1]))
     v0 = np.random.default_rng(0).random(n)                   # fixed start: same mesh ⇒ same κ2
     lmax = _largest_eigenvalue(K.dot, v0, tol)
-    try:             # minimum degree on Kᵀ + K: a third less fill than COLAMD, so faster solves
-        lu = spla.splu(sp.csc_matrix((K.data, K.indices, K.indptr), shape=K.shape),   # K = Kᵀ
-                       permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
-    except RuntimeError:                                       # SuperLU: "exactly singular"
-        return Conditioning(None, "the Dirichlet matrix is singular (a zero pivot)", None, lmax)
-    mu = _largest_eigenvalue(lu.solve, v0, tol)                # 1 / λ_min, one solve a step
+    solve = _inverse(K)
+    if isinstance(solve, str):
+        return Conditioning(None, solve, None, lmax)
+    mu = _largest_eigenvalue(solve, v0, tol)                   # 1 / λ_min, one solve a step
     return _ratio(1.0 / mu if mu > 0 else -np.inf, lmax)
+
+
+def _inverse(K: sp.csr_matrix) -> Callable[[NDArray[np.float64]], NDArray[np.float64]] | str:
+    """x ↦ K⁻¹x through one sparse factorisation of the symmetric K, or why there is none.
+
+    LDLᵀ by qdldl (AMD ordering; a pivot ≤ 0 means K is not numerically positive definite)
+    when it is installed, else SuperLU in symmetric mode (minimum degree on Kᵀ + K, diagonal
+    pivots), which computes L and U: about twice the time."""
+    C = sp.csc_matrix((K.data, K.indices, K.indptr), shape=K.shape)      # K = Kᵀ (`_assemble`)
+    try:
+        import qdldl
+    except ImportError:
+        qdldl = None
+    try:
+        if qdldl is None:
+            return spla.splu(C, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                             options={"SymmetricMode": True}).solve
+        ldl = qdldl.Solver(C)
+    except RuntimeError:                          # SuperLU: "exactly singular"; qdldl: D_k = 0
+        return "the Dirichlet matrix is singular (a zero pivot)"
+    factors = getattr(ldl, "factors", None)       # (L, D, P) from qdldl 0.1.9 on
+    if factors is not None and not np.all(factors()[1] > 0.0):
+        return ("the Dirichlet matrix is numerically singular (a pivot ≤ 0 in its LDLᵀ "
+                "factorisation: round-off outweighs its smallest eigenvalue)")
+    solve: Callable[[NDArray[np.float64]], NDArray[np.float64]] = ldl.solve
+    return solve
 
 
 LANCZOS_STEPS = 600
@@ -608,15 +629,20 @@ def _largest_eigenvalue(apply: Callable[[NDArray[np.float64]], NDArray[np.float6
     """
     v = v0 / np.sqrt(_dot(v0, v0))
     v_old = np.zeros_like(v)
+    tmp = np.empty_like(v)                         # scratch: no new vector a step but apply's
+    # (apply may return its own buffer, the same at each call, or its argument: w is only read
+    # into v_old's array, and copied first when it is v's or v_old's memory)
     alpha: list[float] = []
     beta: list[float] = []
     b = 0.0
     for k in range(LANCZOS_STEPS):
-        w = np.asarray(apply(v), dtype=float)
+        w = np.asarray(apply(v), dtype=float)      # updated in place below: never v's memory
+        if not w.flags.writeable or np.may_share_memory(w, v) or np.may_share_memory(w, v_old):
+            w = w.copy()
         if b:
-            w -= b * v_old
+            w -= np.multiply(v_old, b, out=tmp)
         a = _dot(w, v)
-        w -= a * v
+        w -= np.multiply(v, a, out=tmp)
         b = np.sqrt(_dot(w, w))
         alpha.append(a)
         if not (np.isfinite(a) and np.isfinite(b)):
@@ -626,7 +652,8 @@ def _largest_eigenvalue(apply: Callable[[NDArray[np.float64]], NDArray[np.float6
         if b * abs(s[-1, 0]) <= tol * abs(theta[0]) or b == 0.0:
             return float(theta[0])
         beta.append(b)
-        v_old, v = v, w / b
+        np.divide(w, b, out=v_old)                 # v_{k+1} in v_{k−1}'s array: v, v_old stay ours
+        v_old, v = v, v_old
     n = len(v0)
     op = spla.LinearOperator((n, n), matvec=apply, dtype=float)
     return float(spla.eigsh(op, k=1, which="LA", tol=tol, v0=v0, return_eigenvectors=False)[0])

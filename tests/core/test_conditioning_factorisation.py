@@ -1,0 +1,82 @@
+"""κ2's sparse path: the Dirichlet matrix is exactly symmetric, K⁻¹ comes from qdldl's LDLᵀ or,
+without qdldl, from SuperLU with the same κ2, a pivot ≤ 0 gives a reason instead of a figure,
+and the Lanczos recurrence survives an operator that hands back its own buffers."""
+
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+from scipy.spatial import Delaunay
+
+import qmesh
+from qmesh import measure
+
+CHAPTER = qmesh.Anisotropy.constant([[0.1, 0.0], [0.0, 10.0]])
+
+
+def disk_mesh(n: int, seed: int, outline: int = 48) -> qmesh.Mesh:
+    rng = np.random.default_rng(seed)
+    t = 2 * np.pi * np.arange(outline) / outline
+    r, a = np.sqrt(rng.random(n)) * 0.97, rng.random(n) * 2 * np.pi
+    P = np.r_[np.c_[np.cos(t), np.sin(t)], np.c_[r * np.cos(a), r * np.sin(a)]]
+    return qmesh.Mesh(P, Delaunay(P).simplices)
+
+
+@pytest.mark.parametrize("anisotropy", [CHAPTER, None])
+def test_dirichlet_and_neumann_matrices_are_exactly_symmetric(anisotropy):
+    mesh = disk_mesh(500, 1)
+    for K in (measure.stiffness_interior(mesh, anisotropy), measure.stiffness(mesh, anisotropy)):
+        assert K.has_canonical_format
+        assert (K != K.T).nnz == 0
+
+
+@pytest.mark.parametrize("anisotropy", [CHAPTER, None])
+def test_kappa2_is_the_same_without_qdldl(anisotropy, monkeypatch):
+    pytest.importorskip("qdldl")
+    mesh = disk_mesh(3000, 2)
+    with_ldl = measure.conditioning(mesh, anisotropy, method="sparse")
+    monkeypatch.setitem(sys.modules, "qdldl", None)            # `import qdldl` raises ImportError
+    with_lu = measure.conditioning(mesh, anisotropy, method="sparse")
+    assert with_ldl.kappa2 is not None and with_ldl.kappa2 > 1.0
+    assert with_lu.kappa2 == pytest.approx(with_ldl.kappa2, rel=1e-10)
+    assert with_lu.lambda_min == pytest.approx(with_ldl.lambda_min, rel=1e-10)
+
+
+def test_inverse_solves_with_either_factorisation(monkeypatch):
+    mesh = disk_mesh(800, 3)
+    K = measure.stiffness_interior(mesh, CHAPTER)
+    b = np.random.default_rng(0).random(K.shape[0])
+    x = measure._inverse(K)(b)
+    assert np.linalg.norm(K @ x - b) <= 1e-10 * np.linalg.norm(b)
+    monkeypatch.setitem(sys.modules, "qdldl", None)
+    y = measure._inverse(K)(b)
+    assert np.linalg.norm(K @ y - b) <= 1e-10 * np.linalg.norm(b)
+
+
+def test_an_indefinite_matrix_gets_a_reason_from_its_pivots():
+    pytest.importorskip("qdldl")
+    reason = measure._inverse(sp.csr_matrix(np.array([[1.0, 2.0], [2.0, 1.0]])))
+    assert isinstance(reason, str) and "numerically singular" in reason
+
+
+def test_a_singular_matrix_gets_a_reason_with_either_factorisation(monkeypatch):
+    K = sp.csr_matrix(np.array([[1.0, 1.0], [1.0, 1.0]]))
+    assert "singular" in measure._inverse(K)
+    monkeypatch.setitem(sys.modules, "qdldl", None)
+    assert "singular" in measure._inverse(K)
+
+
+def test_lanczos_with_an_operator_that_returns_its_argument_or_one_buffer():
+    v0 = np.random.default_rng(1).random(50)
+    assert measure._largest_eigenvalue(lambda x: x, v0, 1e-10) == pytest.approx(1.0, rel=1e-12)
+    w = np.linspace(1.0, 3.0, 50)
+    out = np.empty(50)
+
+    def scale(x):                                 # writes into, and returns, the same array
+        np.multiply(w, x, out=out)
+        return out
+
+    assert measure._largest_eigenvalue(scale, v0, 1e-10) == pytest.approx(3.0, rel=1e-12)
