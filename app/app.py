@@ -49,7 +49,7 @@ from qmesh.errors import QmeshError
 
 from . import delivery, legend
 from .controller import PARAMS, status_text
-from .draw import VIEWS, ViewSet
+from .draw import VIEWS, ViewSet, draw_order, view_scene
 from .problem import DISK, S_PRESETS
 from .session import RUN_PAUSE, Outcome, Session, describe
 
@@ -123,6 +123,8 @@ class QmeshView(TrameApp):
         for name in ("mesh", "quality"):
             self.views.plotters[name].enable_2d_style()
         self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="qmesh-view")
+        self._scene_worker = ThreadPoolExecutor(max_workers=1,   # the views' scenes, built
+                                                thread_name_prefix="qmesh-view-scene")
         self._drain_task = None
         self._resume = False             # a Run stopped by a change that may yet be refused
         self._options_changed = False
@@ -201,10 +203,10 @@ class QmeshView(TrameApp):
         """Worker thread: the convergence series as sparkline data (E on a log10 scale)."""
         return convergence_chart(self.session.convergence(), field=self.session.controller.is_field)
 
-    def _show(self, push: bool = True, index: int | None = None) -> int:
+    def _show(self, push: bool = True, index: int | None = None, draw: bool = True) -> int:
         """Event loop: draw the shown stage (or stage `index`, which a run has already left),
         push its images (unless not `push`: the caller awaits `_push_each`), the slider and
-        its quick numbers.
+        its quick numbers (only those when not `draw`: the caller draws, `_draw_each`).
 
         κ2 and the q_ij signs follow from the worker (`_act`); until then the status line
         shows "–" for them, so a large mesh is on screen before it is measured.
@@ -216,8 +218,9 @@ class QmeshView(TrameApp):
             self.state.history_index = i
             self.state.at_end = c.at_end and i == c.index
             self.state.status_line = status_text(c.status(i, quick=True, bare=True))
-        self._redraw(push, i)
-        self._drawn = (c.controller, i)
+        if draw:
+            self._redraw(push, i)
+            self._drawn = (c.controller, i)
         return i
 
     def _redraw(self, push: bool = True, index: int | None = None) -> None:
@@ -320,10 +323,44 @@ class QmeshView(TrameApp):
     async def _show_stage(self, outcome=None, index: int | None = None) -> None:
         """Draw the shown stage (or `index`) and push its pictures (its quick numbers on the
         status line)."""
-        self._show(push=False, index=index)
+        c = self.session
+        options = self._view_options()
+        each = self.view_mode == "remote" and self.views.placed(
+            c.anisotropy, domain=options["domain"], z_scale=options["z_scale"])
+        i = self._show(push=False, index=index, draw=not each)
         self._messages()
-        await self._push_each()
+        if each:
+            await self._draw_each(i, options)
+        else:
+            await self._push_each()
         await self._frames_sent()
+
+    async def _draw_each(self, index: int, options: dict) -> None:
+        """Draw stage `index` one view at a time, each pushed as soon as it is drawn: the
+        scenes are built in the scene thread in drawing order (`draw.view_scene`), the next
+        while this loop has the one before rendered and encoded (VTK renders without the GIL),
+        and the legend follows the pictures. Only while every camera stays where it is
+        (`ViewSet.placed`); else `_redraw` draws all three at once."""
+        c = self.session
+        step, anisotropy = c.history[index], c.anisotropy
+        loop = asyncio.get_running_loop()
+        order = draw_order(anisotropy)
+        built = {name: loop.run_in_executor(self._scene_worker, functools.partial(
+            view_scene, name, step, anisotropy, z_scale=options["z_scale"],
+            colour_by=options["colour_by"], q_sign_edges=options["q_sign_edges"],
+            domain=options["domain"])) for name in order}
+        self.views.begin(step, options["edges"])
+        scenes: dict = {}
+        for name in order:
+            scenes[name] = await built[name]
+            self.views.draw_view(name, anisotropy, scenes)
+            self.views.apply_edges((name,))
+            self.html_views[name].update()
+            await asyncio.sleep(delivery.STALE_RETRY / 5)
+        self.views.finish(step, anisotropy, scenes, options["regions"])
+        self._drawn = (c.controller, index)
+        with self.state:
+            self.state.update(legend.state(self.views.legend))
 
     async def _run_stage(self, outcome) -> None:
         """After each stage of a run: draw it and wait for its pictures, up to
@@ -793,4 +830,5 @@ class QmeshView(TrameApp):
         """Stop the worker thread and release the plotters."""
         self.state.running = False
         self._worker.shutdown(wait=True, cancel_futures=True)
+        self._scene_worker.shutdown(wait=True, cancel_futures=True)
         self.views.close()

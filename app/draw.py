@@ -268,6 +268,30 @@ def new_plotter(window_size=WINDOW_SIZE) -> pv.Plotter:
     return plotter
 
 
+def view_scene(name: str, step, anisotropy, *, z_scale: float = 1.0,
+               colour_by: str = "quality", q_sign_edges: bool = False, domain=None,
+               arrow_scale: float = 1.0):
+    """The scene of view `name` ("lifted", "mesh" or "quality") of `step`: arrays and PyVista
+    meshes only, no plotter, so it may be built in another thread while a plotter renders."""
+    if name == "lifted":
+        if scene.is_field(anisotropy):
+            return scene.ellipses(step, anisotropy, domain=domain)
+        return scene.lifted(step, anisotropy, z_scale, domain=domain)
+    if name == "mesh":
+        return scene.projected(step, arrow_scale=arrow_scale)
+    if name == "quality":
+        return scene.quality(step, anisotropy, colour_by, q_sign_edges)
+    raise QmeshError(f"no view {name!r}; the views are {VIEWS}")
+
+
+def draw_order(anisotropy) -> tuple[str, ...]:
+    """The order the views are drawn in: the mesh view first for a field (its first view shows
+    the projected scene's sampled outlines), else lifted, mesh, quality (the quality view shows
+    them too)."""
+    return ("mesh", "lifted", "quality") if scene.is_field(anisotropy) else ("lifted", "mesh",
+                                                                               "quality")
+
+
 class ViewSet:
     """The three plotters of the app and widget, redrawn from one Step at a time.
 
@@ -291,6 +315,8 @@ class ViewSet:
         self._domain_key = None
         self._field = False              # the first view shows a field's ellipses, top-down
         self._medium = False             # ... a medium's pieces, from above
+        self._q_sign = False             # the quality view's edges are the q_ij-sign lines
+        self._looks: dict = {}           # each view's edge look (`apply_edges`)
         for name, plotter in self.plotters.items():
             plotter.render_window.AddObserver("WindowResizeEvent",
                                               lambda *_, n=name: self._resized(n))
@@ -307,39 +333,22 @@ class ViewSet:
 
     def draw(self, step, anisotropy, *, z_scale: float = 1.0, colour_by: str = "quality",
              q_sign_edges: bool = False, domain=None, arrow_scale: float = 1.0,
-             edges: str = "auto", regions=()) -> None:
+             edges: str = "auto", regions=(), scenes: dict | None = None) -> None:
         """Redraw the three views from `step`; `edges` is "auto" (by density), "on" or "off";
-        `regions` a medium's rows (tag, name, q11, q12, q22) for the legend."""
+        `regions` a medium's rows (tag, name, q11, q12, q22) for the legend; `scenes` the
+        views' scenes already built (`view_scene`), the others are built here."""
         edge_look(edges, 0.0)                           # QmeshError for an unknown mode
-        p = self.plotters
-        field = scene.is_field(anisotropy)
-        if field:                                       # no s: Q(x) as ellipses, top-down
-            shown = scene.ellipses(step, anisotropy, domain=domain)
-            draw_field(p["lifted"], shown)
-        else:
-            draw_lifted(p["lifted"], scene.lifted(step, anisotropy, z_scale, domain=domain))
-        projected = scene.projected(step, arrow_scale=arrow_scale)
-        draw_projected(p["mesh"], projected)
-        _put(p["lifted"], "sample", projected.sample if field else None, color=EDGE,
-             line_width=1, show_scalar_bar=False)       # a field's mesh when edges crowd
-        q = scene.quality(step, anisotropy, colour_by, q_sign_edges)
-        draw_quality(p["quality"], q, scalar_bar=self.scalar_bar)
-        _put(p["quality"], "sample", projected.sample, color=EDGE, line_width=1,
-             show_scalar_bar=False)                     # shown when edges crowd
-        self.legend = {"title": SCALAR_TITLES[q.scalars], "clim": tuple(map(float, q.clim)),
-                       "q_sign_edges": q.edges is not None, "n_negative": q.n_negative,
-                       "regions": list(regions) if scene.is_medium(anisotropy) else [],
-                       "n_interface": q.n_interface, "field": field,
-                       "n_added": projected.n_added, "n_added_shown": projected.added.n_points,
-                       "n_fixed": projected.n_fixed, "n_fixed_shown": projected.fixed.n_points}
-        if field:
-            self.legend.update(field_clim=tuple(map(float, shown.clim)),
-                               n_ellipses=len(shown.centres), field_label=anisotropy.label,
-                               means=means_source(step.mesh))
-        key = None if domain is None else tuple(np.asarray(r).tobytes() for r in domain.rings)
-        medium = scene.is_medium(anisotropy)
-        key = (key, field, medium)
-        self._medium = medium
+        scenes = dict(scenes or {})
+        for name in draw_order(anisotropy):
+            if name not in scenes:
+                scenes[name] = view_scene(name, step, anisotropy, z_scale=z_scale,
+                                          colour_by=colour_by, q_sign_edges=q_sign_edges,
+                                          domain=domain, arrow_scale=arrow_scale)
+            self.draw_view(name, anisotropy, scenes)
+        self.finish(step, anisotropy, scenes, regions)
+        key = self._key(anisotropy, domain)
+        self._medium = scene.is_medium(anisotropy)
+        field = key[1]
         if field != self._field:
             self._field = field
             self._lifted_style(field)
@@ -350,22 +359,79 @@ class ViewSet:
         elif z_scale != self._z_scale:
             self.fit_lifted()
         self._z_scale = z_scale
-        self.edges = edges
-        self.edge_length = typical_edge(step)
+        self.begin(step, edges)
         self.apply_edges()
 
-    def apply_edges(self) -> dict:
-        """Show, lighten or hide the edges of each view for its current zoom; returns the looks.
+    @staticmethod
+    def _key(anisotropy, domain) -> tuple:
+        rings = None if domain is None else tuple(np.asarray(r).tobytes() for r in domain.rings)
+        return (rings, scene.is_field(anisotropy), scene.is_medium(anisotropy))
+
+    def placed(self, anisotropy, *, domain=None, z_scale: float = 1.0) -> bool:
+        """True when a draw of a step of this kind would keep every camera where it is (the
+        views were drawn before, with this domain, kind and z-scale): the views may then be
+        drawn one at a time (`begin`, `draw_view` and `apply_edges` per view, `finish`)."""
+        return (self._drawn and self._key(anisotropy, domain) == self._domain_key
+                and z_scale == self._z_scale)
+
+    def begin(self, step, edges: str = "auto") -> None:
+        """Before drawing `step`'s views one at a time: the edge mode and its typical edge."""
+        edge_look(edges, 0.0)
+        self.edges = edges
+        self.edge_length = typical_edge(step)
+
+    def draw_view(self, name: str, anisotropy, scenes: dict) -> None:
+        """Put view `name`'s scene (`scenes[name]`) on its plotter; a field's first view and the
+        quality view also take the projected scene's sampled outlines (`scenes["mesh"]`, drawn
+        before them: `draw_order`)."""
+        p = self.plotters
+        field = scene.is_field(anisotropy)
+        if name == "lifted":
+            if field:                                   # no s: Q(x) as ellipses, top-down
+                draw_field(p["lifted"], scenes["lifted"])
+            else:
+                draw_lifted(p["lifted"], scenes["lifted"])
+            _put(p["lifted"], "sample", scenes["mesh"].sample if field else None, color=EDGE,
+                 line_width=1, show_scalar_bar=False)   # a field's mesh when edges crowd
+        elif name == "mesh":
+            draw_projected(p["mesh"], scenes["mesh"])
+        else:
+            q = scenes["quality"]
+            draw_quality(p["quality"], q, scalar_bar=self.scalar_bar)
+            _put(p["quality"], "sample", scenes["mesh"].sample, color=EDGE, line_width=1,
+                 show_scalar_bar=False)                 # shown when edges crowd
+            self._q_sign = q.edges is not None
+
+    def finish(self, step, anisotropy, scenes: dict, regions=()) -> None:
+        """After the views of `step` are drawn: their legend."""
+        q, projected, shown = scenes["quality"], scenes["mesh"], scenes["lifted"]
+        field = scene.is_field(anisotropy)
+        self.legend = {"title": SCALAR_TITLES[q.scalars], "clim": tuple(map(float, q.clim)),
+                       "q_sign_edges": q.edges is not None, "n_negative": q.n_negative,
+                       "regions": list(regions) if scene.is_medium(anisotropy) else [],
+                       "n_interface": q.n_interface, "field": field,
+                       "n_added": projected.n_added, "n_added_shown": projected.added.n_points,
+                       "n_fixed": projected.n_fixed, "n_fixed_shown": projected.fixed.n_points,
+                       "crowded": self._looks.get("mesh") != "dark",
+                       "quality_edges": self._looks.get("quality")}
+        if field:
+            self.legend.update(field_clim=tuple(map(float, shown.clim)),
+                               n_ellipses=len(shown.centres), field_label=anisotropy.label,
+                               means=means_source(step.mesh))
+
+    def apply_edges(self, names=VIEWS) -> dict:
+        """Show, lighten or hide the edges of views `names` (default all) for their current
+        zoom; returns the looks of all views.
 
         Called after every draw and after the user zooms (the app's camera observers).
         """
-        looks = {}
         targets = {"lifted": ("facets", "vertices", "sample"), "mesh": ("mesh", "sample"),
                    "quality": ("triangles", "sample")}
-        for name, actors in targets.items():
+        for name in names:
+            actors = targets[name]
             plotter = self.plotters[name]
             look = edge_look(self.edges, self.edge_length * pixels_per_unit(plotter))
-            looks[name] = look
+            self._looks[name] = look
             for actor_name in actors:
                 actor = plotter.actors.get(actor_name)
                 if actor is None:
@@ -382,16 +448,17 @@ class ViewSet:
                 elif actor_name == "mesh":        # crowded: the triangles coloured by area
                     actor.mapper.SetScalarVisibility(look != "dark")
                     actor.GetProperty().SetColor(pv.Color(MESH_FACE).float_rgb)
-                if actor_name == "triangles" and self.legend.get("q_sign_edges"):
+                if actor_name == "triangles" and self._q_sign:
                     continue                             # the q_ij-sign lines are the edges
                 prop = actor.GetProperty()
                 prop.SetEdgeVisibility(look is not None)
                 colours = FIELD_EDGE if name == "lifted" and self._field else (EDGE, EDGE_LIGHT)
                 prop.SetEdgeColor(pv.Color(colours[0] if look == "dark" else colours[1]).float_rgb)
-        apply_q_sign_look(self.plotters["quality"], looks["quality"])
-        self.legend["crowded"] = looks["mesh"] != "dark"
-        self.legend["quality_edges"] = looks["quality"]
-        return looks
+            if name == "quality":
+                apply_q_sign_look(self.plotters["quality"], look)
+        self.legend["crowded"] = self._looks.get("mesh") != "dark"
+        self.legend["quality_edges"] = self._looks.get("quality")
+        return dict(self._looks)
 
     def _lifted_style(self, field: bool) -> None:
         """The first view's interaction: panned and zoomed like the mesh view for a field (a
