@@ -6,10 +6,14 @@ Q = diag(0.1, 10) on Disk(VB) (the chapter's case), meshed by `qmesh.mesh` at ea
 best of --repeat, wall-clock and CPU seconds of this process (CPU time hardly depends on what
 else the machine runs; wall time does):
 - `measure.conditioning(mesh, Q)`: λ_max by Lanczos on K, λ_min by Lanczos on K⁻¹ through one
-  SuperLU factorisation (symmetric mode, minimum degree on Kᵀ + K);
+  LDLᵀ factorisation (qdldl, AMD ordering);
+- the same without qdldl (its fallback: SuperLU in symmetric mode, minimum degree on Kᵀ + K);
 - the same with Q = I (`kappa2_laplacian`), and `measure.report`, which computes both;
 - for comparison, the former computation: eigsh at tol 1e-10 for λ_max and for λ_max(K⁻¹)
   through a COLAMD-ordered SuperLU factorisation with partial pivoting.
+Where the time of `measure.conditioning` goes at each N (CPU seconds, best of --repeat): the
+checks and the assembly of K, λ_max's Lanczos steps (one product K·v each), the
+factorisation, λ_min's Lanczos steps (one solve each).
 With the media presets (unless --no-media), every Step of `qmesh.iterate` is measured: how
 many stages have a κ2, how many have none and why, and that no κ2 is below 1 or not finite.
 Prints figures; asserts nothing.
@@ -57,12 +61,71 @@ def former_kappa2(mesh, anisotropy) -> float:
     return float(lmax * mu)
 
 
-def size_rows(n: int, vb: int, repeat: int) -> list[list[object]]:
+def without_qdldl(f):
+    """f() with `import qdldl` failing, as where it is not installed (measure's SuperLU path)."""
+    saved = sys.modules.get("qdldl", False)
+    sys.modules["qdldl"] = None
+    try:
+        return f()
+    finally:
+        if saved is False:
+            del sys.modules["qdldl"]
+        else:
+            sys.modules["qdldl"] = saved
+
+
+def counted(apply):
+    """apply, and a list whose length is how many times it was called."""
+    calls = []
+
+    def wrapped(x):
+        calls.append(None)
+        return apply(x)
+    return wrapped, calls
+
+
+def parts_rows(mesh, unknowns: int, repeat: int) -> list[list[object]]:
+    """CPU seconds of each part of measure.conditioning, Q and Q = I, best of `repeat`."""
+    rows = []
+    for label, A in (("Q", qmesh.Anisotropy.constant(CHAPTER_Q)), ("I", None)):
+        resolved = measure._resolve(mesh, A)
+        best = {}
+        for _ in range(repeat):
+            t = [time.process_time()]
+            free = measure.free_vertices(mesh)
+            measure._not_positive_definite(mesh, resolved)
+            measure._floating(mesh, free)
+            K = measure._stiffness_interior(mesh, resolved)
+            t.append(time.process_time())
+            v0 = np.random.default_rng(0).random(len(free))
+            matvec, products = counted(K.dot)
+            measure._largest_eigenvalue(matvec, v0, 1e-6)
+            t.append(time.process_time())
+            solve = measure._inverse(K)
+            t.append(time.process_time())
+            inverse, solves = counted(solve)
+            measure._largest_eigenvalue(inverse, v0, 1e-6)
+            t.append(time.process_time())
+            for key, s in zip(("assembly", "lmax", "factor", "lmin"), np.diff(t)):
+                best[key] = min(best.get(key, np.inf), s)
+        total = sum(best.values())
+        print(f"N = {mesh.n_vertices:>7} {label}: checks + assembly {best['assembly']:.3f}, "
+              f"λ_max {best['lmax']:.3f} ({len(products)} steps), factorisation {best['factor']:.3f}, "
+              f"λ_min {best['lmin']:.3f} ({len(solves)} solves); sum {total:.3f} s CPU", flush=True)
+        rows.append([mesh.n_vertices, unknowns, label, f"{best['assembly']:.3f}",
+                     f"{best['lmax']:.3f} ({len(products)})", f"{best['factor']:.3f}",
+                     f"{best['lmin']:.3f} ({len(solves)})", f"{total:.3f}"])
+    return rows
+
+
+def size_rows(n: int, vb: int, repeat: int) -> tuple[list[list[object]], list[list[object]]]:
     A = qmesh.Anisotropy.constant(CHAPTER_Q)
     mesh = qmesh.mesh(qmesh.Disk(vb), A, target_vertices=n, seed=0)
     unknowns = len(measure.free_vertices(mesh))
     rows = []
     for label, f in (("measure.conditioning(mesh, Q)", lambda: measure.conditioning(mesh, A).kappa2),
+                     ("the same without qdldl (SuperLU)",
+                      lambda: without_qdldl(lambda: measure.conditioning(mesh, A).kappa2)),
                      ("measure.conditioning(mesh, I)", lambda: measure.conditioning(mesh, None).kappa2),
                      ("former κ2 (Q)", lambda: former_kappa2(mesh, A)),
                      ("measure.report (κ2 for Q and I)", lambda: measure.report(mesh, A)["kappa2"])):
@@ -70,7 +133,7 @@ def size_rows(n: int, vb: int, repeat: int) -> list[list[object]]:
         print(f"N = {mesh.n_vertices:>7} ({unknowns} unknowns)  {label:<34} κ2 = {value:.10g}  "
               f"{wall:.3f} s wall, {cpu:.3f} s CPU", flush=True)
         rows.append([mesh.n_vertices, unknowns, label, f"{value:.10g}", f"{wall:.3f}", f"{cpu:.3f}"])
-    return rows
+    return rows, parts_rows(mesh, unknowns, repeat)
 
 
 REASONS = ("touch no boundary vertex", "no interior vertex", "not positive definite",
@@ -116,9 +179,15 @@ def main(argv=None) -> None:
     ap.add_argument("--no-media", action="store_true")
     report_page.add_option(ap)
     args = ap.parse_args(argv)
-    rows = [r for n in args.sizes for r in size_rows(int(n), args.vb, args.repeat)]
-    tables = [report_page.Table(["N", "unknowns", "computation", "κ2", "wall s", "CPU s"], rows,
-                                f"Q = diag(0.1, 10) on Disk({args.vb}), best of {args.repeat}")]
+    measured = [size_rows(int(n), args.vb, args.repeat) for n in args.sizes]
+    tables = [report_page.Table(["N", "unknowns", "computation", "κ2", "wall s", "CPU s"],
+                                [r for rows, _ in measured for r in rows],
+                                f"Q = diag(0.1, 10) on Disk({args.vb}), best of {args.repeat}"),
+              report_page.Table(["N", "unknowns", "conductivity", "checks + assembly", "λ_max (steps)",
+                                 "factorisation", "λ_min (solves)", "sum"],
+                                [r for _, parts in measured for r in parts],
+                                f"Where measure.conditioning's CPU seconds go, best of {args.repeat} "
+                                "for each part")]
     if not args.no_media:
         tables.append(report_page.Table(
             ["medium", "stages", "with κ2", "κ2 range", "κ2 not finite ≥ 1", "without κ2", "why"],
@@ -129,11 +198,12 @@ def main(argv=None) -> None:
             __file__, sys.argv, "κ2 of the Dirichlet stiffness matrix",
             "Seconds to compute κ2 = λ_max/λ_min of the Dirichlet stiffness matrix on the chapter's "
             f"case (Q = diag(0.1, 10) on Disk({args.vb})) at each N: `measure.conditioning` (λ_max "
-            "by Lanczos on K; λ_min by Lanczos on K⁻¹ through one SuperLU factorisation in "
-            "symmetric mode), the same for Q = I, `measure.report` (both), and the former "
-            "computation (eigsh at tol 1e-10, COLAMD factorisation with partial pivoting) on the "
-            "same machine in the same run. Wall and CPU seconds of this process, best of "
-            f"{args.repeat}. The media table measures every Step of a medium's run: a stage whose "
+            "by Lanczos on K; λ_min by Lanczos on K⁻¹ through one LDLᵀ factorisation by qdldl), "
+            "the same without qdldl (SuperLU in symmetric mode, its fallback), the same for "
+            "Q = I, `measure.report` (both), and the former computation (eigsh at tol 1e-10, "
+            "COLAMD factorisation with partial pivoting) on the same machine in the same run. "
+            f"Wall and CPU seconds of this process, best of {args.repeat}; then where "
+            "`measure.conditioning`'s CPU time goes. The media table measures every Step of a medium's run: a stage whose "
             "Dirichlet matrix is singular (a face meshed alone, touching no boundary) has no κ2 "
             "and says why.",
             tables=tables)
