@@ -25,7 +25,9 @@ from scipy.sparse.csgraph import connected_components
 from qmesh.domain.domain import Domain
 from qmesh.errors import QmeshError
 from qmesh.geometry.rings import signed_area
-from qmesh.mesher.seeding import metric_lattice
+from qmesh.geometry.rings import point_segment_distance
+from qmesh.geometry.triangles import rounded
+from qmesh.mesher.seeding import ELONGATED, JITTER, MARGIN
 from qmesh.triangle_mesh import Mesh
 
 
@@ -48,16 +50,10 @@ class Components(Domain):
     def lattice_points(self, H: NDArray[np.float64], h: float, rng: np.random.Generator) -> NDArray[np.float64]:
         """A run's first interior points (constant Q, a size): each domain's own metric lattice,
         placed on its own extent as it would be alone (`seeding.metric_lattice`), not one across
-        all, whose place in a small domain would be left to chance."""
-        first = np.cumsum([0] + [len(R) for R in self.rings])
-        part = np.repeat(np.arange(len(self.sizes)), self.sizes)[first[:-1]]       # of each ring
-        out = [np.zeros((0, 2))]
-        for p in range(len(self.sizes)):
-            r = np.flatnonzero(part == p)
-            one = Components([self.rings[k] for k in r], [self.segment_tags[first[k]:first[k + 1]] for k in r],
-                             [int(self.sizes[p])])
-            out.append(metric_lattice(one, H, h, rng).points)
-        return np.concatenate(out)
+        all, whose place in a small domain would be left to chance. The same points bit for bit,
+        the jitter drawn domain after domain, but laid out for all domains at once (`_lattices`):
+        a call per domain costs more than its lattice."""
+        return _lattices(self, np.asarray(H, float), h, rng)
 
     def scaled(self, center: Any, scale: float) -> Domain:
         new = Domain.scaled(self, center, scale)        # the area of all outlines, not of one
@@ -100,3 +96,104 @@ def split(mesh: Mesh, parts: Sequence[Domain]) -> list[Mesh]:
         out.append(Mesh(mesh.points[vs], new[T[ts]], mesh.fixed[vs], new[E[es]],
                         mesh.boundary_tags[es], mesh.tag_names))
     return out
+
+
+def _lattices(dom: Components, H: NDArray[np.float64], h: float, rng: np.random.Generator) -> NDArray[np.float64]:
+    """`seeding.metric_lattice` of every domain of `dom` in turn, its points concatenated: the
+    same operations on each point and segment, made for all domains together, the jitter drawn
+    domain after domain as one draw. The frame (the metric's axes, or a domain's own when it is
+    ELONGATED in the metric) is found for all at once where the domain is clearly not elongated
+    (with a margin), else by metric_lattice's own function, domain by domain; products by a
+    frame are taken per domain, or over all rows at once for the metric's axes (which gives
+    every row of a domain of two rows or more the bits its own product gives)."""
+    sizes = np.asarray(dom.sizes, np.int64)
+    n_d, start = len(sizes), np.cumsum(sizes) - sizes
+    pid = np.repeat(np.arange(n_d), sizes)                  # domain of every seed and segment
+    L = np.linalg.cholesky(H)
+    S = dom.seeds
+    A, B = dom.segment_ends
+    X, w = S @ L, np.hypot(*((B - A) @ L).T)
+    W = np.add.reduceat(w, start)
+    D = X - (np.add.reduceat(X * w[:, None], start) / W[:, None])[pid]
+    cxx, cxy, cyy = (np.add.reduceat(w * u * v, start) for u, v in ((D[:, 0], D[:, 0]), (D[:, 0], D[:, 1]),
+                                                                     (D[:, 1], D[:, 1])))
+    with np.errstate(all="ignore"):
+        mid, rad = 0.5 * (cxx + cyy), np.hypot(0.5 * (cxx - cyy), cxy)
+        plain = (mid + rad) * (1 + 1e-6) < ELONGATED * (mid - rad)
+    Am, Bm = A @ L, B @ L
+    inv = np.broadcast_to(np.linalg.inv(L), (n_d, 2, 2)).copy()
+    late = np.flatnonzero(~plain)
+    for n in np.unique(sizes[late]).tolist():               # the frame metric_lattice finds, by size
+        grp = late[sizes[late] == n]
+        at = (start[grp][:, None] + np.arange(n)).ravel()
+        M = _frames(X[at].reshape(-1, n, 2), w[at].reshape(-1, n), L)
+        Am[at] = (A[at].reshape(-1, n, 2) @ M).reshape(-1, 2)
+        Bm[at] = (B[at].reshape(-1, n, 2) @ M).reshape(-1, 2)
+        inv[grp] = np.linalg.inv(M)
+    lo = np.minimum(np.minimum.reduceat(Am, start), np.minimum.reduceat(Bm, start))
+    hi = np.maximum(np.maximum.reduceat(Am, start), np.maximum.reduceat(Bm, start))
+    dy = h * np.sqrt(3.0) / 2.0
+    with np.errstate(all="ignore"):
+        n_rows = np.ceil(rounded((hi[:, 1] - lo[:, 1]) / dy)) + 1
+    n_rows = np.where(n_rows <= 10 * 50_000_000, n_rows, 0).astype(np.int64)   # beyond: none, as there
+    # rows: y of each domain's row j (j from 0), as metric_lattice lays them out
+    row_d = np.repeat(np.arange(n_d), n_rows)
+    row0 = np.cumsum(n_rows) - n_rows
+    j = np.arange(len(row_d)) - row0[row_d]
+    y = lo[row_d, 1] + (j + 0.5) * dy
+    # scanlines: each domain's segments against its rows that may cross them (one more on either
+    # side), kept where they straddle the row as rings.scanline_intervals keeps them
+    seg = np.flatnonzero(n_rows[pid] > 0)
+    d = pid[seg]
+    ylo, yhi = np.minimum(Am[seg, 1], Bm[seg, 1]), np.maximum(Am[seg, 1], Bm[seg, 1])
+    j0 = np.clip(np.floor((ylo - lo[d, 1]) / dy - 0.5).astype(np.int64) - 1, 0, None)
+    j1 = np.minimum(np.ceil((yhi - lo[d, 1]) / dy - 0.5).astype(np.int64) + 1, n_rows[d] - 1)
+    count = np.maximum(j1 - j0 + 1, 0)
+    sg = np.repeat(seg, count)
+    r = np.repeat(row0[d] + j0, count) + np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
+    a, b = Am[sg], Bm[sg]
+    straddle = (a[:, 1] > y[r]) != (b[:, 1] > y[r])
+    r, a, b = r[straddle], a[straddle], b[straddle]
+    t = (y[r] - a[:, 1]) / (b[:, 1] - a[:, 1])
+    x = a[:, 0] + t * (b[:, 0] - a[:, 0])
+    order = np.lexsort((x, r))
+    r, x = r[order], x[order]
+    row, x0, x1 = r[0::2], x[0::2], x[1::2]
+    # each interval's lattice points, the jitter, the margin, as metric_lattice
+    jr = j[row]
+    off = lo[row_d[row], 0] + 0.5 * h * (jr % 2)
+    i0 = np.ceil(rounded((x0 - off) / h)).astype(np.int64)
+    count = np.maximum(np.floor(rounded((x1 - off) / h)).astype(np.int64) - i0 + 1, 0)
+    rr = np.repeat(row, count)
+    i = np.repeat(i0, count) + np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
+    P = np.column_stack([lo[row_d[rr], 0] + (i + 0.5 * (j[rr] % 2)) * h, y[rr]])
+    P += rng.uniform(-JITTER, JITTER, P.shape) * h
+    P_d = row_d[rr]                                         # domain of every point (sorted)
+    k = sizes[P_d]                                          # a point within the margin of a segment
+    pt = np.repeat(np.arange(len(P)), k)                    # of its domain is dropped
+    sg = np.repeat(start[P_d], k) + np.arange(k.sum()) - np.repeat(np.cumsum(k) - k, k)
+    close = point_segment_distance(P[pt], Am[sg], Bm[sg]) <= rounded(MARGIN * h)
+    keep = np.bincount(pt[close], minlength=len(P)) == 0
+    P, P_d = P[keep], P_d[keep]
+    out = P @ np.linalg.inv(L)
+    n_kept = np.bincount(P_d, minlength=n_d)
+    at = np.cumsum(n_kept) - n_kept
+    for p in np.flatnonzero((n_kept > 0) & (~plain | (n_kept == 1))).tolist():   # mapped back alone
+        s, e = int(at[p]), int(at[p] + n_kept[p])
+        out[s:e] = P[s:e] @ inv[p]
+    return out
+
+
+def _frames(X: NDArray[np.float64], w: NDArray[np.float64], L: NDArray[np.float64]) -> NDArray[np.float64]:
+    """`seeding._metric_frame` of g domains of n points each, stacked: X (g, n, 2) their points
+    mapped by L, w (g, n) their segments' metric lengths; the same operations, matrix by matrix."""
+    c = (X * w[..., None]).sum(axis=1) / w.sum(axis=1)[:, None]
+    D = X - c[:, None, :]
+    val, vec = np.linalg.eigh((D.transpose(0, 2, 1) * w[:, None, :]) @ D)
+    R = vec[..., ::-1]                                   # columns: longest direction first
+    R *= np.where(np.abs(R[:, 0]) >= np.abs(R[:, 1]), np.sign(R[:, 0]), np.sign(R[:, 1]))[:, None, :]
+    flip = np.linalg.det(R) < 0
+    R[flip, :, 1] *= -1
+    M = L @ R
+    M[val[:, 1] < ELONGATED * val[:, 0]] = L             # not elongated: the metric's own axes
+    return M
