@@ -10,7 +10,8 @@ Algorithm 2.1 itself (`mesher.loop.iterate`), on shared interface points:
     for each face, smallest region first (small faces of one Q together: mesher.components)
         size the faces left for what the target leaves                     (plan.size_rest)
         run Algorithm 2.1 on it, every interface point known so far fixed
-        insert the points it added on an interface into the finished neighbours (insert_shared.py)
+        insert the points it added on an interface into the finished neighbours (insert_shared.py),
+        meshing one again, its points fixed, where they leave it slivers
     stitch the face meshes into one Mesh with region_tags                   (stitch.py)
 """
 
@@ -25,6 +26,7 @@ import numpy as np
 from qmesh.conductivity.anisotropy import Anisotropy
 from qmesh.domain.domain import as_domain
 from qmesh.errors import QmeshError, QmeshWarning
+from qmesh.geometry.triangles import metric_hessians, metric_quality
 from qmesh.media.faces import face_domain, points_on_edges
 from qmesh.media.insert_shared import insert_on_boundary
 from qmesh.media.plan import FaceMeshes, MediaPlan
@@ -37,6 +39,7 @@ from qmesh.mesher.plan import TOLERANCE    # a mesh this share off target_vertic
 from qmesh.mesher.step import Stats, Step, last_step, recording
 from qmesh.triangle_mesh import Mesh
 
+FLOOR = 0.3            # a hand-over leaving a face's worst quality below this meshes it again
 FINER = 12             # halvings of the size for a face too thin for it (6 beyond plan.COARSER)
 MAX_HANDOVERS = 1000   # rounds of interface points handed between finished faces
 SMALL = 200            # faces expected to take fewer triangles share a run where they can
@@ -81,6 +84,7 @@ def _run(plan: MediaPlan, options: dict, every: bool) -> Iterator[Step]:
     notes: list = []                         # (message, category) the faces' runs warned
     cond = {f.region: a for f, a in zip(plan.faces, plan.anis)}
     at, alone = 0, set[int]()                # alone: faces of a group whose run failed
+    redone = set[int]()                      # finished faces meshed again after a hand-over
     while at < len(plan.order):
         if at:
             plan.size_rest(plan.order[at:], meshes.vertex_count())
@@ -104,7 +108,7 @@ def _run(plan: MediaPlan, options: dict, every: bool) -> Iterator[Step]:
             notes += [] if thin is None else [(f"{plan.face_name(i)}: {thin}", QmeshWarning)]
             meshes[i] = mesh
         new = points_on_edges(step.mesh, plan.corners, int(step.mesh.fixed.sum()))   # all at once
-        _share(plan, meshes, {e: X for e, X in new.items() if plan.part.interface[e]}, extra)
+        _share(plan, meshes, step.mesh, extra, options, redone)
         at += len(faces)
     m = stitch(plan.part, meshes, plan.domain)
     yield Step("triangulate", step.iteration, m, Stats(m.n_vertices, m.n_triangles, source=(m, cond)),
@@ -160,14 +164,14 @@ def _group(plan: MediaPlan, at: int, extra: dict, meshes: FaceMeshes, alone: set
 
 
 def _face_steps(plan: MediaPlan, faces: list, doms: list, options: dict, said: list,
-                meshes: FaceMeshes) -> Iterator[Step]:
+                meshes: FaceMeshes, size: dict | None = None) -> Iterator[Step]:
     """Algorithm 2.1 on the faces (one, or several as one domain), its Steps as they come, its
     warnings in `said`. A face thinner (or sharper) in its metric than the shared size needs a
     finer one: its run says "too large", and its size is halved, up to FINER times."""
     i, dom = faces[0], joined(doms)
     for k in range(FINER + 1 if len(faces) == 1 else 1):
         try:
-            sizing = {"size": plan.h_rest * np.sqrt(plan.k[i]) / 2**k} if k else plan.sizing_of(i, doms[0], meshes)
+            sizing = {"size": plan.h_rest * np.sqrt(plan.k[i]) / 2**k} if k else size or plan.sizing_of(i, doms[0], meshes)
             for last in recording(loop.iterate(dom, plan.anis[i], **sizing, **options), said):
                 yield last
             break
@@ -176,14 +180,18 @@ def _face_steps(plan: MediaPlan, faces: list, doms: list, options: dict, said: l
                 raise plan.too_small(i) or QmeshError(f"{plan.face_name(i)}: {e}") from None
 
 
-def _share(plan: MediaPlan, meshes: FaceMeshes, new: dict, extra: dict) -> None:
-    """Hand the interface points `new` {edge: points} to the finished faces beside them (and
-    into `extra`); the points those must add in turn (a split on an interface) likewise."""
-    part, queue = plan.part, [new]
-    rank = {j: k for k, j in enumerate(meshes)}
+def _share(plan: MediaPlan, meshes: FaceMeshes, mesh: Mesh, extra: dict, options: dict, redone: set) -> None:
+    """Hand the points `mesh` (a run's) put on interfaces to the finished faces beside them (and
+    into `extra`), and the points those must add in turn (a split on an interface) likewise. A
+    finished face whose worst metric quality such points drop below FLOOR (a fan of them next to
+    its corner, finer than its own spacing) is meshed again with them fixed, once, when that
+    grades it better: its run grades towards fine boundary points as at the chapter's disk tips."""
+    part, rank = plan.part, {j: k for k, j in enumerate(meshes)}
+    new = points_on_edges(mesh, plan.corners, int(mesh.fixed.sum()))
+    queue, before = [{e: X for e, X in new.items() if part.interface[e]}], dict[int, float]()
     for _ in range(MAX_HANDOVERS):
         if not queue:
-            return
+            break
         pts = queue.pop()
         for e, X in pts.items():          # old and new, without repeats, ordered along the edge
             a, b = part.points[part.edges[e]]
@@ -192,11 +200,33 @@ def _share(plan: MediaPlan, meshes: FaceMeshes, new: dict, extra: dict) -> None:
         beside = {int(f) for e in pts for f in part.edge_faces[e] if int(f) in rank}
         for j in sorted(beside, key=lambda f: rank[f]):     # the finished faces beside these edges only
             give = {e: X for e, X in pts.items() if j in part.edge_faces[e]}
+            if j not in before:
+                before[j] = _worst(meshes[j], plan.anis[j])
             try:
                 meshes[j], more = insert_on_boundary(meshes[j], plan.anis[j], give, part)
             except QmeshError as err:
                 raise QmeshError(f"{plan.face_name(j)}: {err}") from None
             if more:
                 queue.append(more)
-    raise QmeshError("the faces kept handing each other interface points (more than "
-                     f"{MAX_HANDOVERS} hand-overs); ask for more vertices")
+    else:
+        raise QmeshError("the faces kept handing each other interface points (more than "
+                         f"{MAX_HANDOVERS} hand-overs); ask for more vertices")
+    for j, q in before.items():
+        if j in redone or (now := _worst(meshes[j], plan.anis[j])) >= min(q, FLOOR):
+            continue
+        redone.add(j)
+        try:
+            dom = face_domain(part, plan.faces[j], extra, plan.face_name(j))
+            again = last_step(_face_steps(plan, [j], [dom], options, [], meshes,
+                                          {"size": plan.h_rest * np.sqrt(plan.k[j])})).mesh
+        except QmeshError:               # it keeps the points inserted, as it is
+            continue
+        if _worst(again, plan.anis[j]) > now:
+            meshes[j] = again
+            _share(plan, meshes, again, extra, options, redone)
+
+
+def _worst(mesh: Mesh, anisotropy: Any) -> float:
+    """The lowest metric quality (2.94) of a face mesh."""
+    P, T = mesh.points, mesh.triangles
+    return float(metric_quality(P, T, metric_hessians(anisotropy, P, T)).min())

