@@ -751,7 +751,7 @@ def _interpolation_errors2(P: NDArray[np.float64], T: NDArray[np.int64],
 
 # --------------------------------------------------------------------------- report
 
-def report(mesh: Mesh, anisotropy: Given = None) -> Report:
+def report(mesh: Mesh, anisotropy: Given = None, *, laplacian: bool = True) -> Report:
     """All measurements of one mesh as plain Python numbers (JSON-serialisable).
 
     Entries that need a stiffness matrix or ∇s_h are None when the mesh has a zero-area
@@ -768,7 +768,9 @@ def report(mesh: Mesh, anisotropy: Given = None) -> Report:
     None for a mesh that carries its element means, an array (M, 2, 2) or a TensorField — the
     stiffness matrix, q_ij, κ2 and the quality use those means, and the energy and the
     interpolation errors, which need an s, are None. κ2 is computed once per matrix
-    (`kappa2` with the conductivity, `kappa2_laplacian` with Q = I).
+    (`kappa2` with the conductivity, `kappa2_laplacian` with Q = I); `laplacian=False` leaves
+    `kappa2_laplacian` out, for callers that keep only `kappa2` (it is another matrix's κ2,
+    as long to compute).
     """
     A = _resolve(mesh, anisotropy, allow_none=False)
     P, T = mesh.points, mesh.triangles
@@ -789,6 +791,8 @@ def report(mesh: Mesh, anisotropy: Given = None) -> Report:
         "q_nonnegative_fraction": None, "q_nonnegative_fraction_boundary": None,
         "min_q_ij_relative": None, "min_q_ij_relative_boundary": None,
     }
+    if not laplacian:
+        del out["kappa2_laplacian"]
     if len(T) == 0 or np.any(area == 0.0):
         out["kappa2_undefined"] = ("the mesh has no triangle" if len(T) == 0 else
                                    "the mesh has degenerate (zero-area) triangles")
@@ -805,7 +809,8 @@ def report(mesh: Mesh, anisotropy: Given = None) -> Report:
     out["kappa2"] = kappa.kappa2
     if kappa.kappa2 is None:
         out["kappa2_undefined"] = kappa.reason
-    out["kappa2_laplacian"] = _conditioning(mesh, None).kappa2
+    if laplacian:
+        out["kappa2_laplacian"] = _conditioning(mesh, None).kappa2
     return out
 
 

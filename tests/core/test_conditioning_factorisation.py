@@ -80,3 +80,17 @@ def test_lanczos_with_an_operator_that_returns_its_argument_or_one_buffer():
         return out
 
     assert measure._largest_eigenvalue(scale, v0, 1e-10) == pytest.approx(3.0, rel=1e-12)
+
+
+def test_report_without_the_laplacian_computes_one_kappa2(monkeypatch):
+    mesh = disk_mesh(600, 4)
+    full = measure.report(mesh, CHAPTER)
+    seen = []
+    real = measure._conditioning
+    monkeypatch.setattr(measure, "_conditioning", lambda m, a, *args: seen.append(a) or real(m, a, *args))
+    short = measure.report(mesh, CHAPTER, laplacian=False)
+    assert len(seen) == 1 and seen[0] is not None                 # the conductivity's κ2 only
+    assert "kappa2_laplacian" not in short
+    assert short == {k: v for k, v in full.items() if k != "kappa2_laplacian"}
+    degenerate = qmesh.Mesh([[0, 0], [1, 0], [2, 0], [1, 1]], [[0, 1, 3], [0, 1, 2]])
+    assert "kappa2_laplacian" not in measure.report(degenerate, CHAPTER, laplacian=False)
