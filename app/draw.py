@@ -44,28 +44,41 @@ SPHERE_LIMIT = 2000        # above this many lifted vertices, flat points (spher
 MEDIUM_VIEW = (0.3, -1.0, 2.5)   # a medium's lifted pieces, seen obliquely from above
 
 
-def _put(plotter: pv.Plotter, name: str, mesh: pv.PolyData | None, **kwargs) -> None:
-    """Show `mesh` under `name`; drop the actor of that name when mesh is empty.
+def _put(plotter: pv.Plotter, name: str, mesh: pv.PolyData | None, keep: bool = False,
+         **kwargs) -> None:
+    """Show `mesh` under `name`; drop the actor of that name when mesh is empty (hide it,
+    emptied, when `keep`: a stage that shows it again reuses it).
 
     An actor drawn last time with the same options only gets the new data (its mapper's input):
-    `add_mesh` would build a new actor, mapper and lookup table eleven times per frame.
+    `add_mesh` would build a new actor, mapper and lookup table eleven times per frame. A new
+    `point_size` is set on the actor's property, not a reason for a new actor.
     """
     looks = plotter.__dict__.setdefault("_qmesh_looks", {})
+    actor = plotter.actors.get(name)
     if mesh is None or mesh.n_points == 0:
+        if keep and actor is not None and name in looks:
+            actor.mapper.SetInputData(pv.PolyData())
+            actor.SetVisibility(False)
+            return
         plotter.remove_actor(name, render=False)
         looks.pop(name, None)
         return
+    size = kwargs.pop("point_size", None)
     look = repr(sorted(kwargs.items()))
-    actor = plotter.actors.get(name)
     scalars = kwargs.get("scalars")
     if actor is not None and looks.get(name) == look and (
             scalars is None or scalars in mesh.cell_data or scalars in mesh.point_data):
         if scalars is not None:
             mesh.set_active_scalars(scalars, preference=kwargs.get("preference", "cell"))
         actor.mapper.SetInputData(mesh)
-        return
-    plotter.add_mesh(mesh, name=name, reset_camera=False, render=False, **kwargs)
-    looks[name] = look
+    else:
+        plotter.add_mesh(mesh, name=name, reset_camera=False, render=False, **kwargs)
+        looks[name] = look
+        actor = plotter.actors[name]
+    if size is not None:
+        actor.GetProperty().SetPointSize(size)
+    if keep:
+        actor.SetVisibility(True)
 
 
 def draw_lifted(plotter: pv.Plotter, view: scene.LiftedScene) -> None:
@@ -124,9 +137,11 @@ def draw_projected(plotter: pv.Plotter, view: scene.ProjectedScene) -> None:
         lo, hi = float(a.min()), float(a.max())
         actor.mapper.SetScalarRange(lo - 0.25, hi + 0.25 if hi > lo else lo + 1.0)
     _put(plotter, "sample", view.sample, color=EDGE, line_width=1, show_scalar_bar=False)
-    _put(plotter, "arrows", view.arrows, color=ARROW, line_width=2, show_scalar_bar=False)
-    _put(plotter, "added", view.added, color=ADDED, point_size=marker_size(view.added.n_points, 9),
-         render_points_as_spheres=True, show_scalar_bar=False)
+    _put(plotter, "arrows", view.arrows, keep=True, color=ARROW, line_width=2,
+         show_scalar_bar=False)                         # adjust stages only
+    _put(plotter, "added", view.added, keep=True, color=ADDED,     # insert stages only
+         point_size=marker_size(view.added.n_points, 9), render_points_as_spheres=True,
+         show_scalar_bar=False)
     _put(plotter, "fixed", view.fixed, color=FIXED, point_size=marker_size(view.fixed.n_points, 7),
          render_points_as_spheres=True, show_scalar_bar=False)
 
