@@ -59,12 +59,18 @@ def distance(P: np.ndarray, A: np.ndarray, B: np.ndarray, reach: float) -> np.nd
     Many points, or y-bands that would pair each point with many segments (rings side by
     side): a grid first rules out the points far from every segment (`_grid`), and pairs each
     point of the band along the boundary with the segments that pass near its cell only (or,
-    where that list would be long, with the segments of its y-band). Either way, the same
-    distances."""
+    where that list would be long, with the segments of its y-band); fewer points than segments
+    (a lattice in a face with a thousand holes) pair by balls around the segments' pieces
+    instead (`_ball_pairs`: a tree of the points, no grid over the segments). Every way, the
+    same distances."""
     P = np.asarray(P, dtype=float)
     size = len(P) + len(A)
     order = None if size >= GRID_MIN else np.argsort(P[:, 1], kind="stable")
     many = order is None or _band_pairs(P[order, 1], A, B, reach) > GRID_PAIRS * size
+    if many and len(P) < len(A):
+        cand = _ball_pairs(P, A, B, reach)
+        if cand is not None:
+            return _nearest(P, A, B, reach, *cand)
     grid = _grid(P, A, B, reach) if many else None
     if grid is None:
         return _distance(P, A, B, reach, order)
@@ -81,6 +87,21 @@ def distance(P: np.ndarray, A: np.ndarray, B: np.ndarray, reach: float) -> np.nd
     for pt, at in _runs(start, count):
         np.minimum.at(best, pt, point_segment_distance(P[near[pt]], A[reg_seg[at]], B[reg_seg[at]]))
     out[near] = np.where(best <= reach, best, np.inf)
+    return out
+
+
+def _nearest(P: np.ndarray, A: np.ndarray, B: np.ndarray, reach: float, pt: np.ndarray,
+             sg: np.ndarray) -> np.ndarray:
+    """`distance` from candidate pairs (pt, sg) holding every point-segment pair within reach:
+    each point's least distance over its pairs, inf where it exceeds reach (or no pair)."""
+    by = np.argsort(pt, kind="stable")
+    pt, sg = pt[by], sg[by]
+    out = np.full(len(P), np.inf)
+    if not len(pt):
+        return out
+    first = np.flatnonzero(np.r_[True, pt[1:] != pt[:-1]])
+    best = np.minimum.reduceat(point_segment_distance(P[pt], A[sg], B[sg]), first)
+    out[pt[first]] = np.where(best <= reach, best, np.inf)
     return out
 
 
@@ -397,21 +418,28 @@ def convex_width(V: np.ndarray) -> float:
     The width across edge i is the largest distance of a vertex from its line; that vertex is
     the polygon's support point in the direction of the inward normal, found by a binary search
     of the edges' sorted normal angles (rotating calipers, vectorised): O(V log V), where the
-    all-pairs test costs O(V²).
+    all-pairs test costs O(V²). Written with few NumPy calls (np.roll, np.unwrap spelled out,
+    the same operations): a medium asks it of every face.
     """
     V = np.asarray(V, dtype=float)
     if len(V) < 3:
         return 0.0
     if signed_area(V) < 0:
         V = V[::-1]
-    E = np.roll(V, -1, axis=0) - V
-    theta = np.unwrap(np.arctan2(-E[:, 0], E[:, 1]))        # outward normals (E_y, −E_x), ccw
-    theta = np.concatenate([theta, theta + 2 * np.pi, theta + 4 * np.pi])
     n = len(V)
+    E = np.concatenate([V[1:], V[:1]]) - V
+    theta = np.arctan2(-E[:, 0], E[:, 1])                   # outward normals (E_y, −E_x), ccw
+    dd = np.diff(theta)                                     # np.unwrap(theta), as NumPy takes it
+    ddmod = np.mod(dd + np.pi, 2 * np.pi) - np.pi
+    ddmod[(ddmod == -np.pi) & (dd > 0)] = np.pi
+    fix = ddmod - dd
+    fix[np.abs(dd) < np.pi] = 0
+    theta[1:] += fix.cumsum()
+    theta = np.concatenate([theta, theta + 2 * np.pi, theta + 4 * np.pi])
     j = np.searchsorted(theta, theta[:n] + np.pi) % n      # vertex j supports between θ_{j−1}, θ_j
-    inward = np.column_stack([-E[:, 1], E[:, 0]]) / np.hypot(E[:, 0], E[:, 1])[:, None]
-    width = np.zeros(n)
-    for k in (-1, 0, 1):                                    # neighbours too: ties in angle
-        d = np.einsum("ki,ki->k", inward, V[(j + k) % n] - V)
-        width = np.maximum(width, d)
-    return float(width.min())
+    inward = np.empty((n, 2))
+    inward[:, 0], inward[:, 1] = -E[:, 1], E[:, 0]
+    inward /= np.hypot(E[:, 0], E[:, 1])[:, None]
+    k = (j[:, None] + np.arange(-1, 2)) % n                 # neighbours too: ties in angle
+    d = np.einsum("kmi,kmi->km", inward[:, None, :], V[k] - V[:, None, :])
+    return float(np.maximum(0.0, d.max(axis=1).min()))
