@@ -574,7 +574,7 @@ def _conditioning(mesh: Mesh, anisotropy: Resolved, method: str = "auto", tol: f
         w = scipy.linalg.eigvalsh(K.toarray())
         return _ratio(float(w[0]), float(w[-1]))
     v0 = np.random.default_rng(0).random(n)                   # fixed start: same mesh ⇒ same κ2
-    lmax = _largest_eigenvalue(K.dot, v0, tol)
+    lmax = _largest_eigenvalue(K.dot, v0, tol, every=4)
     solve = _inverse(K)
     if isinstance(solve, str):
         return Conditioning(None, solve, None, lmax)
@@ -619,11 +619,12 @@ def _dot(a: NDArray[np.float64], b: NDArray[np.float64]) -> float:
 
 
 def _largest_eigenvalue(apply: Callable[[NDArray[np.float64]], NDArray[np.float64]],
-                        v0: NDArray[np.float64], tol: float) -> float:
+                        v0: NDArray[np.float64], tol: float, every: int = 1) -> float:
     """The largest eigenvalue of a symmetric operator x ↦ apply(x), by the Lanczos recurrence
     β_{k+1} v_{k+1} = A v_k − α_k v_k − β_k v_{k−1}, stopped when the largest Ritz value θ of
     the tridiagonal T_k has the residual ‖A y − θ y‖ = β_{k+1} |s_k| ≤ tol·|θ| (s its
-    eigenvector of T_k). Without reorthogonalisation: lost orthogonality only repeats converged
+    eigenvector of T_k), checked at each of the first 8 steps, then at every `every`-th (a
+    check costs a good part of a sparse product K·v, not of a solve). Without reorthogonalisation: lost orthogonality only repeats converged
     Ritz values, and the largest one converges as in exact arithmetic (Paige 1971). ARPACK's
     eigsh when LANCZOS_STEPS are not enough; NaN when `apply` gives non-finite numbers.
     """
@@ -647,10 +648,11 @@ def _largest_eigenvalue(apply: Callable[[NDArray[np.float64]], NDArray[np.float6
         alpha.append(a)
         if not (np.isfinite(a) and np.isfinite(b)):
             return float("nan")
-        theta, s = scipy.linalg.eigh_tridiagonal(np.array(alpha), np.array(beta), select="i",
-                                                 select_range=(k, k))
-        if b * abs(s[-1, 0]) <= tol * abs(theta[0]) or b == 0.0:
-            return float(theta[0])
+        if k < 8 or (k + 1) % every == 0 or b == 0.0:
+            theta, s = scipy.linalg.eigh_tridiagonal(np.array(alpha), np.array(beta), select="i",
+                                                     select_range=(k, k))
+            if b * abs(s[-1, 0]) <= tol * abs(theta[0]) or b == 0.0:
+                return float(theta[0])
         beta.append(b)
         np.divide(w, b, out=v_old)                 # v_{k+1} in v_{k−1}'s array: v, v_old stay ours
         v_old, v = v, v_old

@@ -94,3 +94,15 @@ def test_report_without_the_laplacian_computes_one_kappa2(monkeypatch):
     assert short == {k: v for k, v in full.items() if k != "kappa2_laplacian"}
     degenerate = qmesh.Mesh([[0, 0], [1, 0], [2, 0], [1, 1]], [[0, 1, 3], [0, 1, 2]])
     assert "kappa2_laplacian" not in measure.report(degenerate, CHAPTER, laplacian=False)
+
+
+def test_checking_every_fourth_step_costs_at_most_three_more_products():
+    w = np.r_[np.linspace(1.0, 50.0, 5000), 50.5]
+    v0 = np.random.default_rng(2).random(len(w))
+    counts, values = {}, {}
+    for every in (1, 4):
+        calls = []
+        values[every] = measure._largest_eigenvalue(lambda x: calls.append(1) or w * x, v0, 1e-8, every)
+        counts[every] = len(calls)
+    assert values[4] == pytest.approx(50.5, rel=1e-12) and values[1] == pytest.approx(50.5, rel=1e-12)
+    assert counts[1] > 8 and 0 <= counts[4] - counts[1] <= 3
