@@ -624,9 +624,10 @@ def _largest_eigenvalue(apply: Callable[[NDArray[np.float64]], NDArray[np.float6
     β_{k+1} v_{k+1} = A v_k − α_k v_k − β_k v_{k−1}, stopped when the largest Ritz value θ of
     the tridiagonal T_k has the residual ‖A y − θ y‖ = β_{k+1} |s_k| ≤ tol·|θ| (s its
     eigenvector of T_k), checked at each of the first 8 steps, then at every `every`-th (a
-    check costs a good part of a sparse product K·v, not of a solve). Without reorthogonalisation: lost orthogonality only repeats converged
-    Ritz values, and the largest one converges as in exact arithmetic (Paige 1971). ARPACK's
-    eigsh when LANCZOS_STEPS are not enough; NaN when `apply` gives non-finite numbers.
+    check costs a good part of a sparse product K·v, not of a solve). Without
+    reorthogonalisation: lost orthogonality only repeats converged Ritz values, and the largest
+    one converges as in exact arithmetic (Paige 1971). ARPACK's eigsh when LANCZOS_STEPS are
+    not enough; NaN when `apply` gives non-finite numbers.
     """
     v = v0 / np.sqrt(_dot(v0, v0))
     v_old = np.zeros_like(v)
