@@ -7,7 +7,7 @@ All callables are vectorised over (n, 2) arrays of points.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Union
 
@@ -130,7 +130,11 @@ class Anisotropy:
     @classmethod
     def constant(cls, Q: ArrayLike) -> Anisotropy:
         """A constant SPD conductivity Q; s(x) = ½ xᵀ adj(Q) x, so ∇²s = adj Q and adj ∇²s = Q."""
-        Q = checks.spd_matrix(Q, "Q")
+        return cls._of(checks.spd_matrix(Q, "Q"))
+
+    @classmethod
+    def _of(cls, Q: NDArray[np.float64]) -> Anisotropy:
+        """`constant(Q)` for a Q already checked (and symmetrised) by `checks.spd_matrix`."""
         H = adj2(Q)
         H.setflags(write=False)
 
@@ -157,6 +161,33 @@ class Anisotropy:
             raise QmeshError(f"k1 = {k1:g} and k2 = {k2:g} are too far apart: the smaller is "
                              f"round-off next to the larger, so Q would be singular")
         return cls.constant(principal_matrix(k1, k2, angle_deg))
+
+    @classmethod
+    def _principals(cls, params: Sequence[tuple[float, float, float]]) -> list[Anisotropy | None]:
+        """`principal(k1, k2, angle)` of many (k1, k2, angle) (a grid's zones) at once: the same
+        matrices and checks, on stacks of 2×2 matrices (a call per zone costs more than its
+        matrix). None where a check fails or comes near failing: principal itself then decides."""
+        p = np.asarray(params, dtype=float).reshape(-1, 3)
+        k1, k2, angle = p[:, 0], p[:, 1], p[:, 2]
+        eps = np.finfo(float).eps
+        with np.errstate(all="ignore"):
+            ok = np.isfinite(p).all(axis=1) & (k1 > 0) & (k2 > 0)
+            ok &= np.minimum(k1, k2) > 8 * eps * np.maximum(k1, k2)
+            t = np.deg2rad(angle)                           # principal_matrix, stacked
+            c, s = np.cos(t), np.sin(t)
+            R = np.stack([np.stack([c, -s], axis=-1), np.stack([s, c], axis=-1)], axis=1)
+            D = np.zeros((len(p), 2, 2))
+            D[:, 0, 0], D[:, 1, 1] = k1, k2
+            Q = R @ D @ R.transpose(0, 2, 1)
+            m = np.abs(Q).max(axis=(1, 2))                  # checks.spd_matrix, stacked
+            Qn = Q / np.where(m > 0, m, 1.0)[:, None, None]
+            a, b = Qn[:, 0, 1], Qn[:, 1, 0]
+            ok &= (m > 0) & np.isfinite(Q).all(axis=(1, 2))
+            ok &= np.abs(a - b) <= 0.5 * (1e-12 * np.maximum(np.abs(a), np.abs(b)) + 1e-14)
+            lo_hi = np.linalg.eigvalsh(np.where(ok[:, None, None], 0.5 * (Qn + Qn.transpose(0, 2, 1)), np.eye(2)))
+            ok &= lo_hi[:, 0] > 8 * eps * lo_hi[:, 1]
+        Q = 0.5 * Q + 0.5 * Q.transpose(0, 2, 1)
+        return [cls._of(Q[i].copy()) if good else None for i, good in enumerate(ok.tolist())]
 
     @classmethod
     def from_s(cls, s: UserField, grad: UserField, hessian: UserField,

@@ -267,9 +267,9 @@ class Domain:
         outline, regions, params = cells.zones(x, y, k1, k2, angle)
         domain = cls(outline, regions=[Domain._traced(outer, holes) for outer, holes in regions])
         cond = {}
-        for tag, p in enumerate(params):
+        for tag, (p, made) in enumerate(zip(params, Anisotropy._principals(params))):   # all at once
             try:
-                cond[tag] = Anisotropy.principal(*p)
+                cond[tag] = made if made is not None else Anisotropy.principal(*p)
             except QmeshError as e:
                 raise QmeshError(f"{cells.cell_of_zone(x, y, k1, k2, angle, p)}: {e}") from None
         return domain, cond

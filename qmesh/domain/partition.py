@@ -116,10 +116,12 @@ def partition(rings: list[Ring], segment_tags: list[np.ndarray], size: float) ->
     keep = np.sort(np.unique(first[label]))
     V, Vu = pts[keep], user[keep]
     # directed input segments: vertex ids, owner ring, segment index within its ring
-    sa = np.concatenate([vid[o:o + n] for o, n in zip(offsets, sizes)])
-    sb = np.concatenate([np.roll(vid[o:o + n], -1) for o, n in zip(offsets, sizes)])
     sring = np.repeat(np.arange(len(rings)), sizes)
-    sseg = np.concatenate([np.arange(n) for n in sizes])
+    sseg = np.arange(len(pts)) - offsets[:-1][sring]        # each point's index in its ring
+    ends = offsets[1:] - 1
+    succ = np.arange(1, len(pts) + 1)                       # each point's successor on its ring
+    succ[ends] = offsets[:-1]
+    sa, sb = vid, vid[succ]
     degenerate = sa == sb
     if degenerate.any():
         k = int(np.flatnonzero(degenerate)[0])
