@@ -434,6 +434,7 @@ def _conforming(domain, P, edge_id, anisotropy, size, max_points, pinned, place,
         keep = _encroaching_free(domain, P, edge_id, anisotropy, size, far)
         P, edge_id, pinned, place = P[keep], edge_id[keep], pinned[keep], place[keep]
     presplit = anisotropy.is_constant
+    kept = None          # a metric without s: the last round's triangulation, its splits made
     for _ in range(MAX_ROUNDS):
         crowded = _split_crowded(domain, P, edge_id, pinned, place, anisotropy, size,
                                  max_points) if presplit else None
@@ -448,11 +449,15 @@ def _conforming(domain, P, edge_id, anisotropy, size, max_points, pinned, place,
             / seg_len2[edge_id[on]]
         a, b = _subsegments(domain, n_seeds, edge_id, t)
         closed = None if lattice is None else lattice_delaunay.closed_form(lattice[0], place, lattice[1])
-        try:
-            T, twin = first_triangulation(P, anisotropy, (np.arange(n) < n_seeds) | (edge_id >= 0),
-                                          closed)
-        except Crowded:
-            raise SharpCorner(*sharpest_corner(domain, anisotropy), n) from None
+        if kept is not None:
+            T, twin = kept
+        else:
+            try:
+                T, twin = first_triangulation(P, anisotropy,
+                                              (np.arange(n) < n_seeds) | (edge_id >= 0), closed)
+            except Crowded:
+                raise SharpCorner(*sharpest_corner(domain, anisotropy), n) from None
+        kept = None
         h = topology.find_half_edges(T, n, a, b)
         missing = h < 0
         apex = np.where(missing, 0, T.ravel()[np.where(missing, 0, (h - h % 3) + topology.PRV[h % 3])])
@@ -473,6 +478,10 @@ def _conforming(domain, P, edge_id, anisotropy, size, max_points, pinned, place,
                                  "please report this domain")
             T, twin = _canonical_order(T, twin, rows)
             return Conforming(P, T, twin, edge_id, pinned), place
+        incremental = not anisotropy.potential and not len(drop) and not missing[split].any()
+        if incremental:      # only edges to split: split them in place (one per triangle)
+            split &= _one_per_triangle(h, twin, split)
+        hs = h[split]
         crowd = ~missing[split] & ~free[split]              # split for another boundary point
         a, b = a[split], b[split]
         if max_points is not None and n + len(a) > max_points:
@@ -485,7 +494,42 @@ def _conforming(domain, P, edge_id, anisotropy, size, max_points, pinned, place,
         edge_id = np.concatenate([edge_id[keep], new_seg])
         pinned = np.concatenate([pinned[keep], crowd])
         place = np.concatenate([place[keep], np.full(len(new), -1, np.int64)])
+        if incremental:
+            kept = _split_in_place(P, T, twin, hs, n, anisotropy)
     raise QmeshError("the conforming triangulation did not settle; please report this domain")
+
+
+def _one_per_triangle(h, twin, split):
+    """Which of the half-edges h[split] to split now: each the first of those touching its
+    triangles (the others wait for the next round, which finds them again)."""
+    k = np.flatnonzero(split)
+    g = twin[h[k]]
+    t1, t2 = h[k] // 3, np.where(g >= 0, g // 3, h[k] // 3)
+    first = np.full(int(max(t1.max(), t2.max())) + 1 if len(k) else 0, len(k))
+    order = np.arange(len(k))
+    np.minimum.at(first, t1, order)
+    np.minimum.at(first, t2, order)
+    out = np.zeros(len(h), bool)
+    out[k[(first[t1] == order) & (first[t2] == order)]] = True
+    return out
+
+
+def _split_in_place(P, T, twin, hs, n, anisotropy):
+    """The triangulation with the edges hs split at the points n, n + 1, … of P (one per
+    triangle), made locally regular again around them by `restore`'s flips: a round that only
+    splits encroached subsegments (a metric without s, whose boundary crowds itself across a
+    part thin in the metric: a chain of splits) needs no Qhull build from scratch."""
+    p = n + np.arange(len(hs))
+    inner = twin[hs] >= 0
+    if inner.any():
+        T, twin = topology.split_edges(T, twin, hs[inner], p[inner])
+    if (~inner).any():
+        T, twin = topology.split_boundary_edges(T, twin, hs[~inner], p[~inner])
+    mark = np.zeros(len(P), bool)
+    mark[p] = True
+    rows = np.flatnonzero(topology.touching(T, mark))
+    T, twin, _ = restore(P, T, twin, anisotropy, candidates=(3 * rows[:, None] + np.arange(3)).ravel())
+    return T, twin
 
 
 # --------------------------------------------------------------------------- kept connectivity
