@@ -1,0 +1,45 @@
+"""The tensor-field seeding's oriented conflict search finds exactly the pairs a brute-force
+test of every pair finds, its per-group trees cut to the points within reach."""
+
+import numpy as np
+
+from qmesh.mesher import seeding_varying as sv
+
+
+def turning_metric(X, ratio):
+    """det 1, major axis turning with the angle around (0.5, 0.5): a field-aligned shape."""
+    t = np.arctan2(X[:, 1] - 0.5, X[:, 0] - 0.5)
+    c, s = np.cos(t), np.sin(t)
+    R = np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], -2)
+    D = np.zeros((len(X), 2, 2))
+    D[:, 0, 0], D[:, 1, 1] = np.sqrt(ratio), 1.0 / np.sqrt(ratio)
+    return np.einsum("nij,njk,nlk->nil", R, D, R)
+
+
+def brute_force(X, H, r):
+    i, j = np.triu_indices(len(X), 1)
+    E = X[j] - X[i]
+    d2 = 0.5 * (sv._quadratic(E, H[i]) + sv._quadratic(E, H[j]))
+    return i[d2 < r * r], j[d2 < r * r]
+
+
+def test_oriented_conflicts_are_every_pair_closer_than_r():
+    rng = np.random.default_rng(3)
+    for ratio in (4.0, 100.0, 1e4):
+        X = rng.random((1500, 2))
+        H = turning_metric(X, ratio)
+        r = 0.03
+        i, j = sv._conflicts_oriented(X, H, r)
+        bi, bj = brute_force(X, H, r)
+        assert len(bi) > 0
+        assert np.array_equal(i, bi) and np.array_equal(j, bj)
+
+
+def test_near_cells_hold_every_point_within_a_cell():
+    rng = np.random.default_rng(4)
+    X = rng.random((3000, 2))
+    src = rng.choice(3000, 40, replace=False)
+    cell = 0.05
+    pool = sv._near_cells(X, src, cell)
+    d = np.hypot(*(X[:, None, :] - X[src][None]).transpose(2, 0, 1)).min(axis=1)
+    assert set(np.flatnonzero(d <= cell)) <= set(pool)
