@@ -76,7 +76,7 @@ def run_job(job: Job) -> dict:
             row["seconds"] = time.perf_counter() - start       # the meshing time, as `qmesh mesh` prints it
         notes = [str(w.message) for w in caught if issubclass(w.category, QmeshWarning)]
         row["warning"] = "; ".join(dict.fromkeys(notes)) or None
-        report = measure.report(mesh, anisotropy)
+        report = measure.report(mesh, anisotropy, laplacian=False)   # its κ2 for Q = I is not kept
         row.update({k: report[k] for k in REPORTED})
         io.write(job.mesh, mesh, anisotropy=anisotropy)
         row["mesh"] = job.mesh
