@@ -123,24 +123,38 @@ def _component_rings(x, y, comp, n_comp):
                                   connection="weak")
     first = np.full(cyc.max() + 1, -1)
     first[cyc[::-1]] = np.arange(n)[::-1]
+    # every cycle walked from its first edge, all at once: steps from each edge to its cycle's
+    # first one by pointer doubling (a walk edge by edge is a Python step per cell edge)
+    is_first = np.zeros(n, bool)
+    is_first[first] = True
+    succ, dist = np.where(is_first, np.arange(n), nxt), (~is_first).astype(np.int64)
+    while not np.array_equal(succ[succ], succ):
+        dist += dist[succ]
+        succ = succ[succ]
+    size = np.bincount(cyc, minlength=len(first))
+    walk = np.lexsort(((size[cyc] - dist) % size[cyc], cyc))
+    P = V[E[walk, 0]]
+    ring = cyc[walk]
+    start = np.cumsum(size) - size
+    prev = np.arange(n) - 1
+    prev[start] = start + size - 1
+    after = np.arange(1, n + 1)
+    after[start + size - 1] = start
+    d_in, d_out = P - P[prev], P[after] - P
+    turn = d_in[:, 0] * d_out[:, 1] - d_in[:, 1] * d_out[:, 0]
+    P, ring = P[turn != 0], ring[turn != 0]                # straight runs: their ends only
+    size = np.bincount(ring, minlength=len(first))
+    start = np.cumsum(size) - size
+    after = np.arange(1, len(P) + 1)
+    after[start + size - 1] = start
+    P0 = P[start][ring]
+    R = (P - P0) / np.maximum.reduceat(np.abs(P - P0).max(axis=1), start)[ring][:, None]   # the sign survives
+    area = np.bincount(ring, R[:, 0] * R[after, 1] - R[:, 1] * R[after, 0], minlength=len(first))
+    owners = E[first, 2].tolist()
     out = [[None, []] for _ in range(n_comp)]
-    for k in range(len(first)):
-        h0 = h = first[k]
-        ring = []
-        while True:
-            ring.append(E[h, 0])
-            h = nxt[h]
-            if h == h0:
-                break
-        P = V[np.array(ring)]
-        d_in, d_out = P - np.roll(P, 1, axis=0), np.roll(P, -1, axis=0) - P
-        turn = d_in[:, 0] * d_out[:, 1] - d_in[:, 1] * d_out[:, 0]
-        P = P[turn != 0]                                  # straight runs: their ends only
-        R = (P - P[0]) / np.abs(P - P[0]).max()           # the sign survives far-off or huge grids
-        area = np.sum(R[:, 0] * np.roll(R[:, 1], -1) - R[:, 1] * np.roll(R[:, 0], -1))
-        owner = E[first[k], 2]
-        if area > 0:
-            out[owner][0] = P
+    for k, (a, b) in enumerate(zip(start.tolist(), (start + size).tolist())):
+        if area[k] > 0:
+            out[owners[k]][0] = P[a:b]
         else:
-            out[owner][1].append(P)
+            out[owners[k]][1].append(P[a:b])
     return out
