@@ -106,6 +106,7 @@ def _nearest(P: np.ndarray, A: np.ndarray, B: np.ndarray, reach: float, pt: np.n
 
 
 GRID_MIN = 20_000       # points and segments from which `distance` uses the grid
+BAND_MIN = 2_000        # segments from which crossings and near_points count their y-bands' pairs
 GRID_PAIRS = 8          # ... or fewer, when the y-bands would pair them this many times over
 REGISTER_MAX = 4        # cell registrations (25 per cell a segment passes) per point and segment
 REGISTER_FLOOR = 4_000_000   # registrations allowed whatever the counts (32 MB of keys)
@@ -226,7 +227,7 @@ def crossings(A: np.ndarray, B: np.ndarray, ia: np.ndarray, ib: np.ndarray) -> n
     # Where the y-bands hold many segments each (rings side by side), balls around the
     # segments' pieces give the candidates instead: the same test on them, the same pairs.
     cand = None
-    if len(A) >= GRID_MIN:
+    if len(A) >= BAND_MIN:
         order = np.argsort(ylo, kind="stable")
         if _band_pairs(ylo[order], A, B, 0.0) > GRID_PAIRS * len(A):
             cand = _ball_segment_pairs(A, B)
@@ -296,7 +297,7 @@ def near_points(P: np.ndarray, A: np.ndarray, B: np.ndarray, ia: np.ndarray, ib:
     (`_ball_pairs`); the same test then keeps the same pairs, sorted into the sweep's order."""
     size = len(P) + len(A)
     order = np.argsort(P[:, 1], kind="stable")
-    if size >= GRID_MIN and _band_pairs(P[order, 1], A, B, reach) > GRID_PAIRS * size:
+    if size >= BAND_MIN and _band_pairs(P[order, 1], A, B, reach) > GRID_PAIRS * size:
         cand = _ball_pairs(P, A, B, reach)
         if cand is not None:
             pt, sg = cand
