@@ -325,8 +325,9 @@ class QmeshView(TrameApp):
         status line)."""
         c = self.session
         options = self._view_options()
-        each = self.view_mode == "remote" and self.views.placed(
-            c.anisotropy, domain=options["domain"], z_scale=options["z_scale"])
+        each = (self.view_mode == "remote" and not self.state.running
+                and self.views.placed(c.anisotropy, domain=options["domain"],
+                                      z_scale=options["z_scale"]))
         i = self._show(push=False, index=index, draw=not each)
         self._messages()
         if each:
@@ -340,7 +341,9 @@ class QmeshView(TrameApp):
         scenes are built in the scene thread in drawing order (`draw.view_scene`), the next
         while this loop has the one before rendered and encoded (VTK renders without the GIL),
         and the legend follows the pictures. Only while every camera stays where it is
-        (`ViewSet.placed`); else `_redraw` draws all three at once."""
+        (`ViewSet.placed`) and no Run is meshing on meanwhile (a third busy thread beside the
+        mesher and the renders slowed the run more than it sped the pictures); else `_redraw`
+        draws all three at once."""
         c = self.session
         step, anisotropy = c.history[index], c.anisotropy
         loop = asyncio.get_running_loop()
