@@ -33,7 +33,7 @@ from qmesh.media.plan import FaceMeshes, MediaPlan
 from qmesh.media.stitch import stitch
 from qmesh.mesher import loop, sizing
 from qmesh.mesher.components import joined, split
-from qmesh.mesher.diagnose import thin_domain
+from qmesh.mesher.diagnose import SLIVER, thin_domain
 from qmesh.mesher.options import Options, check_keywords
 from qmesh.mesher.plan import TOLERANCE    # a mesh this share off target_vertices is warned about
 from qmesh.mesher.step import Stats, Step, last_step, recording
@@ -104,10 +104,11 @@ def _run(plan: MediaPlan, options: dict, every: bool) -> Iterator[Step]:
         notes += [(f"{plan.face_name(faces[0])}: {w.message}", w.category) for w in said]
         for i, mesh in zip(faces, split(step.mesh, doms)):
             a = plan.anis[i]                 # its shape only: a Q of 1e300 would overflow the areas
-            thin = thin_domain(mesh, Anisotropy.constant(a.matrix / plan.k[i]) if a.is_constant else a)
+            # no sliver and an interior vertex: thin_domain has nothing to say (its hull is the cost)
+            sound = (~mesh.boundary).any() and _worst(mesh, a) >= SLIVER
+            thin = None if sound else thin_domain(mesh, Anisotropy.constant(a.matrix / plan.k[i]) if a.is_constant else a)
             notes += [] if thin is None else [(f"{plan.face_name(i)}: {thin}", QmeshWarning)]
             meshes[i] = mesh
-        new = points_on_edges(step.mesh, plan.corners, int(step.mesh.fixed.sum()))   # all at once
         _share(plan, meshes, step.mesh, extra, options, redone)
         at += len(faces)
     m = stitch(plan.part, meshes, plan.domain)
