@@ -87,12 +87,59 @@ class Partition:
         order = np.lexsort(((size[cyc] - dist) % size[cyc], cyc))
         return order, np.concatenate([[0], np.cumsum(size)])
 
+    def outer_corners(self) -> tuple[np.ndarray, np.ndarray]:
+        """The corners of every face's outer cycle, face after face, and where each face's start."""
+        order, start = self.walk
+        c0 = np.array([f.cycles[0] for f in self.faces], np.int64)
+        n0 = start[c0 + 1] - start[c0]
+        first = np.cumsum(n0) - n0
+        return self.points[self.half_from[order[np.repeat(start[c0] - first, n0) + np.arange(n0.sum())]]], first
+
+    def face_rings(self, face: Face, extra: dict) -> tuple[list, list, bool]:
+        """The rings of `face` (outer first) with `extra[e]` (points on edge e, in order from
+        edges[e, 0]) inserted along their edges, each point's segment tag (edge + 1), and whether
+        they are the partition's own: no extra point, and no vertex met twice (a pinch)."""
+        order, start = self.walk
+        c = np.asarray(face.cycles, np.int64)
+        size = start[c + 1] - start[c]
+        hs = order[np.repeat(start[c] - np.cumsum(size) + size, size) + np.arange(size.sum())]
+        e = hs >> 1                      # half-edge h runs along edge h >> 1, backwards when odd
+        R, tags = self.points[self.half_from[hs]], e + 1
+        xs = [extra.get(k) for k in e.tolist()] if extra else []
+        n = np.fromiter((0 if x is None else len(x) for x in xs), np.int64, len(xs))
+        own = not n.any()
+        if not own:
+            at = np.arange(len(hs)) + np.cumsum(n) - n       # each corner, its edge's points after it
+            inner = np.ones(len(hs) + int(n.sum()), bool)
+            inner[at] = False
+            corners, R = R, np.empty((len(inner), 2))
+            R[at] = corners
+            R[inner] = np.concatenate([x[::-1] if h & 1 else x for h, x in zip(hs.tolist(), xs)
+                                       if x is not None and len(x)])
+            tags, size = np.repeat(tags, n + 1), np.add.reduceat(n + 1, np.cumsum(size) - size)
+        else:
+            own = len(np.unique(self.half_from[hs])) == len(hs)
+        cut = np.cumsum(size).tolist()
+        return ([R[a:b] for a, b in zip([0] + cut, cut)], [tags[a:b] for a, b in zip([0] + cut, cut)],
+                own)
+
     @cached_property
     def interface(self) -> np.ndarray:
         """Edges with a face of Ω on both sides (read once per face and hand-over)."""
         out = (self.edge_faces >= 0).all(axis=1)
         out.setflags(write=False)
         return out
+
+
+def points_on_edges(mesh, corners: cKDTree, n_seeds: int) -> dict:
+    """The vertices a face mesh put on partition edges, beyond its input points: {edge: (k, 2)}
+    (a corner of the partition, round-off copies included, is never a point "on" an edge:
+    `corners`, a KD-tree of the partition's points)."""
+    e, v = np.repeat(mesh.boundary_tags - 1, 2), mesh.boundary_edges.ravel()
+    ev = np.unique(np.column_stack([e, v])[v >= n_seeds], axis=0)       # by edge, then vertex
+    tol = 1e-12 * float((corners.maxes - corners.mins).max())          # np.ptp of its points
+    ev = ev[corners.query(mesh.points[ev[:, 1]])[0] > tol]
+    return {int(k): mesh.points[ev[ev[:, 0] == k, 1]] for k in np.unique(ev[:, 0])}
 
 
 def partition(rings: list[Ring], segment_tags: list[np.ndarray], size: float) -> Partition:

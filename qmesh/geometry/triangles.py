@@ -140,6 +140,11 @@ def metric_quality(P: np.ndarray, T: np.ndarray, H: np.ndarray) -> np.ndarray:
     return out
 
 
+def worst_metric_quality(P: np.ndarray, T: np.ndarray, anisotropy) -> float:
+    """The lowest quality (2.94) of the triangles T in the metric of `anisotropy`."""
+    return float(metric_quality(P, T, metric_hessians(anisotropy, P, T)).min())
+
+
 def _metric_quality(P: np.ndarray, T: np.ndarray, H: np.ndarray) -> np.ndarray:
     return _quality(metric_areas(P, T, H), metric_edge_lengths2(P, T, H))
 

@@ -10,8 +10,7 @@ Algorithm 2.1 itself (`mesher.loop.iterate`), on shared interface points:
     for each face, smallest region first (small faces of one Q together: mesher.components)
         size the faces left for what the target leaves                     (plan.size_rest)
         run Algorithm 2.1 on it, every interface point known so far fixed
-        insert the points it added on an interface into the finished neighbours (insert_shared.py),
-        meshing one again, its points fixed, where they leave it slivers
+        insert its interface points into the finished neighbours (insert_shared.py; slivers: again)
     stitch the face meshes into one Mesh with region_tags                   (stitch.py)
 """
 
@@ -23,20 +22,20 @@ from typing import Any
 
 import numpy as np
 
-from qmesh.conductivity.anisotropy import Anisotropy
 from qmesh.domain.domain import as_domain
 from qmesh.errors import QmeshError, QmeshWarning
-from qmesh.geometry.triangles import metric_hessians, metric_quality
-from qmesh.media.faces import face_domain, points_on_edges
+from qmesh.geometry.triangles import worst_metric_quality
+from qmesh.domain.partition import points_on_edges
+from qmesh.media.faces import face_domain
 from qmesh.media.insert_shared import insert_on_boundary
 from qmesh.media.plan import FaceMeshes, MediaPlan
 from qmesh.media.stitch import stitch
 from qmesh.mesher import loop, sizing
 from qmesh.mesher.components import joined, split
-from qmesh.mesher.diagnose import SLIVER, thin_domain
+from qmesh.mesher.diagnose import thin_face
 from qmesh.mesher.options import Options, check_keywords
 from qmesh.mesher.plan import TOLERANCE    # a mesh this share off target_vertices is warned about
-from qmesh.mesher.step import Stats, Step, last_step, recording
+from qmesh.mesher.step import Stats, Step, last_step, recording, summed_up
 from qmesh.triangle_mesh import Mesh
 
 FLOOR = 0.3            # a hand-over leaving a face's worst quality below this meshes it again
@@ -103,10 +102,7 @@ def _run(plan: MediaPlan, options: dict, every: bool) -> Iterator[Step]:
             continue
         notes += [(f"{plan.face_name(faces[0])}: {w.message}", w.category) for w in said]
         for i, mesh in zip(faces, split(step.mesh, doms)):
-            a = plan.anis[i]                 # its shape only: a Q of 1e300 would overflow the areas
-            # no sliver and an interior vertex: thin_domain has nothing to say (its hull is the cost)
-            sound = (~mesh.boundary).any() and _worst(mesh, a) >= SLIVER
-            thin = None if sound else thin_domain(mesh, Anisotropy.constant(a.matrix / plan.k[i]) if a.is_constant else a)
+            thin = thin_face(mesh, plan.anis[i], plan.k[i])
             notes += [] if thin is None else [(f"{plan.face_name(i)}: {thin}", QmeshWarning)]
             meshes[i] = mesh
         _share(plan, meshes, step.mesh, extra, options, redone)
@@ -114,7 +110,7 @@ def _run(plan: MediaPlan, options: dict, every: bool) -> Iterator[Step]:
     m = stitch(plan.part, meshes, plan.domain)
     yield Step("triangulate", step.iteration, m, Stats(m.n_vertices, m.n_triangles, source=(m, cond)),
                converged=True)
-    for message, category in _summary(notes):
+    for message, category in summed_up(notes, MAX_NOTES):
         warnings.warn(message, category, stacklevel=3)
     if plan.target is not None and abs(m.n_vertices - plan.target) > TOLERANCE * plan.target:
         least = (f", about the least these regions need (their widths in their own metrics and "
@@ -123,18 +119,6 @@ def _run(plan: MediaPlan, options: dict, every: bool) -> Iterator[Step]:
                  " (the interfaces and q_ij >= 0 on them need these)")
         warnings.warn(f"target_vertices = {plan.target}: the mesh has {m.n_vertices} vertices"
                       + least, QmeshWarning, stacklevel=3)
-
-
-def _summary(notes: list) -> list:
-    """The faces' warnings, at most MAX_NOTES of them: beyond, the first ones and one line
-    counting the rest by region (a zoned model warns once, not once per zone)."""
-    if len(notes) <= MAX_NOTES:
-        return notes
-    rest = notes[MAX_NOTES - 1:]
-    names = sorted({m.split(":")[0] for m, _ in rest}, key=lambda n: (len(n), n))
-    shown = ", ".join(names[:5]) + (", …" if len(names) > 5 else "")
-    return notes[:MAX_NOTES - 1] + [(f"{len(rest)} more warnings of the same kinds from "
-                                     f"{len(names)} regions ({shown})", QmeshWarning)]
 
 
 def _group(plan: MediaPlan, at: int, extra: dict, meshes: FaceMeshes, alone: set) -> tuple[list, list]:
@@ -201,8 +185,7 @@ def _share(plan: MediaPlan, meshes: FaceMeshes, mesh: Mesh, extra: dict, options
         beside = {int(f) for e in pts for f in part.edge_faces[e] if int(f) in rank}
         for j in sorted(beside, key=lambda f: rank[f]):     # the finished faces beside these edges only
             give = {e: X for e, X in pts.items() if j in part.edge_faces[e]}
-            if j not in before:
-                before[j] = _worst(meshes[j], plan.anis[j])
+            before[j] = before[j] if j in before else _worst(meshes[j], plan.anis[j])
             try:
                 meshes[j], more = insert_on_boundary(meshes[j], plan.anis[j], give, part)
             except QmeshError as err:
@@ -228,6 +211,4 @@ def _share(plan: MediaPlan, meshes: FaceMeshes, mesh: Mesh, extra: dict, options
 
 
 def _worst(mesh: Mesh, anisotropy: Any) -> float:
-    """The lowest metric quality (2.94) of a face mesh."""
-    P, T = mesh.points, mesh.triangles
-    return float(metric_quality(P, T, metric_hessians(anisotropy, P, T)).min())
+    return worst_metric_quality(mesh.points, mesh.triangles, anisotropy)

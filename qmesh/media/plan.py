@@ -22,8 +22,9 @@ from qmesh.domain.regions import conductivity_of_regions
 from qmesh.errors import QmeshError
 from qmesh.media.faces import face_domain
 from qmesh.mesher import sizing
-from qmesh.mesher.normalise import hessian_scale
+from qmesh.mesher.normalise import hessian_scales
 from qmesh.mesher.plan import BOUNDARY_FACTOR
+from qmesh.mesher.widths import thin_widths
 from qmesh.triangle_mesh import Mesh
 
 RESIZE = 2.0     # the faces still to come are sized at most this factor away from the first h
@@ -53,7 +54,7 @@ class MediaPlan:
             raise QmeshError(f"target_vertices = {target_vertices} must exceed the "
                              f"{len(part.points)} input points of the domain and its regions")
         bare = [face_domain(part, f, {}, self.face_name(i)) for i, f in enumerate(self.faces)]
-        self.k = _scales(self.anis, bare)
+        self.k = hessian_scales(self.anis, [d.seeds for d in bare])
         self.area = np.array([sizing.metric_area_scaled(d, a, k) for d, a, k in zip(bare, self.anis, self.k)])
         lengths = [sizing.metric_edge_lengths(d, a, k) for d, a, k in zip(bare, self.anis, self.k)]
         check_junctions(part, self.anis, self.face_name)
@@ -69,7 +70,9 @@ class MediaPlan:
         self._side = slot[self._inter]
         self.longest = self._seg_len[self._side].max(axis=1)        # in the longer side's metric
         longest = np.array([L.max() for L in lengths])
-        self.extent, width = self._outlines(longest)
+        X, first = part.outer_corners()
+        self.extent = (np.maximum.reduceat(X, first) - np.minimum.reduceat(X, first)).max(axis=1)
+        width = thin_widths(X, first, self.anis, self.k, longest, THIN_ASPECT)
         w = np.where(THIN_ASPECT * width < longest, THIN * width, np.inf)
         self._thin_step = w[self._seg_face]
         self.target = target_vertices
@@ -87,37 +90,6 @@ class MediaPlan:
             sizing.check_vertex_count(self.counter(self.order)(self.h), f"size = {self.h:.3g}")
         self.h_rest = self.h
         self.extra = self._cuts(self.h)
-
-    def _outlines(self, longest: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Each face's extent, and the width of its outline's hull in its metric where the face
-        may be thin (THIN_ASPECT widths shorter than its longest segment), else inf. A hull is at
-        least its area over its diameter wide: that bound in each face's metric, taken for all
-        faces at once, clears the compact faces; only the others build their hull."""
-        part, n_f = self.part, len(self.faces)
-        order, start = part.walk
-        c0 = np.array([f.cycles[0] for f in self.faces], np.int64)
-        n0 = start[c0 + 1] - start[c0]
-        first = np.cumsum(n0) - n0
-        X = part.points[part.half_from[order[np.repeat(start[c0] - first, n0) + np.arange(n0.sum())]]]
-        lo, hi = np.minimum.reduceat(X, first), np.maximum.reduceat(X, first)
-        face = np.repeat(np.arange(n_f), n0)
-        nxt = np.arange(1, len(X) + 1)
-        nxt[first + n0 - 1] = first
-        d = X - lo[face]
-        area = 0.5 * np.abs(np.bincount(face, d[:, 0] * d[nxt, 1] - d[:, 1] * d[nxt, 0], minlength=n_f))
-        H = np.array([a.H / k if a.is_constant else np.full((2, 2), np.nan) for a, k in zip(self.anis, self.k)])
-        a, b, c = H[:, 0, 0], H[:, 0, 1], H[:, 1, 1]
-        det = a * c - b * b
-        with np.errstate(all="ignore"):
-            l00, l10, l11 = np.sqrt(a), b / np.sqrt(a), np.sqrt(det / a)     # H = L Lᵀ
-            Y = np.column_stack([d[:, 0] * l00[face] + d[:, 1] * l10[face], d[:, 1] * l11[face]])
-            across = np.hypot(*(np.maximum.reduceat(Y, first) - np.minimum.reduceat(Y, first)).T)
-            low = (1 - 1e-6) * area * l00 * l11 / across        # metric area / metric diameter
-            clear = (det > 1e-6 * a * c) & np.isfinite(low) & (THIN_ASPECT * low >= longest)
-        width = np.full(n_f, np.inf)
-        for i in np.flatnonzero(~clear):
-            width[i] = sizing.hull_metric_width(X[first[i]:first[i] + n0[i]].copy(), self.anis[i], self.k[i])
-        return (hi - lo).max(axis=1), width
 
     def face_name(self, i: int) -> str:
         r, names = self.faces[i].region, self.domain.region_names
@@ -211,21 +183,6 @@ class MediaPlan:
         pieces = np.maximum(1, np.ceil(self.longest / (BOUNDARY_FACTOR * h))).astype(np.int64)
         return {int(e): V[E[e, 0]] + (np.arange(1, n) / n)[:, None] * (V[E[e, 1]] - V[E[e, 0]])
                 for e, n in zip(self._inter, pieces) if n > 1}
-
-
-def _scales(anis: list, domains: list) -> list[float]:
-    """Each face's k (`hessian_scale`): a constant Q's does not depend on the face, so it is
-    taken once per Anisotropy, not once per face."""
-    known: dict[int, float] = {}
-    out = []
-    for a, d in zip(anis, domains):
-        if not a.is_constant:
-            out.append(hessian_scale(a, d.seeds))
-            continue
-        if id(a) not in known:
-            known[id(a)] = hessian_scale(a, d.seeds)
-        out.append(known[id(a)])
-    return out
 
 
 class FaceMeshes(dict[int, Mesh]):

@@ -17,13 +17,13 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import ConvexHull, QhullError
 
+from qmesh.conductivity.anisotropy import Anisotropy
 from qmesh.errors import QmeshWarning
 from qmesh.geometry.rings import convex_width
-from qmesh.geometry.triangles import metric_areas, metric_hessians, metric_quality
+from qmesh.geometry.triangles import metric_areas, metric_hessians, metric_quality, worst_metric_quality
 from qmesh.mesher.sizing import equilateral_area, vertices_from_counts
 
 if TYPE_CHECKING:
-    from qmesh.conductivity.anisotropy import Anisotropy
     from qmesh.triangle_mesh import Mesh
 
 ROWS = 2.0               # elements across the domain that a usable mesh needs
@@ -56,6 +56,15 @@ def metric_width(points: NDArray[np.float64], H: NDArray[np.float64], metric_are
 def vertices_for(metric_area: float, metric_perimeter: float, h: float) -> int:
     """Vertex count of a mesh of metric size h: M = 2N − N_b − 2 with N_b ≈ perimeter / h."""
     return int(np.ceil(vertices_from_counts(metric_area, h, metric_perimeter / h)))
+
+
+def thin_face(mesh: Mesh, anisotropy: Anisotropy, k: float = 1.0) -> str | None:
+    """`thin_domain` in the shape of a constant Q (Q / k: a Q of 1e300 would overflow the
+    areas), and None at once for a mesh with an interior vertex and no sliver, of which it has
+    nothing to say (its hull would be the cost, for each of a thousand small faces)."""
+    if (~mesh.boundary).any() and worst_metric_quality(mesh.points, mesh.triangles, anisotropy) >= SLIVER:
+        return None
+    return thin_domain(mesh, Anisotropy.constant(anisotropy.matrix / k) if anisotropy.is_constant else anisotropy)
 
 
 def thin_domain(mesh: Mesh, anisotropy: Anisotropy) -> str | None:

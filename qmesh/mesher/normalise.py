@@ -34,6 +34,21 @@ def hessian_scale(anisotropy, X: np.ndarray) -> float:
     return k
 
 
+def hessian_scales(anisotropies: list, point_sets: list) -> list[float]:
+    """`hessian_scale` of each anisotropy over its points; a constant Q's, which does not depend
+    on the points, is taken once per Anisotropy (a thousand regions of one Q: once)."""
+    known: dict[int, float] = {}
+    out = []
+    for a, X in zip(anisotropies, point_sets):
+        if not a.is_constant:
+            out.append(hessian_scale(a, X))
+            continue
+        if id(a) not in known:
+            known[id(a)] = hessian_scale(a, X)
+        out.append(known[id(a)])
+    return out
+
+
 class Normalisation:
     """The map x = c + d·y, and s scaled by 1/(d²k): the domain and anisotropy the mesher sees."""
 

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from qmesh.errors import QmeshError
+from qmesh.errors import QmeshError, QmeshWarning
 from qmesh.geometry.triangles import metric_hessians, metric_quality
 from qmesh import measure
 from qmesh.measure import triangle_energy
@@ -132,3 +132,16 @@ def recording(steps: Iterator[Step], said: list) -> Iterator[Step]:
         if step is None:
             return
         yield step
+
+
+def summed_up(notes: list, most: int = 3) -> list:
+    """Warnings (message, category) of many runs, each message "<name>: <what>": at most `most`
+    of them, the first ones and then one line counting the rest by name (a zoned model warns
+    once, not once per zone)."""
+    if len(notes) <= most:
+        return notes
+    rest = notes[most - 1:]
+    names = sorted({m.split(":")[0] for m, _ in rest}, key=lambda n: (len(n), n))
+    shown = ", ".join(names[:5]) + (", …" if len(names) > 5 else "")
+    return notes[:most - 1] + [(f"{len(rest)} more warnings of the same kinds from "
+                                f"{len(names)} regions ({shown})", QmeshWarning)]

@@ -1,5 +1,5 @@
 """The running vertex count of the finished face meshes (`plan.FaceMeshes`) against a full
-recount, and the partition's KD-tree shared by all faces (`faces.points_on_edges`)."""
+recount, and the partition's KD-tree shared by all faces (`partition.points_on_edges`)."""
 
 import warnings
 
@@ -9,7 +9,7 @@ from scipy.spatial import cKDTree
 import qmesh
 from qmesh.domain import media_cases
 from qmesh.media import mesher
-from qmesh.media.faces import points_on_edges
+from qmesh.domain.partition import points_on_edges
 from qmesh.media.plan import FaceMeshes, MediaPlan
 from tests.media.cases import hexagons
 
