@@ -341,11 +341,6 @@ def initial_points(domain, anisotropy, n: int, rng) -> np.ndarray:
             best = P
         if abs(len(P) - n) <= 0.03 * n:
             break
-        if not anisotropy.potential:
-            # a tensor field's seams lose a share of the points, not a band: up to a third
-            # where its direction turns fast (FVCA5 test 5), which the band's h misses by 10%
-            h *= np.sqrt(len(P) / n) if len(P) else 0.5
-            continue
         # the count is (area_m − band·h) / (cell·h²): the margin and the seams lose a band whose
         # metric length this pass measures; solve cell·n·h² + band·h = area_m for the next h
         band = max((area_m - len(P) * cell * h * h) / h, 0.0)
