@@ -76,6 +76,7 @@ try:
 except ImportError:                                   # imported from the tests
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     import report_page
+from corners import corner_bound  # noqa: E402 — beside report_page, found the same way
 
 DELTA = 1e-3
 EPSILON = 1e-4
@@ -349,36 +350,6 @@ def positive_off_diagonals(P, T, Qbar) -> tuple[int, int, np.ndarray]:
     bad = k > ROUND * scale
     rel = -k / np.where(scale > 0, scale, 1.0)
     return int((bad & (counts == 2)).sum()), int((bad & (counts == 1)).sum()), rel[inv].reshape(-1, 3)
-
-
-def corner_bound(P, T, Qbar) -> float:
-    """What the corners of Ω allow the min quality to be, on this mesh: a triangle with a corner
-    c on the boundary has its angle at c inside the boundary's wedge there, in any linear metric,
-    so at most the wedge's angle α in its own H_T; and a triangle with an angle α < 60° has metric
-    quality (2.94) at most the isosceles one's, 2√3 sin α / (2 + 4 sin²(α/2)). The smallest over
-    the boundary vertices and their triangles (1 where every wedge is 60° or wider)."""
-    X = P[T]
-    cw = ((X[:, 1, 0] - X[:, 0, 0]) * (X[:, 2, 1] - X[:, 0, 1])
-          - (X[:, 1, 1] - X[:, 0, 1]) * (X[:, 2, 0] - X[:, 0, 0])) < 0
-    T = np.where(cw[:, None], T[:, [0, 2, 1]], T)                # Ω to the left of a → b
-    a, b = T.ravel(), T[:, [1, 2, 0]].ravel()
-    _, inv, counts = edges_of(T)
-    out = counts[inv] == 1
-    nxt, prv = np.full(len(P), -1), np.full(len(P), -1)
-    nxt[a[out]], prv[b[out]] = b[out], a[out]
-    c, t = T.ravel(), np.repeat(np.arange(len(T)), 3)
-    on = nxt[c] >= 0
-    c, t = c[on], t[on]
-    u, v = P[nxt[c]] - P[c], P[prv[c]] - P[c]
-    Q = Qbar[t]
-    adj = np.stack([np.stack([Q[:, 1, 1], -Q[:, 0, 1]], -1), np.stack([-Q[:, 1, 0], Q[:, 0, 0]], -1)], -2)
-    R = np.linalg.cholesky(0.5 * (adj + np.swapaxes(adj, 1, 2)))   # H = R Rᵀ: metric vectors Rᵀx
-    U, V = np.einsum("kji,kj->ki", R, u), np.einsum("kji,kj->ki", R, v)
-    alpha = np.arctan2(U[:, 0] * V[:, 1] - U[:, 1] * V[:, 0], (U * V).sum(axis=1)) % (2 * np.pi)
-    alpha = alpha[alpha < np.pi / 3]
-    if not len(alpha):
-        return 1.0
-    return float((2 * np.sqrt(3) * np.sin(alpha) / (2 + 4 * np.sin(alpha / 2) ** 2)).min())
 
 
 def assemble(P, T, Qbar) -> tuple[sp.csr_matrix, np.ndarray, np.ndarray]:

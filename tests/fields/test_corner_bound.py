@@ -1,4 +1,4 @@
-"""The benchmark's corner bound on the min metric quality (benchmarks/bench_fields.py): never
+"""The benchmark's corner bound on the min metric quality (benchmarks/corners.py, as bench_fields.py uses it): never
 below what a mesh reaches, 1 where every corner is 60° or wider in the metric, and reached by
 the isosceles triangle that fills a sharp corner."""
 
