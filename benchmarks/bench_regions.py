@@ -115,31 +115,7 @@ def main(argv=None):
             "overlap, to refuse a target of 6 vertices per inclusion (below the input points), "
             "and to mesh it, beside a plain box at the same N; then `Domain.from_cells` on "
             "n × n cells whose conductivities all differ (n² regions), up to the domain.",
-            tables=tables,
-            notes=["Before these checks were made near-linear (as reported on main 80610ea, a "
-                   "quiet machine): 100 inclusions at N 5,000 took 18 s, 300 took 99 s, 1,000 at "
-                   "N 20,000 took 404 s; refusing 1,000 inclusions took 30 s; `Domain.from_cells` "
-                   "on 200 × 200 all-different cells took 66 s before meshing started.",
-                   "Before small faces of one conductivity shared a run of the mesher "
-                   "(`qmesh.mesher.components`; up to main a619be0 every face had a run of "
-                   "its own): 1,000 inclusions at N 20,000 were 88× the box on the last page (wall "
-                   "time, as on the pages before this one); in the same moment on a loaded machine, "
-                   "18.8 s one run per face against 9.3 s, 300 at N 5,000 5.8 s against 2.9 s, 100 "
-                   "at N 5,000 2.9 s against 1.4 s.",
-                   "Before the per-face work was batched (up to main 3f59364: every face checked as a "
-                   "Domain by the plan, a hull per face, a metric lattice per inclusion, the face "
-                   "around them seeded against a grid of 14,000 segments), 1,000 inclusions at N "
-                   "20,000 took 5.7 s CPU (best of 3) against the box's 0.18 s, 32×; in one moment "
-                   "on a loaded machine, best of 3, 6.1 s before against 3.4 s after (box 0.19 and "
-                   "0.20 s: 32× against 17×); "
-                   "`Domain.from_cells` 200 × 200 took 17.7 s (one `Anisotropy.principal` and one "
-                   "ring walk per zone). Same meshes bit for bit. What is left for 1,000 (CPU, "
-                   "loaded machine): the thin-domain check per finished face (~0.8 s, "
-                   "`mesher.diagnose.thin_domain`: a Qhull hull and a quality pass each), the "
-                   "face around them (~1.2 s: its first Qhull lower hull, conformity, 8 iterations), "
-                   "the inclusions' run (~0.6 s), the groups' face domains and sizing (~0.6 s: the "
-                   "face around them checked with its interface points, a set of points per face), "
-                   "the plan (~0.3 s)."])
+            tables=tables)
 
 
 if __name__ == "__main__":
