@@ -82,8 +82,7 @@ def _run(plan: MediaPlan, options: dict, every: bool) -> Iterator[Step]:
     meshes = FaceMeshes()                    # the finished faces, in the order they were meshed
     notes: list = []                         # (message, category) the faces' runs warned
     cond = {f.region: a for f, a in zip(plan.faces, plan.anis)}
-    at, alone = 0, set[int]()                # alone: faces of a group whose run failed
-    redone = set[int]()                      # finished faces meshed again after a hand-over
+    at, alone, redone = 0, set[int](), set[int]()   # faces of a group whose run failed; meshed again
     while at < len(plan.order):
         if at:
             plan.size_rest(plan.order[at:], meshes.vertex_count())
@@ -105,7 +104,9 @@ def _run(plan: MediaPlan, options: dict, every: bool) -> Iterator[Step]:
             thin = thin_face(mesh, plan.anis[i], plan.k[i])
             notes += [] if thin is None else [(f"{plan.face_name(i)}: {thin}", QmeshWarning)]
             meshes[i] = mesh
-        _share(plan, meshes, step.mesh, extra, options, redone)
+        todo = [step.mesh]                  # a run's mesh, then the faces meshed again
+        while todo:
+            todo += _share(plan, meshes, todo.pop(), extra, options, redone)
         at += len(faces)
     m = stitch(plan.part, meshes, plan.domain)
     yield Step("triangulate", step.iteration, m, Stats(m.n_vertices, m.n_triangles, source=(m, cond)),
@@ -165,13 +166,13 @@ def _face_steps(plan: MediaPlan, faces: list, doms: list, options: dict, said: l
                 raise plan.too_small(i) or QmeshError(f"{plan.face_name(i)}: {e}") from None
 
 
-def _share(plan: MediaPlan, meshes: FaceMeshes, mesh: Mesh, extra: dict, options: dict, redone: set) -> None:
+def _share(plan: MediaPlan, meshes: FaceMeshes, mesh: Mesh, extra: dict, options: dict, redone: set) -> list:
     """Hand the points `mesh` (a run's) put on interfaces to the finished faces beside them (and
     into `extra`), and the points those must add in turn (a split on an interface) likewise. A
     finished face whose worst metric quality such points drop below FLOOR (a fan of them next to
-    its corner, finer than its own spacing) is meshed again with them fixed, once, when that
-    grades it better: its run grades towards fine boundary points as at the chapter's disk tips."""
-    part, rank = plan.part, {j: k for k, j in enumerate(meshes)}
+    its corner, finer than its own spacing) is meshed again with them fixed, once, and kept (and
+    returned, its points to share in turn) when its run, grading towards them, shapes it better."""
+    part, rank, remeshed = plan.part, {j: k for k, j in enumerate(meshes)}, []
     new = points_on_edges(mesh, plan.corners, int(mesh.fixed.sum()))
     queue, before = [{e: X for e, X in new.items() if part.interface[e]}], dict[int, float]()
     for _ in range(MAX_HANDOVERS):
@@ -207,7 +208,8 @@ def _share(plan: MediaPlan, meshes: FaceMeshes, mesh: Mesh, extra: dict, options
             continue
         if _worst(again, plan.anis[j]) > now:
             meshes[j] = again
-            _share(plan, meshes, again, extra, options, redone)
+            remeshed.append(again)
+    return remeshed
 
 
 def _worst(mesh: Mesh, anisotropy: Any) -> float:
