@@ -9,20 +9,16 @@ import sys
 import numpy as np
 import pytest
 import scipy.sparse as sp
-from scipy.spatial import Delaunay
 
 import qmesh
 from qmesh import measure
+from tests.core.test_measure_conditioning import disk_mesh as conditioning_disk
 
 CHAPTER = qmesh.Anisotropy.constant([[0.1, 0.0], [0.0, 10.0]])
 
 
-def disk_mesh(n: int, seed: int, outline: int = 48) -> qmesh.Mesh:
-    rng = np.random.default_rng(seed)
-    t = 2 * np.pi * np.arange(outline) / outline
-    r, a = np.sqrt(rng.random(n)) * 0.97, rng.random(n) * 2 * np.pi
-    P = np.r_[np.c_[np.cos(t), np.sin(t)], np.c_[r * np.cos(a), r * np.sin(a)]]
-    return qmesh.Mesh(P, Delaunay(P).simplices)
+def disk_mesh(n: int, seed: int) -> qmesh.Mesh:
+    return conditioning_disk(n, seed, outline=48, inner=0.97)
 
 
 @pytest.mark.parametrize("anisotropy", [CHAPTER, None])

@@ -18,10 +18,11 @@ from qmesh.domain import media_cases
 CHAPTER = qmesh.Anisotropy.constant([[0.1, 0.0], [0.0, 10.0]])
 
 
-def disk_mesh(n: int, seed: int, outline: int = 24) -> qmesh.Mesh:
+def disk_mesh(n: int, seed: int, outline: int = 24, inner: float = 0.95) -> qmesh.Mesh:
+    """The Delaunay mesh of an `outline`-gon and n random points within radius `inner`."""
     rng = np.random.default_rng(seed)
     t = 2 * np.pi * np.arange(outline) / outline
-    r, a = np.sqrt(rng.random(n)) * 0.95, rng.random(n) * 2 * np.pi
+    r, a = np.sqrt(rng.random(n)) * inner, rng.random(n) * 2 * np.pi
     P = np.r_[np.c_[np.cos(t), np.sin(t)], np.c_[r * np.cos(a), r * np.sin(a)]]
     T = Delaunay(P).simplices
     return qmesh.Mesh(P, T)
