@@ -163,7 +163,7 @@ class Anisotropy:
         return cls.constant(principal_matrix(k1, k2, angle_deg))
 
     @classmethod
-    def _principals(cls, params: Sequence[tuple[float, float, float]]) -> list[Anisotropy | None]:
+    def principals(cls, params: Sequence[tuple[float, float, float]]) -> list[Anisotropy | None]:
         """`principal(k1, k2, angle)` of many (k1, k2, angle) (a grid's zones) at once: the same
         matrices and checks, on stacks of 2×2 matrices (a call per zone costs more than its
         matrix). None where a check fails or comes near failing: principal itself then decides."""

@@ -187,7 +187,8 @@ class Domain:
         return new
 
     @classmethod
-    def _known(cls, rings: Sequence[NDArray[np.float64]], tags: Sequence[NDArray[np.int64]]) -> Domain | None:
+    def from_checked_rings(cls, rings: Sequence[NDArray[np.float64]],
+                           tags: Sequence[NDArray[np.int64]]) -> Domain | None:
         """`Domain(rings[0], rings[1:], tags=tags)` for rings already known simple and disjoint,
         their holes inside the outline (a face of a checked partition whose cycles share no
         vertex): stored as that call stores them, area included, without its pair checks. None
@@ -267,7 +268,7 @@ class Domain:
         outline, regions, params = cells.zones(x, y, k1, k2, angle)
         domain = cls(outline, regions=[Domain._traced(outer, holes) for outer, holes in regions])
         cond = {}
-        for tag, (p, made) in enumerate(zip(params, Anisotropy._principals(params))):   # all at once
+        for tag, (p, made) in enumerate(zip(params, Anisotropy.principals(params))):   # all at once
             try:
                 cond[tag] = made if made is not None else Anisotropy.principal(*p)
             except QmeshError as e:

@@ -14,12 +14,12 @@ from qmesh.mesher.components import Components
 def face_domain(part, face, extra: dict, name: str, checked: bool = True):
     """The Domain of `face`: its cycles' vertices with `extra[e]` (points on partition edge e, in
     order from edges[e, 0]) inserted along the way; unless `checked`, as the partition made it.
-    Checked without extra points on its edges, the face is as simple as the partition made it
-    unless a vertex comes back (a pinch): the pair checks run only then (`Domain._known`)."""
+    Without extra points and with no vertex met twice (a pinch) it is as simple as the partition
+    made it: `Domain.from_checked_rings` skips the pair checks."""
     rings, tags, own = part.face_rings(face, extra)
     if not checked:
         return Components(rings, tags, [sum(map(len, rings))])
-    known = Domain._known(rings, tags) if own else None
+    known = Domain.from_checked_rings(rings, tags) if own else None
     if known is not None:
         return known
     try:
