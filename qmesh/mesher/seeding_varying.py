@@ -242,21 +242,32 @@ def _patch_lattices(domain, anisotropy, h: float, Lbar: np.ndarray):
     # at a cost that follows the points kept where the metric varies by orders of magnitude
     mk = np.minimum(m, np.maximum(2, np.ceil(rho * 2.0 / np.sqrt(3.0)).astype(np.int64) + 1))
     side = 2 * m + 1
+    # only the lattice points in each patch's box: point (i, j) lies i·u + j·v from the centre in
+    # y, so each row i of patch k holds the j of an interval (a strongly anisotropic local metric
+    # against a nearly round mean one keeps a thin strip of the (2m + 1)² square)
+    u = h * (B[:, :, 0] @ Lbar)
+    v = 0.5 * u + (np.sqrt(3.0) / 2.0) * h * (B[:, :, 1] @ Lbar)
+    k, i = _rows(mk)
+    slack = 1e-6 * OVERLAP * S + 1e-12 * float(np.abs(Yc).max(initial=0.0))   # round-off of y
+    lo, hi = _strip(i, u[k], v[k], OVERLAP * S + slack)
+    lo, hi = np.maximum(lo, -mk[k]), np.minimum(hi, mk[k])
+    count = np.maximum(hi - lo + 1, 0)
     parts = []
-    for mm in np.unique(mk):
-        ks = np.flatnonzero(mk == mm)
-        i, j = np.meshgrid(np.arange(-mm, mm + 1), np.arange(-mm, mm + 1), indexing="ij")
-        Z = h * np.column_stack([(i + 0.5 * j).ravel(), (np.sqrt(3.0) / 2.0 * j).ravel()])
-        local = ((i + m) * side + (j + m)).ravel()
-        for c in range(0, len(ks), max(1, LATTICE_CHUNK // len(Z))):   # bounded memory
-            kc = ks[c:c + max(1, LATTICE_CHUNK // len(Z))]
-            X = np.empty((len(kc), len(Z), 2))                          # Xc + B Z: (k, (2mm+1)², 2)
-            for a in (0, 1):      # the two products summed as einsum does, without its slow path
-                X[..., a] = Xc[kc, a, None] + (B[kc, a, 0, None] * Z[:, 0] + B[kc, a, 1, None] * Z[:, 1])
-            d = np.abs(X @ Lbar - Yc[kc, None, :]).max(axis=2) / (0.5 * S)
-            keep = d <= 2.0 * OVERLAP
-            key = kc[:, None] * side * side + local[None, :]
-            parts.append((X[keep], d[keep], key[keep]))
+    ends = np.cumsum(count)
+    cuts = np.searchsorted(ends, np.arange(LATTICE_CHUNK, ends[-1] if len(ends) else 0, LATTICE_CHUNK))
+    for rows in np.split(np.arange(len(k)), np.unique(cuts[cuts > 0])):   # bounded memory
+        c = count[rows]
+        r = np.repeat(rows, c)
+        j = lo[r] + np.arange(len(r)) - np.repeat(np.cumsum(c) - c, c)
+        kc, ic = k[r], i[r]
+        Z0, Z1 = h * (ic + 0.5 * j), h * (np.sqrt(3.0) / 2.0 * j)
+        X = np.empty((len(r), 2))
+        for a in (0, 1):          # Xc + B Z, the two products summed as einsum does
+            X[:, a] = Xc[kc, a] + (B[kc, a, 0] * Z0 + B[kc, a, 1] * Z1)
+        d = np.abs(X @ Lbar - Yc[kc]).max(axis=1) / (0.5 * S)
+        keep = d <= 2.0 * OVERLAP
+        key = kc * side * side + (ic + m) * side + (j + m)
+        parts.append((X[keep], d[keep], key[keep]))
     X, d, key = (np.concatenate(a) for a in zip(*parts))
     order = np.argsort(key, kind="stable")
     X, d = X[order], d[order]
@@ -264,6 +275,31 @@ def _patch_lattices(domain, anisotropy, h: float, Lbar: np.ndarray):
     X, d = X[inside], d[inside]
     H = np.asarray(anisotropy.hessian(X), dtype=float)
     return X, H, d
+
+
+def _rows(mk: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Every row (patch k, i) of the patches' lattices, |i| ≤ mk[k], k then i ascending."""
+    n = 2 * mk + 1
+    k = np.repeat(np.arange(len(mk)), n)
+    return k, np.arange(len(k)) - np.repeat(np.cumsum(n) - n, n) - mk[k]
+
+
+def _strip(i: np.ndarray, u: np.ndarray, v: np.ndarray, R: float) -> tuple[np.ndarray, np.ndarray]:
+    """The integers j (an interval lo..hi, empty when lo > hi) with |i u + j v|_∞ ≤ R, per row
+    (i (n,), u and v (n, 2))."""
+    lo, hi = np.full(len(i), -np.inf), np.full(len(i), np.inf)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for c in (0, 1):
+            a = (-R - i * u[:, c]) / v[:, c]
+            b = (R - i * u[:, c]) / v[:, c]
+            flat = v[:, c] == 0                      # no j reaches, or every j does
+            out = flat & (np.abs(i * u[:, c]) > R)
+            a = np.where(flat, np.where(out, np.inf, -np.inf), a)
+            b = np.where(flat, np.where(out, -np.inf, np.inf), b)
+            lo, hi = np.maximum(lo, np.minimum(a, b)), np.minimum(hi, np.maximum(a, b))
+    big = float(2 ** 40)
+    return (np.ceil(np.clip(lo, -big, big)).astype(np.int64),
+            np.floor(np.clip(hi, -big, big)).astype(np.int64))
 
 
 def _variation(domain, anisotropy, h: float, rng, samples: int = 2048):
