@@ -120,6 +120,8 @@ def _conflicts_oriented(X: np.ndarray, H: np.ndarray, r: float):
     group[ratio < ROUND_METRIC] = -1
     n = len(X)
     keys = [np.empty(0, np.int64)]
+    cells: dict = {}
+    x, y, h11, h12, h22 = X[:, 0].copy(), X[:, 1].copy(), a.copy(), b.copy(), c.copy()
     for g in np.unique(group):
         src = np.flatnonzero(group == g)
         L = np.linalg.cholesky(H[src].mean(axis=0))
@@ -130,7 +132,7 @@ def _conflicts_oriented(X: np.ndarray, H: np.ndarray, r: float):
         # the tree holds only the points a searcher's own ellipse (Eᵀ H_i E < 2r²) can reach,
         # found by cells that wide: a group's points lie in a few sectors of a turning field
         cell = np.sqrt(2.0) * r / np.sqrt(float(lmin[src].min()))
-        pool = _near_cells(X, src, cell)
+        pool = _near_cells(X, src, cell, cells)
         tree = cKDTree(Y[pool], **TREE)
         # searchers binned by reach (factors of √2), each bin one array-valued search with
         # its largest reach, filtered by each searcher's own: no per-point lists
@@ -142,29 +144,44 @@ def _conflicts_oriented(X: np.ndarray, H: np.ndarray, r: float):
             for part in np.split(np.arange(len(s)), np.unique(cuts[cuts > 0])):
                 p = cKDTree(Y[s[part]], **TREE).sparse_distance_matrix(
                     tree, float(reach[part].max()), output_type="ndarray")
-                i, j = s[part][p["i"]], pool[p["j"]]
-                ok = (p["v"] <= reach[part][p["i"]]) & (i != j)
-                i, j = i[ok], j[ok]
-                E = X[j] - X[i]
-                d2 = 0.5 * (_quadratic(E, H[i]) + _quadratic(E, H[j]))
-                near = d2 < r * r
+                pi = p["i"]
+                ok = p["v"] <= reach[part][pi]
+                i, j = s[part][pi[ok]], pool[p["j"][ok]]
+                ex, ey = x[j] - x[i], y[j] - y[i]           # `_quadratic`, on columns
+                d2 = 0.5 * ((h11[i] * ex ** 2 + 2.0 * h12[i] * ex * ey + h22[i] * ey ** 2)
+                            + (h11[j] * ex ** 2 + 2.0 * h12[j] * ex * ey + h22[j] * ey ** 2))
+                near = (d2 < r * r) & (i != j)
                 keys.append(np.minimum(i, j)[near] * n + np.maximum(i, j)[near])
     key = np.unique(np.concatenate(keys))           # each pair once, sorted as (i, j)
     return key // n, key % n
 
 
-def _near_cells(X: np.ndarray, src: np.ndarray, cell: float) -> np.ndarray:
+def _near_cells(X: np.ndarray, src: np.ndarray, cell: float, cache: dict | None = None) -> np.ndarray:
     """The points of X (sorted indices) in the cells of side `cell` next to (or holding) a point
-    of X[src]: every point within `cell` of one of them, and a few more."""
-    lo = X.min(axis=0)
-    span = np.floor((X.max(axis=0) - lo) / cell).astype(np.int64) + 3
-    if not np.all(np.isfinite(span)) or float(span[0]) * float(span[1]) > 2.0 ** 62:
-        return np.arange(len(X))
-    c = np.floor((X - lo) / cell).astype(np.int64) + 1
-    key = c[:, 0] * span[1] + c[:, 1]
+    of X[src]: every point within `cell` of one of them, and a few more. With a `cache` (one per
+    X) the side is rounded up to a power of 2^(1/4) and each side's cells are sorted once, so each
+    group of the conflict search costs its searchers and its pool, not all of X."""
+    if cache is not None:
+        cell = float(2.0 ** (np.ceil(4.0 * np.log2(cell)) / 4.0))
+    index = None if cache is None else cache.get(cell)
+    if index is None:
+        lo = X.min(axis=0)
+        span = np.floor((X.max(axis=0) - lo) / cell).astype(np.int64) + 3
+        if not np.all(np.isfinite(span)) or float(span[0]) * float(span[1]) > 2.0 ** 62:
+            return np.arange(len(X))
+        c = np.floor((X - lo) / cell).astype(np.int64) + 1
+        key = c[:, 0] * span[1] + c[:, 1]
+        order = np.argsort(key, kind="stable")
+        index = (key, span, order, key[order])
+        if cache is not None:
+            cache[cell] = index
+    key, span, order, sorted_key = index
     around = (np.arange(-1, 2)[:, None] * span[1] + np.arange(-1, 2)[None, :]).ravel()
     wanted = np.unique((np.unique(key[src])[:, None] + around).ravel())
-    return np.flatnonzero(np.isin(key, wanted))
+    a, b = np.searchsorted(sorted_key, wanted, "left"), np.searchsorted(sorted_key, wanted, "right")
+    count = b - a
+    at = np.repeat(a - np.cumsum(count) + count, count) + np.arange(int(count.sum()))
+    return np.sort(order[at])
 
 
 def _luby(n: int, i: np.ndarray, j: np.ndarray, rng, priority=None) -> np.ndarray:
