@@ -216,11 +216,19 @@ def _mean_metric(domain, anisotropy, rng) -> np.ndarray:
 
 
 def _inside_with_margin(domain, X, H, margin: float) -> np.ndarray:
-    """Points whose six probes at metric distance `margin` (x + margin·H^{-1/2} u) are inside Ω."""
+    """Points whose six probes at metric distance `margin` (x + margin·H^{-1/2} u) are inside Ω.
+    A point inside Ω and farther from its boundary than its longest probe (margin / √λ_min(H))
+    has them all inside: only the points nearer the boundary are probed."""
+    out = domain.contains(X, tol=0.0)
+    longest = margin / np.sqrt(np.clip(_sym_eig_min(H), 1e-300, None))
+    A, Bs = domain.segment_ends
+    reach = 2.0 * float(longest.max(initial=0.0))
+    near = np.flatnonzero(out & ~(rings.distance(X, A, Bs, reach) > 1.01 * longest))
     t = np.pi * np.arange(6) / 3
     U = np.column_stack([np.cos(t), np.sin(t)])
-    probes = X[:, None, :] + margin * np.einsum("nij,kj->nki", _inv_sqrt_spd(H), U)
-    return domain.contains(probes.reshape(-1, 2), tol=0.0).reshape(len(X), 6).all(axis=1)
+    probes = X[near, None, :] + margin * np.einsum("nij,kj->nki", _inv_sqrt_spd(H[near]), U)
+    out[near] = domain.contains(probes.reshape(-1, 2), tol=0.0).reshape(len(near), 6).all(axis=1)
+    return out
 
 
 def _patch_lattices(domain, anisotropy, h: float, Lbar: np.ndarray):
