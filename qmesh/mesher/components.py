@@ -72,9 +72,14 @@ def joined(parts: Sequence[Domain]) -> Domain:
 def split(mesh: Mesh, parts: Sequence[Domain]) -> list[Mesh]:
     """The mesh of `joined(parts)` as one mesh per part, each with its vertices in the order
     they have in `mesh`; QmeshError when a triangle joins two parts."""
-    if len(parts) == 1:
+    return split_sizes(mesh, [len(d.seeds) for d in parts])
+
+
+def split_sizes(mesh: Mesh, point_counts: Sequence[int]) -> list[Mesh]:
+    """`split` by the parts' input point counts (all a run keeps of its parts)."""
+    if len(point_counts) == 1:
         return [mesh]
-    T, n, sizes = mesh.triangles, mesh.n_vertices, np.array([len(d.seeds) for d in parts])
+    T, n, sizes = mesh.triangles, mesh.n_vertices, np.asarray(point_counts)
     graph = coo_matrix((np.ones(2 * len(T)), (T[:, [0, 1]].ravel(), T[:, [1, 2]].ravel())), (n, n))
     _, label = connected_components(graph, directed=False)
     start = np.cumsum(sizes) - sizes

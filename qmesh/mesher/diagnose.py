@@ -67,6 +67,24 @@ def thin_face(mesh: Mesh, anisotropy: Anisotropy, k: float = 1.0) -> str | None:
     return thin_domain(mesh, Anisotropy.constant(anisotropy.matrix / k) if anisotropy.is_constant else anisotropy)
 
 
+def thin_faces(meshes: list[Mesh], anisotropy: Anisotropy, k: float = 1.0) -> list[str | None]:
+    """`thin_face` of each of meshes of one constant Q, its quick test taken on all at once (a
+    call per face of a thousand cost more than the test)."""
+    if len(meshes) == 1 or not anisotropy.is_constant:
+        return [thin_face(m, anisotropy, k) for m in meshes]
+    nv, nt = np.array([m.n_vertices for m in meshes]), np.array([m.n_triangles for m in meshes])
+    off = np.cumsum(nv) - nv
+    P = np.concatenate([m.points for m in meshes])
+    T = np.concatenate([m.triangles + o for m, o in zip(meshes, off)])
+    b = np.unique(np.concatenate([m.boundary_edges.ravel() + o for m, o in zip(meshes, off)]))
+    inner = nv > np.bincount(np.searchsorted(off, b, side="right") - 1, minlength=len(meshes))
+    worst = np.full(len(meshes), -np.inf)
+    has = nt > 0
+    worst[has] = np.minimum.reduceat(metric_quality(P, T, metric_hessians(anisotropy, P, T)),
+                                     (np.cumsum(nt) - nt)[has])
+    return [None if ok else thin_face(m, anisotropy, k) for m, ok in zip(meshes, inner & (worst >= SLIVER))]
+
+
 def thin_domain(mesh: Mesh, anisotropy: Anisotropy) -> str | None:
     """A message when the domain is too thin for the mesh's size, else None."""
     X, T = mesh.points, mesh.triangles
