@@ -20,7 +20,7 @@ from qmesh.compare.metric_peers import hole_points
 from qmesh.compare.peers import MMG_PASSES, PeerMesh, calibrate
 from qmesh.errors import QmeshError
 from qmesh.geometry import rings as _rings
-from qmesh.media import faces as _faces
+from qmesh.domain import faces as _faces
 from qmesh.mesher.normalise import hessian_scale
 from qmesh.triangle_mesh import Mesh
 

@@ -194,6 +194,17 @@ class Domain:
         vertex): stored as that call stores them, area included, without its pair checks. None
         when a ring has fewer than 3 points, zero area or the other orientation (the outline
         counter-clockwise, holes clockwise): the call itself then decides."""
+        area = cls.checked_area(rings)
+        if area is None:
+            return None
+        new = object.__new__(cls)
+        new._store(list(rings), list(tags), area)
+        new._tag_names, new._regions, new._region_names, new._partition = {}, (), {}, None
+        return new
+
+    @staticmethod
+    def checked_area(rings: Sequence[NDArray[np.float64]]) -> float | None:
+        """The area `from_checked_rings` stores for these rings, or None where it returns None."""
         if min(len(R) for R in rings) < 3:
             return None
         try:
@@ -202,10 +213,7 @@ class Domain:
             return None
         if areas[0] < 0 or any(a > 0 for a in areas[1:]):
             return None
-        new = object.__new__(cls)
-        new._store(list(rings), list(tags), abs(areas[0]) - sum(abs(a) for a in areas[1:]))
-        new._tag_names, new._regions, new._region_names, new._partition = {}, (), {}, None
-        return new
+        return abs(areas[0]) - sum(abs(a) for a in areas[1:])
 
     @classmethod
     def _many(cls, rings: Sequence[Ring]) -> list[Domain] | None:

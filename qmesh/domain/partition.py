@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
+from itertools import chain
 
 import numpy as np
 import scipy.sparse as sp
@@ -45,6 +46,47 @@ class Face:
     (clockwise), each a list of half-edge indices, and its region tag."""
     cycles: tuple
     region: int
+
+
+@dataclass(frozen=True)
+class FaceRings:
+    """Rings of several faces, concatenated face after face (outer cycle first)."""
+    points: np.ndarray        # (n, 2) the rings' points, extra points inserted
+    tags: np.ndarray          # (n,) segment tags: partition edge + 1 (segment i starts at point i)
+    ring_sizes: np.ndarray    # points of every ring
+    face_sizes: np.ndarray    # points of every face
+    face_rings: np.ndarray    # rings of every face
+    own: np.ndarray           # per face: no extra point and no vertex met twice (a pinch)
+
+    def split(self, X: np.ndarray, sizes: np.ndarray | None = None) -> list:
+        """X (one row per point) cut face by face, or by `sizes`."""
+        sizes = self.face_sizes if sizes is None else sizes
+        return np.split(X, np.cumsum(sizes)[:-1])
+
+    def face(self, j: int) -> tuple[list, np.ndarray]:
+        """The rings of the j-th face and its segment tags."""
+        r, p = np.cumsum(self.face_rings) - self.face_rings, np.cumsum(self.face_sizes) - self.face_sizes
+        sizes = self.ring_sizes[r[j]:r[j] + self.face_rings[j]]
+        return self.split(self.points[p[j]:p[j] + self.face_sizes[j]], sizes), self.tags[p[j]:p[j] + self.face_sizes[j]]
+
+    def touching(self, before: np.ndarray) -> np.ndarray:
+        """Per face: whether it has a point (bit for bit) of `before` or of a face before it."""
+        lab = np.repeat(np.arange(len(self.face_sizes) + 1), np.append(len(before), self.face_sizes))
+        X = np.concatenate([before, self.points])
+        o = np.lexsort((lab, X[:, 1], X[:, 0]))
+        X, lab = X[o], lab[o]
+        new = np.ones(len(X), bool)
+        new[1:] = (X[1:] != X[:-1]).any(axis=1)
+        low = lab[new][np.cumsum(new) - 1]                  # the first face holding each point
+        hit = np.zeros(len(self.face_sizes) + 1, bool)
+        hit[lab[low < lab]] = True
+        return hit[1:]
+
+    def segment_ends(self) -> tuple[np.ndarray, np.ndarray]:
+        """Start and end of every segment (segment i runs from point i to the next of its ring)."""
+        n, ends = np.arange(1, len(self.points) + 1), np.cumsum(self.ring_sizes)
+        n[ends - 1] = ends - self.ring_sizes
+        return self.points, self.points[n]
 
 
 @dataclass(frozen=True)
@@ -99,16 +141,30 @@ class Partition:
         """The rings of `face` (outer first) with `extra[e]` (points on edge e, in order from
         edges[e, 0]) inserted along their edges, each point's segment tag (edge + 1), and whether
         they are the partition's own: no extra point, and no vertex met twice (a pinch)."""
+        r = self.faces_rings([face], extra)
+        cut = np.cumsum(r.ring_sizes).tolist()
+        return ([r.points[a:b] for a, b in zip([0] + cut, cut)], [r.tags[a:b] for a, b in zip([0] + cut, cut)],
+                bool(r.own[0]))
+
+    def faces_rings(self, faces: list, extra: dict) -> FaceRings:
+        """`face_rings` of many faces at once, their rings concatenated face after face: a call
+        per face costs more than its rings (a thousand inclusions)."""
         order, start = self.walk
-        c = np.asarray(face.cycles, np.int64)
+        cycles = [f.cycles for f in faces]
+        n_cyc = np.fromiter(map(len, cycles), np.int64, len(cycles))
+        c = np.fromiter(chain.from_iterable(cycles), np.int64, int(n_cyc.sum()))
         size = start[c + 1] - start[c]
         hs = order[np.repeat(start[c] - np.cumsum(size) + size, size) + np.arange(size.sum())]
         e = hs >> 1                      # half-edge h runs along edge h >> 1, backwards when odd
         R, tags = self.points[self.half_from[hs]], e + 1
+        of = np.repeat(np.repeat(np.arange(len(faces)), n_cyc), size)     # face of each half-edge
         xs = [extra.get(k) for k in e.tolist()] if extra else []
-        n = np.fromiter((0 if x is None else len(x) for x in xs), np.int64, len(xs))
-        own = not n.any()
-        if not own:
+        n = np.fromiter((0 if x is None else len(x) for x in xs), np.int64, len(xs)) if xs else \
+            np.zeros(len(hs), np.int64)
+        key = np.unique(of * np.int64(len(self.points)) + self.half_from[hs])
+        own = (np.bincount(of, n, len(faces)) == 0) & \
+            (np.bincount(key // len(self.points), minlength=len(faces)) == np.bincount(of, minlength=len(faces)))
+        if n.any():
             at = np.arange(len(hs)) + np.cumsum(n) - n       # each corner, its edge's points after it
             inner = np.ones(len(hs) + int(n.sum()), bool)
             inner[at] = False
@@ -117,11 +173,17 @@ class Partition:
             R[inner] = np.concatenate([x[::-1] if h & 1 else x for h, x in zip(hs.tolist(), xs)
                                        if x is not None and len(x)])
             tags, size = np.repeat(tags, n + 1), np.add.reduceat(n + 1, np.cumsum(size) - size)
-        else:
-            own = len(np.unique(self.half_from[hs])) == len(hs)
-        cut = np.cumsum(size).tolist()
-        return ([R[a:b] for a, b in zip([0] + cut, cut)], [tags[a:b] for a, b in zip([0] + cut, cut)],
-                own)
+        return FaceRings(R, tags, size, np.add.reduceat(size, np.cumsum(n_cyc) - n_cyc), n_cyc, own)
+
+    def even_cuts(self, edges: np.ndarray, pieces: np.ndarray) -> dict[int, np.ndarray]:
+        """{edge: the points cutting it into `pieces` equal pieces, from edges[e, 0] on} for the
+        edges cut in more than one."""
+        V, E, n = self.points, self.edges, pieces.astype(np.int64)
+        e, n = edges[n > 1], n[n > 1]
+        at = np.repeat(e, n - 1)
+        j = np.arange(len(at)) - np.repeat(np.cumsum(n - 1) - (n - 1), n - 1) + 1    # 1 … n - 1
+        X = V[E[at, 0]] + (j / np.repeat(n, n - 1))[:, None] * (V[E[at, 1]] - V[E[at, 0]])
+        return dict(zip(e.tolist(), np.split(X, np.cumsum(n - 1)[:-1])))
 
     @cached_property
     def interface(self) -> np.ndarray:

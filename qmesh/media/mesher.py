@@ -26,13 +26,14 @@ from qmesh.domain.domain import as_domain
 from qmesh.errors import QmeshError, QmeshWarning
 from qmesh.geometry.triangles import worst_metric_quality
 from qmesh.domain.partition import points_on_edges
-from qmesh.media.faces import face_domain
+from qmesh.domain.faces import face_domain
 from qmesh.media.insert_shared import insert_on_boundary
-from qmesh.media.plan import FaceMeshes, MediaPlan
+from qmesh.media.plan import MediaPlan
+from qmesh.mesher.face_meshes import FaceMeshes
 from qmesh.media.stitch import stitch
 from qmesh.mesher import loop, sizing
-from qmesh.mesher.components import joined, split
-from qmesh.mesher.diagnose import thin_face
+from qmesh.mesher.components import Components, split_sizes
+from qmesh.mesher.diagnose import thin_faces
 from qmesh.mesher.options import Options, check_keywords
 from qmesh.mesher.plan import TOLERANCE    # a mesh this share off target_vertices is warned about
 from qmesh.mesher.step import Stats, Step, last_step, recording, summed_up
@@ -41,7 +42,6 @@ from qmesh.triangle_mesh import Mesh
 FLOOR = 0.3            # a hand-over leaving a face's worst quality below this meshes it again
 FINER = 12             # halvings of the size for a face too thin for it (6 beyond plan.COARSER)
 MAX_HANDOVERS = 1000   # rounds of interface points handed between finished faces
-SMALL = 200            # faces expected to take fewer triangles share a run where they can
 MAX_NOTES = 3          # the faces' warnings shown one by one; beyond, one line counts them
 
 
@@ -86,12 +86,12 @@ def _run(plan: MediaPlan, options: dict, every: bool) -> Iterator[Step]:
     while at < len(plan.order):
         if at:
             plan.size_rest(plan.order[at:], meshes.vertex_count())
-        faces, doms = _group(plan, at, extra, meshes, alone)
+        faces, dom, sizes, size = _group(plan, at, extra, meshes, alone)
         said: list = []
         try:
-            for step in _face_steps(plan, faces, doms, options, said, meshes):
+            for step in _face_steps(plan, faces, dom, options, said, size):
                 if every:
-                    m = stitch(plan.part, {**meshes, **dict(zip(faces, split(step.mesh, doms)))}, plan.domain)
+                    m = stitch(plan.part, {**meshes, **dict(zip(faces, split_sizes(step.mesh, sizes)))}, plan.domain)
                     yield Step(step.stage, step.iteration, m, Stats(m.n_vertices, m.n_triangles,
                                seconds=step.stats.seconds, source=(m, cond)))
         except QmeshError:
@@ -100,10 +100,10 @@ def _run(plan: MediaPlan, options: dict, every: bool) -> Iterator[Step]:
             alone.update(faces)              # meshed one by one instead
             continue
         notes += [(f"{plan.face_name(faces[0])}: {w.message}", w.category) for w in said]
-        for i, mesh in zip(faces, split(step.mesh, doms)):
-            thin = thin_face(mesh, plan.anis[i], plan.k[i])
+        done = split_sizes(step.mesh, sizes)
+        for i, thin in zip(faces, thin_faces(done, plan.anis[faces[0]], plan.k[faces[0]])):
             notes += [] if thin is None else [(f"{plan.face_name(i)}: {thin}", QmeshWarning)]
-            meshes[i] = mesh
+        meshes.add(faces, done)
         todo = [step.mesh]                  # a run's mesh, then the faces meshed again
         while todo:
             todo += _share(plan, meshes, todo.pop(), extra, options, redone)
@@ -122,42 +122,47 @@ def _run(plan: MediaPlan, options: dict, every: bool) -> Iterator[Step]:
                       + least, QmeshWarning, stacklevel=3)
 
 
-def _group(plan: MediaPlan, at: int, extra: dict, meshes: FaceMeshes, alone: set) -> tuple[list, list]:
-    """The faces of one run from the plan's at-th on, and their domains: it, and while all are small
-    and of its constant Q and sizing, the next ones (not the last) touching none before them."""
-    faces, doms, taken, first = list[int](), list[Any](), set[tuple](), dict[str, Any]()
-
-    def small(j: int) -> bool:             # and not failed in a group, and of the first's Q
-        a, b = plan.anis[j], plan.anis[plan.order[at]]
-        return (j not in alone and a.is_constant and np.array_equal(a.H, b.H)
-                and plan.area[j] / sizing.equilateral_area(plan.h_rest) < SMALL)
-
-    for i in plan.order[at:]:
-        if faces and not (small(faces[0]) and small(i) and i != plan.order[-1]):
+def _group(plan: MediaPlan, at: int, extra: dict, meshes: FaceMeshes, alone: set) -> tuple[list, Any, list, dict]:
+    """The faces of one run from the plan's at-th on, their domain, point counts and sizing: it,
+    and while all are small and of its constant Q and sizing, the next ones (not the last)
+    touching none before them, taken in batches that double (a call per face cost more than
+    its run's share)."""
+    i, part = plan.order[at], plan.part
+    try:
+        dom = face_domain(part, plan.faces[i], extra, plan.face_name(i))
+    except QmeshError as e:
+        raise plan.too_small(i) or e from None
+    first = plan.sizing_of(i, dom, meshes)
+    faces, rings, tags, sizes, batch = [i], list(dom.rings), [dom.segment_tags], [len(dom.seeds)], 8
+    taken, k, last = dom.seeds, at + 1, len(plan.order) - 1
+    while plan.small([i], alone, i)[0] and k < last:
+        chunk = np.asarray(plan.order[k:min(k + batch, last)])
+        chunk = chunk[:np.argmin(np.append(plan.small(chunk, alone, i), False))]
+        if not len(chunk):
             break
-        try:
-            dom = face_domain(plan.part, plan.faces[i], extra, plan.face_name(i), checked=not faces)
-        except QmeshError as e:
-            raise plan.too_small(i) or e from None
-        pts, size = set(map(tuple, dom.seeds.tolist())), plan.sizing_of(i, dom, meshes)
-        if faces and (taken & pts or size != first):
+        r = part.faces_rings([plan.faces[j] for j in chunk.tolist()], extra)
+        fits = ~r.touching(taken) & plan.same_sizing(chunk, r, first, meshes)
+        n = int(np.argmin(np.append(fits, False)))
+        faces += chunk[:n].tolist()
+        rings += r.split(r.points, r.ring_sizes)[:int(r.face_rings[:n].sum())]
+        tags.append(r.tags[:int(r.face_sizes[:n].sum())])
+        sizes += r.face_sizes[:n].tolist()
+        if n < batch:
             break
-        first = size if not faces else first
-        faces.append(i)
-        doms.append(dom)
-        taken |= pts
-    return faces, doms
+        taken, k, batch = np.concatenate([taken, r.points]), k + n, 2 * batch
+    return faces, dom if len(faces) == 1 else Components(rings, tags, sizes), sizes, first
 
 
-def _face_steps(plan: MediaPlan, faces: list, doms: list, options: dict, said: list,
-                meshes: FaceMeshes, size: dict | None = None) -> Iterator[Step]:
-    """Algorithm 2.1 on the faces (one, or several as one domain), its Steps as they come, its
-    warnings in `said`. A face thinner (or sharper) in its metric than the shared size needs a
-    finer one: its run says "too large", and its size is halved, up to FINER times."""
-    i, dom = faces[0], joined(doms)
+def _face_steps(plan: MediaPlan, faces: list, dom: Any, options: dict, said: list,
+                size: dict) -> Iterator[Step]:
+    """Algorithm 2.1 on the faces (one, or several as one domain `dom`) sized by `size`, its Steps
+    as they come, its warnings in `said`. A face thinner (or sharper) in its metric than the
+    shared size needs a finer one: its run says "too large", and its size is halved, up to
+    FINER times."""
+    i = faces[0]
     for k in range(FINER + 1 if len(faces) == 1 else 1):
         try:
-            sizing = {"size": plan.h_rest * np.sqrt(plan.k[i]) / 2**k} if k else size or plan.sizing_of(i, doms[0], meshes)
+            sizing = {"size": plan.h_rest * np.sqrt(plan.k[i]) / 2**k} if k else size
             for last in recording(loop.iterate(dom, plan.anis[i], **sizing, **options), said):
                 yield last
             break
@@ -202,7 +207,7 @@ def _share(plan: MediaPlan, meshes: FaceMeshes, mesh: Mesh, extra: dict, options
         redone.add(j)
         try:
             dom = face_domain(part, plan.faces[j], extra, plan.face_name(j))
-            again = last_step(_face_steps(plan, [j], [dom], options, [], meshes,
+            again = last_step(_face_steps(plan, [j], dom, options, [],
                                           {"size": plan.h_rest * np.sqrt(plan.k[j])})).mesh
         except QmeshError:               # it keeps the points inserted, as it is
             continue

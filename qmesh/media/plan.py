@@ -12,20 +12,23 @@ given the count that remains (`sizing_of`): the run lands on N without a second 
 from __future__ import annotations
 
 from collections.abc import Callable
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
 from scipy.spatial import cKDTree
 
+from qmesh.domain.domain import Domain
 from qmesh.domain.junctions import check_junctions
 from qmesh.domain.regions import conductivity_of_regions
 from qmesh.errors import QmeshError
-from qmesh.media.faces import face_domain
+from qmesh.domain.faces import face_domain
 from qmesh.mesher import sizing
+from qmesh.mesher.components import Components
 from qmesh.mesher.normalise import hessian_scales
 from qmesh.mesher.plan import BOUNDARY_FACTOR
 from qmesh.mesher.widths import thin_widths
-from qmesh.triangle_mesh import Mesh
+from qmesh.mesher.face_meshes import FaceMeshes
 
 RESIZE = 2.0     # the faces still to come are sized at most this factor away from the first h
 COARSER = 64.0   # ... and at most this factor coarser (a target below what the faces need)
@@ -36,6 +39,8 @@ TINY = 1e-5      # a face this small (× the domain's size) that cannot be meshe
 SLACK = 0.03     # ... and only when the faces done so far put the run this share off its target
 ROUND = 1e-6     # lengths this close count as equal (the face mesher measures them in its own frame)
 WHOLE = 0.01     # shared pieces up to this share longer than a face's h are kept whole
+NEAR = 1e-9      # lengths measured many at once are this close to one measured alone
+SMALL = 200      # faces expected to take fewer triangles share a run where they can
 
 
 class MediaPlan:
@@ -53,23 +58,23 @@ class MediaPlan:
         if target_vertices is not None and target_vertices <= len(part.points):
             raise QmeshError(f"target_vertices = {target_vertices} must exceed the "
                              f"{len(part.points)} input points of the domain and its regions")
-        bare = [face_domain(part, f, {}, self.face_name(i)) for i, f in enumerate(self.faces)]
-        self.k = hessian_scales(self.anis, [d.seeds for d in bare])
-        self.area = np.array([sizing.metric_area_scaled(d, a, k) for d, a, k in zip(bare, self.anis, self.k)])
-        lengths = [sizing.metric_edge_lengths(d, a, k) for d, a, k in zip(bare, self.anis, self.k)]
+        bare = part.faces_rings(list(self.faces), {})       # every face's rings, as its Domain's
+        self.k = hessian_scales(self.anis, bare.split(bare.points))
+        self._H = np.array([a.H if a.is_constant else np.full((2, 2), np.nan) for a in self.anis])
+        self.area, lengths = self._measures(bare)
         check_junctions(part, self.anis, self.face_name)
         # every face's segments, concatenated; each interface edge's segment on either side
         self._seg_len = np.concatenate(lengths)
         self._total = sum(self.area), sum(float(L.sum()) for L in lengths)   # area, boundary
-        self._seg_face = np.repeat(np.arange(len(self.faces)), [len(L) for L in lengths])
-        seg_edge = np.concatenate([d.segment_tags - 1 for d in bare])
+        self._seg_face = np.repeat(np.arange(len(self.faces)), bare.face_sizes)
+        seg_edge = bare.tags - 1
         self._inter = np.flatnonzero(part.interface)
         slot = np.full((len(part.edges), 2), -1)
         slot[seg_edge, (part.edge_faces[seg_edge, 1] == self._seg_face).astype(np.int64)] = \
             np.arange(len(seg_edge))
         self._side = slot[self._inter]
         self.longest = self._seg_len[self._side].max(axis=1)        # in the longer side's metric
-        longest = np.array([L.max() for L in lengths])
+        longest = np.maximum.reduceat(self._seg_len, np.cumsum(bare.face_sizes) - bare.face_sizes)
         X, first = part.outer_corners()
         self.extent = (np.maximum.reduceat(X, first) - np.minimum.reduceat(X, first)).max(axis=1)
         width = thin_widths(X, first, self.anis, self.k, longest, THIN_ASPECT)
@@ -89,7 +94,21 @@ class MediaPlan:
             self.h = self.h_euler = float(size) if size is not None else float(np.mean(self._seg_len))
             sizing.check_vertex_count(self.counter(self.order)(self.h), f"size = {self.h:.3g}")
         self.h_rest = self.h
-        self.extra = self._cuts(self.h)
+        # interface edges cut evenly into pieces ≤ h in both sides' metrics (the others: by their face)
+        self.extra = part.even_cuts(self._inter, np.ceil(self.longest / (BOUNDARY_FACTOR * self.h)))
+
+    def _measures(self, bare: Any) -> tuple[np.ndarray, list]:
+        """Each face's metric area and its segments' metric lengths, as from its Domain (a face
+        the partition's rings do not make one alone, or of a varying s, builds it)."""
+        rings, A, B = bare.split(bare.points, bare.ring_sizes), *map(bare.split, bare.segment_ends())
+        first = np.cumsum(bare.face_rings) - bare.face_rings
+        area = []
+        for i, (a, k) in enumerate(zip(self.anis, self.k)):
+            m = Domain.checked_area(rings[first[i]:first[i] + bare.face_rings[i]]) if bare.own[i] else None
+            dom = SimpleNamespace(area=m) if m is not None and a.is_constant else \
+                face_domain(self.part, self.faces[i], {}, self.face_name(i))
+            area.append(sizing.metric_area_scaled(dom, a, k))
+        return np.array(area), [sizing.segment_lengths(p, q, a, k) for p, q, a, k in zip(A, B, self.anis, self.k)]
 
     def face_name(self, i: int) -> str:
         r, names = self.faces[i].region, self.domain.region_names
@@ -176,39 +195,25 @@ class MediaPlan:
             return {"size": cut * (1 + ROUND) * np.sqrt(k)}
         return {"target_vertices": n} if count else {"size": h * np.sqrt(k)}
 
-    def _cuts(self, h: float) -> dict[int, np.ndarray]:
-        """Points cutting each interface edge evenly into pieces ≤ h in both sides' metrics (the
-        other edges are split by their face mesher)."""
-        V, E = self.part.points, self.part.edges
-        pieces = np.maximum(1, np.ceil(self.longest / (BOUNDARY_FACTOR * h))).astype(np.int64)
-        return {int(e): V[E[e, 0]] + (np.arange(1, n) / n)[:, None] * (V[E[e, 1]] - V[E[e, 0]])
-                for e, n in zip(self._inter, pieces) if n > 1}
+    def small(self, faces: Any, alone: set, like: int) -> np.ndarray:
+        """Which `faces` may share a run with face `like`: expected to take fewer than SMALL
+        triangles, of its constant Q, and not failed in a group before (`alone`)."""
+        f = np.asarray(faces, np.int64)
+        return ((self._H[f] == self._H[like]).all(axis=(1, 2)) & ~np.isin(f, list(alone))
+                & (self.area[f] / sizing.equilateral_area(self.h_rest) < SMALL))
 
-
-class FaceMeshes(dict[int, Mesh]):
-    """The finished face meshes {face: Mesh}, in the order they were meshed, with the vertex count
-    of their stitched whole kept as they are added or replaced (a recount before each face would
-    be quadratic in the faces): their interior vertices, and their boundary points once."""
-
-    def __init__(self) -> None:
-        super().__init__()
-        self._inner = 0                               # interior vertices of all faces
-        self._held: dict[tuple, int] = {}             # boundary point -> faces holding it
-
-    def __setitem__(self, i: int, m: Mesh) -> None:
-        old = self.get(i)
-        if old is m:
-            return
-        for mesh, sign in [(old, -1), (m, 1)] if old is not None else [(m, 1)]:   # out with the old
-            b = np.unique(mesh.boundary_edges)
-            self._inner += sign * (mesh.n_vertices - len(b))
-            for x in map(tuple, mesh.points[b].tolist()):   # float tuples: equal as np.unique finds them
-                self._held[x] = self._held.get(x, 0) + sign
-                if not self._held[x]:
-                    del self._held[x]
-        super().__setitem__(i, m)
-
-    def vertex_count(self, adding: Any = ()) -> int:
-        """Vertices of the face meshes stitched together, and of the points `adding` they lack."""
-        lack = sum(x not in self._held for x in map(tuple, np.reshape(adding, (-1, 2)).tolist()))
-        return self._inner + len(self._held) + lack
+    def same_sizing(self, faces: np.ndarray, rings: Any, first: dict, meshes: FaceMeshes) -> np.ndarray:
+        """Which `faces` (their `rings`, one constant Q, not the last face) `sizing_of` sizes as
+        `first`: their lengths measured at once, and a face whose interface pieces come near h
+        (within round-off of sizing_of's thresholds) measured alone, as sizing_of measures it."""
+        A, B = rings.segment_ends()
+        L = sizing.segment_lengths(A, B, self.anis[faces[0]], self.k[faces[0]])
+        L = np.where(self.part.interface[rings.tags - 1], L, 0.0)
+        cut = np.maximum.reduceat(L, np.cumsum(rings.face_sizes) - rings.face_sizes) / BOUNDARY_FACTOR
+        h, k = self.h_rest, np.asarray(self.k)[faces]
+        out = h * np.sqrt(k) == first["size"] if "size" in first else np.zeros(len(faces), bool)
+        near = np.flatnonzero((cut >= h * (1 - ROUND) * (1 - NEAR)) & (cut <= h * (1 + WHOLE) * (1 + NEAR)))
+        for j in near.tolist():
+            R, T = rings.face(j)
+            out[j] = self.sizing_of(int(faces[j]), Components(R, [T], [len(T)]), meshes) == first
+        return out

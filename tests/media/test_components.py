@@ -9,6 +9,7 @@ import pytest
 import qmesh
 from qmesh import measure
 from qmesh.media import mesher as media_mesher
+from qmesh.media import plan as media_plan
 from qmesh.mesher import loop
 from qmesh.mesher.components import Components, joined, split
 from tests.media.cases import hexagons
@@ -107,22 +108,25 @@ def test_a_run_of_several_that_fails_meshes_them_one_by_one(monkeypatch):
         warnings.simplefilter("ignore")
         m = qmesh.mesh(domain, cond, target_vertices=800)
         assert sizes[0] == 12 and sizes[1:] == [1] * 13
-        monkeypatch.setattr(media_mesher, "SMALL", 0)
+        monkeypatch.setattr(media_plan, "SMALL", 0)
         alone = qmesh.mesh(domain, cond, target_vertices=800)
     assert np.array_equal(m.points, alone.points) and np.array_equal(m.triangles, alone.triangles)
 
 
 def test_a_face_taken_as_the_partition_made_it_is_the_checked_face():
-    """face_domain unchecked (a run's faces after its first): the same rings, segments, tags and
-    area as the Domain that checks them."""
-    from qmesh.media.faces import face_domain
+    """A run's faces after its first, taken many at once (`Partition.faces_rings`) and joined
+    unchecked: the same rings, segments, tags and area as the Domain that checks each."""
+    from qmesh.domain.faces import face_domain
     domain = qmesh.Domain([(0, 0), (1, 0), (1, 1), (0, 1)], regions=hexagons(4))
     part = domain.partition
     V, E = part.points, part.edges                    # points on every edge, ordered along it
     extra = {e: V[E[e, 0]] + np.array([[0.25], [0.5]]) * (V[E[e, 1]] - V[E[e, 0]]) for e in range(len(E))}
-    for f in part.faces:
-        a, b = face_domain(part, f, extra, "x"), face_domain(part, f, extra, "x", checked=False)
-        assert isinstance(b, Components) and len(b.rings) == len(a.rings) == len(f.cycles)
+    many = part.faces_rings(list(part.faces), extra)
+    assert np.array_equal(many.face_rings, [len(f.cycles) for f in part.faces]) and not many.own.any()
+    for j, f in enumerate(part.faces):
+        rings, tags = many.face(j)
+        a, b = face_domain(part, f, extra, "x"), Components(rings, [tags], [len(tags)])
+        assert len(b.rings) == len(a.rings) == len(f.cycles)
         assert all(np.array_equal(r, s) for r, s in zip(a.rings, b.rings))
         assert np.array_equal(a.segments, b.segments) and np.array_equal(a.segment_tags, b.segment_tags)
         assert b.area == pytest.approx(a.area, rel=1e-12)

@@ -102,7 +102,7 @@ def test_a_face_sized_a_hair_under_its_shared_pieces_keeps_them_whole(shorter):
     """The barrier's interface pieces against an h just under their length: the face mesher
     at that h would split every one in two; `sizing_of` sizes it at the pieces' length, where
     it adds no point on them. Well under (a tenth), the h stays: those pieces are too long."""
-    from qmesh.media.faces import face_domain
+    from qmesh.domain.faces import face_domain
     from qmesh.media.plan import MediaPlan
     from qmesh.mesher import loop, sizing
 

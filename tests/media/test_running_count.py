@@ -1,4 +1,4 @@
-"""The running vertex count of the finished face meshes (`plan.FaceMeshes`) against a full
+"""The running vertex count of the finished face meshes (`FaceMeshes`) against a full
 recount, and the partition's KD-tree shared by all faces (`partition.points_on_edges`)."""
 
 import warnings
@@ -38,6 +38,10 @@ def test_running_count_equals_a_full_recount_at_every_change(monkeypatch):
         def __setitem__(self, i, m):
             seen["replaced"] += i in self and self[i] is not m
             super().__setitem__(i, m)
+            assert FaceMeshes.vertex_count(self) == recount(self.values())
+
+        def add(self, faces, meshes):
+            super().add(faces, meshes)
             assert FaceMeshes.vertex_count(self) == recount(self.values())
 
         def vertex_count(self, *adding):

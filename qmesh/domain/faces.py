@@ -8,17 +8,14 @@ from __future__ import annotations
 
 from qmesh.domain.domain import Domain
 from qmesh.errors import QmeshError
-from qmesh.mesher.components import Components
 
 
-def face_domain(part, face, extra: dict, name: str, checked: bool = True):
+def face_domain(part, face, extra: dict, name: str):
     """The Domain of `face`: its cycles' vertices with `extra[e]` (points on partition edge e, in
-    order from edges[e, 0]) inserted along the way; unless `checked`, as the partition made it.
-    Without extra points and with no vertex met twice (a pinch) it is as simple as the partition
-    made it: `Domain.from_checked_rings` skips the pair checks."""
+    order from edges[e, 0]) inserted along the way. Without extra points and with no vertex met
+    twice (a pinch) it is as simple as the partition made it: `Domain.from_checked_rings` skips
+    the pair checks."""
     rings, tags, own = part.face_rings(face, extra)
-    if not checked:
-        return Components(rings, tags, [sum(map(len, rings))])
     known = Domain.from_checked_rings(rings, tags) if own else None
     if known is not None:
         return known
