@@ -29,10 +29,18 @@ MIX = np.uint64(0x9E3779B97F4A7C15)   # odd multiplier of the corners' hash (Fib
 
 
 def _canonical(X: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Corners (k, 3, 2) in lexicographic order (x, then y): one key per triangle."""
-    k = len(X)
-    order = np.lexsort((X[:, :, 1].ravel(), X[:, :, 0].ravel(), np.repeat(np.arange(k), 3)))
-    return X.reshape(-1, 2)[order].reshape(k, 6)
+    """Corners (k, 3, 2) in lexicographic order (x, then y): one key per triangle (three
+    compare-and-swaps of the corners, a sorting network)."""
+    a, b, c = X[:, 0], X[:, 1], X[:, 2]
+    for i, j in ((0, 1), (1, 2), (0, 1)):
+        p, q = (a, b) if i == 0 else (b, c)
+        swap = (q[:, 0] < p[:, 0]) | ((q[:, 0] == p[:, 0]) & (q[:, 1] < p[:, 1]))
+        lo, hi = np.where(swap[:, None], q, p), np.where(swap[:, None], p, q)
+        if i == 0:
+            a, b = lo, hi
+        else:
+            b, c = lo, hi
+    return np.concatenate([a, b, c], axis=1)
 
 
 def _hash(C: NDArray[np.float64]) -> NDArray[np.uint64]:
