@@ -111,7 +111,9 @@ def _conflicts_oriented(X: np.ndarray, H: np.ndarray, r: float):
     its own side with its own reach, in the coordinates of the mean metric of the points whose
     major axis points the same way (ORIENTATIONS groups): a ball there is as narrow as the
     point's own ellipse, where the mean metric of a turning field is nearly round and its balls
-    hold a thousand points. The pairs are the same set; the search costs a tree per group."""
+    hold a thousand points. Either point of a pair finds it, so a group's tree holds only the
+    points of its own and later groups. The pairs are the same set; the search costs a tree per
+    group."""
     a, b, c = H[:, 0, 0], H[:, 0, 1], H[:, 1, 1]
     theta = 0.5 * np.arctan2(2.0 * b, a - c)                      # the larger eigenvalue's axis
     lmin = np.clip(_sym_eig_min(H), 1e-300, None)
@@ -133,6 +135,7 @@ def _conflicts_oriented(X: np.ndarray, H: np.ndarray, r: float):
         # found by cells that wide: a group's points lie in a few sectors of a turning field
         cell = np.sqrt(2.0) * r / np.sqrt(float(lmin[src].min()))
         pool = _near_cells(X, src, cell, cells)
+        pool = pool[group[pool] >= g]      # a pair across groups is the lower group's to find
         tree = cKDTree(Y[pool], **TREE)
         # searchers binned by reach (factors of √2), each bin one array-valued search with
         # its largest reach, filtered by each searcher's own: no per-point lists
