@@ -94,7 +94,10 @@ def _conflicts(X: np.ndarray, H: np.ndarray, r: float, Lbar: np.ndarray):
     return i, j
 
 
-ORIENTATIONS = 64     # groups of major-axis direction in the oriented conflict search
+ORIENTATIONS = 64     # groups of major-axis direction in the oriented conflict search, at most:
+                      # about √n / 6 for n points (a power of 2, at least 8): fewer groups hold
+                      # more candidates, more cost a tree each (plasma: 16 best at 3e3 points,
+                      # 32 at 4e4)
 ROUND_METRIC = 16.0   # metrics less anisotropic than this share one group (a tree per group
                       # over all points costs more than their balls holding up to ~4x more)
 TREE = dict(leafsize=32, balanced_tree=False, compact_nodes=False)   # one tree per group: fast builds
@@ -109,7 +112,7 @@ def _conflicts_oriented(X: np.ndarray, H: np.ndarray, r: float):
     """The pairs of `_conflicts` for a metric whose direction turns across Ω (a tensor field):
     a pair conflicts only if Eᵀ H_i E < 2r² (½(H_i + H_j) ≥ ½H_i), so each point searches from
     its own side with its own reach, in the coordinates of the mean metric of the points whose
-    major axis points the same way (ORIENTATIONS groups): a ball there is as narrow as the
+    major axis points the same way (up to ORIENTATIONS groups): a ball there is as narrow as the
     point's own ellipse, where the mean metric of a turning field is nearly round and its balls
     hold a thousand points. Either point of a pair finds it, so a group's tree holds only the
     points of its own and later groups. The pairs are the same set; the search costs a tree per
@@ -118,7 +121,8 @@ def _conflicts_oriented(X: np.ndarray, H: np.ndarray, r: float):
     theta = 0.5 * np.arctan2(2.0 * b, a - c)                      # the larger eigenvalue's axis
     lmin = np.clip(_sym_eig_min(H), 1e-300, None)
     ratio = (a + c - lmin) / lmin
-    group = np.floor((theta / np.pi + 0.5) * ORIENTATIONS).astype(np.int64) % ORIENTATIONS
+    k = int(np.clip(2.0 ** np.round(np.log2(max(np.sqrt(len(X)) / 6.0, 1.0))), 8, ORIENTATIONS))
+    group = np.floor((theta / np.pi + 0.5) * k).astype(np.int64) % k
     group[ratio < ROUND_METRIC] = -1
     n = len(X)
     keys = [np.empty(0, np.int64)]
