@@ -95,10 +95,14 @@ def quadratic_form_xy(x: np.ndarray, y: np.ndarray, H: np.ndarray) -> np.ndarray
 
 
 def quadratic_form(E: np.ndarray, H: np.ndarray) -> np.ndarray:
-    """eᵀHe for vectors E (M, k, 2) and metrics H (M, 2, 2); fast when H is one broadcast matrix."""
+    """eᵀHe for vectors E (M, k, 2) and metrics H (M, 2, 2); fast when H is one broadcast matrix.
+    Otherwise the four terms e_i H_ij e_j summed in einsum's order ("mki,mij,mkj->mk": the same
+    bits), without its generic three-operand loop."""
     if H.ndim == 2 or H.strides[0] == 0:
         return quadratic_form_xy(E[..., 0], E[..., 1], H if H.ndim == 2 else H[0])
-    return np.einsum("mki,mij,mkj->mk", E, H, E)
+    e0, e1 = E[..., 0], E[..., 1]
+    h = H.reshape(len(H), *([1] * (E.ndim - 2)), 4)
+    return ((e0 * h[..., 0] * e0 + e0 * h[..., 1] * e1) + e1 * h[..., 2] * e0) + e1 * h[..., 3] * e1
 
 
 def metric_edge_lengths2(P: np.ndarray, T: np.ndarray, H: np.ndarray) -> np.ndarray:
