@@ -191,8 +191,9 @@ class Domain:
                            tags: Sequence[NDArray[np.int64]]) -> Domain | None:
         """`Domain(rings[0], rings[1:], tags=tags)` for rings already known simple and disjoint,
         their holes inside the outline (a face of a checked partition whose cycles share no
-        vertex): stored as that call stores them, area included, without its pair checks. None
-        when a ring has fewer than 3 points, zero area or the other orientation (the outline
+        vertex, points added along its edges or not): stored as that call stores them, area
+        included, without its pair checks. None when a ring has fewer than 3 points, points
+        that round-off cannot tell apart, zero area or the other orientation (the outline
         counter-clockwise, holes clockwise): the call itself then decides."""
         area = cls.checked_area(rings)
         if area is None:
@@ -208,6 +209,7 @@ class Domain:
         if min(len(R) for R in rings) < 3:
             return None
         try:
+            _check_points(list(rings))
             areas = [_check_ring_area(R, "") for R in rings]
         except QmeshError:
             return None
@@ -374,23 +376,18 @@ class Domain:
             ins |= np.isfinite(_rings.distance(P, A, B, tol * self.diameter))
         return ins
 
-    def scaled(self, center: ArrayLike, scale: float) -> Domain:
-        """The same domain in coordinates (x − center) / scale (tags kept, no re-validation)."""
+    def scaled(self, center: ArrayLike, scale: float, area: float | None = None) -> Domain:
+        """The same domain in coordinates (x − center) / scale (tags kept, no re-validation);
+        its area measured on the new rings unless given."""
         new = object.__new__(type(self))               # a subclass stays itself
         new.__dict__.update(self.__dict__)
         new.__dict__.pop("_triangulation", None)        # a cache in the old coordinates
-        rings = []
-        c = np.asarray(center, dtype=float)
-        for R in self._rings:
-            R = (R - c) / scale
-            R.setflags(write=False)
-            rings.append(R)
-        new._rings = tuple(rings)
-        seeds = np.concatenate(rings)
+        seeds = (self._seeds - np.asarray(center, dtype=float)) / scale   # all rings at once
         seeds.setflags(write=False)
-        new._seeds = seeds
-        new._area = abs(_rings.signed_area(rings[0])) - sum(abs(_rings.signed_area(R))
-                                                             for R in rings[1:])
+        rings = tuple(np.split(seeds, np.cumsum([len(R) for R in self._rings])[:-1]))
+        new._rings, new._seeds = rings, seeds
+        new._area = area if area is not None else \
+            abs(_rings.signed_area(rings[0])) - sum(abs(_rings.signed_area(R)) for R in rings[1:])
         return new
 
     def edge_of(self, P: ArrayLike, tol: float = 1e-9) -> NDArray[np.int64]:

@@ -56,7 +56,7 @@ class FaceRings:
     ring_sizes: np.ndarray    # points of every ring
     face_sizes: np.ndarray    # points of every face
     face_rings: np.ndarray    # rings of every face
-    own: np.ndarray           # per face: no extra point and no vertex met twice (a pinch)
+    simple: np.ndarray        # per face: no vertex met twice (a pinch)
 
     def split(self, X: np.ndarray, sizes: np.ndarray | None = None) -> list:
         """X (one row per point) cut face by face, or by `sizes`."""
@@ -140,11 +140,11 @@ class Partition:
     def face_rings(self, face: Face, extra: dict) -> tuple[list, list, bool]:
         """The rings of `face` (outer first) with `extra[e]` (points on edge e, in order from
         edges[e, 0]) inserted along their edges, each point's segment tag (edge + 1), and whether
-        they are the partition's own: no extra point, and no vertex met twice (a pinch)."""
+        they are simple: no vertex met twice (a pinch)."""
         r = self.faces_rings([face], extra)
         cut = np.cumsum(r.ring_sizes).tolist()
         return ([r.points[a:b] for a, b in zip([0] + cut, cut)], [r.tags[a:b] for a, b in zip([0] + cut, cut)],
-                bool(r.own[0]))
+                bool(r.simple[0]))
 
     def faces_rings(self, faces: list, extra: dict) -> FaceRings:
         """`face_rings` of many faces at once, their rings concatenated face after face: a call
@@ -162,8 +162,7 @@ class Partition:
         n = np.fromiter((0 if x is None else len(x) for x in xs), np.int64, len(xs)) if xs else \
             np.zeros(len(hs), np.int64)
         key = np.unique(of * np.int64(len(self.points)) + self.half_from[hs])
-        own = (np.bincount(of, n, len(faces)) == 0) & \
-            (np.bincount(key // len(self.points), minlength=len(faces)) == np.bincount(of, minlength=len(faces)))
+        simple = np.bincount(key // len(self.points), minlength=len(faces)) == np.bincount(of, minlength=len(faces))
         if n.any():
             at = np.arange(len(hs)) + np.cumsum(n) - n       # each corner, its edge's points after it
             inner = np.ones(len(hs) + int(n.sum()), bool)
@@ -173,7 +172,7 @@ class Partition:
             R[inner] = np.concatenate([x[::-1] if h & 1 else x for h, x in zip(hs.tolist(), xs)
                                        if x is not None and len(x)])
             tags, size = np.repeat(tags, n + 1), np.add.reduceat(n + 1, np.cumsum(size) - size)
-        return FaceRings(R, tags, size, np.add.reduceat(size, np.cumsum(n_cyc) - n_cyc), n_cyc, own)
+        return FaceRings(R, tags, size, np.add.reduceat(size, np.cumsum(n_cyc) - n_cyc), n_cyc, simple)
 
     def even_cuts(self, edges: np.ndarray, pieces: np.ndarray) -> dict[int, np.ndarray]:
         """{edge: the points cutting it into `pieces` equal pieces, from edges[e, 0] on} for the

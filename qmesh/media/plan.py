@@ -104,7 +104,7 @@ class MediaPlan:
         first = np.cumsum(bare.face_rings) - bare.face_rings
         area = []
         for i, (a, k) in enumerate(zip(self.anis, self.k)):
-            m = Domain.checked_area(rings[first[i]:first[i] + bare.face_rings[i]]) if bare.own[i] else None
+            m = Domain.checked_area(rings[first[i]:first[i] + bare.face_rings[i]]) if bare.simple[i] else None
             dom = SimpleNamespace(area=m) if m is not None and a.is_constant else \
                 face_domain(self.part, self.faces[i], {}, self.face_name(i))
             area.append(sizing.metric_area_scaled(dom, a, k))

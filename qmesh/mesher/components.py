@@ -55,10 +55,9 @@ class Components(Domain):
         a call per domain costs more than its lattice."""
         return _lattices(self, np.asarray(H, float), h, rng)
 
-    def scaled(self, center: Any, scale: float) -> Domain:
-        new = Domain.scaled(self, center, scale)        # the area of all outlines, not of one
-        new._area = self._area / scale**2
-        return new
+    def scaled(self, center: Any, scale: float, area: float | None = None) -> Domain:
+        """Domain.scaled with the area of all outlines, not of one."""
+        return Domain.scaled(self, center, scale, self._area / scale**2 if area is None else area)
 
 
 def joined(parts: Sequence[Domain]) -> Domain:

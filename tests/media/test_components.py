@@ -122,7 +122,7 @@ def test_a_face_taken_as_the_partition_made_it_is_the_checked_face():
     V, E = part.points, part.edges                    # points on every edge, ordered along it
     extra = {e: V[E[e, 0]] + np.array([[0.25], [0.5]]) * (V[E[e, 1]] - V[E[e, 0]]) for e in range(len(E))}
     many = part.faces_rings(list(part.faces), extra)
-    assert np.array_equal(many.face_rings, [len(f.cycles) for f in part.faces]) and not many.own.any()
+    assert np.array_equal(many.face_rings, [len(f.cycles) for f in part.faces]) and many.simple.all()
     for j, f in enumerate(part.faces):
         rings, tags = many.face(j)
         a, b = face_domain(part, f, extra, "x"), Components(rings, [tags], [len(tags)])
