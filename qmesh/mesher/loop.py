@@ -60,14 +60,17 @@ def _algorithm_2_1(plan: Plan, rng) -> Iterator[Step]:
     return step
 
 
-def _sized_runs(plan: Plan, seed) -> Iterator[Step]:
-    """Algorithm 2.1 with the plan sized before it starts; when boundary splits made during the
-    run still carry N more than 10% past the target, it runs once more sized for as many fewer
-    interior vertices (the steps of both are yielded: the last is the mesh)."""
-    last = yield from _algorithm_2_1(plan, np.random.default_rng(seed))
-    smaller = plan.budget_splits(last.mesh.n_vertices, len(plan.norm.domain.seeds))
-    if smaller is not None:
-        yield from _algorithm_2_1(smaller, np.random.default_rng(seed))
+def _sized_runs(plan: Plan, seed, tried: list[tuple[int, int]]) -> Iterator[Step]:
+    """Algorithm 2.1 with the plan sized before it starts; when the run ends more than 10% off
+    the target (boundary splits made during it, in a domain thin in the metric), it runs again
+    sized from the counts of the runs so far, up to `plan.RUNS` runs (`Plan.resized`; the steps
+    of every run are yielded: the last is the mesh; each run's (aim, N) is appended to
+    `tried`)."""
+    run: Plan | None = plan
+    while run is not None:
+        last = yield from _algorithm_2_1(run, np.random.default_rng(seed))
+        tried.append((run.aim or 0, last.mesh.n_vertices))
+        run = run.resized(tried, len(run.norm.domain.seeds))
 
 
 def iterate(domain, anisotropy, *, target_vertices: int | None = None, size: float | None = None,
@@ -91,10 +94,10 @@ def iterate(domain, anisotropy, *, target_vertices: int | None = None, size: flo
                       it, only the splits that keep q_ij ≥ 0 on boundary edges are made).
 
     The last Step's mesh is the one `mesh` returns. With `target_vertices`, the boundary splits
-    that keep q_ij ≥ 0 are budgeted in advance; when those made during the run still carry N
-    more than 10% past the target, the steps of one more run sized for fewer interior vertices
-    follow (its first Step is iteration 0 again). A last mesh that misses the target by more
-    than 10% raises QmeshError after that Step, saying why.
+    that keep q_ij ≥ 0 are budgeted in advance; when a run still ends more than 10% off the
+    target (a domain thin in the metric), the steps of up to three more runs, each sized from
+    the counts of the runs before, follow (each first Step is iteration 0 again). A last mesh
+    that misses the target by more than 10% raises QmeshError after that Step, saying why.
     """
     check_keywords(unknown, iterate, "iterate")
     options = Options.checked(target_vertices=target_vertices, size=size, alpha=alpha,
@@ -105,10 +108,11 @@ def iterate(domain, anisotropy, *, target_vertices: int | None = None, size: flo
     if not isinstance(anisotropy, Anisotropy):
         raise QmeshError(f"anisotropy must be a qmesh.Anisotropy, got {type(anisotropy).__name__}")
     plan = plan_run(domain, anisotropy, options)
-    return _checked(plan, _sized_runs(plan, seed))
+    tried: list[tuple[int, int]] = []
+    return _checked(plan, _sized_runs(plan, seed, tried), tried)
 
 
-def _checked(plan: Plan, steps) -> Iterator[Step]:
+def _checked(plan: Plan, steps, tried: list[tuple[int, int]]) -> Iterator[Step]:
     """The steps; a conformity that runs out of vertices is blamed on the option that set N,
     and a last mesh off target raises after it is yielded."""
     last = None
@@ -123,7 +127,7 @@ def _checked(plan: Plan, steps) -> Iterator[Step]:
                          f"too sharp for {e.n} vertices, the points that keep q_ij >= 0 on its "
                          "sides crowd closer than round-off allows; ask for fewer vertices, "
                          "or blunt the corner") from None
-    check_count(last.mesh, plan)
+    check_count(last.mesh, plan, [n for _, n in tried])
 
 
 def mesh(domain, anisotropy, *, target_vertices: int | None = None, size: float | None = None,

@@ -21,6 +21,8 @@ from qmesh.mesher.options import Options
 
 BOUNDARY_FACTOR = 1.0   # split boundary edges longer than this many target metric lengths
 TOLERANCE = 0.1         # the final N may miss target_vertices by this share
+RUNS = 5                # runs of Algorithm 2.1 at most, each sized from the counts before it
+MAX_AIM = 4.0           # ... for no more interior than this many times the target
 
 
 @dataclass(frozen=True)
@@ -55,6 +57,31 @@ class Plan:
             return None
         smaller = _sized(self.norm, self.options, aim, self.area_m, self.lengths)
         return replace(smaller, cap=max(smaller.cap, self.cap))
+
+    def resized(self, tried: list[tuple[int, int]], n_seeds: int) -> "Plan | None":
+        """The plan of one more run when the runs `tried` so far, (aim, N) each, the last this
+        plan's, end more than TOLERANCE off the target; None when the last is on target, when
+        RUNS were made, or when no new aim is left. A thin domain's boundary splits make N a
+        jumpy function of the aim, so the aim is searched: halfway between the largest aim that
+        gave too few and the smallest that gave too many when the first is below the second,
+        else the aim of the run nearest the target less its miss (of the next nearest when that
+        aim was tried; the first correction is `budget_splits`' before a run). Its cap is at
+        least this plan's, as in `budget_splits`."""
+        target = self.target
+        if target is None or abs(tried[-1][1] - target) <= TOLERANCE * target or len(tried) >= RUNS:
+            return None
+        lo = max((a for a, n in tried if n < target), default=None)   # the bracket's aims
+        hi = min((a for a, n in tried if n > target), default=None)
+        aims = [a - (n - target) for a, n in sorted(tried, key=lambda t: abs(t[1] - target))]
+        if lo is not None and hi is not None and lo < hi:
+            aims.insert(0, (lo + hi) // 2)
+        new = [a for a in (int(min(a, MAX_AIM * target)) for a in aims)
+               if a > n_seeds and all(a != b for b, _ in tried)]
+        if not new:
+            return None
+        aim = new[0]
+        resized = _sized(self.norm, self.options, aim, self.area_m, self.lengths)
+        return replace(resized, cap=max(resized.cap, self.cap))
 
     @property
     def boundary_factor(self) -> float | None:
@@ -104,12 +131,14 @@ def _sized(norm, options: Options, aim: int | None, area_m: float, lengths: np.n
     return Plan(norm, options, h, area_m, lengths, expected, min_area, cap, aim)
 
 
-def check_count(mesh, plan: Plan) -> None:
-    """QmeshError unless the mesh lands within TOLERANCE of target_vertices, saying why."""
+def check_count(mesh, plan: Plan, counts=()) -> None:
+    """QmeshError unless the mesh lands within TOLERANCE of target_vertices, saying why; `counts`
+    the N of every run sized for it (the fewest above the target is the one to ask for)."""
     target, n = plan.target, mesh.n_vertices
     if target is None or abs(n - target) <= TOLERANCE * target:
         return
     if n > target:
+        n = min([c for c in counts if c > target] + [n])
         thin = thin_domain(mesh, plan.norm.user_anisotropy)      # what the input has, if thin
         why = f". {thin[0].upper()}{thin[1:]}" if thin else ""
         raise QmeshError(f"target_vertices = {target} is too few: keeping every q_ij >= 0 on the "
@@ -118,5 +147,11 @@ def check_count(mesh, plan: Plan) -> None:
     why = (" (the domain is thinner than one element at this size, so no interior vertex fits)"
            if interior == 0 else "")
     hint = "" if plan.options.boundary_refinement else "; allow boundary_refinement to add boundary vertices"
+    over = [c for c in counts if c > target]
+    if over:                  # the runs jumped over the target: the next count up is reachable
+        under = max([c for c in counts if c < target] + [n])
+        hint = (f"; the runs sized for it end on {under} vertices or fewer, or on {min(over)} or "
+                "more (the splits that keep q_ij >= 0 on the boundary of a domain this thin in "
+                f"the metric come in jumps): ask for at least {min(over)}{hint}")
     raise QmeshError(f"target_vertices = {target} cannot be met: the mesh has {n} "
                      f"vertices{why}{hint}")
