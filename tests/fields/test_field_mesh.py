@@ -7,7 +7,7 @@ import warnings
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import example, given, settings, strategies as st
 
 import qmesh
 from qmesh.conductivity.anisotropy import adj2
@@ -18,7 +18,7 @@ UNIT = qmesh.Polygon([(0, 0), (1, 0), (1, 1), (0, 1)])
 DELTA = 1e-3
 FVCA5_TEST5 = ("(%g*x**2 + y**2)/(x**2 + y**2)" % DELTA, "(%g - 1)*x*y/(x**2 + y**2)" % DELTA,
                "(x**2 + %g*y**2)/(x**2 + y**2)" % DELTA)
-ROUND = 1e-9     # an off-diagonal counts as positive beyond this share of Σ|q_ij^T| (round-off)
+ROUND = 1e-9     # an off-diagonal counts as positive beyond this share of the terms it sums
 
 
 def reference_means(f, P, T, levels=2, n=8):
@@ -59,7 +59,10 @@ def raster_reference_means(x, y, Qc, P, T):
 
 
 def positive_off_diagonals(P, T, Qbar) -> int:
-    """Edges whose off-diagonal K_ij of the P1 stiffness matrix assembled with Qbar is > 0."""
+    """Edges whose off-diagonal K_ij of the P1 stiffness matrix assembled with Qbar is > 0 by
+    more than round-off: ROUND × the size of the terms it sums, |e_i||e_j|‖Q̄_T‖ / 4|T| per
+    triangle (a share that is zero — a right angle in the triangle's metric — has the sign of
+    the round-off, ±1e-16 of those terms, whatever means it is assembled from)."""
     X = P[T]
     E = X[:, [2, 0, 1]] - X[:, [1, 2, 0]]
     twice = (X[:, 1, 0] - X[:, 0, 0]) * (X[:, 2, 1] - X[:, 0, 1]) - \
@@ -69,7 +72,9 @@ def positive_off_diagonals(P, T, Qbar) -> int:
     twin = topology.twins(T)
     g = np.where(twin >= 0, twin, np.arange(len(twin)))
     k = K + np.where(twin >= 0, K[g], 0.0)
-    scale = np.abs(K) + np.where(twin >= 0, np.abs(K[g]), 0.0)
+    size = (np.linalg.norm(E, axis=2) * np.linalg.norm(E[:, [1, 2, 0]], axis=2)
+            * np.linalg.norm(Qbar, axis=(1, 2))[:, None] / (2.0 * np.abs(twice)[:, None])).ravel()
+    scale = size + np.where(twin >= 0, size[g], 0.0)
     once = (twin < 0) | (np.arange(len(twin)) < twin)
     return int((once & (k > ROUND * scale)).sum())
 
@@ -130,6 +135,12 @@ def test_iterate_ends_on_the_mesh_and_only_the_last_step_is_converged():
 @settings(max_examples=8, deadline=None)
 @given(ratio=st.floats(1.0, 1e4), turns=st.floats(0.0, 2.0), tilt=st.floats(0.0, 180.0),
        aspect=st.floats(1.0, 4.0), hole=st.booleans(), target=st.integers(150, 1500))
+# found by longer random runs: a boundary share zero up to round-off (a right angle in the
+# metric), counted positive by a test scaled to the share itself; a target one corrected run
+# undershot, refused without a count to ask for; a target the boundary alone overshoots
+@example(ratio=2980.71875, turns=0.2890625, tilt=0.291015625, aspect=1.0, hole=True, target=399)
+@example(ratio=1334.0, turns=1.25, tilt=0.0, aspect=3.0, hole=True, target=165)
+@example(ratio=2420.0, turns=1.25, tilt=0.0, aspect=3.0, hole=False, target=162)
 def test_random_smooth_fields_are_certified_or_say_what_fails(ratio, turns, tilt, aspect, hole,
                                                                target):
     """A rotating anisotropy: k1 = ratio·(1 + x²), k2 = 1, the axis turning `turns` half-turns
@@ -140,7 +151,12 @@ def test_random_smooth_fields_are_certified_or_say_what_fails(ratio, turns, tilt
     F = qmesh.TensorField.principal(f"{ratio}*(1 + x**2)", 1.0, angle)
     outline = [(0, 0), (aspect, 0), (aspect, 1), (0, 1)]
     holes = [qmesh.Disk(12, radius=0.2, center=(0.5 * aspect, 0.5))] if hole else []
-    m, failing = meshed(qmesh.Domain(outline, holes), F, target)
+    try:
+        m, failing = meshed(qmesh.Domain(outline, holes), F, target)
+    except qmesh.QmeshError as e:        # a target the conforming boundary alone overshoots
+        asked = re.search(r"ask for at least (\d+)", str(e))
+        assert asked is not None and int(asked.group(1)) > target, str(e)
+        return
 
     def f(x, y):
         k1 = ratio * (1 + x * x)
