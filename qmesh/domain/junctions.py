@@ -15,6 +15,8 @@ import numpy as np
 
 from qmesh.errors import QmeshError
 
+CROWD = 1e-10    # a split point this near an end of its edge (× the face's extent) is refused
+
 
 def check_junctions(part: Any, anis: list, face_name: Callable[[int], str]) -> None:
     """Refuse a point inside Ω where regions meet and no mesh can keep each side's q_ij ≥ 0.
@@ -60,3 +62,21 @@ def check_junctions(part: Any, anis: list, face_name: Callable[[int], str]) -> N
                     "on both sides of the interfaces there (splitting them towards the point "
                     "never ends); move a corner off that point, or let the regions meet along "
                     "an edge (e.g. a thin region between them)")
+
+
+def crowded_junction(x: np.ndarray, a: np.ndarray, b: np.ndarray, corners: np.ndarray,
+                     extent: float) -> None:
+    """QmeshError naming the point where regions meet when a split point x of an edge a→b comes
+    within round-off (CROWD × the face's `extent`) of an end of its edge: around that point the
+    splits that keep each side's q_ij ≥ 0 chase each other towards it — wedges whose first
+    lengths must match more closely than the splits land, though `check_junctions` finds such
+    lengths exist."""
+    d = np.minimum(np.hypot(*(x - a).T), np.hypot(*(x - b).T))
+    near = d <= CROWD * extent
+    if not near.any() or not len(corners):
+        return
+    c = corners[np.argmin(np.hypot(*(corners - x[np.argmax(near)]).T))].tolist()
+    raise QmeshError(f"regions meet at the point {c} at angles whose interfaces' splits run towards "
+                     "it without end: the points that keep every q_ij ≥ 0 on both sides come closer "
+                     "together than floating point resolves; move a corner off that point, or let "
+                     "the regions meet along an edge (e.g. a thin region between them)")

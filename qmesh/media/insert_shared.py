@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from qmesh.domain.junctions import crowded_junction
 from qmesh.errors import QmeshError
 from qmesh.geometry import topology
 from qmesh.mesher.conform import beside_corners, encroached, marked, split_points
@@ -53,6 +54,7 @@ def insert_on_boundary(mesh: Mesh, anisotropy, points: dict, part) -> tuple[Mesh
         first = bad[np.unique(t[bad], return_index=True)[1]]
         x = split_points(P[u[first]], P[v[first]], fixed[u[first]], fixed[v[first]], anisotropy)
         x = beside_corners(x, P, u[first], v[first], w[first], marked(P, corners), anisotropy)
+        crowded_junction(x, P[u[first]], P[v[first]], corners, float(np.ptp(P, axis=0).max()))
         on_edge.append(out[u[first]])
         added.append(x)
         P, T, twin, out, fixed = _split(P, T, twin, out, fixed, hb[first], x)
