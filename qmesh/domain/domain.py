@@ -89,6 +89,14 @@ def _check_ring_area(P: NDArray[np.float64], name: str) -> float:
     return area * d * d if abs(area * d * d) > 0 else np.copysign(np.finfo(float).tiny, area)
 
 
+def _ring_area_or_none(P: NDArray[np.float64]) -> float | None:
+    """`_check_ring_area` of a ring of 3 points or more, None where it refuses it."""
+    try:
+        return _check_ring_area(P, "") if len(P) >= 3 else None
+    except QmeshError:
+        return None
+
+
 def _ring_tags(tag: ArrayLike | None, n: int, default: int, name: str) -> NDArray[np.int64]:
     """Per-segment tags of one ring from an int or a sequence of n ints."""
     if tag is None:
@@ -195,7 +203,11 @@ class Domain:
         included, without its pair checks. None when a ring has fewer than 3 points, points
         that round-off cannot tell apart, zero area or the other orientation (the outline
         counter-clockwise, holes clockwise): the call itself then decides."""
-        area = cls.checked_area(rings)
+        area = cls.checked_areas(rings, [len(rings)])[0]
+        try:
+            _check_points(list(rings))
+        except QmeshError:
+            return None
         if area is None:
             return None
         new = object.__new__(cls)
@@ -204,18 +216,19 @@ class Domain:
         return new
 
     @staticmethod
-    def checked_area(rings: Sequence[NDArray[np.float64]]) -> float | None:
-        """The area `from_checked_rings` stores for these rings, or None where it returns None."""
-        if min(len(R) for R in rings) < 3:
-            return None
-        try:
-            _check_points(list(rings))
-            areas = [_check_ring_area(R, "") for R in rings]
-        except QmeshError:
-            return None
-        if areas[0] < 0 or any(a > 0 for a in areas[1:]):
-            return None
-        return abs(areas[0]) - sum(abs(a) for a in areas[1:])
+    def checked_areas(rings: Sequence[NDArray[np.float64]], counts: Sequence[int]) -> list[float | None]:
+        """The area `from_checked_rings` stores for each run of `counts` rings (the faces of a
+        partition), or None where it returns None (a ring of fewer than 3 points, of zero area or
+        of the other orientation)."""
+        signed = [_ring_area_or_none(R) for R in rings]
+        out: list[float | None] = []
+        at = 0
+        for n in counts:
+            a, at = signed[at:at + n], at + n
+            b = [x for x in a if x is not None]
+            ok = len(b) == n and b[0] >= 0 and all(x <= 0 for x in b[1:])
+            out.append(abs(b[0]) - sum(abs(x) for x in b[1:]) if ok else None)
+        return out
 
     @classmethod
     def _many(cls, rings: Sequence[Ring]) -> list[Domain] | None:

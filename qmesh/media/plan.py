@@ -99,15 +99,19 @@ class MediaPlan:
 
     def _measures(self, bare: Any) -> tuple[np.ndarray, list]:
         """Each face's metric area and its segments' metric lengths, as from its Domain (a face
-        the partition's rings do not make one alone, or of a varying s, builds it)."""
-        rings, A, B = bare.split(bare.points, bare.ring_sizes), *map(bare.split, bare.segment_ends())
-        first = np.cumsum(bare.face_rings) - bare.face_rings
-        area = []
-        for i, (a, k) in enumerate(zip(self.anis, self.k)):
-            m = Domain.checked_area(rings[first[i]:first[i] + bare.face_rings[i]]) if bare.simple[i] else None
-            dom = SimpleNamespace(area=m) if m is not None and a.is_constant else \
-                face_domain(self.part, self.faces[i], {}, self.face_name(i))
-            area.append(sizing.metric_area_scaled(dom, a, k))
+        the partition's rings do not make one alone, or of a varying s, builds it); a constant
+        Q's factor taken once per Anisotropy (the area of a unit domain: 1 × it, exactly)."""
+        A, B = map(bare.split, bare.segment_ends())
+        areas = Domain.checked_areas(bare.split(bare.points, bare.ring_sizes), bare.face_rings)
+        unit, area = {}, []
+        for i, (a, k, m) in enumerate(zip(self.anis, self.k, areas)):
+            if m is None or not bare.simple[i] or not a.is_constant:
+                area.append(sizing.metric_area_scaled(face_domain(self.part, self.faces[i], {},
+                                                                  self.face_name(i)), a, k))
+                continue
+            if (id(a), k) not in unit:
+                unit[id(a), k] = sizing.metric_area_scaled(SimpleNamespace(area=1.0), a, k)
+            area.append(m * unit[id(a), k])
         return np.array(area), [sizing.segment_lengths(p, q, a, k) for p, q, a, k in zip(A, B, self.anis, self.k)]
 
     def face_name(self, i: int) -> str:

@@ -18,8 +18,11 @@ def stitch(part, face_meshes: dict, domain) -> Mesh:
     meshes, face_regions = list(face_meshes.values()), [part.faces[i].region for i in face_meshes]
     offs = np.cumsum([0] + [m.n_vertices for m in meshes])
     P = np.concatenate([m.points for m in meshes])
-    U, vid = np.unique(P, axis=0, return_inverse=True)
-    vid = vid.ravel()
+    o = np.lexsort((P[:, 1], P[:, 0]))          # np.unique(P, axis=0), without its row records
+    new = np.ones(len(P), bool)
+    new[1:] = (P[o[1:]] != P[o[:-1]]).any(axis=1)
+    U, vid = P[o[new]], np.empty(len(P), np.int64)
+    vid[o] = np.cumsum(new) - 1
     pairs = cKDTree(U).query_pairs(1e-12 * domain.diameter, output_type="ndarray")
     if len(pairs):
         raise QmeshError(f"two face meshes put vertices {U[pairs[0, 0]].tolist()} and "
