@@ -94,12 +94,13 @@ def split_sizes(mesh: Mesh, point_counts: Sequence[int]) -> list[Mesh]:
     cut_v, cut_t, cut_e = (np.searchsorted(np.sort(x), np.arange(len(sizes) + 1))
                            for x in (of, of[T[:, 0]], of[E[:, 0]]))
     new[v] = np.arange(n) - np.repeat(cut_v[:-1], np.diff(cut_v))
-    out = []
-    for p in range(len(sizes)):
-        vs, ts, es = v[cut_v[p]:cut_v[p + 1]], t[cut_t[p]:cut_t[p + 1]], e[cut_e[p]:cut_e[p + 1]]
-        out.append(Mesh(mesh.points[vs], new[T[ts]], mesh.fixed[vs], new[E[es]],
-                        mesh.boundary_tags[es], mesh.tag_names))
-    return out
+    # every array in part order once, read-only: each part's Mesh keeps views of them
+    P, F, TT, EE, tags = mesh.points[v], mesh.fixed[v], new[T[t]], new[E[e]], mesh.boundary_tags[e]
+    for a in (P, F, TT, EE, tags):
+        a.setflags(write=False)
+    return [Mesh(P[cut_v[p]:cut_v[p + 1]], TT[cut_t[p]:cut_t[p + 1]], F[cut_v[p]:cut_v[p + 1]],
+                 EE[cut_e[p]:cut_e[p + 1]], tags[cut_e[p]:cut_e[p + 1]], mesh.tag_names)
+            for p in range(len(sizes))]
 
 
 def _lattices(dom: Components, H: NDArray[np.float64], h: float, rng: np.random.Generator) -> NDArray[np.float64]:
