@@ -66,12 +66,20 @@ def segment_lengths(A: np.ndarray, B: np.ndarray, anisotropy, scale: float = 1.0
     """Metric length of the segments A→B in H = ∇²s / scale (exact for a constant Q, 8-point
     Gauss–Legendre for a varying s). A region of a medium passes its own scale k_r, so every
     region is sized in its metric with its magnitude divided out (MEDIA.md §3)."""
-    E = B - A
-    X = A[:, None, :] + _GL_X[None, :, None] * E[:, None, :]
+    return stacked_segment_lengths(A[None], B[None], anisotropy, scale)[0]
+
+
+def stacked_segment_lengths(A: np.ndarray, B: np.ndarray, anisotropy, scale: float = 1.0) -> np.ndarray:
+    """`segment_lengths` of F polylines of n segments each, A and B (F, n, 2), in one pass: the
+    same operations row by row and a product per polyline, so each has the bits of its own call
+    (a thousand faces of a medium measured at once)."""
+    F, n = A.shape[:2]
+    E = (B - A).reshape(-1, 2)
+    X = A.reshape(-1, 2)[:, None, :] + _GL_X[None, :, None] * E[:, None, :]
     Hs = (np.broadcast_to(anisotropy.H, (X.shape[0] * X.shape[1], 2, 2)) if anisotropy.is_constant
           else np.asarray(anisotropy.hessian(X.reshape(-1, 2)), dtype=float))
     Ek = np.repeat(E, len(_GL_X), axis=0)
-    dens = np.sqrt(np.einsum("ni,nij,nj->n", Ek, Hs, Ek) / scale).reshape(len(A), -1)
+    dens = np.sqrt(np.einsum("ni,nij,nj->n", Ek, Hs, Ek) / scale).reshape(F, n, -1)
     return dens @ _GL_W
 
 
