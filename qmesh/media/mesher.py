@@ -143,10 +143,8 @@ def _group(plan: MediaPlan, at: int, extra: dict, meshes: FaceMeshes, alone: set
         r = part.faces_rings([plan.faces[j] for j in chunk.tolist()], extra)
         fits = ~r.touching(taken) & plan.same_sizing(chunk, r, first, meshes)
         n = int(np.argmin(np.append(fits, False)))
-        faces += chunk[:n].tolist()
-        rings += r.split(r.points, r.ring_sizes)[:int(r.face_rings[:n].sum())]
-        tags.append(r.tags[:int(r.face_sizes[:n].sum())])
-        sizes += r.face_sizes[:n].tolist()
+        faces, sizes, m = faces + chunk[:n].tolist(), sizes + r.face_sizes[:n].tolist(), int(r.face_sizes[:n].sum())
+        rings, tags = rings + r.split(r.points, r.ring_sizes)[:int(r.face_rings[:n].sum())], tags + [r.tags[:m]]
         if n < batch:
             break
         taken, k, batch = np.concatenate([taken, r.points]), k + n, 2 * batch

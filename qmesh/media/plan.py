@@ -101,7 +101,6 @@ class MediaPlan:
         """Each face's metric area and its segments' metric lengths, as from its Domain (a face
         the partition's rings do not make one alone, or of a varying s, builds it); a constant
         Q's factor taken once per Anisotropy (the area of a unit domain: 1 × it, exactly)."""
-        A, B = map(bare.split, bare.segment_ends())
         areas = Domain.checked_areas(bare.split(bare.points, bare.ring_sizes), bare.face_rings)
         unit, area = {}, []
         for i, (a, k, m) in enumerate(zip(self.anis, self.k, areas)):
@@ -112,7 +111,21 @@ class MediaPlan:
             if (id(a), k) not in unit:
                 unit[id(a), k] = sizing.metric_area_scaled(SimpleNamespace(area=1.0), a, k)
             area.append(m * unit[id(a), k])
-        return np.array(area), [sizing.segment_lengths(p, q, a, k) for p, q, a, k in zip(A, B, self.anis, self.k)]
+        return np.array(area), self._lengths(bare)
+
+    def _lengths(self, bare: Any) -> list:
+        """Each face's segment lengths in its metric, faces of one constant Q, scale and segment
+        count measured together (the bits of a call per face: `sizing.stacked_segment_lengths`)."""
+        A, B = bare.segment_ends()
+        first, n = np.cumsum(bare.face_sizes) - bare.face_sizes, bare.face_sizes
+        alike: dict[tuple, list[int]] = {}
+        for i, (a, k, m) in enumerate(zip(self.anis, self.k, n.tolist())):
+            alike.setdefault((id(a), k, m) if a.is_constant else (i,), []).append(i)
+        out: dict[int, np.ndarray] = {}
+        for f in alike.values():
+            at = first[f][:, None] + np.arange(n[f[0]])
+            out.update(zip(f, sizing.stacked_segment_lengths(A[at], B[at], self.anis[f[0]], self.k[f[0]])))
+        return [out[i] for i in range(len(self.faces))]
 
     def face_name(self, i: int) -> str:
         r, names = self.faces[i].region, self.domain.region_names

@@ -88,3 +88,16 @@ def test_thin_faces_says_what_thin_face_says_of_each():
     said = thin_faces(meshes, INSIDE, 3.0)
     assert said == [thin_face(m, INSIDE, 3.0) for m in meshes]
     assert any(s is None for s in said) and any(s is not None for s in said)
+
+
+@pytest.mark.parametrize("n", [3, 6, 14, 17, 64, 500])
+def test_stacked_segment_lengths_have_the_bits_of_a_call_per_polyline(n):
+    """The plan measures a thousand faces at once: each face's lengths must be those its own
+    call gives, bit for bit (its sizing and so its mesh depend on them), for a constant Q and a
+    varying s."""
+    rng = np.random.default_rng(n)
+    A, B = rng.random((40, n, 2)), rng.random((40, n, 2))
+    varying = qmesh.Anisotropy.from_expression("exp(x) + y**2 + x*y/4")
+    for a in (INSIDE, varying):
+        got = sizing.stacked_segment_lengths(A, B, a, 3.7)
+        assert all(np.array_equal(got[f], sizing.segment_lengths(A[f], B[f], a, 3.7)) for f in range(40))
