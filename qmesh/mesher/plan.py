@@ -153,5 +153,7 @@ def check_count(mesh, plan: Plan, counts=()) -> None:
         hint = (f"; the runs sized for it end on {under} vertices or fewer, or on {min(over)} or "
                 "more (the splits that keep q_ij >= 0 on the boundary of a domain this thin in "
                 f"the metric come in jumps): ask for at least {min(over)}{hint}")
+    elif interior == 0 and (thin := thin_domain(mesh, plan.norm.user_anisotropy)):
+        hint = f". {thin[0].upper()}{thin[1:]}{hint}"      # how many would put elements across
     raise QmeshError(f"target_vertices = {target} cannot be met: the mesh has {n} "
                      f"vertices{why}{hint}")
