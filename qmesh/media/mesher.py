@@ -123,10 +123,9 @@ def _run(plan: MediaPlan, options: dict, every: bool) -> Iterator[Step]:
 
 
 def _group(plan: MediaPlan, at: int, extra: dict, meshes: FaceMeshes, alone: set) -> tuple[list, Any, list, dict]:
-    """The faces of one run from the plan's at-th on, their domain, point counts and sizing: it,
-    and while all are small and of its constant Q and sizing, the next ones (not the last)
-    touching none before them, taken in batches that double (a call per face cost more than
-    its run's share)."""
+    """The faces of one run from the plan's at-th on, their domain, point counts and sizing: it, and
+    while all are small and of its constant Q and sizing, the next ones (not the last) touching
+    none before them, taken in batches that double (a call per face cost more than its share)."""
     i, part = plan.order[at], plan.part
     try:
         dom = face_domain(part, plan.faces[i], extra, plan.face_name(i))
@@ -153,10 +152,9 @@ def _group(plan: MediaPlan, at: int, extra: dict, meshes: FaceMeshes, alone: set
 
 def _face_steps(plan: MediaPlan, faces: list, dom: Any, options: dict, said: list,
                 size: dict) -> Iterator[Step]:
-    """Algorithm 2.1 on the faces (one, or several as one domain `dom`) sized by `size`, its Steps
-    as they come, its warnings in `said`. A face thinner (or sharper) in its metric than the
-    shared size needs a finer one: its run says "too large", and its size is halved, up to
-    FINER times."""
+    """Algorithm 2.1 on the faces (one, or several as one domain `dom`) sized by `size`, its Steps as
+    they come, its warnings in `said`. A face thinner (or sharper) in its metric than the shared
+    size needs a finer one: its run says "too large", and its size is halved, up to FINER times."""
     i = faces[0]
     for k in range(FINER + 1 if len(faces) == 1 else 1):
         try:
@@ -186,12 +184,14 @@ def _share(plan: MediaPlan, meshes: FaceMeshes, mesh: Mesh, extra: dict, options
             a, b = part.points[part.edges[e]]
             X = np.unique(X if e not in extra else np.concatenate([extra[e], X]), axis=0)
             extra[e] = X[np.argsort((X - a) @ (b - a), kind="stable")]
-        beside = {int(f) for e in pts for f in part.edge_faces[e] if int(f) in rank}
-        for j in sorted(beside, key=lambda f: rank[f]):     # the finished faces beside these edges only
-            give = {e: X for e, X in pts.items() if j in part.edge_faces[e]}
+        given: dict[int, dict] = {}        # the finished faces beside these edges only, their points
+        for e, f in zip(pts, part.edge_faces[list(pts)].tolist()):
+            for j in {j for j in f if j in rank}:
+                given.setdefault(j, {})[e] = pts[e]
+        for j in sorted(given, key=lambda f: rank[f]):
             before[j] = before[j] if j in before else _worst(meshes[j], plan.anis[j])
             try:
-                meshes[j], more = insert_on_boundary(meshes[j], plan.anis[j], give, part)
+                meshes[j], more = insert_on_boundary(meshes[j], plan.anis[j], given[j], part)
             except QmeshError as err:
                 raise QmeshError(f"{plan.face_name(j)}: {err}") from None
             if more:
