@@ -63,7 +63,7 @@ def _algorithm_2_1(plan: Plan, rng) -> Iterator[Step]:
 def _sized_runs(plan: Plan, seed, tried: list[tuple[int, int]]) -> Iterator[Step]:
     """Algorithm 2.1 with the plan sized before it starts; when the run ends more than 10% off
     the target (boundary splits made during it, in a domain thin in the metric), it runs again
-    sized from the counts of the runs so far, up to `plan.RUNS` runs (`Plan.resized`; the steps
+    sized from the counts of the runs so far, up to `RUNS` runs (plan.py: `Plan.resized`; the steps
     of every run are yielded: the last is the mesh; each run's (aim, N) is appended to
     `tried`)."""
     run: Plan | None = plan

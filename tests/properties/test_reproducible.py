@@ -66,9 +66,12 @@ def test_translation_and_scale_do_not_change_the_mesh(case, log_distance, direct
 
 
 @examples(0.15)
-@given(cases(regular_domains() | convex_domains(), **SMALL), st.floats(-12, 12))
-def test_scaling_q_does_not_change_the_mesh_for_a_target(case, log_c):
-    c = 10.0 ** log_c
+@given(cases(regular_domains() | convex_domains(), **SMALL), st.integers(-40, 40))
+def test_scaling_q_by_a_power_of_two_does_not_change_the_mesh_for_a_target(case, log2_c):
+    """c·Q with c = 2^k: Q/k normalises to the same bits, so the same mesh. (Another c rounds
+    Q/k in its last bit, which can tip a choice the mesh hinges on: Disk(21) with
+    principal(0.00404, 0.505, 172.8°), boundary_refinement=False, moves 1–7 vertices at c = 3.)"""
+    c = 2.0 ** log2_c
     Q = c * case.conductivity.Q
     scaled = Case(case.domain, ConductivitySpec(f"qmesh.Anisotropy.constant({Q.tolist()!r})",
                                                 lambda: qmesh.Anisotropy.constant(Q), Q), case.options)
