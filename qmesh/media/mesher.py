@@ -32,7 +32,7 @@ from qmesh.media.plan import MediaPlan
 from qmesh.mesher.face_meshes import FaceMeshes
 from qmesh.media.stitch import stitch
 from qmesh.mesher import loop, sizing
-from qmesh.mesher.components import Components, split_sizes
+from qmesh.mesher.components import Components, split
 from qmesh.mesher.diagnose import thin_faces
 from qmesh.mesher.options import Options, check_keywords
 from qmesh.mesher.plan import TOLERANCE    # a mesh this share off target_vertices is warned about
@@ -91,7 +91,7 @@ def _run(plan: MediaPlan, options: dict, every: bool) -> Iterator[Step]:
         try:
             for step in _face_steps(plan, faces, dom, options, said, size):
                 if every:
-                    m = stitch(plan.part, {**meshes, **dict(zip(faces, split_sizes(step.mesh, sizes)))}, plan.domain)
+                    m = stitch(plan.part, {**meshes, **dict(zip(faces, split(step.mesh, sizes)))}, plan.domain)
                     yield Step(step.stage, step.iteration, m, Stats(m.n_vertices, m.n_triangles,
                                seconds=step.stats.seconds, source=(m, cond)))
         except QmeshError:
@@ -100,7 +100,7 @@ def _run(plan: MediaPlan, options: dict, every: bool) -> Iterator[Step]:
             alone.update(faces)              # meshed one by one instead
             continue
         notes += [(f"{plan.face_name(faces[0])}: {w.message}", w.category) for w in said]
-        done = split_sizes(step.mesh, sizes)
+        done = split(step.mesh, sizes)
         for i, thin in zip(faces, thin_faces(done, plan.anis[faces[0]], plan.k[faces[0]])):
             notes += [] if thin is None else [(f"{plan.face_name(i)}: {thin}", QmeshWarning)]
         meshes.add(faces, done)

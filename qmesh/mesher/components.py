@@ -60,22 +60,10 @@ class Components(Domain):
         return Domain.scaled(self, center, scale, self._area / scale**2 if area is None else area)
 
 
-def joined(parts: Sequence[Domain]) -> Domain:
-    """The one domain of `parts`, or their `Components`."""
-    if len(parts) == 1:
-        return parts[0]
-    return Components([R for d in parts for R in d.rings], [d.segment_tags for d in parts],
-                      [len(d.seeds) for d in parts])
-
-
-def split(mesh: Mesh, parts: Sequence[Domain]) -> list[Mesh]:
-    """The mesh of `joined(parts)` as one mesh per part, each with its vertices in the order
-    they have in `mesh`; QmeshError when a triangle joins two parts."""
-    return split_sizes(mesh, [len(d.seeds) for d in parts])
-
-
-def split_sizes(mesh: Mesh, point_counts: Sequence[int]) -> list[Mesh]:
-    """`split` by the parts' input point counts (all a run keeps of its parts)."""
+def split(mesh: Mesh, point_counts: Sequence[int]) -> list[Mesh]:
+    """The mesh of a `Components` as one mesh per part (`point_counts`: each part's input points,
+    in order), each with its vertices in the order they have in `mesh`; QmeshError when a
+    triangle joins two parts."""
     if len(point_counts) == 1:
         return [mesh]
     T, n, sizes = mesh.triangles, mesh.n_vertices, np.asarray(point_counts)
