@@ -7,6 +7,13 @@ from hypothesis import strategies as st
 import qmesh
 from qmesh import measure
 from qmesh.geometry import rings
+from qmesh.mesher.components import Components
+
+
+def joined(parts: list) -> Components:
+    """Domains as one Components, as a run of several faces meshes them."""
+    return Components([R for d in parts for R in d.rings], [d.segment_tags for d in parts],
+                      [len(d.seeds) for d in parts])
 
 
 def rectangle(w, notched=False):

@@ -12,7 +12,7 @@ from qmesh.media import mesher as media_mesher
 from qmesh.media import plan as media_plan
 from qmesh.mesher import loop
 from qmesh.mesher.components import Components, split
-from tests.media.cases import hexagons
+from tests.media.cases import hexagons, joined
 
 P = qmesh.Anisotropy.principal
 INSIDE, OUTSIDE = P(10.0, 1.0, 30.0), P(1.0, 4.0, -20.0)
@@ -22,12 +22,6 @@ def parts() -> list:
     ring = qmesh.Domain([(2, 0), (3, 0), (3, 1), (2, 1)], [[(2.4, 0.4), (2.4, 0.6), (2.6, 0.6), (2.6, 0.4)]],
                         tags=[5, 6])
     return [qmesh.Domain([(0, 0), (1, 0), (1, 1), (0, 1)]), ring, qmesh.Domain(hexagons(1)[0] + [0, 2])]
-
-
-def joined(ps: list) -> Components:
-    """The parts as one Components, as a run of several faces meshes them."""
-    return Components([R for d in ps for R in d.rings], [d.segment_tags for d in ps],
-                      [len(d.seeds) for d in ps])
 
 
 def test_the_joined_domain_covers_its_parts():

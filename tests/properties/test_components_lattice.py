@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import qmesh
-from qmesh.mesher.components import joined
+from tests.media.cases import joined
 from qmesh.mesher.seeding import metric_lattice
 
 
