@@ -25,6 +25,7 @@ energy and the interpolation errors need an s and are not defined for such a con
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
+from concurrent.futures import ThreadPoolExecutor
 from typing import TYPE_CHECKING, Any, Literal, NamedTuple, Union
 
 import numpy as np
@@ -538,9 +539,9 @@ def conditioning(mesh: Mesh, anisotropy: Given = None, *,
     degenerate and every connected part of the mesh has a boundary vertex (else the constants on
     that part are in its kernel). These are checked first, from the mesh alone; then
     "dense" (n ≤ DENSE_LIMIT under "auto"): eigvalsh; "sparse": λ_max by Lanczos on K
-    (matrix-vector products only) and λ_min as 1 / the largest eigenvalue of K⁻¹, by Lanczos
-    with K⁻¹ applied by ONE sparse factorisation (`_inverse`: LDLᵀ by qdldl, else SuperLU in
-    symmetric mode). `tol` bounds the Lanczos residual relative to the eigenvalue (so
+    (matrix-vector products only, on a second thread while the factorisation runs) and λ_min
+    as 1 / the largest eigenvalue of K⁻¹, by Lanczos with K⁻¹ applied by ONE sparse
+    factorisation (`_inverse`: LDLᵀ by qdldl, else SuperLU in symmetric mode). `tol` bounds the Lanczos residual relative to the eigenvalue (so
     an eigenvalue lies that close); the extreme eigenvalues themselves come out about tol²
     relative (residual² / gap), far below the figures printed. A κ2 above KAPPA_LIMIT is
     round-off and is reported as numerically singular.
@@ -574,11 +575,15 @@ def _conditioning(mesh: Mesh, anisotropy: Resolved, method: str = "auto", tol: f
         w = scipy.linalg.eigvalsh(K.toarray())
         return _ratio(float(w[0]), float(w[-1]))
     v0 = np.random.default_rng(0).random(n)                   # fixed start: same mesh ⇒ same κ2
-    lmax = _largest_eigenvalue(K.dot, v0, tol, every=4)
-    solve = _inverse(K)
+    with ThreadPoolExecutor(max_workers=1) as beside:
+        # λ_max's products K·v run on the other core while the factorisation, which leaves
+        # Python's lock, runs on this one: the same numbers, in about the factorisation's time
+        largest = beside.submit(_largest_eigenvalue, K.dot, v0, tol, 4)
+        solve = _inverse(K)
+        mu = _largest_eigenvalue(solve, v0, tol) if callable(solve) else 0.0   # 1 / λ_min
+        lmax = largest.result()
     if isinstance(solve, str):
         return Conditioning(None, solve, None, lmax)
-    mu = _largest_eigenvalue(solve, v0, tol)                   # 1 / λ_min, one solve a step
     return _ratio(1.0 / mu if mu > 0 else -np.inf, lmax)
 
 
@@ -597,7 +602,7 @@ def _inverse(K: sp.csr_matrix) -> Callable[[NDArray[np.float64]], NDArray[np.flo
         if qdldl is None:
             return spla.splu(C, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
                              options={"SymmetricMode": True}).solve
-        ldl = qdldl.Solver(C)
+        ldl = qdldl.Solver(sp.triu(C, format="csc"), upper=True)    # its upper half: no copy made
     except RuntimeError:                          # SuperLU: "exactly singular"; qdldl: D_k = 0
         return "the Dirichlet matrix is singular (a zero pivot)"
     factors = getattr(ldl, "factors", None)       # (L, D, P) from qdldl 0.1.9 on
@@ -800,20 +805,23 @@ def report(mesh: Mesh, anisotropy: Given = None, *, laplacian: bool = True) -> R
         out["kappa2_undefined"] = ("the mesh has no triangle" if len(T) == 0 else
                                    "the mesh has degenerate (zero-area) triangles")
         return out
-    if has_s:
-        out["l2_error"], out["h1_error"] = interpolation_errors(mesh, A)
-    r_in, r_b, r_if = relative = _relative_q(mesh, A, split=True)
-    out.update(_shares(relative, n_interior > 0, isinstance(anisotropy, Mapping), 1e-9))
-    if len(r_if) or isinstance(anisotropy, Mapping):
-        out["min_q_ij_relative_interface"] = float(r_if.min()) if len(r_if) else None
-    out["min_q_ij_relative"] = float(r_in.min()) if len(r_in) else None
-    out["min_q_ij_relative_boundary"] = float(r_b.min()) if len(r_b) else None
-    kappa = _conditioning(mesh, A)
-    out["kappa2"] = kappa.kappa2
-    if kappa.kappa2 is None:
-        out["kappa2_undefined"] = kappa.reason
-    if laplacian:
-        out["kappa2_laplacian"] = _conditioning(mesh, None).kappa2
+    with ThreadPoolExecutor(max_workers=1) as beside:
+        # Q = I's κ2 (another factorisation) on the other core while the rest is measured here
+        plain = beside.submit(_conditioning, mesh, None) if laplacian else None
+        if has_s:
+            out["l2_error"], out["h1_error"] = interpolation_errors(mesh, A)
+        r_in, r_b, r_if = relative = _relative_q(mesh, A, split=True)
+        out.update(_shares(relative, n_interior > 0, isinstance(anisotropy, Mapping), 1e-9))
+        if len(r_if) or isinstance(anisotropy, Mapping):
+            out["min_q_ij_relative_interface"] = float(r_if.min()) if len(r_if) else None
+        out["min_q_ij_relative"] = float(r_in.min()) if len(r_in) else None
+        out["min_q_ij_relative_boundary"] = float(r_b.min()) if len(r_b) else None
+        kappa = _conditioning(mesh, A)
+        out["kappa2"] = kappa.kappa2
+        if kappa.kappa2 is None:
+            out["kappa2_undefined"] = kappa.reason
+        if plain is not None:
+            out["kappa2_laplacian"] = plain.result().kappa2
     return out
 
 
