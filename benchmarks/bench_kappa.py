@@ -5,15 +5,18 @@
 Q = diag(0.1, 10) on Disk(VB) (the chapter's case), meshed by `qmesh.mesh` at each size. Timed,
 best of --repeat, wall-clock and CPU seconds of this process (CPU time hardly depends on what
 else the machine runs; wall time does):
-- `measure.conditioning(mesh, Q)`: λ_max by Lanczos on K, λ_min by Lanczos on K⁻¹ through one
-  LDLᵀ factorisation (qdldl, AMD ordering);
+- `measure.conditioning(mesh, Q)`: λ_max by Lanczos on K (on a second thread, while the
+  factorisation runs), λ_min by Lanczos on K⁻¹ through one LDLᵀ factorisation (qdldl, AMD
+  ordering);
 - the same without qdldl (its fallback: SuperLU in symmetric mode, minimum degree on Kᵀ + K);
-- the same with Q = I (`kappa2_laplacian`), and `measure.report`, which computes both;
+- the same with Q = I (`kappa2_laplacian`), and `measure.report`, which computes both (Q = I's
+  on a second thread);
 - for comparison, the former computation: eigsh at tol 1e-10 for λ_max and for λ_max(K⁻¹)
   through a COLAMD-ordered SuperLU factorisation with partial pivoting.
 Where the time of `measure.conditioning` goes at each N (CPU seconds, best of --repeat): the
 checks and the assembly of K, λ_max's Lanczos steps (one product K·v each), the
-factorisation, λ_min's Lanczos steps (one solve each).
+factorisation, λ_min's Lanczos steps (one solve each), each run alone: their sum is more than
+the wall time of `measure.conditioning`, where λ_max's steps overlap the factorisation.
 With the media presets (unless --no-media), every Step of `qmesh.iterate` is measured: how
 many stages have a κ2, how many have none and why, and that no κ2 is below 1 or not finite.
 Prints figures; asserts nothing.
@@ -198,12 +201,13 @@ def main(argv=None) -> None:
             __file__, sys.argv, "κ2 of the Dirichlet stiffness matrix",
             "Seconds to compute κ2 = λ_max/λ_min of the Dirichlet stiffness matrix on the chapter's "
             f"case (Q = diag(0.1, 10) on Disk({args.vb})) at each N: `measure.conditioning` (λ_max "
-            "by Lanczos on K; λ_min by Lanczos on K⁻¹ through one LDLᵀ factorisation by qdldl), "
+            "by Lanczos on K, on a second thread while the factorisation runs; λ_min by Lanczos "
+            "on K⁻¹ through one LDLᵀ factorisation by qdldl), "
             "the same without qdldl (SuperLU in symmetric mode, its fallback), the same for "
             "Q = I, `measure.report` (both), and the former computation (eigsh at tol 1e-10, "
             "COLAMD factorisation with partial pivoting) on the same machine in the same run. "
             f"Wall and CPU seconds of this process, best of {args.repeat}; then where "
-            "`measure.conditioning`'s CPU time goes. The media table measures every Step of a medium's run: a stage whose "
+            "`measure.conditioning`'s CPU time goes, each part run alone. The media table measures every Step of a medium's run: a stage whose "
             "Dirichlet matrix is singular (a face meshed alone, touching no boundary) has no κ2 "
             "and says why.",
             tables=tables)
