@@ -80,13 +80,15 @@ def html(name: str, info: dict) -> str:
                  _item(_swatch(draw.FACET), "facets of s_h"),
                  _item(_dot(draw.EDGE), "vertices (x, s(x))")]
     elif name == "mesh":
-        def few(n, shown):
-            return f" ({shown} of {n} marked)" if shown < n else ""
+        def few(n, shown, how="marked"):
+            return f" ({shown} of {n} {how})" if shown < n else ""
         items = [_item(_dot(draw.FIXED), "seed points (fixed)"
                        + few(info.get("n_fixed", 0), info.get("n_fixed_shown", 0))),
                  _item(_dot(draw.ADDED), "inserted by the last insert"
                        + few(info.get("n_added", 0), info.get("n_added_shown", 0))),
-                 _item(_line(draw.ARROW), "moves of the last adjust")]
+                 _item(_line(draw.ARROW), "moves of the last adjust"
+                       + few(info.get("n_moved", 0), info.get("n_moved_shown", 0),
+                             "drawn: the longest in each cell of a grid"))]
         regions = info.get("regions") or []
         if regions:
             items.append(_item(_line(draw.INTERFACE, 3), "interface"))

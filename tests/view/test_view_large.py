@@ -6,6 +6,7 @@ Off-screen scenes and the session without a browser; the page itself in test_vie
 import warnings
 
 import numpy as np
+from scipy.spatial import cKDTree
 import pytest
 
 import qmesh
@@ -50,6 +51,28 @@ def test_markers_are_capped_and_shrink():
     assert draw.marker_size(10, 9) == 9 and draw.marker_size(50_000, 9) == 3.0
     info = {"n_added": 50_000, "n_added_shown": 2000, "n_fixed": 64, "n_fixed_shown": 64}
     assert "2000 of 50000 marked" in legend.html("mesh", info)
+
+
+def test_moves_at_1e4_are_drawn_one_per_cell_and_cover_the_domain():
+    Q = qmesh.Anisotropy.constant([[0.1, 0], [0, 10]])
+    adjust = next(s for s in qmesh.iterate(qmesh.Disk(64), Q, target_vertices=10_000, seed=0)
+                  if s.stage == "adjust")
+    P = adjust.mesh.points
+    D = np.asarray(adjust.moved)[:len(P)]
+    length = np.hypot(D[:, 0], D[:, 1])
+    view = scene.projected(adjust)
+    shown = view.arrows.n_cells // 3
+    assert view.n_moved == np.count_nonzero(length > 0) > 2 * scene.MAX_MARKERS
+    assert 0.5 * scene.MAX_MARKERS < shown <= scene.MAX_MARKERS
+    tips = view.arrows.points[shown:2 * shown, :2]
+    drawn = cKDTree(P).query(tips)[1]
+    np.testing.assert_array_equal(P[drawn], tips)                      # each at a vertex,
+    np.testing.assert_allclose(view.arrows.points[:shown, :2], P[drawn] - D[drawn])   # its move
+    assert np.argmax(length) in drawn                                  # the longest is drawn
+    cell = np.ptp(P, axis=0).max() / np.sqrt(scene.MAX_MARKERS)
+    assert cKDTree(tips).query(P)[0].max() < 2 * np.sqrt(2) * cell   # none far from one
+    info = {"n_moved": view.n_moved, "n_moved_shown": shown}
+    assert f"{shown} of {view.n_moved} drawn" in legend.html("mesh", info)
 
 
 def test_exponent_integers_are_accepted():
