@@ -88,7 +88,7 @@ def draw_lifted(plotter: pv.Plotter, view: scene.LiftedScene) -> None:
         plotter.remove_actor(name, render=False)
         plotter.__dict__.get("_qmesh_looks", {}).pop(name, None)
     _put(plotter, "surface", view.surface, color=SURFACE, opacity=0.3, ambient=0.5,
-         show_scalar_bar=False)
+         smooth_shading=True, show_scalar_bar=False)
     if "region_rgb" in view.facets.cell_data:
         _put(plotter, "facets", view.facets, scalars="region_rgb", rgb=True, preference="cell",
              ambient=0.3, show_edges=True, edge_color=EDGE, line_width=1, show_scalar_bar=False)
@@ -330,6 +330,7 @@ class ViewSet:
         self._domain_key = None
         self._field = False              # the first view shows a field's ellipses, top-down
         self._medium = False             # ... a medium's pieces, from above
+        self._fine = False               # s(x) drawn for facets too small to see (_fine_facets)
         self._q_sign = False             # the quality view's edges are the q_ij-sign lines
         self._looks: dict = {}           # each view's edge look (`apply_edges`)
         for name, plotter in self.plotters.items():
@@ -429,7 +430,7 @@ class ViewSet:
                        "n_fixed": projected.n_fixed, "n_fixed_shown": projected.fixed.n_points,
                        "n_moved": projected.n_moved, "n_moved_shown": projected.arrows.n_cells // 3,
                        "crowded": self._looks.get("mesh") != "dark",
-                       "quality_edges": self._looks.get("quality")}
+                       "quality_edges": self._looks.get("quality"), "fine_facets": self._fine}
         if field:
             self.legend.update(field_clim=tuple(map(float, shown.clim)),
                                n_ellipses=len(shown.centres), field_label=anisotropy.label,
@@ -446,8 +447,12 @@ class ViewSet:
         for name in names:
             actors = targets[name]
             plotter = self.plotters[name]
-            look = edge_look(self.edges, self.edge_length * pixels_per_unit(plotter))
+            pixels = self.edge_length * pixels_per_unit(plotter)
+            look = edge_look(self.edges, pixels)
             self._looks[name] = look
+            if name == "lifted":
+                self._fine_facets(plotter, not (self._field or self._medium)
+                                  and edge_look("auto", pixels) is None)
             for actor_name in actors:
                 actor = plotter.actors.get(actor_name)
                 if actor is None:
@@ -475,6 +480,23 @@ class ViewSet:
         self.legend["crowded"] = self._looks.get("mesh") != "dark"
         self.legend["quality_edges"] = self._looks.get("quality")
         return dict(self._looks)
+
+    def _fine_facets(self, plotter: pv.Plotter, fine: bool) -> None:
+        """Facets of s_h too small to tell apart (edges hidden for density, e.g. at 1e5
+        vertices on the whole view) are not drawn: s(x) is, opaque and in their colour, the
+        same picture without 2e5 triangles a frame; zoomed in, the facets are back over the
+        translucent s(x)."""
+        facets, surface = plotter.actors.get("facets"), plotter.actors.get("surface")
+        fine = fine and facets is not None and surface is not None
+        if facets is not None:
+            facets.SetVisibility(not fine)
+        if surface is not None:
+            prop = surface.GetProperty()
+            prop.SetOpacity(1.0 if fine else 0.3)
+            prop.SetColor(pv.Color(FACET if fine else SURFACE).float_rgb)
+            prop.SetAmbient(0.3 if fine else 0.5)
+        self._fine = fine
+        self.legend["fine_facets"] = fine
 
     def _lifted_style(self, field: bool) -> None:
         """The first view's interaction: panned and zoomed like the mesh view for a field (a

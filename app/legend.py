@@ -75,6 +75,9 @@ def html(name: str, info: dict) -> str:
                        "each region in its colour, its triangles lifted onto its own s_r less "
                        "its own plane, at most half the region's width high, seen from above"),
                  _item(_dot(draw.EDGE), "vertices (x, s_r(x))")]
+    elif name == "lifted" and info.get("fine_facets"):
+        items = [_item(_swatch(draw.FACET), "s(x): the facets of s_h are too small to tell "
+                       "apart from it here (zoom in to see them)")]
     elif name == "lifted":
         items = [_item(_swatch(draw.SURFACE, 0.5), "s(x), translucent"),
                  _item(_swatch(draw.FACET), "facets of s_h"),

@@ -276,6 +276,10 @@ def lifted(step, anisotropy, z_scale: float = 1.0, *, domain=None,
     # faces oriented downwards: the lower hull is seen from below, through the translucent s
     surface = triangles_polydata(SP, ST[:, ::-1], z_surface)
     surface.point_data["s"] = s_surface
+    # vertex normals: shaded smoothly, the coarse surface shows no bands where it stands
+    # for facets too small to see (draw.ViewSet._fine_facets)
+    surface = surface.compute_normals(cell_normals=False, split_vertices=False,
+                                      consistent_normals=False)
     facets = triangles_polydata(P, T[:, ::-1], z_vertex)  # s_h: linear on every triangle
     facets.point_data["s"] = s_vertex
     return LiftedScene(surface, points_polydata(P, z_vertex), facets, float(z_scale))

@@ -45,6 +45,27 @@ def test_q_sign_edges_leave_the_quality_view_readable_at_1e4(step_1e4):
     assert "not drawn" in text or "light" in text               # says what is drawn
 
 
+def test_facets_too_small_to_see_give_way_to_s_until_zoomed_in(step_1e4):
+    Q = qmesh.Anisotropy.constant([[0.1, 0], [0, 10]])
+    views = draw.ViewSet((260, 240), scalar_bar=False)
+    try:
+        views.draw(step_1e4, Q)
+        lifted = views.plotters["lifted"]
+        facets, surface = lifted.actors["facets"], lifted.actors["surface"]
+        assert views._looks["lifted"] is None                      # edges hidden: too dense
+        assert not facets.GetVisibility() and surface.GetProperty().GetOpacity() == 1.0
+        assert "too small to tell apart" in legend.html("lifted", views.legend)
+        image = views.images()["lifted"]
+        assert (image.min(axis=2) < 240).mean() > 0.2               # the surface is drawn
+        lifted.camera.zoom(30)
+        views.apply_edges(["lifted"])
+        assert views._looks["lifted"] is not None
+        assert facets.GetVisibility() and surface.GetProperty().GetOpacity() == 0.3
+        assert "facets of s_h" in legend.html("lifted", views.legend)
+    finally:
+        views.close()
+
+
 def test_markers_are_capped_and_shrink():
     idx = np.arange(50_000)
     assert len(scene.markers(idx)) == scene.MAX_MARKERS
