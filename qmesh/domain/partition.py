@@ -191,6 +191,14 @@ class Partition:
         out.setflags(write=False)
         return out
 
+    @cached_property
+    def outline_tags(self) -> np.ndarray:
+        """By a face mesh's boundary tag (edge + 1): whether the edge is Ω's alone, so that the
+        face mesh may remove its vertices there (`mesher.polish`; tag 0 is none)."""
+        out = np.r_[False, ~self.interface]
+        out.setflags(write=False)
+        return out
+
 
 def points_on_edges(mesh, corners: cKDTree, n_seeds: int) -> dict:
     """The vertices a face mesh put on partition edges, beyond its input points: {edge: (k, 2)}

@@ -31,7 +31,7 @@ from qmesh.media.insert_shared import insert_on_boundary
 from qmesh.media.plan import MediaPlan
 from qmesh.mesher.face_meshes import FaceMeshes
 from qmesh.media.stitch import stitch
-from qmesh.mesher import loop, sizing
+from qmesh.mesher import loop, polish, sizing
 from qmesh.mesher.components import Components, split
 from qmesh.mesher.diagnose import thin_faces
 from qmesh.mesher.options import Options, check_keywords
@@ -100,11 +100,11 @@ def _run(plan: MediaPlan, options: dict, every: bool) -> Iterator[Step]:
             alone.update(faces)              # meshed one by one instead
             continue
         notes += [(f"{plan.face_name(faces[0])}: {w.message}", w.category) for w in said]
-        done = split(step.mesh, sizes)
+        done = split(ran := polish.collapse_poor_fans(step.mesh, plan.anis[faces[0]], plan.part.outline_tags), sizes)
         for i, thin in zip(faces, thin_faces(done, plan.anis[faces[0]], plan.k[faces[0]])):
             notes += [] if thin is None else [(f"{plan.face_name(i)}: {thin}", QmeshWarning)]
         meshes.add(faces, done)
-        todo = [step.mesh]                  # a run's mesh, then the faces meshed again
+        todo = [ran]                        # a run's mesh (its poor fans mended), then the faces meshed again
         while todo:
             todo += _share(plan, meshes, todo.pop(), extra, options, redone)
         at += len(faces)
