@@ -78,7 +78,7 @@ def _plan(domain: Any, conductivity: Any, target_vertices: int | None, size: flo
 def _run(plan: MediaPlan, options: dict, every: bool) -> Iterator[Step]:
     """The faces in the plan's order (several in one run: `_group`), each run to its end and shared
     with the finished ones; with `every`, a Step per stage of each run; the stitched whole last."""
-    extra = dict(plan.extra)                 # interface points shared so far, per edge
+    extra = plan.extra                       # interface points shared so far, per edge (counted)
     meshes = FaceMeshes()                    # the finished faces, in the order they were meshed
     notes: list = []                         # (message, category) the faces' runs warned
     cond = {f.region: a for f, a in zip(plan.faces, plan.anis)}

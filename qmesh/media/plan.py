@@ -2,7 +2,8 @@
 
 MEDIA.md §3: each region r is meshed in its metric ∇²s_r with its magnitude k_r divided out, so
 one metric edge length h serves every face. N is shared between the faces by metric area through
-the single-region mesher's own relation h ↔ N, less the interface vertices two faces count twice.
+the single-region mesher's own relation h ↔ N, each face counted with the points its interfaces
+will hold and the grading toward them, less those two faces count twice (mesher/face_count.py).
 
 A face thin or sharp in its own metric needs more vertices than its area says, so the faces
 still to come are sized again before each face (`size_rest`), and the largest, meshed last, is
@@ -29,6 +30,7 @@ from qmesh.mesher.normalise import hessian_scales
 from qmesh.mesher.plan import BOUNDARY_FACTOR
 from qmesh.mesher.widths import thin_widths
 from qmesh.mesher.face_meshes import FaceMeshes
+from qmesh.mesher.face_count import SharedPoints, face_counter
 
 RESIZE = 2.0     # the faces still to come are sized at most this factor away from the first h
 COARSER = 64.0   # ... and at most this factor coarser (a target below what the faces need)
@@ -73,6 +75,8 @@ class MediaPlan:
         slot[seg_edge, (part.edge_faces[seg_edge, 1] == self._seg_face).astype(np.int64)] = \
             np.arange(len(seg_edge))
         self._side = slot[self._inter]
+        self._seg_inter = np.full(len(seg_edge), -1)               # each segment's interface edge
+        self._seg_inter[self._side] = np.arange(len(self._inter))[:, None]
         self.longest = self._seg_len[self._side].max(axis=1)        # in the longer side's metric
         longest = np.maximum.reduceat(self._seg_len, np.cumsum(bare.face_sizes) - bare.face_sizes)
         X, first = part.outer_corners()
@@ -95,7 +99,8 @@ class MediaPlan:
             sizing.check_vertex_count(self.counter(self.order)(self.h), f"size = {self.h:.3g}")
         self.h_rest = self.h
         # interface edges cut evenly into pieces ≤ h in both sides' metrics (the others: by their face)
-        self.extra = part.even_cuts(self._inter, np.ceil(self.longest / (BOUNDARY_FACTOR * self.h)))
+        self.extra = SharedPoints(part.even_cuts(self._inter, np.ceil(self.longest / (BOUNDARY_FACTOR * self.h))),
+                                  len(part.edges))
 
     def _measures(self, bare: Any) -> tuple[np.ndarray, list]:
         """Each face's metric area and its segments' metric lengths, as from its Domain (a face
@@ -147,37 +152,20 @@ class MediaPlan:
                           "(give that area its neighbour's conductivity)")
 
     def counter(self, faces: list, thin: bool = False) -> Callable[[float], float]:
-        """The vertices the faces `faces` add at metric edge length h, as a function of h: Euler's
-        estimate per face, less one count of every interface vertex they share with another face
-        (counted on both sides, or already there). What h does not change is taken once (a
-        bisection calls it a hundred times), from their segments and interface edges alone."""
+        """The vertices the faces `faces` add at metric edge length h, as a function of h
+        (`face_count.face_counter`); what h does not change taken once (a bisection calls it a
+        hundred times), from their segments, the interface edges they touch and the points there."""
         mine = np.zeros(len(self.faces), bool)
         mine[faces] = True
         seg = mine[self._seg_face]                                 # the faces' segments
-        at = (np.cumsum(mine) - 1)[self._seg_face[seg]]            # their face among `faces`
         ef = self.part.edge_faces[self._inter]
-        side = self._side[mine[ef[:, 0]] | mine[ef[:, 1]]]         # interface edges they touch
-        L, L_side, area = self._seg_len[seg], self._seg_len[side], self.area[mine]
-        w, w_side = self._thin_step[seg], self._thin_step[side]
-        fewer = np.minimum if thin else np.maximum
-
-        def count(h: float) -> float:
-            # thin: a face's boundary pieces (≲ THIN·w whatever h is), not its area, set its count
-            step = np.minimum(BOUNDARY_FACTOR * h, w) if thin else BOUNDARY_FACTOR * h
-            pieces = np.maximum(1, np.ceil(L / step))                  # per face segment
-            nb = np.bincount(at, pieces, minlength=len(area))
-            # Euler per face, M = 2N − N_b − 2 triangles: by area (and at least N_b − 2)
-            tri = area / sizing.equilateral_area(h)
-            if thin:
-                tri = np.maximum(tri, nb - 2)
-            n = float(0.5 * (tri + nb + 2).sum())
-            # an interface edge's points counted by both sides, or there already: the fewer
-            # side's pieces (the cut's, the more side's, when not thin) less once
-            step = np.minimum(BOUNDARY_FACTOR * h, w_side) if thin else BOUNDARY_FACTOR * h
-            both = np.maximum(1, np.ceil(L_side / step))
-            return n - float(fewer(both[:, 0], both[:, 1]).sum())
-
-        return count
+        touch = mine[ef[:, 0]] | mine[ef[:, 1]]                   # interface edges they touch
+        iface = np.append(np.cumsum(touch) - 1, -1)[self._seg_inter[seg]]   # -1: none
+        known = self.extra.pieces[self._inter[touch]] if hasattr(self, "extra") else 1
+        return face_counter(self.area[mine], (np.cumsum(mine) - 1)[self._seg_face[seg]], self._seg_len[seg],
+                            self._thin_step[seg], iface, self._seg_len[self._side[touch]],
+                            self._thin_step[self._side[touch]], known, mine[ef[touch]].all(axis=1),
+                            BOUNDARY_FACTOR, thin)
 
     def _size_for(self, faces: list, n: float, thin: bool = False) -> float:
         return sizing.size_for_count(self.counter(faces, thin), n, *self._total, steps=100)
