@@ -33,7 +33,7 @@ from qmesh import CHAPTER_Q, __version__, io, measure
 from qmesh.conductivity.anisotropy import Anisotropy
 from qmesh.conductivity.field import TensorField
 from qmesh.domain import domain as domain_types
-from qmesh.domain.domain import Disk
+from qmesh.domain.domain import Disk, Polygon
 from qmesh.mesher import sizing
 from qmesh.errors import QmeshError, QmeshWarning
 from qmesh.geometry.folds import folded_triangles
@@ -96,6 +96,17 @@ def anisotropy_from(args) -> Anisotropy | TensorField:
 
 
 RASTER_KEYS = ("x", "y", "k1", "k2")
+
+
+DISK = 64
+"""--disk's VB when no domain is given (and no raster, whose rectangle is then the domain)."""
+
+
+def raster_rectangle(field: TensorField) -> Polygon:
+    """The rectangle a raster's cells cover: where its conductivity is known."""
+    assert field.bounds is not None
+    (x0, y0), (x1, y1) = field.bounds
+    return Polygon([(x0, y0), (x1, y0), (x1, y1), (x0, y1)])
 
 
 def raster_from(path: str) -> TensorField:
@@ -169,12 +180,15 @@ def _advance(bar, step) -> None:
 def cmd_mesh(args) -> int:
     out = io.check_writable(args.output)
     anisotropy = anisotropy_from(args)
-    if not (args.polygon or args.regions):   # the disk's own count, before its VB points are made
+    raster_box = args.raster is not None and args.disk is None and not (args.polygon or args.regions)
+    args.disk = DISK if args.disk is None else args.disk
+    if not (args.polygon or args.regions or raster_box):   # the disk's own count, before its VB points
         budget.check(disk_vertices(args.disk, anisotropy, target_vertices=args.target_vertices,
                                           size=args.size),
                      varying=not (isinstance(anisotropy, Anisotropy) and anisotropy.is_constant),
                      what=f"--disk {args.disk}" + ("" if args.target_vertices or args.size else " at the default size"))
-    domain = read_domain(args.polygon) if args.polygon else Disk(args.disk)
+    domain = (read_domain(args.polygon) if args.polygon else
+              raster_rectangle(anisotropy) if raster_box else Disk(args.disk))
     if args.regions or args.region_Q or args.region_principal:      # a conductivity per region
         domain, from_file = read_regions(args.regions) if args.regions else (domain, {})
         anisotropy = conductivity_per_region(domain, from_file, args.region_Q, args.region_principal, anisotropy)
@@ -345,8 +359,9 @@ def build_parser() -> argparse.ArgumentParser:
                        "(format from the extension: " + ", ".join(io.FORMATS) + ").")
     _add_anisotropy(p, fields=True)
     g = p.add_mutually_exclusive_group()
-    g.add_argument("--disk", type=int, default=64, metavar="VB",
-                   help="the regular VB-gon inscribed in the unit circle (default: 64)")
+    g.add_argument("--disk", type=int, metavar="VB",
+                   help="the regular VB-gon inscribed in the unit circle (default: 64; with --raster "
+                   "and no domain given, the raster's rectangle)")
     g.add_argument("--polygon", metavar="FILE", help="a domain file: CSV of x,y rows (a blank line between "
                    "rings: the outline first, then holes) or GeoJSON (.geojson/.json: a Polygon, or a Feature "
                    "holding one)")

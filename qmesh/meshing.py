@@ -15,6 +15,7 @@ from typing import Any, Union
 from qmesh import fields, media
 from qmesh.conductivity.anisotropy import Anisotropy
 from qmesh.conductivity.field import TensorField
+from qmesh.domain.domain import as_domain
 from qmesh.mesher import loop
 from qmesh.mesher.step import Step
 from qmesh.triangle_mesh import Mesh
@@ -27,10 +28,17 @@ def _heterogeneous(domain: Any, conductivity: Any) -> bool:
     return bool(getattr(domain, "regions", ())) or isinstance(conductivity, Mapping)
 
 
+def _field_domain(domain: Any, field: TensorField) -> Any:
+    """The domain, once checked to lie where the field is known (a raster's cells)."""
+    domain = as_domain(domain)
+    field.check_covers(domain.bounds)
+    return domain
+
+
 @wraps(loop.mesh)
 def mesh(domain: Any, anisotropy: Conductivity, **options: Any) -> Mesh:
     if isinstance(anisotropy, TensorField) and not getattr(domain, "regions", ()):
-        return fields.mesh(domain, anisotropy, **options)
+        return fields.mesh(_field_domain(domain, anisotropy), anisotropy, **options)
     if _heterogeneous(domain, anisotropy):
         return media.mesh(domain, anisotropy, **options)
     return loop.mesh(domain, anisotropy, **options)
@@ -39,7 +47,7 @@ def mesh(domain: Any, anisotropy: Conductivity, **options: Any) -> Mesh:
 @wraps(loop.iterate)
 def iterate(domain: Any, anisotropy: Conductivity, **options: Any) -> Iterator[Step]:
     if isinstance(anisotropy, TensorField) and not getattr(domain, "regions", ()):
-        return fields.iterate(domain, anisotropy, **options)
+        return fields.iterate(_field_domain(domain, anisotropy), anisotropy, **options)
     if _heterogeneous(domain, anisotropy):
         return media.iterate(domain, anisotropy, **options)
     return loop.iterate(domain, anisotropy, **options)

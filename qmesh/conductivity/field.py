@@ -385,6 +385,23 @@ class TensorField:
                                    rtol=rtol, max_depth=max_depth)
         return _m.full_tensors(q), err
 
+    def check_covers(self, box: tuple[ArrayLike, ArrayLike], what: str = "the domain") -> None:
+        """A raster knows Q only over its cells: QmeshError naming both rectangles when the box
+        (lo, hi) of `what` reaches outside them (beyond round-off of the raster's size).
+        Formulas and callables are defined everywhere: nothing to check."""
+        if self.bounds is None:
+            return
+        lo, hi = (np.asarray(v, dtype=float) for v in box)
+        rlo, rhi = self.bounds
+        slack = 1e-12 * float(np.max(rhi - rlo))
+        if np.all(lo >= rlo - slack) and np.all(hi <= rhi + slack):
+            return
+        def rect(a: Array, b: Array) -> str:
+            return f"[{a[0]:.10g}, {b[0]:.10g}] × [{a[1]:.10g}, {b[1]:.10g}]"
+        raise QmeshError(f"{what} {rect(lo, hi)} reaches outside the cells of the {self.label} "
+                         f"{rect(rlo, rhi)}, where Q is not known: mesh a domain inside them "
+                         "(qmesh mesh --raster with no domain meshes the raster's rectangle)")
+
     def box_means(self, P: ArrayLike, half_width: ArrayLike) -> Array:
         """Mean of Q over the axis-aligned square of half-width h (a number or (n,), > 0) around
         each point P (n, 2) → (n, 2, 2): the field smoothed at the mesher's target scale, so that a

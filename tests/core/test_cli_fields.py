@@ -43,6 +43,24 @@ def test_a_raster_file_meshes_at_the_target_not_the_cells(tmp_path, square, caps
     assert m.conductivity is not None
 
 
+def test_a_raster_without_a_domain_meshes_its_rectangle_and_a_disk_outside_it_is_refused(
+        tmp_path, capsys):
+    rng = np.random.default_rng(4)
+    path = tmp_path / "k.npz"
+    np.savez(path, x=np.linspace(2.0, 5.0, 13), y=np.linspace(-1.0, 1.0, 9),
+             k1=np.exp(rng.normal(0, 1, (8, 12))), k2=np.exp(rng.normal(0, 1, (8, 12))))
+    out = tmp_path / "k.vtu"
+    assert main(["mesh", "--raster", str(path), "--target-vertices", "300", "-o", str(out)]) == 0
+    assert "q_ij>=0: interior 100.0% boundary 100.0%" in capsys.readouterr().out
+    m = qmesh.io.read(out)
+    np.testing.assert_allclose([m.points.min(axis=0), m.points.max(axis=0)],
+                               [[2.0, -1.0], [5.0, 1.0]], atol=1e-12)
+    assert main(["mesh", "--raster", str(path), "--disk", "64", "-o", str(tmp_path / "d.vtu")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("qmesh: error: the domain [-1, 1] × [-1, 1] reaches outside the cells")
+    assert "[2, 5] × [-1, 1]" in err and err.count("\n") == 1
+
+
 @pytest.mark.parametrize("arrays, message", [
     ({"x": np.linspace(0, 1, 3)}, "needs arrays x, y, k1, k2"),
     (None, "not a NumPy .npz file"),

@@ -222,3 +222,15 @@ def test_box_means_refusals():
         f.box_means(P3, [0.1, 0.0, 0.1])
     with pytest.raises(qmesh.QmeshError, match=r"half_width must be a number or an array of shape \(3,\)"):
         f.box_means(P3, [0.1, 0.2])
+
+
+@pytest.mark.parametrize("shift", [1e-6, 0.3])
+def test_a_domain_reaching_outside_a_raster_is_refused_naming_both_rectangles(shift):
+    F = qmesh.TensorField.from_raster([0.0, 0.5, 1.0], [0.0, 1.0], [[1.0, 2.0]], [[1.0, 1.0]])
+    square = [(0.0, 0.0), (1.0 + shift, 0.0), (1.0 + shift, 1.0), (0.0, 1.0)]
+    for call in (qmesh.mesh, qmesh.iterate):
+        with pytest.raises(qmesh.QmeshError, match=r"\[0, 1\] × \[0, 1\], where Q is not known"):
+            call(qmesh.Polygon(square), F, target_vertices=100)
+    inside = qmesh.mesh(qmesh.Polygon([(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)]), F,
+                        target_vertices=100)
+    assert inside.points.max() <= 1.0 and inside.conductivity is not None
