@@ -66,6 +66,35 @@ class Certificate:
     worst: float        # the smallest q_ij / Σ|q_ij^T| over the edges (≥ −ROUND when certified)
 
 
+class _Judged:
+    """What the repair judged and refused since nothing around it changed: the flip of each
+    half-edge (`edges`) and the move of each vertex (`vertices`). A flip is judged on its two
+    triangles and the shares from the four beyond its sides; a move on its vertex's star and
+    the shares from the triangles beyond it: both on the triangles a changed triangle touches
+    or is. The same inputs refuse again, so a refused one is tried again only once something
+    it is judged on changed (`forget`)."""
+
+    def __init__(self, n: int, m: int):
+        self.vertices = np.zeros(n, bool)
+        self.edges = np.zeros(3 * m, bool)
+
+    def forget(self, T, twin, t):
+        """Triangles `t` changed (and T, twin may have grown): forget what touched them."""
+        n, m = int(T.max()) + 1, len(T)
+        if n > len(self.vertices):
+            self.vertices = np.concatenate([self.vertices, np.zeros(n - len(self.vertices), bool)])
+        if 3 * m > len(self.edges):
+            self.edges = np.concatenate([self.edges, np.zeros(3 * m - len(self.edges), bool)])
+        if not len(t):
+            return
+        across = twin[(3 * np.asarray(t)[:, None] + np.arange(3)).ravel()]
+        near = np.concatenate([t, across[across >= 0] // 3])
+        self.vertices[T[near].ravel()] = False
+        self.edges[(3 * near[:, None] + np.arange(3)).ravel()] = False
+        tw = twin[(3 * near[:, None] + np.arange(3)).ravel()]
+        self.edges[tw[tw >= 0]] = False
+
+
 def shares(P: NDArray[np.float64], T: NDArray[np.int64], Qbar: NDArray[np.float64],
            err: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """q_ij^T of the edge of every half-edge 3t + j (corner j → j + 1) and a bound on its error
@@ -103,19 +132,21 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
     tries = 0                                  # shape steps since the last split
     s, b = shares(P, T, Qbar, err)
     tight = np.zeros(len(T), bool)             # means at the field's own tolerance
+    seen = _Judged(len(P), len(T))             # flips and moves refused, nothing changed since
     for rounds in range(max_rounds + 1):
         h, q, slack = _failing(s, b, twin)
         t = _by_bound(s, b, twin, h, tight)
         if len(t):                             # failing by the bound only: tighter means
             Qbar, err, s, b = _refresh(field, P, T, Qbar, err, s, b, t, tighten=True)
             tight[t] = True
+            seen.forget(T, twin, t)
             h, q, slack = _failing(s, b, twin)
         if len(h) < fewest:
             fewest, since = len(h), 0
         since += 1
         if not len(h) or rounds == max_rounds or since > STALL:
             break
-        done = _flips(P, T, twin, h, s, b, field)
+        done = _flips(P, T, twin, h[~seen.edges[h]], s, b, field, refused=seen.edges)
         t = done[:0]
         if len(done):
             t = np.concatenate([done // 3, twin[done] // 3])
@@ -126,8 +157,10 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
             tan = _tangents(P, T, twin, fixed)
             ends = _free(T, twin, fixed, _corners(T, twin, h), tan)
             if len(ends):
+                movers = _movers(T, twin, ends, rng)
                 P, t = _relax(P, T, twin, Qbar, err, s, b, field, metric,
-                              _movers(T, twin, ends, rng), shape=False, tangent=tan)
+                              movers[~seen.vertices[movers]], shape=False, tangent=tan,
+                              refused=seen.vertices)
         if not len(t):
             keep = _longer(P, T, h, shortest)
             if not keep.any():
@@ -139,23 +172,32 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
         Qbar, err, s, b = _refresh(field, P, T, Qbar, err, s, b, t)
         tight = np.concatenate([tight, np.zeros(len(T) - len(tight), bool)])
         tight[t] = False
+        seen.forget(T, twin, t)
     if metric is not None and not len(h) and added:
         tan = _tangents(P, T, twin, fixed)
+        seen.vertices[:] = False               # judged otherwise than the repair's moves
         new = _free(T, twin, fixed, np.arange(mesh.n_vertices, len(P)), tan)
         for _ in range(SMOOTH):
+            movers = _movers(T, twin, new, rng)
             P, t = _relax(P, T, twin, Qbar, err, s, b, field, metric,
-                          _movers(T, twin, new, rng), shape=True, tangent=tan)
+                          movers[~seen.vertices[movers]], shape=True, tangent=tan,
+                          refused=seen.vertices)
             Qbar, err, s, b = _refresh(field, P, T, Qbar, err, s, b, t)
+            seen.forget(T, twin, t)
     if metric is not None and not len(h):
         tan = _tangents(P, T, twin, fixed)
+        seen = _Judged(len(P), len(T))         # judged afresh: the moves are judged otherwise
         for _ in range(POLISH):                # the worst shapes, each in its own means
             low = metric_quality(P, T, shape_metric(Qbar)) < FLOOR
             poor = _free(T, twin, fixed, T[low].ravel(), tan)
             if not len(poor):
                 break
+            movers = _movers(T, twin, poor, rng)
             P, t = _relax(P, T, twin, Qbar, err, s, b, field, None,
-                          _movers(T, twin, poor, rng), shape=True, tangent=tan)
+                          movers[~seen.vertices[movers]], shape=True, tangent=tan,
+                          refused=seen.vertices)
             Qbar, err, s, b = _refresh(field, P, T, Qbar, err, s, b, t)
+            seen.forget(T, twin, t)
             low = np.flatnonzero(metric_quality(P, T, shape_metric(Qbar)) < FLOOR)
             done = _quality_flips(P, T, twin, (3 * low[:, None] + np.arange(3)).ravel(), s, b,
                                   Qbar, field)
@@ -164,6 +206,7 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
                 T, twin = topology.flip(T, twin, done)
                 flips += len(done)
                 Qbar, err, s, b = _refresh(field, P, T, Qbar, err, s, b, t)
+                seen.forget(T, twin, t)
     s, b = shares(P, T, Qbar, err)             # what is said is assembled afresh
     h, q, slack = _failing(s, b, twin, slack=True)
     worst = float(slack.min()) if len(slack) else 0.0
@@ -278,17 +321,23 @@ def _independent(h, q, tris):
     return (best[at].reshape(cols.shape) == rank[:, None]).all(axis=1)
 
 
-def _flips(P, T, twin, h, s, b, field):
+def _flips(P, T, twin, h, s, b, field, refused=None):
     """Flips of failing interior edges that lower the deficit Σ max(0, bound − q_ij) over the
     five edges of their quadrilateral (its diagonal and its four sides, whose shares from
     outside it stay): a flip that mends its own edge by breaking a side is not taken, so the
-    total deficit only falls and the flips end. No two chosen flips touch one edge."""
+    total deficit only falls and the flips end. No two chosen flips touch one edge.
+    `refused` (a mask over the half-edges, when given) is set on the h whose flip is not
+    better (`_Judged`)."""
+    if refused is not None:
+        refused[h] = True
     c = _flip_candidates(P, T, twin, h, s, b, field)
     if c is None:
         return h[:0]
     inner, before, after, _, _, tris = c
     gain = before - after
     better = gain > GAIN * before
+    if refused is not None:
+        refused[inner[better]] = False
     return _chosen(inner, gain, better, tris)
 
 
@@ -497,15 +546,20 @@ def _max3(x):
     return np.maximum(np.maximum(x[:, 0], x[:, 1]), x[:, 2])
 
 
-def _relax(P, T, twin, Qbar, err, s, b, field, metric, movers, shape, tangent=None):
+def _relax(P, T, twin, Qbar, err, s, b, field, metric, movers, shape, tangent=None,
+           refused=None):
     """Move the vertices `movers` (`_movers`) by the mesher's shape step in `metric`
     (`adjust.shape_step`, capped by `adjust.limit_moves`) where their star is better for it:
     no more failing edges and no higher deficit, and fewer or a lower deficit, and a worst
     quality kept above min(its worst before, KEEP · FLOOR) (shape=False: a repair that adds no
     vertex; a star already worse than that, such as a sharp corner's, gets no worse); no more failing edges, no higher deficit and a better worst
     metric quality of the star in its own means (shape=True). Returns the new P and the
-    triangles that changed. Vertices with a `tangent` (`_tangents`) move along it only."""
+    triangles that changed. Vertices with a `tangent` (`_tangents`) move along it only.
+    `refused` (a mask over the vertices, when given) is set on the movers not moved
+    (`_Judged`)."""
     n = len(P)
+    if not len(movers):
+        return P, np.empty(0, np.int64)
     mask = np.zeros(n, bool)
     mask[movers] = True
     star0 = touching(T, mask)
@@ -526,6 +580,8 @@ def _relax(P, T, twin, Qbar, err, s, b, field, metric, movers, shape, tangent=No
         d[ok] *= frac
         take |= ok
         moving &= ~ok
+    if refused is not None:
+        refused[movers] = ~take[movers]
     if not take.any():
         return P, np.empty(0, np.int64)
     P = P.copy()
