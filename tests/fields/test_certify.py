@@ -1,6 +1,7 @@
 """The repair pass (qmesh/fields/certify.py): its flips only lower the total deficit (so they end),
 its splits never put a new vertex off the edge they split, its shape steps add no failing edge,
-and a raster whose triangles are
+a flip or a move it refused is refused again while nothing it is judged on changes (so it is not
+judged again), and a raster whose triangles are
 smaller than its cells — where flips judged on their own edge alone cycled without end — is
 certified on means computed here by clipping."""
 
@@ -195,3 +196,77 @@ def test_sliding_vertices_keep_to_their_side(seed, n, cells):
     assert np.all(signed_areas(P2, T) > 0)
     _, s2, b2, _ = total_deficit(P2, T, field)
     assert len(C._failing(s2, b2, twin)[0]) <= len(h0)
+
+
+FORMULA = ("1 + x**2 + sin(3*y)", "0.9*sin(4*x)*cos(3*y)", "1.2 + cos(2*x)")
+
+
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), n=st.integers(30, 200), shape=st.booleans(),
+       own=st.booleans())
+def test_each_mover_is_judged_on_its_own(seed, n, shape, own):
+    """The repair leaves out the movers it refused before (`_Judged`): that holds only if a
+    mover's move and verdict do not depend on which other movers move with it. Half of the
+    movers alone move exactly as they did among all of them, and are refused alike."""
+    P, T = square_mesh(seed, n)
+    rng = np.random.default_rng(seed)
+    field = qmesh.TensorField.from_expressions(*FORMULA)
+    metric = None if own else field_metric(field, 0.1, (np.zeros(2), np.ones(2)))
+    Qbar, err = (np.asarray(x) for x in field.means_with_error(P, T))
+    s, b = C.shares(P, T, Qbar, err)
+    twin = topology.twins(T)
+    fixed = np.zeros(len(P), bool)
+    fixed[:4] = True
+    movers = C._movers(T, twin, C._free(T, twin, fixed, np.arange(len(P))), rng)
+    all_refused, some_refused = np.zeros(len(P), bool), np.zeros(len(P), bool)
+    P_all, _ = C._relax(P, T, twin, Qbar, err, s, b, field, metric, movers, shape=shape,
+                        refused=all_refused)
+    some = movers[rng.random(len(movers)) < 0.5]
+    P_some, t = C._relax(P, T, twin, Qbar, err, s, b, field, metric, some, shape=shape,
+                         refused=some_refused)
+    assert np.array_equal(P_some[some], P_all[some])
+    assert np.array_equal(some_refused[some], all_refused[some])
+    assert np.array_equal(all_refused[movers], np.all(P_all[movers] == P[movers], axis=1))
+    assert not np.any(some_refused[np.setdiff1d(np.arange(len(P)), some)])
+
+
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), n=st.integers(30, 300), cells=st.integers(2, 12))
+def test_flips_refused_once_are_refused_again(seed, n, cells):
+    """The flips a round refused (not lowering their quadrilateral's deficit) change nothing
+    when judged again on the same mesh, and leaving them out chooses the same flips."""
+    P, T = square_mesh(seed, n)
+    edges, k1, k2, angle = random_raster(seed, cells, 3.0)
+    field = qmesh.TensorField.from_raster(edges, edges, k1, k2, angle)
+    _, s, b, twin = total_deficit(P, T, field)
+    h, _, _ = C._failing(s, b, twin)
+    refused = np.zeros(len(twin), bool)
+    done = C._flips(P, T, twin, h, s, b, field, refused=refused)
+    assert not refused[done].any()
+    again = np.zeros(len(twin), bool)
+    assert not len(C._flips(P, T, twin, h[refused[h]], s, b, field, refused=again))
+    assert again[h[refused[h]]].all()
+    assert np.array_equal(C._flips(P, T, twin, h[~refused[h]], s, b, field), done)
+
+
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), n=st.integers(10, 100))
+def test_a_change_forgets_what_was_judged_on_it(seed, n):
+    """`_Judged.forget(t)`: the flips of the edges of t and of the triangles beside it (both
+    half-edges) and the moves of their corners are judged again; nothing else is."""
+    P, T = square_mesh(seed, n)
+    twin = topology.twins(T)
+    rng = np.random.default_rng(seed)
+    seen = C._Judged(len(P), len(T))
+    seen.vertices[:] = True
+    seen.edges[:] = True
+    t = rng.choice(len(T), min(3, len(T)), replace=False)
+    seen.forget(T, twin, t)
+    near = set(t.tolist())
+    for x in t:
+        near |= {int(g) // 3 for g in twin[3 * x:3 * x + 3] if g >= 0}
+    near = np.array(sorted(near))
+    he = (3 * near[:, None] + np.arange(3)).ravel()
+    he = np.union1d(he, twin[he][twin[he] >= 0])
+    assert np.array_equal(np.flatnonzero(~seen.edges), he)
+    assert np.array_equal(np.flatnonzero(~seen.vertices), np.unique(T[near]))
