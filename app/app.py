@@ -49,7 +49,7 @@ from qmesh.errors import QmeshError
 
 from . import delivery, legend
 from .controller import PARAMS, status_text
-from .draw import VIEWS, ViewSet, draw_order, view_scene
+from .draw import VIEWS, ViewSet, view_scene
 from .problem import DISK, S_PRESETS
 from .session import RUN_PAUSE, Outcome, Session, describe
 
@@ -347,7 +347,7 @@ class QmeshView(TrameApp):
         c = self.session
         step, anisotropy = c.history[index], c.anisotropy
         loop = asyncio.get_running_loop()
-        order = draw_order(anisotropy)
+        order = self.views.order(anisotropy)
         built = {name: loop.run_in_executor(self._scene_worker, functools.partial(
             view_scene, name, step, anisotropy, z_scale=options["z_scale"],
             colour_by=options["colour_by"], q_sign_edges=options["q_sign_edges"],

@@ -355,7 +355,7 @@ class ViewSet:
         views' scenes already built (`view_scene`), the others are built here."""
         edge_look(edges, 0.0)                           # QmeshError for an unknown mode
         scenes = dict(scenes or {})
-        for name in draw_order(anisotropy):
+        for name in self.order(anisotropy):
             if name not in scenes:
                 scenes[name] = view_scene(name, step, anisotropy, z_scale=z_scale,
                                           colour_by=colour_by, q_sign_edges=q_sign_edges,
@@ -382,6 +382,15 @@ class ViewSet:
     def _key(anisotropy, domain) -> tuple:
         rings = None if domain is None else tuple(np.asarray(r).tobytes() for r in domain.rings)
         return (rings, scene.is_field(anisotropy), scene.is_medium(anisotropy))
+
+    def order(self, anisotropy) -> tuple[str, ...]:
+        """`draw_order`, but the lifted view last while it shows s(x) for facets too small to
+        see (`_fine_facets`): its picture hardly changes from one stage to the next, so the
+        two views that do are drawn first."""
+        order = draw_order(anisotropy)
+        if self._fine and order[0] == "lifted" and not scene.is_medium(anisotropy):
+            return order[1:] + order[:1]
+        return order
 
     def placed(self, anisotropy, *, domain=None, z_scale: float = 1.0) -> bool:
         """True when a draw of a step of this kind would keep every camera where it is (the

@@ -541,9 +541,10 @@ def conditioning(mesh: Mesh, anisotropy: Given = None, *,
     "dense" (n ≤ DENSE_LIMIT under "auto"): eigvalsh; "sparse": λ_max by Lanczos on K
     (matrix-vector products only, on a second thread while the factorisation runs) and λ_min
     as 1 / the largest eigenvalue of K⁻¹, by Lanczos with K⁻¹ applied by ONE sparse
-    factorisation (`_inverse`: LDLᵀ by qdldl, else SuperLU in symmetric mode). `tol` bounds the Lanczos residual relative to the eigenvalue (so
-    an eigenvalue lies that close); the extreme eigenvalues themselves come out about tol²
-    relative (residual² / gap), far below the figures printed. A κ2 above KAPPA_LIMIT is
+    factorisation (`_inverse`: LDLᵀ by qdldl, else SuperLU in symmetric mode). `tol` bounds
+    the Lanczos residual relative to the eigenvalue (so an eigenvalue lies that close); the
+    extreme eigenvalues themselves come out about tol² relative (residual² / gap), far below
+    the figures printed. A κ2 above KAPPA_LIMIT is
     round-off and is reported as numerically singular.
 
     `anisotropy` as in `stiffness` (None: the mesh's element means, or Q = I without them).
@@ -602,7 +603,7 @@ def _inverse(K: sp.csr_matrix) -> Callable[[NDArray[np.float64]], NDArray[np.flo
         if qdldl is None:
             return spla.splu(C, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
                              options={"SymmetricMode": True}).solve
-        ldl = qdldl.Solver(sp.triu(C, format="csc"), upper=True)    # its upper half: no copy made
+        ldl = qdldl.Solver(sp.triu(C, format="csc"), upper=True)    # the half it reads
     except RuntimeError:                          # SuperLU: "exactly singular"; qdldl: D_k = 0
         return "the Dirichlet matrix is singular (a zero pivot)"
     factors = getattr(ldl, "factors", None)       # (L, D, P) from qdldl 0.1.9 on

@@ -396,6 +396,7 @@ class TensorField:
         slack = 1e-12 * float(np.max(rhi - rlo))
         if np.all(lo >= rlo - slack) and np.all(hi <= rhi + slack):
             return
+
         def rect(a: Array, b: Array) -> str:
             return f"[{a[0]:.10g}, {b[0]:.10g}] × [{a[1]:.10g}, {b[1]:.10g}]"
         raise QmeshError(f"{what} {rect(lo, hi)} reaches outside the cells of the {self.label} "

@@ -55,6 +55,7 @@ def test_facets_too_small_to_see_give_way_to_s_until_zoomed_in(step_1e4):
         assert views._looks["lifted"] is None                      # edges hidden: too dense
         assert not facets.GetVisibility() and surface.GetProperty().GetOpacity() == 1.0
         assert "too small to tell apart" in legend.html("lifted", views.legend)
+        assert views.order(Q) == ("mesh", "quality", "lifted")      # the changing views first
         image = views.images()["lifted"]
         assert (image.min(axis=2) < 240).mean() > 0.2               # the surface is drawn
         lifted.camera.zoom(30)
@@ -62,6 +63,7 @@ def test_facets_too_small_to_see_give_way_to_s_until_zoomed_in(step_1e4):
         assert views._looks["lifted"] is not None
         assert facets.GetVisibility() and surface.GetProperty().GetOpacity() == 0.3
         assert "facets of s_h" in legend.html("lifted", views.legend)
+        assert views.order(Q) == ("lifted", "mesh", "quality")
     finally:
         views.close()
 
