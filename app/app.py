@@ -635,12 +635,14 @@ class QmeshView(TrameApp):
 
     def _after_camera(self) -> None:
         looks_before = dict(self._edge_looks) if hasattr(self, "_edge_looks") else None
+        fine_before = self.views.fine_facets
         self._edge_looks = self.views.apply_edges()
         with self.state:                  # the quality legend says which q_ij lines are drawn
             self.state.update(legend.state(self.views.legend))
         for name in ("mesh", "quality"):
             self.html_views[name].update()
-        if looks_before is not None and looks_before.get("lifted") != self._edge_looks["lifted"]:
+        if (looks_before is not None and looks_before.get("lifted") != self._edge_looks["lifted"]
+                or fine_before != self.views.fine_facets):
             self.html_views["lifted"].update()
 
     # ------------------------------------------------------------------ layout

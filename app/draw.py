@@ -392,6 +392,11 @@ class ViewSet:
             return order[1:] + order[:1]
         return order
 
+    @property
+    def fine_facets(self) -> bool:
+        """Whether the lifted view shows s(x) for facets too small to see (`_fine_facets`)."""
+        return self._fine
+
     def placed(self, anisotropy, *, domain=None, z_scale: float = 1.0) -> bool:
         """True when a draw of a step of this kind would keep every camera where it is (the
         views were drawn before, with this domain, kind and z-scale): the views may then be

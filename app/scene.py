@@ -268,8 +268,9 @@ def lifted(step, anisotropy, z_scale: float = 1.0, *, domain=None,
                            None if domain is None else lambda X: domain.contains(X))
     s_surface = np.asarray(anisotropy.s(SP), dtype=float)
     s_vertex = np.asarray(anisotropy.s(P), dtype=float)
-    s_min = min(s_surface.min(), s_vertex.min())
-    s_max = max(s_surface.max(), s_vertex.max())
+    # the sampled surface's range alone: s(x) keeps its picture while vertices come and go
+    # (the vertices, inside Ω, may lie a hair beyond it: the mapping is linear all the same)
+    s_min, s_max = s_surface.min(), s_surface.max()
     width = float(np.ptp(np.concatenate(rings), axis=0).max())
     z_surface = height_map(s_surface, s_min, s_max, width, z_scale)
     z_vertex = height_map(s_vertex, s_min, s_max, width, z_scale)

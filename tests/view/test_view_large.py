@@ -59,7 +59,9 @@ def test_facets_too_small_to_see_give_way_to_s_until_zoomed_in(step_1e4):
         image = views.images()["lifted"]
         assert (image.min(axis=2) < 240).mean() > 0.2               # the surface is drawn
         lifted.camera.zoom(30)
+        assert views.fine_facets
         views.apply_edges(["lifted"])
+        assert not views.fine_facets                                # the app re-sends the view
         assert views._looks["lifted"] is not None
         assert facets.GetVisibility() and surface.GetProperty().GetOpacity() == 0.3
         assert "facets of s_h" in legend.html("lifted", views.legend)

@@ -72,6 +72,19 @@ def test_lifted_surface_lies_under_the_facets_and_scales(steps, chapter_run):
     assert np.all(x[:, 2] <= s_h + 1e-9)
 
 
+def test_lifted_surface_is_the_same_at_every_stage():
+    """s(x) is drawn to its own range: the picture of it does not move as vertices come and go
+    (at 1e5 vertices it is all the lifted view shows), here with s's minimum between the
+    surface's samples, where vertices come nearer to it at every stage."""
+    A = qmesh.Anisotropy.from_expression("2*(y - 0.017)**2 + (x - 0.017)**2")
+    domain = qmesh.Disk(32)
+    steps = list(qmesh.iterate(domain, A, target_vertices=1000, seed=0))
+    first, *rest = [scene.lifted(step, A, domain=domain).surface.points for step in steps]
+    assert len(rest) >= 4
+    for points in rest:
+        np.testing.assert_array_equal(points, first)
+
+
 def test_lifted_rejects_bad_z_scale(steps, chapter_run):
     for bad in (0.0, -1.0, float("nan")):
         with pytest.raises(QmeshError):
