@@ -83,15 +83,20 @@ def html(name: str, info: dict) -> str:
                  _item(_swatch(draw.FACET), "facets of s_h"),
                  _item(_dot(draw.EDGE), "vertices (x, s(x))")]
     elif name == "mesh":
-        def few(n, shown, how="marked"):
-            return f" ({shown} of {n} {how})" if shown < n else ""
+        def few(n, shown):
+            return f" ({shown} of {n} marked)" if shown < n else ""
+
+        # the cap said whenever the mesh is larger than it, not only at the stages it bites:
+        # the same text at every stage keeps the legend row, and so the pictures, one height
+        capped = info.get("n_vertices", 0) > scene.MAX_MARKERS
+
+        def most(how):
+            return f" (at most {scene.MAX_MARKERS} {how})" if capped else ""
         items = [_item(_dot(draw.FIXED), "seed points (fixed)"
                        + few(info.get("n_fixed", 0), info.get("n_fixed_shown", 0))),
-                 _item(_dot(draw.ADDED), "inserted by the last insert"
-                       + few(info.get("n_added", 0), info.get("n_added_shown", 0))),
+                 _item(_dot(draw.ADDED), "inserted by the last insert" + most("marked")),
                  _item(_line(draw.ARROW), "moves of the last adjust"
-                       + few(info.get("n_moved", 0), info.get("n_moved_shown", 0),
-                             "drawn: the longest in each cell of a grid"))]
+                       + most("drawn: the longest in each cell of a grid"))]
         regions = info.get("regions") or []
         if regions:
             items.append(_item(_line(draw.INTERFACE, 3), "interface"))

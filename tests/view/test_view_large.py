@@ -74,8 +74,12 @@ def test_markers_are_capped_and_shrink():
     idx = np.arange(50_000)
     assert len(scene.markers(idx)) == scene.MAX_MARKERS
     assert draw.marker_size(10, 9) == 9 and draw.marker_size(50_000, 9) == 3.0
-    info = {"n_added": 50_000, "n_added_shown": 2000, "n_fixed": 64, "n_fixed_shown": 64}
-    assert "2000 of 50000 marked" in legend.html("mesh", info)
+    info = {"n_added": 50_000, "n_added_shown": 2000, "n_fixed": 64, "n_fixed_shown": 64,
+            "n_vertices": 60_000}
+    assert "inserted by the last insert (at most 2000 marked)" in legend.html("mesh", info)
+    # the same words at a stage that inserted nothing: the legend keeps its height
+    assert legend.html("mesh", {**info, "n_added": 0, "n_added_shown": 0}) == legend.html("mesh", info)
+    assert "at most" not in legend.html("mesh", {**info, "n_vertices": 1500})
 
 
 def test_moves_at_1e4_are_drawn_one_per_cell_and_cover_the_domain():
@@ -96,8 +100,8 @@ def test_moves_at_1e4_are_drawn_one_per_cell_and_cover_the_domain():
     assert np.argmax(length) in drawn                                  # the longest is drawn
     cell = np.ptp(P, axis=0).max() / np.sqrt(scene.MAX_MARKERS)
     assert cKDTree(tips).query(P)[0].max() < 2 * np.sqrt(2) * cell   # none far from one
-    info = {"n_moved": view.n_moved, "n_moved_shown": shown}
-    assert f"{shown} of {view.n_moved} drawn" in legend.html("mesh", info)
+    info = {"n_moved": view.n_moved, "n_moved_shown": shown, "n_vertices": len(P)}
+    assert "(at most 2000 drawn: the longest in each cell of a grid)" in legend.html("mesh", info)
 
 
 def test_exponent_integers_are_accepted():
