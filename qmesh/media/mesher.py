@@ -79,6 +79,7 @@ def _run(plan: MediaPlan, options: dict, every: bool) -> Iterator[Step]:
     """The faces in the plan's order (several in one run: `_group`), each run to its end and shared
     with the finished ones; with `every`, a Step per stage of each run; the stitched whole last."""
     extra = plan.extra                       # interface points shared so far, per edge (counted)
+    assert extra is not None                 # made with the plan's h
     meshes = FaceMeshes()                    # the finished faces, in the order they were meshed
     notes: list = []                         # (message, category) the faces' runs warned
     cond = {f.region: a for f, a in zip(plan.faces, plan.anis)}
@@ -100,7 +101,8 @@ def _run(plan: MediaPlan, options: dict, every: bool) -> Iterator[Step]:
             alone.update(faces)              # meshed one by one instead
             continue
         notes += [(f"{plan.face_name(faces[0])}: {w.message}", w.category) for w in said]
-        done = split(ran := polish.collapse_poor_fans(step.mesh, plan.anis[faces[0]], plan.part.outline_tags), sizes)
+        ran = polish.collapse_poor_fans(step.mesh, plan.anis[faces[0]], plan.part.outline_tags)
+        done = split(ran, sizes)
         for i, thin in zip(faces, thin_faces(done, plan.anis[faces[0]], plan.k[faces[0]])):
             notes += [] if thin is None else [(f"{plan.face_name(i)}: {thin}", QmeshWarning)]
         meshes.add(faces, done)
@@ -142,8 +144,10 @@ def _group(plan: MediaPlan, at: int, extra: dict, meshes: FaceMeshes, alone: set
         r = part.faces_rings([plan.faces[j] for j in chunk.tolist()], extra)
         fits = ~r.touching(taken) & plan.same_sizing(chunk, r, first, meshes)
         n = int(np.argmin(np.append(fits, False)))
-        faces, sizes, m = faces + chunk[:n].tolist(), sizes + r.face_sizes[:n].tolist(), int(r.face_sizes[:n].sum())
-        rings, tags = rings + r.split(r.points, r.ring_sizes)[:int(r.face_rings[:n].sum())], tags + [r.tags[:m]]
+        faces += chunk[:n].tolist()
+        rings += r.split(r.points, r.ring_sizes)[:int(r.face_rings[:n].sum())]
+        tags.append(r.tags[:int(r.face_sizes[:n].sum())])
+        sizes += r.face_sizes[:n].tolist()
         if n < batch:
             break
         taken, k, batch = np.concatenate([taken, r.points]), k + n, 2 * batch

@@ -55,6 +55,7 @@ class MediaPlan:
         self.part = part = domain.partition
         self.faces = part.faces
         self.corners = cKDTree(part.points)   # the partition's points, for every face (points_on_edges)
+        self.extra: SharedPoints | None = None   # the interface points, once h is known
         cond = conductivity_of_regions(domain, conductivity)
         self.anis = [cond[f.region] for f in self.faces]
         if target_vertices is not None and target_vertices <= len(part.points):
@@ -161,7 +162,7 @@ class MediaPlan:
         ef = self.part.edge_faces[self._inter]
         touch = mine[ef[:, 0]] | mine[ef[:, 1]]                   # interface edges they touch
         iface = np.append(np.cumsum(touch) - 1, -1)[self._seg_inter[seg]]   # -1: none
-        known = self.extra.pieces[self._inter[touch]] if hasattr(self, "extra") else 1
+        known = self.extra.pieces[self._inter[touch]] if self.extra is not None else 1
         return face_counter(self.area[mine], (np.cumsum(mine) - 1)[self._seg_face[seg]], self._seg_len[seg],
                             self._thin_step[seg], iface, self._seg_len[self._side[touch]],
                             self._thin_step[self._side[touch]], known, mine[ef[touch]].all(axis=1),
