@@ -440,9 +440,7 @@ class ViewSet:
                        "q_sign_edges": q.edges is not None, "n_negative": q.n_negative,
                        "regions": list(regions) if scene.is_medium(anisotropy) else [],
                        "n_interface": q.n_interface, "field": field,
-                       "n_added": projected.n_added, "n_added_shown": projected.added.n_points,
                        "n_fixed": projected.n_fixed, "n_fixed_shown": projected.fixed.n_points,
-                       "n_moved": projected.n_moved, "n_moved_shown": projected.arrows.n_cells // 3,
                        "n_vertices": step.mesh.n_vertices,
                        "crowded": self._looks.get("mesh") != "dark",
                        "quality_edges": self._looks.get("quality"), "fine_facets": self._fine}
