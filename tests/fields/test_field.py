@@ -3,7 +3,7 @@ naming the component, the point or the cell."""
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 import qmesh
@@ -234,3 +234,20 @@ def test_a_domain_reaching_outside_a_raster_is_refused_naming_both_rectangles(sh
     inside = qmesh.mesh(qmesh.Polygon([(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)]), F,
                         target_vertices=100)
     assert inside.points.max() <= 1.0 and inside.conductivity is not None
+
+
+@settings(max_examples=60, deadline=None)
+@given(x0=st.floats(-1e3, 1e3), y0=st.floats(-1e3, 1e3), w=st.floats(1e-3, 1e3),
+       h=st.floats(1e-3, 1e3), u=st.tuples(*[st.floats(-0.5, 1.5)] * 4))
+def test_check_covers_refuses_exactly_the_boxes_reaching_outside_the_cells(x0, y0, w, h, u):
+    F = qmesh.TensorField.from_raster([x0, x0 + w], [y0, y0 + h], [[1.0]], [[2.0]])
+    lo = np.array([x0 + min(u[0], u[1]) * w, y0 + min(u[2], u[3]) * h])
+    hi = np.array([x0 + max(u[0], u[1]) * w, y0 + max(u[2], u[3]) * h])
+    inside = min(u) >= 0.0 and max(u) <= 1.0
+    assume(inside or min(u) < -1e-6 or max(u) > 1 + 1e-6)   # round-off of the edges is allowed
+    if inside:
+        F.check_covers((lo, hi))
+    else:
+        with pytest.raises(qmesh.QmeshError, match="reaches outside the cells"):
+            F.check_covers((lo, hi))
+    qmesh.TensorField.from_expressions("1", "0", "1").check_covers((lo, hi))   # no cells: any box

@@ -2,6 +2,8 @@
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy.spatial import ConvexHull
 
 import qmesh
@@ -193,3 +195,24 @@ def test_sampling_without_a_domain_uses_the_hull_of_the_mesh(steps):
     a, b, d = P[T[:, 0]], P[T[:, 1]], P[T[:, 2]]
     area = 0.5 * np.abs((b - a)[:, 0] * (d - a)[:, 1] - (b - a)[:, 1] * (d - a)[:, 0]).sum()
     assert area == pytest.approx(hull.volume, rel=1e-9)
+
+
+@settings(max_examples=40, deadline=None)
+@given(n=st.integers(0, 6000), most=st.integers(1, 500), seed=st.integers(0, 2**32 - 1),
+       scale=st.floats(1e-6, 1e6), ties=st.booleans())
+def test_longest_per_cell_keeps_the_longest_of_every_occupied_cell(n, most, seed, scale, ties):
+    rng = np.random.default_rng(seed)
+    P = scale * rng.random((n, 2)) + rng.normal(0, 1e3, 2)
+    length = rng.integers(0, 3, n).astype(float) if ties else rng.random(n)
+    kept = scene.longest_per_cell(P, length, most)
+    if n <= most:
+        np.testing.assert_array_equal(kept, np.arange(n))
+        return
+    assert len(kept) <= most and len(np.unique(kept)) == len(kept)
+    cells = int(np.sqrt(most))
+    g = np.ptp(P, axis=0).max() / cells
+    ij = np.minimum(np.floor((P - P.min(axis=0)) / g), cells - 1).astype(int)
+    key = ij[:, 0] * cells + ij[:, 1]
+    assert set(key[kept]) == set(key)                    # every occupied cell, once
+    best = {k: length[key == k].max() for k in set(key.tolist())}
+    assert all(length[i] == best[key[i]] for i in kept)  # its longest move
