@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from qmesh.conductivity import means as _m
-from qmesh.conductivity.expression import check, parse_function
+from qmesh.conductivity.expression import _quote, _to_sympy, check
 from qmesh import checks
 from qmesh.errors import QmeshError
 
@@ -52,8 +52,7 @@ def _scalar(v: Any, name: str) -> tuple[float | None, _Scalar, str]:
         if form[0] == "num":
             c = float(form[1])
             return c, (lambda X, Y: np.full(X.shape, c)), v.strip()
-        f = parse_function(v, f"{name}(x, y)")
-        return None, (lambda X, Y: f(np.column_stack([X, Y]))), v.strip()
+        return None, _lambdified(v, form, f"{name}(x, y)"), v.strip()
     scalar = isinstance(v, numbers.Real) or (isinstance(v, np.ndarray) and v.ndim == 0 and v.dtype.kind in "iuf")
     if isinstance(v, (bool, np.bool_)) or not scalar:
         raise QmeshError(f"{name} must be a number or a text in x and y, got {v!r:.80}")
@@ -61,6 +60,25 @@ def _scalar(v: Any, name: str) -> tuple[float | None, _Scalar, str]:
     if not np.isfinite(c):
         raise QmeshError(f"{name} must be finite, got {c}")
     return c, (lambda X, Y: np.full(X.shape, c)), f"{c:g}"
+
+
+def _lambdified(text: str, form: tuple, name: str) -> _Scalar:
+    """The checked text `form` as g(X, Y) on 1-D arrays → (n,), lambdified by SymPy as
+    `expression.parse_function` does (the same NumPy code, so the same values to the bit), called
+    on X and Y as they come: the means' quadratures evaluate Q a few hundred times a run, on a
+    few to a few thousand points each, and the wrapper's copies cost as much as the text."""
+    import sympy as sp  # lazily, as expression.py: `import qmesh` stays fast
+
+    f, x, y = _to_sympy(form)
+    if f.has(sp.zoo, sp.oo, -sp.oo, sp.nan):
+        raise QmeshError(f"{name} = {_quote(text)} is not finite")
+    f_val = sp.lambdify((x, y), f, modules="numpy")
+
+    def g(X: Array, Y: Array) -> Array:
+        with np.errstate(all="ignore"):
+            v = np.asarray(f_val(X, Y), dtype=float)
+        return v if v.shape == X.shape else np.full(X.shape, v)
+    return g
 
 
 def _value_checked(g: _Scalar, X: Array, Y: Array, name: str, text: str) -> Array:
@@ -74,21 +92,25 @@ def _value_checked(g: _Scalar, X: Array, Y: Array, name: str, text: str) -> Arra
 
 
 def _check_components(X: Array, Y: Array, q11: Array, q12: Array, q21: Array, q22: Array,
-                      label: str) -> Array:
-    """(n, 3) components of a checked Q: finite, symmetric (SYMMETRY_RTOL), positive definite;
-    else QmeshError naming the first point that fails and Q there."""
+                      label: str, finite: bool = False) -> Array:
+    """(n, 3) components of a checked Q: finite (unless the caller checked each, `finite`),
+    symmetric (SYMMETRY_RTOL), positive definite; else QmeshError naming the first point that
+    fails and Q there."""
     def refuse(bad: NDArray[np.bool_], why: str) -> None:
         k = int(np.flatnonzero(bad)[0])
         Q = [[float(q11[k]), float(q12[k])], [float(q21[k]), float(q22[k])]]
         raise QmeshError(f"{label}: Q is {why} at {_point(X, Y, k)}: Q = {Q}")
 
-    finite = np.isfinite(q11) & np.isfinite(q12) & np.isfinite(q21) & np.isfinite(q22)
-    if not finite.all():
-        refuse(~finite, "not finite")
-    asym = np.abs(q12 - q21) > SYMMETRY_RTOL * (np.abs(q11) + np.abs(q22))
-    if asym.any():
-        refuse(asym, "not symmetric")
-    q = np.stack([q11, 0.5 * (q12 + q21), q22], axis=-1)
+    if not finite:
+        ok = np.isfinite(q11) & np.isfinite(q12) & np.isfinite(q21) & np.isfinite(q22)
+        if not ok.all():
+            refuse(~ok, "not finite")
+    if q12 is not q21:          # one array for both: symmetric by construction
+        asym = np.abs(q12 - q21) > SYMMETRY_RTOL * (np.abs(q11) + np.abs(q22))
+        if asym.any():
+            refuse(asym, "not symmetric")
+    q = np.empty((len(q11), 3))
+    q[:, 0], q[:, 1], q[:, 2] = q11, 0.5 * (q12 + q21), q22
     spd = (q[:, 0] > 0) & (q[:, 2] > 0) & (q[:, 0] * q[:, 2] - q[:, 1] ** 2 > 0)
     if not spd.all():
         refuse(~spd, "not positive definite")
@@ -198,7 +220,7 @@ class TensorField:
 
         def components(X: Array, Y: Array) -> Array:
             v = [_value_checked(gi, X, Y, n, t) for gi, n, t in zip(g, ("q11", "q12", "q22"), texts)]
-            return _check_components(X, Y, v[0], v[1], v[1], v[2], label)
+            return _check_components(X, Y, v[0], v[1], v[1], v[2], label, finite=True)
 
         constant = None
         if parts[0][0] is not None and parts[1][0] is not None and parts[2][0] is not None:
