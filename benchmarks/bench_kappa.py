@@ -5,10 +5,12 @@
 Q = diag(0.1, 10) on Disk(VB) (the chapter's case), meshed by `qmesh.mesh` at each size. Timed,
 best of --repeat, wall-clock and CPU seconds of this process (CPU time hardly depends on what
 else the machine runs; wall time does):
-- `measure.conditioning(mesh, Q)`: λ_max by Lanczos on K (on a second thread, while the
-  factorisation runs), λ_min by Lanczos on K⁻¹ through one LDLᵀ factorisation (qdldl, AMD
-  ordering);
-- the same without qdldl (its fallback: SuperLU in symmetric mode, minimum degree on Kᵀ + K);
+- `measure.conditioning(mesh, Q)`: λ_max by Lanczos on K (on a second thread, while λ_min is
+  computed); λ_min by LOBPCG preconditioned by smoothed-aggregation multigrid (pyamg) from
+  `multigrid_eigen.MULTIGRID_LIMIT` unknowns on, below it (and wherever multigrid does not
+  converge) by Lanczos on K⁻¹ through one LDLᵀ factorisation (qdldl, AMD ordering);
+- the same with λ_min by the factorisation at every N (`method="sparse"`), and without qdldl
+  (its fallback: SuperLU in symmetric mode, minimum degree on Kᵀ + K);
 - the same with Q = I (`kappa2_laplacian`), and `measure.report`, which computes both (Q = I's
   on a second thread);
 - for comparison, the former computation: eigsh at tol 1e-10 for λ_max and for λ_max(K⁻¹)
@@ -34,7 +36,7 @@ import numpy as np
 import scipy.sparse.linalg as spla
 
 import qmesh
-from qmesh import measure
+from qmesh import measure, multigrid_eigen
 
 import report_page
 
@@ -87,6 +89,9 @@ def counted(apply):
     return wrapped, calls
 
 
+PARTS = ("assembly", "lmax", "factor", "lmin", "hierarchy", "lobpcg")
+
+
 def parts_rows(mesh, unknowns: int, repeat: int) -> list[list[object]]:
     """CPU seconds of each part of measure.conditioning, Q and Q = I, best of `repeat`."""
     rows = []
@@ -109,15 +114,24 @@ def parts_rows(mesh, unknowns: int, repeat: int) -> list[list[object]]:
             inverse, solves = counted(solve)
             measure._largest_eigenvalue(inverse, v0, 1e-6)
             t.append(time.process_time())
-            for key, s in zip(("assembly", "lmax", "factor", "lmin"), np.diff(t)):
+            cycle, cycles = counted(multigrid_eigen.preconditioner(K))
+            t.append(time.process_time())
+            found = multigrid_eigen._lobpcg(K.dot, cycle, v0, np.sqrt(1e-6))
+            t.append(time.process_time())
+            for key, s in zip(PARTS, np.diff(t)):
                 best[key] = min(best.get(key, np.inf), s)
-        total = sum(best.values())
+        by_factor = best["assembly"] + best["factor"] + best["lmin"]
+        by_multigrid = best["assembly"] + best["hierarchy"] + best["lobpcg"]
+        steps = f"{len(cycles)}" if found is not None else f"{len(cycles)}, gave up"
         print(f"N = {mesh.n_vertices:>7} {label}: checks + assembly {best['assembly']:.3f}, "
               f"λ_max {best['lmax']:.3f} ({len(products)} steps), factorisation {best['factor']:.3f}, "
-              f"λ_min {best['lmin']:.3f} ({len(solves)} solves); sum {total:.3f} s CPU", flush=True)
+              f"λ_min {best['lmin']:.3f} ({len(solves)} solves), multigrid {best['hierarchy']:.3f}, "
+              f"LOBPCG {best['lobpcg']:.3f} ({steps} steps); λ_min's path by factorisation "
+              f"{by_factor:.3f}, by multigrid {by_multigrid:.3f} s CPU", flush=True)
         rows.append([mesh.n_vertices, unknowns, label, f"{best['assembly']:.3f}",
                      f"{best['lmax']:.3f} ({len(products)})", f"{best['factor']:.3f}",
-                     f"{best['lmin']:.3f} ({len(solves)})", f"{total:.3f}"])
+                     f"{best['lmin']:.3f} ({len(solves)})", f"{best['hierarchy']:.3f}",
+                     f"{best['lobpcg']:.3f} ({steps})", f"{by_factor:.3f}", f"{by_multigrid:.3f}"])
     return rows
 
 
@@ -127,8 +141,10 @@ def size_rows(n: int, vb: int, repeat: int) -> tuple[list[list[object]], list[li
     unknowns = len(measure.free_vertices(mesh))
     rows = []
     for label, f in (("measure.conditioning(mesh, Q)", lambda: measure.conditioning(mesh, A).kappa2),
+                     ("the same, λ_min by factorisation",
+                      lambda: measure.conditioning(mesh, A, method="sparse").kappa2),
                      ("the same without qdldl (SuperLU)",
-                      lambda: without_qdldl(lambda: measure.conditioning(mesh, A).kappa2)),
+                      lambda: without_qdldl(lambda: measure.conditioning(mesh, A, method="sparse").kappa2)),
                      ("measure.conditioning(mesh, I)", lambda: measure.conditioning(mesh, None).kappa2),
                      ("former κ2 (Q)", lambda: former_kappa2(mesh, A)),
                      ("measure.report (κ2 for Q and I)", lambda: measure.report(mesh, A)["kappa2"])):
@@ -187,7 +203,9 @@ def main(argv=None) -> None:
                                 [r for rows, _ in measured for r in rows],
                                 f"Q = diag(0.1, 10) on Disk({args.vb}), best of {args.repeat}"),
               report_page.Table(["N", "unknowns", "conductivity", "checks + assembly", "λ_max (steps)",
-                                 "factorisation", "λ_min (solves)", "sum"],
+                                 "factorisation", "λ_min (solves)", "multigrid hierarchy",
+                                 "λ_min by LOBPCG (steps)", "assembly + factorisation + solves",
+                                 "assembly + multigrid + LOBPCG"],
                                 [r for _, parts in measured for r in parts],
                                 f"Where measure.conditioning's CPU seconds go, best of {args.repeat} "
                                 "for each part")]

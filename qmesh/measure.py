@@ -35,7 +35,7 @@ import scipy.sparse as sp
 import scipy.sparse.csgraph as csgraph
 import scipy.sparse.linalg as spla
 
-from qmesh import checks
+from qmesh import checks, multigrid_eigen
 from qmesh.conductivity.anisotropy import shape_metric
 from qmesh.geometry import quadrature
 from qmesh.errors import QmeshError
@@ -520,7 +520,7 @@ class Conditioning(NamedTuple):
 
 
 def condition_number(mesh: Mesh, anisotropy: Given = None, *,
-                     method: Literal["auto", "dense", "sparse"] = "auto", tol: float = 1e-6) -> float:
+                     method: Literal["auto", "dense", "sparse", "multigrid"] = "auto", tol: float = 1e-6) -> float:
     """κ2 = λ_max / λ_min of the Dirichlet-reduced stiffness matrix (MATH.md "conditioning"),
     always a finite number ≥ 1: QmeshError saying why when the matrix has none (see
     `conditioning`, which returns the reason instead of raising)."""
@@ -531,7 +531,7 @@ def condition_number(mesh: Mesh, anisotropy: Given = None, *,
 
 
 def conditioning(mesh: Mesh, anisotropy: Given = None, *,
-                 method: Literal["auto", "dense", "sparse"] = "auto", tol: float = 1e-6) -> Conditioning:
+                 method: Literal["auto", "dense", "sparse", "multigrid"] = "auto", tol: float = 1e-6) -> Conditioning:
     """κ2 of the Dirichlet-reduced stiffness matrix K (`stiffness_interior`), or why there is none.
 
     K = Σ_T K_T with K_T = G_T Q_T G_Tᵀ / |T| positive semi-definite when Q_T is, with kernel the
@@ -539,17 +539,19 @@ def conditioning(mesh: Mesh, anisotropy: Given = None, *,
     degenerate and every connected part of the mesh has a boundary vertex (else the constants on
     that part are in its kernel). These are checked first, from the mesh alone; then
     "dense" (n ≤ DENSE_LIMIT under "auto"): eigvalsh; "sparse": λ_max by Lanczos on K
-    (matrix-vector products only, on a second thread while the factorisation runs) and λ_min
+    (matrix-vector products only, on a second thread while λ_min is computed) and λ_min
     as 1 / the largest eigenvalue of K⁻¹, by Lanczos with K⁻¹ applied by ONE sparse
-    factorisation (`_inverse`: LDLᵀ by qdldl, else SuperLU in symmetric mode). `tol` bounds
-    the Lanczos residual relative to the eigenvalue (so an eigenvalue lies that close); the
-    extreme eigenvalues themselves come out about tol² relative (residual² / gap), far below
-    the figures printed. A κ2 above KAPPA_LIMIT is
-    round-off and is reported as numerically singular.
+    factorisation (`_inverse`: LDLᵀ by qdldl, else SuperLU in symmetric mode); "multigrid"
+    (n ≥ MULTIGRID_LIMIT under "auto"): the same λ_max, and λ_min by LOBPCG preconditioned
+    by algebraic multigrid (`multigrid_eigen`; the factorisation where that does not
+    converge). `tol` bounds the Lanczos residual relative to the eigenvalue (so an eigenvalue
+    lies that close), and LOBPCG's to √tol; the extreme eigenvalues themselves come out about
+    tol² and tol relative (residual² / gap), far below the figures printed. A κ2 above
+    KAPPA_LIMIT is round-off and is reported as numerically singular.
 
     `anisotropy` as in `stiffness` (None: the mesh's element means, or Q = I without them).
     """
-    checks.choice(method, "method", ("auto", "dense", "sparse"))
+    checks.choice(method, "method", ("auto", "dense", "sparse", "multigrid"))
     tol = checks.real(tol, "tol", low=0.0, high=1.0, high_open=True)
     return _conditioning(mesh, _resolve(mesh, anisotropy), method, tol)
 
@@ -577,15 +579,29 @@ def _conditioning(mesh: Mesh, anisotropy: Resolved, method: str = "auto", tol: f
         return _ratio(float(w[0]), float(w[-1]))
     v0 = np.random.default_rng(0).random(n)                   # fixed start: same mesh ⇒ same κ2
     with ThreadPoolExecutor(max_workers=1) as beside:
-        # λ_max's products K·v run on the other core while the factorisation, which leaves
-        # Python's lock, runs on this one: the same numbers, in about the factorisation's time
+        # λ_max's products K·v run on the other core while λ_min's factorisation (which leaves
+        # Python's lock) or multigrid runs on this one: κ2 in about the time of λ_min alone
         largest = beside.submit(_largest_eigenvalue, K.dot, v0, tol, 4)
-        solve = _inverse(K)
-        mu = _largest_eigenvalue(solve, v0, tol) if callable(solve) else 0.0   # 1 / λ_min
+        lmin = _smallest_eigenvalue(K, v0, tol, method)
         lmax = largest.result()
+    if isinstance(lmin, str):
+        return Conditioning(None, lmin, None, lmax)
+    return _ratio(lmin, lmax)
+
+
+def _smallest_eigenvalue(K: sp.csr_matrix, v0: NDArray[np.float64], tol: float,
+                         method: str) -> float | str:
+    """λ_min by multigrid where K is large (or "multigrid" is asked), else as 1 / the largest
+    eigenvalue of K⁻¹ by Lanczos through one factorisation; or why K has no factorisation."""
+    if method == "multigrid" or (method == "auto" and len(v0) >= multigrid_eigen.MULTIGRID_LIMIT):
+        lmin = multigrid_eigen.smallest_eigenvalue(K, v0, tol)
+        if lmin is not None:
+            return lmin
+    solve = _inverse(K)
     if isinstance(solve, str):
-        return Conditioning(None, solve, None, lmax)
-    return _ratio(1.0 / mu if mu > 0 else -np.inf, lmax)
+        return solve
+    mu = _largest_eigenvalue(solve, v0, tol)
+    return 1.0 / mu if mu > 0 else -np.inf
 
 
 def _inverse(K: sp.csr_matrix) -> Callable[[NDArray[np.float64]], NDArray[np.float64]] | str:
@@ -807,8 +823,10 @@ def report(mesh: Mesh, anisotropy: Given = None, *, laplacian: bool = True) -> R
                                    "the mesh has degenerate (zero-area) triangles")
         return out
     with ThreadPoolExecutor(max_workers=1) as beside:
-        # Q = I's κ2 (another factorisation) on the other core while the rest is measured here
-        plain = beside.submit(_conditioning, mesh, None) if laplacian else None
+        # Q = I's κ2 (another factorisation) on the other core while the rest is measured here;
+        # by the factorisation at any N: multigrid is made for the Q the mesh was stretched for,
+        # and gives up on Q = I on a mesh stretched for another Q (a dozen steps lost at 1e5)
+        plain = beside.submit(_conditioning, mesh, None, "sparse") if laplacian else None
         if has_s:
             out["l2_error"], out["h1_error"] = interpolation_errors(mesh, A)
         r_in, r_b, r_if = relative = _relative_q(mesh, A, split=True)
