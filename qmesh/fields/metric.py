@@ -60,16 +60,28 @@ def field_metric(field, width: float, box) -> Anisotropy:
     table = shape_metric(smoothed(field, nodes, width, (lo, hi))).reshape(-1, 4)
     table = np.ascontiguousarray(table[:, [0, 1, 3]])           # h11, h12, h22 at node i·n1 + j
 
+    du, dv = gx[1] - gx[0], gy[1] - gy[0]
+    top_u, top_v = n[0] - 1.0, n[1] - 1.0
+    h11, h12, h22 = (np.ascontiguousarray(table[:, c]) for c in range(3))
+
     def hessian(P: NDArray[np.float64]) -> NDArray[np.float64]:
+        # the bilinear mix (1 − fu)((1 − fv) a0 + fv a1) + fu((1 − fv) a2 + fv a3) of the cell's
+        # corners, component by component into the output (the mesher asks some 30 times an
+        # iteration, for a few thousand points each: temporaries and gathers of rows cost more
+        # than the arithmetic)
         P = np.asarray(P, dtype=float)
-        u = np.clip((P[:, 0] - lo[0]) / (gx[1] - gx[0]), 0.0, n[0] - 1.0)
-        v = np.clip((P[:, 1] - lo[1]) / (gy[1] - gy[0]), 0.0, n[1] - 1.0)
+        u = np.minimum(np.maximum((P[:, 0] - lo[0]) / du, 0.0), top_u)
+        v = np.minimum(np.maximum((P[:, 1] - lo[1]) / dv, 0.0), top_v)
         i, j = np.minimum(u.astype(int), n[0] - 2), np.minimum(v.astype(int), n[1] - 2)
-        fu, fv = (u - i)[:, None], (v - j)[:, None]
+        fu, fv = u - i, v - j
+        gu, gv = 1 - fu, 1 - fv
         k = i * n[1] + j                                         # the cell's lower-left node
-        at = [np.take(table, k + c, axis=0) for c in (0, 1, n[1], n[1] + 1)]   # take: no slow path
-        h = (1 - fu) * ((1 - fv) * at[0] + fv * at[1]) + fu * ((1 - fv) * at[2] + fv * at[3])
-        return np.take(h, [0, 1, 1, 2], axis=1).reshape(-1, 2, 2)
+        k1, k2, k3 = k + 1, k + n[1], k + (n[1] + 1)
+        out = np.empty((len(P), 2, 2))
+        for c, (row, col) in zip((h11, h12, h22), ((0, 0), (0, 1), (1, 1))):
+            out[:, row, col] = gu * (gv * c[k] + fv * c[k1]) + fu * (gv * c[k2] + fv * c[k3])
+        out[:, 1, 0] = out[:, 0, 1]
+        return out
     return Anisotropy.metric_only(hessian, getattr(field, "label", "") or "tensor field")
 
 
