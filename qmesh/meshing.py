@@ -2,8 +2,9 @@
 
 One conductivity on a domain without regions is Algorithm 2.1 as the chapter states it
 (`qmesh.mesher.loop`); a domain with regions, or a conductivity per region ({tag: Anisotropy}),
-is a heterogeneous medium (`qmesh.media`, MEDIA.md), each face meshed by that same loop.
-Both layers sit below this module, so neither imports the other.
+is a heterogeneous medium (`qmesh.media`, MEDIA.md), each face meshed by that same loop; a
+TensorField (`qmesh.fields`) on a domain or in some regions of a medium is meshed in its metric
+and certified on its element means (`qmesh.media.field_regions` for a medium).
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from functools import wraps
 from typing import Any, Union
 
 from qmesh import fields, media
+from qmesh.media import field_regions
 from qmesh.conductivity.anisotropy import Anisotropy
 from qmesh.conductivity.field import TensorField
 from qmesh.domain.domain import as_domain
@@ -20,8 +22,8 @@ from qmesh.mesher import loop
 from qmesh.mesher.step import Step
 from qmesh.triangle_mesh import Mesh
 
-Conductivity = Union[Anisotropy, TensorField, Mapping[int, Anisotropy]]
-"""One Anisotropy, a TensorField, or {region tag: Anisotropy} for a medium."""
+Conductivity = Union[Anisotropy, TensorField, Mapping[int, Union[Anisotropy, TensorField]]]
+"""One Anisotropy, a TensorField, or {region tag: Anisotropy | TensorField} for a medium."""
 
 
 def _heterogeneous(domain: Any, conductivity: Any) -> bool:
@@ -39,6 +41,8 @@ def _field_domain(domain: Any, field: TensorField) -> Any:
 def mesh(domain: Any, anisotropy: Conductivity, **options: Any) -> Mesh:
     if isinstance(anisotropy, TensorField) and not getattr(domain, "regions", ()):
         return fields.mesh(_field_domain(domain, anisotropy), anisotropy, **options)
+    if field_regions.holds_fields(domain, anisotropy):
+        return field_regions.mesh(domain, anisotropy, **options)
     if _heterogeneous(domain, anisotropy):
         return media.mesh(domain, anisotropy, **options)
     return loop.mesh(domain, anisotropy, **options)
@@ -48,6 +52,8 @@ def mesh(domain: Any, anisotropy: Conductivity, **options: Any) -> Mesh:
 def iterate(domain: Any, anisotropy: Conductivity, **options: Any) -> Iterator[Step]:
     if isinstance(anisotropy, TensorField) and not getattr(domain, "regions", ()):
         return fields.iterate(_field_domain(domain, anisotropy), anisotropy, **options)
+    if field_regions.holds_fields(domain, anisotropy):
+        return field_regions.iterate(domain, anisotropy, **options)
     if _heterogeneous(domain, anisotropy):
         return media.iterate(domain, anisotropy, **options)
     return loop.iterate(domain, anisotropy, **options)
@@ -59,9 +65,13 @@ mesh.__doc__ = (loop.mesh.__doc__ or "") + """
     mesh carries (`Mesh.conductivity`; `qmesh.fields`).
     A domain with regions or a mapping {region tag: Anisotropy} is a medium (`qmesh.media`):
     each face meshed by the same loop in its region's metric, q_ij ≥ 0 on interface edges too.
+    Its regions may hold TensorFields ({tag: Anisotropy | TensorField}; one TensorField on a
+    domain with regions holds in each): each face meshed in its field's metric, then the whole
+    certified on the element means, each side of an interface on its own.
     """
 iterate.__doc__ = (loop.iterate.__doc__ or "") + """
     A `TensorField`: a Step per stage on the field's metric, then the certified mesh.
     A domain with regions or a mapping {region tag: Anisotropy} is a medium: a Step per stage of
-    every face's run (the faces done so far stitched in), the whole domain last.
+    every face's run (the faces done so far stitched in), the whole domain last (certified
+    on the element means when a region holds a TensorField).
     """

@@ -25,6 +25,7 @@ and raises no deficit. The means come from `cache.ElementMeans`: each triangle's
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -32,6 +33,7 @@ from numpy.typing import NDArray
 
 from qmesh.conductivity.anisotropy import Anisotropy, adj2, shape_metric
 from qmesh.fields.cache import ElementMeans
+from qmesh.fields.piecewise import RegionMeans
 from qmesh.geometry import topology
 from qmesh.geometry.topology import touching
 from qmesh.geometry.triangles import metric_quality, signed_areas
@@ -116,14 +118,25 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
     and what that took; the Mesh carries the means (`Mesh.conductivity`). With the `metric`
     the mesh was made in, vertices are also moved by its shape step where that mends edges
     without a split, and the vertices the splits added are smoothed where that keeps every
-    edge passing."""
+    edge passing.
+
+    A medium: `field` a mapping {region tag: Anisotropy | TensorField} over `mesh.region_tags`
+    (piecewise.py: each triangle's means from its own region). An edge between two regions is
+    an interface (MEDIA.md §2): never flipped, each side's share checked ≥ 0 on its own (what
+    a medium guarantees, stricter than their sum), split on both sides at once (each child
+    keeps its parent's tag), its vertices fixed or sliding along it; shapes are judged in each
+    triangle's own means, and the mesh keeps its region tags."""
     P, T = np.array(mesh.points), np.array(mesh.triangles)
     twin = topology.twins(T)
+    reg = np.array(mesh.region_tags) if isinstance(field, Mapping) else None
+    tc = _cut(twin, reg)                       # twin, less the interfaces (= twin without regions)
+    shaping = metric is not None or reg is not None
+    moves = None if reg is not None else metric   # a medium's shapes: each triangle's own means
     fixed = np.array(mesh.fixed)
     out = np.full(len(P), -1, np.int64)        # the tag of the boundary edge leaving each vertex
     out[mesh.boundary_edges[:, 0]] = mesh.boundary_tags
-    field = ElementMeans(field)                # each triangle's means computed once
-    Qbar, err = field.means_with_error(P, T)
+    field = ElementMeans(field) if reg is None else RegionMeans(field)   # each computed once
+    Qbar, err = _means(field, "means_with_error", P, T, reg)
     Qbar, err = np.array(Qbar, dtype=float), np.array(err, dtype=float)
     flips = added = 0
     shortest = SHORTEST * float(np.ptp(P, axis=0).max())
@@ -134,86 +147,95 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
     tight = np.zeros(len(T), bool)             # means at the field's own tolerance
     seen = _Judged(len(P), len(T))             # flips and moves refused, nothing changed since
     for rounds in range(max_rounds + 1):
-        h, q, slack = _failing(s, b, twin)
-        t = _by_bound(s, b, twin, h, tight)
+        h, q, slack = _failing(s, b, tc)
+        t = _by_bound(s, b, tc, h, tight)
         if len(t):                             # failing by the bound only: tighter means
-            Qbar, err, s, b = _refresh(field, P, T, Qbar, err, s, b, t, tighten=True)
+            Qbar, err, s, b = _refresh(field, P, T, Qbar, err, s, b, t, tighten=True, reg=reg)
             tight[t] = True
             seen.forget(T, twin, t)
-            h, q, slack = _failing(s, b, twin)
+            h, q, slack = _failing(s, b, tc)
         if len(h) < fewest:
             fewest, since = len(h), 0
         since += 1
         if not len(h) or rounds == max_rounds or since > STALL:
             break
-        done = _flips(P, T, twin, h[~seen.edges[h]], s, b, field, refused=seen.edges)
+        done = _flips(P, T, tc, h[~seen.edges[h]], s, b, field, refused=seen.edges, reg=reg)
         t = done[:0]
         if len(done):
             t = np.concatenate([done // 3, twin[done] // 3])
             T, twin = topology.flip(T, twin, done)
+            tc = _cut(twin, reg)
             flips += len(done)
-        elif metric is not None and tries < RELAX:
+        elif shaping and tries < RELAX:
             tries += 1
-            tan = _tangents(P, T, twin, fixed)
-            ends = _free(T, twin, fixed, _corners(T, twin, h), tan)
+            tan = _tangents(P, T, twin, fixed) if reg is None else _slides(P, T, tc, fixed)
+            ends = _free(T, tc, fixed, _corners(T, tc, h), tan)
             if len(ends):
                 movers = _movers(T, twin, ends, rng)
-                P, t = _relax(P, T, twin, Qbar, err, s, b, field, metric,
+                P, t = _relax(P, T, tc, Qbar, err, s, b, field, moves,
                               movers[~seen.vertices[movers]], shape=False, tangent=tan,
-                              refused=seen.vertices)
+                              refused=seen.vertices, reg=reg)
         if not len(t):
             keep = _longer(P, T, h, shortest)
             if not keep.any():
                 break
-            P, T, twin, fixed, out, t = _splits(P, T, twin, fixed, out, h[keep], q[keep],
-                                                s, b, Qbar, field)
+            if reg is None:
+                P, T, twin, fixed, out, t = _splits(P, T, twin, fixed, out, h[keep], q[keep],
+                                                    s, b, Qbar, field)
+                tc = twin
+            else:
+                P, T, twin, fixed, out, reg, t = _medium_splits(P, T, twin, tc, reg, fixed, out,
+                                                                h[keep], q[keep], s, b, Qbar, field)
+                tc = _cut(twin, reg)
             added = len(P) - mesh.n_vertices
             tries = 0
-        Qbar, err, s, b = _refresh(field, P, T, Qbar, err, s, b, t)
+        Qbar, err, s, b = _refresh(field, P, T, Qbar, err, s, b, t, reg=reg)
         tight = np.concatenate([tight, np.zeros(len(T) - len(tight), bool)])
         tight[t] = False
         seen.forget(T, twin, t)
-    if metric is not None and not len(h) and added:
-        tan = _tangents(P, T, twin, fixed)
+    if shaping and not len(h) and added:
+        tan = _tangents(P, T, twin, fixed) if reg is None else _slides(P, T, tc, fixed)
         seen.vertices[:] = False               # judged otherwise than the repair's moves
-        new = _free(T, twin, fixed, np.arange(mesh.n_vertices, len(P)), tan)
+        new = _free(T, tc, fixed, np.arange(mesh.n_vertices, len(P)), tan)
         for _ in range(SMOOTH):
             movers = _movers(T, twin, new, rng)
-            P, t = _relax(P, T, twin, Qbar, err, s, b, field, metric,
+            P, t = _relax(P, T, tc, Qbar, err, s, b, field, moves,
                           movers[~seen.vertices[movers]], shape=True, tangent=tan,
-                          refused=seen.vertices)
-            Qbar, err, s, b = _refresh(field, P, T, Qbar, err, s, b, t)
+                          refused=seen.vertices, reg=reg)
+            Qbar, err, s, b = _refresh(field, P, T, Qbar, err, s, b, t, reg=reg)
             seen.forget(T, twin, t)
-    if metric is not None and not len(h):
-        tan = _tangents(P, T, twin, fixed)
+    if shaping and not len(h):
+        tan = _tangents(P, T, twin, fixed) if reg is None else _slides(P, T, tc, fixed)
         seen = _Judged(len(P), len(T))         # judged afresh: the moves are judged otherwise
         for _ in range(POLISH):                # the worst shapes, each in its own means
             low = metric_quality(P, T, shape_metric(Qbar)) < FLOOR
-            poor = _free(T, twin, fixed, T[low].ravel(), tan)
+            poor = _free(T, tc, fixed, T[low].ravel(), tan)
             if not len(poor):
                 break
             movers = _movers(T, twin, poor, rng)
-            P, t = _relax(P, T, twin, Qbar, err, s, b, field, None,
+            P, t = _relax(P, T, tc, Qbar, err, s, b, field, None,
                           movers[~seen.vertices[movers]], shape=True, tangent=tan,
-                          refused=seen.vertices)
-            Qbar, err, s, b = _refresh(field, P, T, Qbar, err, s, b, t)
+                          refused=seen.vertices, reg=reg)
+            Qbar, err, s, b = _refresh(field, P, T, Qbar, err, s, b, t, reg=reg)
             seen.forget(T, twin, t)
             low = np.flatnonzero(metric_quality(P, T, shape_metric(Qbar)) < FLOOR)
-            done = _quality_flips(P, T, twin, (3 * low[:, None] + np.arange(3)).ravel(), s, b,
-                                  Qbar, field)
+            done = _quality_flips(P, T, tc, (3 * low[:, None] + np.arange(3)).ravel(), s, b,
+                                  Qbar, field, reg=reg)
             if len(done):
                 t = np.concatenate([done // 3, twin[done] // 3])
                 T, twin = topology.flip(T, twin, done)
+                tc = _cut(twin, reg)
                 flips += len(done)
-                Qbar, err, s, b = _refresh(field, P, T, Qbar, err, s, b, t)
+                Qbar, err, s, b = _refresh(field, P, T, Qbar, err, s, b, t, reg=reg)
                 seen.forget(T, twin, t)
     s, b = shares(P, T, Qbar, err)             # what is said is assembled afresh
-    h, q, slack = _failing(s, b, twin, slack=True)
+    h, q, slack = _failing(s, b, tc, slack=True)
     worst = float(slack.min()) if len(slack) else 0.0
     hb = np.flatnonzero(twin < 0)
     tb, kb = np.divmod(hb, 3)
     E = np.column_stack([T[tb, kb], T[tb, topology.NXT[kb]]])
-    done_mesh = Mesh(P, T, fixed, E, out[E[:, 0]], mesh.tag_names, conductivity=Qbar)
+    regions = {} if reg is None else {"region_tags": reg, "region_names": mesh.region_names}
+    done_mesh = Mesh(P, T, fixed, E, out[E[:, 0]], mesh.tag_names, conductivity=Qbar, **regions)
     return done_mesh, Certificate(rounds, flips, added, len(h), worst)
 
 
@@ -321,7 +343,7 @@ def _independent(h, q, tris):
     return (best[at].reshape(cols.shape) == rank[:, None]).all(axis=1)
 
 
-def _flips(P, T, twin, h, s, b, field, refused=None):
+def _flips(P, T, twin, h, s, b, field, refused=None, reg=None):
     """Flips of failing interior edges that lower the deficit Σ max(0, bound − q_ij) over the
     five edges of their quadrilateral (its diagonal and its four sides, whose shares from
     outside it stay): a flip that mends its own edge by breaking a side is not taken, so the
@@ -330,7 +352,7 @@ def _flips(P, T, twin, h, s, b, field, refused=None):
     better (`_Judged`)."""
     if refused is not None:
         refused[h] = True
-    c = _flip_candidates(P, T, twin, h, s, b, field)
+    c = _flip_candidates(P, T, twin, h, s, b, field, reg)
     if c is None:
         return h[:0]
     inner, before, after, _, _, tris = c
@@ -341,11 +363,11 @@ def _flips(P, T, twin, h, s, b, field, refused=None):
     return _chosen(inner, gain, better, tris)
 
 
-def _quality_flips(P, T, twin, h, s, b, Qbar, field):
+def _quality_flips(P, T, twin, h, s, b, Qbar, field, reg=None):
     """Flips of the interior edges h that raise the worst metric quality (2.94) of their two
     triangles, each in its own means, and raise no deficit of their quadrilateral's five edges
     (an edge that passes keeps passing)."""
-    c = _flip_candidates(P, T, twin, h, s, b, field)
+    c = _flip_candidates(P, T, twin, h, s, b, field, reg)
     if c is None:
         return h[:0]
     inner, before, after, new, Qn, tris = c
@@ -368,7 +390,7 @@ def _chosen(inner, gain, better, tris):
     return cand[pick]
 
 
-def _flip_candidates(P, T, twin, h, s, b, field):
+def _flip_candidates(P, T, twin, h, s, b, field, reg=None):
     """For the interior half-edges h whose quadrilateral is convex: the half-edges, the deficit
     of the five edges before and after the flip, the new triangles (2k, 3) and their means, and
     the triangles each flip touches (None when there are none)."""
@@ -395,7 +417,7 @@ def _flip_candidates(P, T, twin, h, s, b, field):
     out_b = np.where(across >= 0, b[np.maximum(across, 0)], 0.0)
     before = (_deficit(s[inner] + s[g], b[inner] + b[g])
               + _deficit(s[sides] + out_s, b[sides] + out_b).sum(axis=1))
-    Qn, en = field.means_with_error(P, new)
+    Qn, en = _means(field, "means_with_error", P, new, None if reg is None else np.tile(reg[t1], 2))
     Qn = np.asarray(Qn, dtype=float)
     sn, bn = shares(P, new, Qn, np.asarray(en, dtype=float))
     sn, bn = sn.reshape(2, k, 3), bn.reshape(2, k, 3)
@@ -455,7 +477,7 @@ def _right_angles(P, u, v, a, H):
     return foot, at_a_first, at_a_second
 
 
-def _split_points(P, T, twin, h, s, b, Qbar, field):
+def _split_points(P, T, twin, h, s, b, Qbar, field, reg=None, cut=None):
     """For each edge u→v of the half-edges h (all interior or all on the boundary), the first
     of a few candidate points whose split keeps the shapes (KEEP, FLOOR) and leaves the fewest
     failing edges among those it makes and the sides of the triangles it splits, their means
@@ -464,7 +486,10 @@ def _split_points(P, T, twin, h, s, b, Qbar, field):
     quarter points, then for each opposite corner a (in its own triangle's metric adj Q̄_T)
     the foot of its altitude and the middles of the spans where (u, p, a) or (p, v, a) has no
     obtuse angle at p or a. A midpoint leaves an obtuse angle at a obtuse in one of the halves,
-    whose edges then fail in turn; a point in such a span mends it in one step."""
+    whose edges then fail in turn; a point in such a span mends it in one step.
+    A medium's (`reg`, the tags; `cut`, the twins less the interfaces): the shares from
+    beyond the sides as `cut` has them, and the halves of an interface edge judged side by
+    side."""
     k = len(h)
     t1, e1 = np.divmod(h, 3)
     u, v, a = T[t1, e1], T[t1, topology.NXT[e1]], T[t1, topology.PRV[e1]]
@@ -495,15 +520,19 @@ def _split_points(P, T, twin, h, s, b, Qbar, field):
                               ((U, p, A), (p, V, A), (V, p, B), (p, U, B))])
     else:
         new = np.concatenate([np.column_stack(z) for z in ((U, p, A), (p, V, A))])
-    Qn, en = getattr(field, "rough", field.means_with_error)(Pc, new)    # compared, not kept
+    tags = None if reg is None else np.concatenate([np.tile(np.repeat(reg[t], c), 2) for _, t in apexes])
+    Qn, en = _means(field, "rough", Pc, new, tags)                       # compared, not kept
     sn, bn = shares(Pc, new, np.asarray(Qn, dtype=float), np.asarray(en, dtype=float))
     sn, bn = sn.reshape(-1, k * c, 3), bn.reshape(-1, k * c, 3)
-    across = twin[np.stack(sides, axis=1)]
+    across = (twin if cut is None else cut)[np.stack(sides, axis=1)]
     out_s = np.repeat(np.where(across >= 0, s[np.maximum(across, 0)], 0.0), c, axis=0)
     out_b = np.repeat(np.where(across >= 0, b[np.maximum(across, 0)], 0.0), c, axis=0)
     # (u, p, a): u→p, p→a, a→u; (p, v, a): p→v, v→a, a→p; (v, p, b): v→p, p→b, b→v;
     # (p, u, b): p→u, u→b, b→p (triangle, corner) of each made edge and each side
-    if inner:
+    if inner and cut is not None and cut[h[0]] < 0:          # an interface: side by side
+        made = [((0, 0),), ((3, 0),), ((1, 0),), ((2, 0),), ((0, 1), (1, 2)), ((2, 1), (3, 2))]
+        kept = [(1, 1), (0, 2), (3, 1), (2, 2)]
+    elif inner:
         made = [((0, 0), (3, 0)), ((1, 0), (2, 0)), ((0, 1), (1, 2)), ((2, 1), (3, 2))]
         kept = [(1, 1), (0, 2), (3, 1), (2, 2)]                 # v→a, a→u, u→b, b→v
     else:
@@ -547,7 +576,7 @@ def _max3(x):
 
 
 def _relax(P, T, twin, Qbar, err, s, b, field, metric, movers, shape, tangent=None,
-           refused=None):
+           refused=None, reg=None):
     """Move the vertices `movers` (`_movers`) by the mesher's shape step in `metric`
     (`adjust.shape_step`, capped by `adjust.limit_moves`) where their star is better for it:
     no more failing edges and no higher deficit, and fewer or a lower deficit, and a worst
@@ -576,7 +605,7 @@ def _relax(P, T, twin, Qbar, err, s, b, field, metric, movers, shape, tangent=No
     for frac in (STEPS if shape else STEPS[:1]):   # a shape move refused is tried shorter
         if not moving.any():
             break
-        ok = _accepted(P, T, twin, Qbar, s, b, field, frac * d, moving, shape)
+        ok = _accepted(P, T, twin, Qbar, s, b, field, frac * d, moving, shape, reg)
         d[ok] *= frac
         take |= ok
         moving &= ~ok
@@ -589,7 +618,7 @@ def _relax(P, T, twin, Qbar, err, s, b, field, metric, movers, shape, tangent=No
     return P, np.flatnonzero(touching(T, take))
 
 
-def _accepted(P, T, twin, Qbar, s, b, field, d, moving, shape):
+def _accepted(P, T, twin, Qbar, s, b, field, d, moving, shape, reg=None):
     """Which `moving` vertices (two triangles apart) `_relax` takes moved by d: their stars'
     edges and shapes judged on the means at the new places."""
     n = len(P)
@@ -598,7 +627,7 @@ def _accepted(P, T, twin, Qbar, s, b, field, d, moving, shape):
         return np.zeros(n, bool)
     Pn = P + np.where(moving[:, None], d, 0.0)
     Ts = T[star]
-    Qn, en = field.means_with_error(Pn, Ts)
+    Qn, en = _means(field, "means_with_error", Pn, Ts, None if reg is None else reg[star])
     Qn, en = np.asarray(Qn, dtype=float), np.asarray(en, dtype=float)
     sn, bn = shares(Pn, Ts, Qn, en)
     he = (3 * star[:, None] + np.arange(3)).ravel()
@@ -657,7 +686,7 @@ def _star_quality(P, Pn, Ts, Q0, Q1, owner, n):
     return q0, q1
 
 
-def _refresh(field, P, T, Qbar, err, s, b, t, tighten=False):
+def _refresh(field, P, T, Qbar, err, s, b, t, tighten=False, reg=None):
     """The means of the triangles `t` (changed rows, and rows past the old end) recomputed
     (`tighten`: at the field's own tolerance, `ElementMeans.tighten`), and their shares (each
     round assembles only what changed)."""
@@ -668,9 +697,82 @@ def _refresh(field, P, T, Qbar, err, s, b, t, tighten=False):
         s = np.concatenate([s, np.zeros(3 * M - len(s))])
         b = np.concatenate([b, np.zeros(3 * M - len(b))])
     t = np.unique(t)
-    Qn, en = (field.tighten if tighten else field.means_with_error)(P, T[t])
+    Qn, en = _means(field, "tighten" if tighten else "means_with_error", P, T[t],
+                    None if reg is None else reg[t])
     Qbar[t], err[t] = Qn, en
     st, bt = shares(P, T[t], Qbar[t], err[t])
     rows = (3 * t[:, None] + np.arange(3)).ravel()
     s[rows], b[rows] = st, bt
     return Qbar, err, s, b
+
+
+def _means(field, how, P, T, tags):
+    """`field`'s means and error bounds of the triangles T (`how`: means_with_error, tighten, or
+    rough where the field has it); a medium's (`tags` given) from each triangle's region."""
+    f = getattr(field, how, field.means_with_error)
+    return f(P, T) if tags is None else f(P, T, tags)
+
+
+def _cut(twin, reg):
+    """The twins with the interfaces cut (−1 on both sides of an edge between two regions, as on
+    the boundary): each side's share is then judged on its own, and never flipped. `twin`
+    itself without regions."""
+    if reg is None:
+        return twin
+    across = twin >= 0
+    other = np.where(across, twin // 3, 0)
+    return np.where(across & (reg[other] == np.repeat(reg, 3)), twin, -1)
+
+
+def _slides(P, T, cut, fixed):
+    """`_tangents` of a medium: a vertex on the boundary or an interface (the edges `cut` ends)
+    slides along the line of its two neighbours there when it is not a seed, has exactly two
+    (one line: not a junction) and lies between them in line; 0 for every other vertex."""
+    hb = np.flatnonzero(cut < 0)
+    tb, kb = np.divmod(hb, 3)
+    E = np.sort(np.column_stack([T[tb, kb], T[tb, topology.NXT[kb]]]), axis=1)
+    E = np.unique(E, axis=0)                   # an interface edge is cut on both sides: once
+    count = np.bincount(E.ravel(), minlength=len(P))
+    lo, hi = np.full(len(P), len(P)), np.full(len(P), -1)
+    for a, c in ((E[:, 0], E[:, 1]), (E[:, 1], E[:, 0])):
+        np.minimum.at(lo, a, c)
+        np.maximum.at(hi, a, c)
+    v = np.flatnonzero((count == 2) & ~fixed)
+    e1, e2 = P[v] - P[lo[v]], P[hi[v]] - P[v]
+    l1, l2 = np.hypot(*e1.T), np.hypot(*e2.T)
+    line = (np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]) <= IN_LINE * l1 * l2) & \
+        (np.einsum("ki,ki->k", e1, e2) > 0)
+    v = v[line]
+    t = P[hi[v]] - P[lo[v]]
+    out = np.zeros((len(P), 2))
+    out[v] = t / np.hypot(*t.T)[:, None]
+    return out
+
+
+def _medium_splits(P, T, twin, cut, reg, fixed, out, h, q, s, b, Qbar, field):
+    """`_splits` of a medium: the failing sides on the boundary or an interface first, else the
+    interior edges, no two in one triangle (an interface edge touches both of its). A boundary
+    edge splits its triangle; an interface or interior edge both (`topology.split_edges`), each
+    child keeping its parent's region tag. Returns P, T, twin, fixed, out, the tags and the
+    triangles that changed."""
+    side = cut[h] < 0
+    if side.any():
+        h, q = h[side], q[side]
+    other = np.where(twin[h] >= 0, twin[h] // 3, h // 3)
+    h = h[_independent(h, q, (h // 3, other))]
+    hb, hi = h[twin[h] < 0], h[twin[h] >= 0]          # one triangle; two (interior or interface)
+    none = np.zeros((0, 2))
+    Xb = _split_points(P, T, cut, hb, s, b, Qbar, field, reg) if len(hb) else none
+    Xi = _split_points(P, T, twin, hi, s, b, Qbar, field, reg, cut) if len(hi) else none
+    n, M = len(P), len(T)
+    u = T[hb // 3, hb % 3]
+    T, twin = topology.split_boundary_edges(T, twin, hb, n + np.arange(len(hb)))
+    reg = np.concatenate([reg, reg[hb // 3]])
+    t1, t2, M2 = hi // 3, twin[hi] // 3, len(T)
+    T, twin = topology.split_edges(T, twin, hi, n + len(hb) + np.arange(len(hi)))
+    reg = np.concatenate([reg, reg[t1], reg[t2]])
+    t = np.concatenate([hb // 3, M + np.arange(len(hb)), t1, t2, M2 + np.arange(2 * len(hi))])
+    P = np.concatenate([P, Xb, Xi])
+    fixed = np.concatenate([fixed, np.zeros(len(Xb) + len(Xi), bool)])
+    out = np.concatenate([out, out[u], np.full(len(hi), -1, np.int64)])
+    return P, T, twin, fixed, out, reg, t
