@@ -13,7 +13,13 @@ Cases (each Q checked symmetric positive definite where it is evaluated):
   square, u = sin πx sin πy;
 - raster64, raster512: a 64² / 512² raster on the unit square, every cell different (NumPy
   default_rng(20240 + cells), cells independent): k1 lognormal (ln k1 ~ N(0, 1)), k2 = k1 / r with
-  log10 r ~ U(0, 2), angle ~ U(0°, 180°) (`TensorField.from_raster`, MODFLOW's convention).
+  log10 r ~ U(0, 2), angle ~ U(0°, 180°) (`TensorField.from_raster`, MODFLOW's convention);
+- media: a medium whose regions hold a field and a constant: the unit square with a ten-pointed
+  star (radii 0.22 and 0.12 around (0.35, 0.6)) holding the constant 1000 : 1 at 45°, in layers
+  of 1 : 100 dipping 30·sin πx degrees — `qmesh.mesh(domain, {0: TensorField, 1: Anisotropy})`; qmesh only (no peer meshes regions with a field), no L2 (Q jumps across the
+  star, so no f makes a smooth u exact). Each triangle's region is found here (its centroid
+  against the star, even-odd), and an interface edge counts as positive when either side's
+  share K_ij^T is, on its own (what a medium guarantees, MEDIA.md §2).
 
 Meshers, each at the same N:
 - qmesh: `qmesh.mesh(domain, field, target_vertices=N)`;
@@ -102,6 +108,8 @@ class Case:
 
     def domain(self):
         outline = [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)]
+        if self.kind == "media":
+            return qmesh.Domain(outline, regions=[STAR])
         if self.hole:
             return qmesh.Domain(outline, [qmesh.Disk(32, radius=0.15, center=(0.5, 0.5))])
         return qmesh.Polygon(outline)
@@ -120,6 +128,9 @@ class Case:
         """The qmesh TensorField (texts through qmesh's own parser)."""
         if self.kind == "raster":
             return qmesh.TensorField.from_raster(*self.raster())
+        if self.kind == "media":
+            return {0: qmesh.TensorField.principal(1.0, MEDIA_K2, "30*sin(pi*x)"),
+                    1: qmesh.Anisotropy.principal(*STAR_Q)}
         if self.name == "layers":
             return qmesh.TensorField.principal(1.0, 1e-3, "30*sin(pi*x)")
         return qmesh.TensorField.from_expressions(*self.q_texts)
@@ -142,18 +153,29 @@ def _plasma() -> Case:
                 "sin(2*pi*((x - 0.5)**2 + 2*(y - 0.5)**2))", hole=True)
 
 
-def _layers() -> Case:
+def _layers(k2: str = "0.001", name: str = "layers", kind: str = "formula") -> Case:
     a = "(pi/6*sin(pi*x))"                                 # 30·sin(πx) degrees
     c, s = f"cos{a}", f"sin{a}"
-    k1, k2 = "1", "0.001"
-    return Case("layers", "formula",
+    k1 = "1"
+    return Case(name, kind,
                 (f"{k1}*{c}**2 + {k2}*{s}**2", f"({k1} - {k2})*{c}*{s}", f"{k1}*{s}**2 + {k2}*{c}**2"),
                 "sin(pi*x)*sin(pi*y)")
 
 
+_STAR_T = 2 * np.pi * np.arange(10) / 10
+STAR = np.array([0.35, 0.6]) + (np.where(np.arange(10) % 2 == 0, 0.22, 0.12)[:, None]
+                                 * np.column_stack([np.cos(_STAR_T), np.sin(_STAR_T)]))
+STAR_Q = (1e3, 1.0, 45.0)          # the star's constant: k1, k2, angle (degrees)
+MEDIA_K2 = 0.01                    # the layers around it: 1 : 100
+
+
+def _media() -> Case:
+    return _layers(str(MEDIA_K2), "media", "media")
+
+
 CASES = {"fvca5": _fvca5(), "plasma": _plasma(), "layers": _layers(),
          "raster64": Case("raster64", "raster", cells=64),
-         "raster512": Case("raster512", "raster", cells=512)}
+         "raster512": Case("raster512", "raster", cells=512), "media": _media()}
 
 
 # ------------------------------------------------------------------------------ SymPy pieces
@@ -311,7 +333,23 @@ def independent_means(case: Case, P, T, problem=None) -> np.ndarray:
         xe, ye, k1, k2, angle = case.raster()
         return raster_means(xe, ye, cell_tensors(k1, k2, angle), P, T)[0]
     Q = (problem or sympy_problem(case))[0]
+    if case.kind == "media":
+        star = in_star(P[T].mean(axis=1))
+        out = np.empty((len(T), 2, 2))
+        out[star] = cell_tensors(*(np.array([v]) for v in STAR_Q))[0]
+        out[~star] = formula_means(Q, P, T[~star], case.singular)
+        return out
     return formula_means(Q, P, T, case.singular)
+
+
+def in_star(X) -> np.ndarray:
+    """Which points lie inside STAR: even-odd crossings of a ray towards +x."""
+    A, B = STAR, np.roll(STAR, -1, axis=0)
+    y = X[:, 1, None]
+    straddle = (A[None, :, 1] > y) != (B[None, :, 1] > y)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        xc = A[None, :, 0] + (y - A[None, :, 1]) * (B - A)[None, :, 0] / (B - A)[None, :, 1]
+    return (straddle & (xc > X[:, 0, None])).sum(axis=1) % 2 == 1
 
 
 # ---------------------------------------------------------------------- P1 pieces, by hand
@@ -339,15 +377,26 @@ def edges_of(T) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return E, inv.ravel(), counts
 
 
-def positive_off_diagonals(P, T, Qbar) -> tuple[int, int, np.ndarray]:
+def positive_off_diagonals(P, T, Qbar, tags=None) -> tuple[int, int, np.ndarray]:
     """(interior, boundary) edges with K_ij > ROUND Σ_T |K_ij^T|, and every edge's q_ij
-    relative to Σ|K_ij^T| with the edge of each half-edge (for the figure)."""
+    relative to Σ|K_ij^T| with the edge of each half-edge (for the figure). With the triangles'
+    region `tags`, an edge between two regions also counts when either side's K_ij^T > ROUND
+    |K_ij^T| on its own."""
     Ke, _ = element_matrices(P, T, Qbar)
     half = Ke[:, [0, 1, 2], [1, 2, 0]].ravel()
     E, inv, counts = edges_of(T)
     k = np.bincount(inv, half, minlength=len(E))
     scale = np.bincount(inv, np.abs(half), minlength=len(E))
     bad = k > ROUND * scale
+    if tags is not None:
+        t = np.repeat(np.asarray(tags, float), 3)
+        lo = np.full(len(E), np.inf)
+        hi = np.full(len(E), -np.inf)
+        np.minimum.at(lo, inv, t)
+        np.maximum.at(hi, inv, t)
+        side = np.zeros(len(E), bool)
+        np.logical_or.at(side, inv, half > ROUND * np.abs(half))
+        bad |= (lo < hi) & side
     rel = -k / np.where(scale > 0, scale, 1.0)
     return int((bad & (counts == 2)).sum()), int((bad & (counts == 1)).sum()), rel[inv].reshape(-1, 3)
 
@@ -498,7 +547,8 @@ def measure_mesh(case: Case, P, T, fixed, problem=None) -> dict:
     """Every column of one mesh, with the means computed here."""
     Qbar = independent_means(case, P, T, problem)
     mesh = qmesh.Mesh(P, T, fixed)
-    n_in, n_b, rel = positive_off_diagonals(P, T, Qbar)
+    tags = in_star(P[T].mean(axis=1)) if case.kind == "media" else None
+    n_in, n_b, rel = positive_off_diagonals(P, T, Qbar, tags)
     quality = measure.quality(mesh, Qbar)
     v, worst = maximum_principle(P, T, Qbar)
     out = {"N": int(len(P)), "pos_in": n_in, "pos_b": n_b, "mp": v, "mp_worst": worst,
@@ -517,9 +567,9 @@ def run(case_names, ns, big, mmg=True, figure_case="fvca5") -> tuple[list[dict],
     meshers = ["qmesh"] + (["MMG2D"] if mmg else []) + ["Triangle"]
     for name in case_names:
         case = CASES[name]
-        problem = sympy_problem(case) if case.kind == "formula" else None
+        problem = sympy_problem(case) if case.kind != "raster" else None
         for n in list(ns) + ([big] if big and name == "raster512" else []):
-            for mesher in meshers:
+            for mesher in (meshers if case.kind != "media" else ["qmesh"]):
                 r = in_subprocess(case, mesher, n)
                 P, T = r["points"], r["triangles"]
                 row = {"case": name, "mesher": mesher, "target": n, "seconds": r["seconds"],
