@@ -206,3 +206,21 @@ def test_media_without_fields_take_the_medium_path():
     assert not field_regions.holds_fields(domain, {0: qmesh.Anisotropy.constant(np.eye(2)), **cond})
     assert field_regions.holds_fields(domain, qmesh.TensorField.principal(2, 1, 0))
     assert not field_regions.holds_fields(qmesh.Disk(8), qmesh.TensorField.principal(2, 1, 0))
+
+
+def test_the_benchmark_counts_each_interface_side_on_its_own():
+    """bench_fields' media case: its own region test and its per-side count, on the hand-made
+    interface above (one side fails, the sum passes)."""
+    import sys
+    from pathlib import Path
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+    import bench_fields as bench
+    P = np.array([[0.0, 0.0], [1.0, 0.0], [0.5, 0.2], [0.5, -2.0]])
+    T = np.array([[0, 1, 2], [1, 0, 3]])
+    Q = np.stack([np.eye(2)] * 2)
+    assert bench.positive_off_diagonals(P, T, Q)[:2] == (0, 0)
+    assert bench.positive_off_diagonals(P, T, Q, np.array([0, 1]))[:2] == (1, 0)
+    domain = bench.CASES["media"].domain()
+    X = np.random.default_rng(1).uniform(0, 1, (2000, 2))
+    from tests.media.cases import region_of
+    assert np.array_equal(bench.in_star(X), region_of(domain, X) == 1)
