@@ -44,12 +44,12 @@ class RegionMeans:
     `means_with_error`, `tighten` and `rough` as `cache.ElementMeans`'s, each with the tags."""
 
     def __init__(self, conductivity: Mapping[int, Any]):
-        self._constant: dict[int, NDArray[np.float64]] = {}
         self._cached: dict[int, ElementMeans] = {}
+        self._table = np.full((max(int(t) for t in conductivity) + 1, 2, 2), np.nan)
         for tag, c in conductivity.items():
             f = as_field(c)
             if isinstance(f, np.ndarray):
-                self._constant[int(tag)] = f
+                self._table[int(tag)] = f           # the constants: one look-up for all
             else:
                 self._cached[int(tag)] = ElementMeans(f)
 
@@ -61,12 +61,10 @@ class RegionMeans:
     def _each(self, how: str, P: Any, T: Any, tags: Any) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         T = np.asarray(T, dtype=np.int64).reshape(-1, 3)
         tags = np.asarray(tags, dtype=np.int64)
-        Q, e = np.empty((len(T), 2, 2)), np.zeros(len(T))
-        for r in np.unique(tags).tolist():                # a pass per region, not per triangle
+        Q, e = self._table[tags], np.zeros(len(T))
+        for r in self._cached:                            # a pass per field region
             at = np.flatnonzero(tags == r)
-            if r in self._constant:
-                Q[at] = self._constant[r]
-            else:
+            if len(at):
                 Q[at], e[at] = getattr(self._cached[r], how)(P, T[at])
         return Q, e
 
