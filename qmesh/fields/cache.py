@@ -27,6 +27,7 @@ RTOL = 1e-6
 §3); an edge that fails only by its bound is computed again at `means.RTOL`. At 1e-7 the plasma and
 FVCA5 cases took 65 and 61 field evaluations a triangle, at 1e-6 42 and 47 (35 is the rule and its
 four children alone), and the repair the same rounds, splits and vertex count."""
+MIX = np.uint64(0x9E3779B97F4A7C15)   # odd multiplier of the corners' hash (Fibonacci hashing)
 
 
 def _canonical(X: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -44,10 +45,21 @@ def _canonical(X: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.concatenate([a, b, c], axis=1)
 
 
-def _keys(C: NDArray[np.float64]) -> list[bytes]:
-    """The 48 bytes of each row's six coordinates: equal keys ⇔ equal corners (+ 0.0 makes
-    −0.0 the same key as 0.0; the points are finite, so no NaN)."""
-    return np.ascontiguousarray(C + 0.0).view(np.dtype((np.void, 48))).ravel().tolist()
+def _hash(C: NDArray[np.float64]) -> NDArray[np.uint64]:
+    """A 64-bit hash of the six coordinates of each row (the keys are checked in full after)."""
+    bits = np.ascontiguousarray(C + 0.0).view(np.uint64)      # + 0.0: −0.0 hashes as 0.0
+    h = np.zeros(len(C), np.uint64)
+    for c in range(6):
+        h = (h ^ bits[:, c]) * MIX
+        h ^= h >> np.uint64(29)
+    return h
+
+
+def _member(keys, K):
+    """Which of `keys` are in the sorted array K."""
+    if not len(K):
+        return np.zeros(len(keys), bool)
+    return K[np.minimum(np.searchsorted(K, keys), len(K) - 1)] == keys
 
 
 class ElementMeans:
@@ -55,15 +67,17 @@ class ElementMeans:
 
     `means_with_error(P, T)` as the field's own (at RTOL for formulas); `tighten(P, T)` the same
     triangles at the field's own tolerance, kept in place of the looser ones; `rough(P, T)` the
-    candidates' means, not kept. The triangles are found by their corners' bytes in a dict
-    (the repair asks a few hundred times, for a few to a few thousand triangles each: hashing
-    in C beats sorted arrays kept up to date)."""
+    candidates' means, not kept."""
 
     def __init__(self, field, rtol: float = RTOL):
         self.field = field
         self.rtol = rtol
-        self._row: dict[bytes, int] = {}             # corners' key → row of _q, _err
+        self._keys = np.empty(0, np.uint64)          # sorted
+        self._rows = np.empty(0, np.int64)           # the row of each key
+        self._new_keys = np.empty(0, np.uint64)      # recent, sorted, merged when large
+        self._new_rows = np.empty(0, np.int64)
         self._n = 0
+        self._corners = np.empty((1024, 6))
         self._q = np.empty((1024, 2, 2))
         self._err = np.empty(1024)
         self.computed = 0                            # triangles whose means were computed
@@ -73,42 +87,55 @@ class ElementMeans:
         Q, e = self.field.means_with_error(P, T, rtol=rtol, max_depth=depth)
         return np.asarray(Q, dtype=float), np.asarray(e, dtype=float)
 
-    def _find(self, keys):
-        """The row of each key, −1 where none."""
-        get = self._row.get
-        return np.fromiter((get(k, -1) for k in keys), np.int64, len(keys))
+    def _find(self, keys, C):
+        """The row of each key whose corners are C, −1 where none."""
+        row = np.full(len(keys), -1, np.int64)
+        for K, R in ((self._keys, self._rows), (self._new_keys, self._new_rows)):
+            if not len(K):
+                continue
+            at = np.minimum(np.searchsorted(K, keys), len(K) - 1)
+            hit = (K[at] == keys) & (row < 0)
+            cand = R[at[hit]]
+            same = np.all(self._corners[cand] == C[hit], axis=1)
+            row[np.flatnonzero(hit)[same]] = cand[same]
+        return row
 
-    def _store(self, keys, Q, e):
-        """Keep the means of keys not kept yet (the first of equal keys)."""
-        fresh = {}
-        for i, k in enumerate(keys):
-            if k not in self._row and k not in fresh:
-                fresh[k] = i
-        if not fresh:
-            return
-        first = np.fromiter(fresh.values(), np.int64, len(fresh))
-        k = len(first)
+    def _store(self, keys, C, Q, e):
+        keys, first = np.unique(keys, return_index=True)
+        fresh = ~_member(keys, self._keys) & ~_member(keys, self._new_keys)   # one row a key
+        keys, first = keys[fresh], first[fresh]
+        k = len(keys)
         if self._n + k > len(self._err):
             size = max(2 * len(self._err), self._n + k)
+            self._corners = np.resize(self._corners, (size, 6))
             self._q = np.resize(self._q, (size, 2, 2))
             self._err = np.resize(self._err, size)
-        rows = range(self._n, self._n + k)
-        self._q[self._n:self._n + k], self._err[self._n:self._n + k] = Q[first], e[first]
-        self._row.update(zip(fresh, rows))
+        rows = self._n + np.arange(k)
+        self._corners[rows], self._q[rows], self._err[rows] = C[first], Q[first], e[first]
         self._n += k
+        at = np.searchsorted(self._new_keys, keys)                      # keys sorted by unique
+        self._new_keys = np.insert(self._new_keys, at, keys)
+        self._new_rows = np.insert(self._new_rows, at, rows)
+        if len(self._new_keys) > max(4096, len(self._keys) // 4):      # amortised merge
+            K = np.concatenate([self._keys, self._new_keys])
+            R = np.concatenate([self._rows, self._new_rows])
+            order = np.argsort(K, kind="stable")
+            self._keys, self._rows = K[order], R[order]
+            self._new_keys, self._new_rows = self._new_keys[:0], self._new_rows[:0]
 
     def means_with_error(self, P, T):
         """The means and error bounds of the triangles T over P, computed where not seen yet."""
         P, T = np.asarray(P, dtype=float), np.asarray(T, dtype=np.int64).reshape(-1, 3)
-        keys = _keys(_canonical(P[T]))
-        row = self._find(keys)
+        C = _canonical(P[T])
+        keys = _hash(C)
+        row = self._find(keys, C)
         Q, e = np.empty((len(T), 2, 2)), np.empty(len(T))
         have = row >= 0
         Q[have], e[have] = self._q[row[have]], self._err[row[have]]
         miss = np.flatnonzero(~have)
         if len(miss):
             Q[miss], e[miss] = self._compute(P, T[miss], self.rtol)
-            self._store([keys[i] for i in miss], Q[miss], e[miss])
+            self._store(keys[miss], C[miss], Q[miss], e[miss])
         return Q, e
 
     def tighten(self, P, T):
@@ -118,13 +145,13 @@ class ElementMeans:
         if self.field.means_exact or self.rtol <= _m.RTOL:
             return self.means_with_error(P, T)
         Q, e = self._compute(P, T, _m.RTOL)
-        keys = _keys(_canonical(P[T]))
-        row = self._find(keys)
+        C = _canonical(P[T])
+        keys = _hash(C)
+        row = self._find(keys, C)
         have = row >= 0
         self._q[row[have]], self._err[row[have]] = Q[have], e[have]
         if not have.all():
-            miss = np.flatnonzero(~have)
-            self._store([keys[i] for i in miss], Q[miss], e[miss])
+            self._store(keys[~have], C[~have], Q[~have], e[~have])
         return Q, e
 
     def rough(self, P, T):
