@@ -561,6 +561,24 @@ def _push_out(P, a, b, c, anisotropy):
     return M + (PUSH * R)[:, None] * D
 
 
+def _kept_pushes(P, T, k, c, to):
+    """The pushes k (apexes c[k] sent to `to`) that keep every triangle of their stars, and P
+    with them applied. Checked again after each refusal: a triangle with two pushed corners
+    was judged with both moved, and may fold when only one of them moves."""
+    while len(k):
+        Pn = P.copy()
+        Pn[c[k]] = to
+        star = _stars(T, c[k], len(P))
+        ok_t = signed_areas(Pn, T[star]) > MIN_KEPT * signed_areas(P, T[star])
+        bad_v = np.zeros(len(P), bool)
+        bad_v[T[star[~ok_t]].ravel()] = True
+        keep = ~bad_v[c[k]]
+        if keep.all():
+            return k, Pn
+        k, to = k[keep], to[keep]
+    return k, P
+
+
 def _stars(T, v, n):
     """The triangles that have a vertex among v (n vertices in all), in order."""
     mark = np.zeros(n, bool)
@@ -602,13 +620,7 @@ def restore_conformity(P, T, twin, edge_id, fixed, pinned, anisotropy,
             k = np.flatnonzero(free)
             _, first = np.unique(c[k], return_index=True)
             k = k[first]
-            Pn = P.copy()
-            Pn[c[k]] = _push_out(P, a[k], b[k], c[k], anisotropy)
-            star = _stars(T, c[k], len(P))
-            ok_t = signed_areas(Pn, T[star]) > MIN_KEPT * signed_areas(P, T[star])
-            bad_v = np.zeros(len(P), bool)
-            bad_v[T[star[~ok_t]].ravel()] = True
-            k = k[~bad_v[c[k]]]
+            k, Pn = _kept_pushes(P, T, k, c, _push_out(P, a[k], b[k], c[k], anisotropy))
             if len(k):
                 P = P.copy() if P is P0 else P
                 P[c[k]] = Pn[c[k]]

@@ -121,7 +121,7 @@ def _conflicts_oriented(X: np.ndarray, H: np.ndarray, r: float):
     theta = 0.5 * np.arctan2(2.0 * b, a - c)                      # the larger eigenvalue's axis
     lmin = np.clip(_sym_eig_min(H), 1e-300, None)
     ratio = (a + c - lmin) / lmin
-    k = int(np.clip(2.0 ** np.round(np.log2(2.0 * len(X) ** 0.25)), 8, ORIENTATIONS))
+    k = int(np.clip(2.0 ** np.round(np.log2(2.0 * max(len(X), 1) ** 0.25)), 8, ORIENTATIONS))
     group = np.floor((theta / np.pi + 0.5) * k).astype(np.int64) % k
     group[ratio < ROUND_METRIC] = -1
     n = len(X)

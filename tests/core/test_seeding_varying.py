@@ -67,3 +67,15 @@ def test_luby_gives_a_maximal_independent_set(n, p, seed, prioritised):
     assert covered.all()                                             # maximal
     if prioritised and n:
         assert S[np.argmin(priority)]                                # the best priority always wins
+
+
+def test_no_seed_points_have_no_conflicts_and_no_warning():
+    """A face whose lattice puts no point inside (a thin layer of a medium holding a field)
+    seeds nothing, without a division by zero on the way."""
+    import warnings
+
+    from qmesh.mesher.seeding_varying import _conflicts_oriented
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        i, j = _conflicts_oriented(np.empty((0, 2)), np.empty((0, 2, 2)), 1.0)
+    assert len(i) == len(j) == 0
