@@ -1,16 +1,17 @@
 """λ_min of a large stiffness matrix without factorising it: LOBPCG preconditioned by multigrid.
 
-At 1e5 unknowns one sparse LDLᵀ factorisation of the Dirichlet matrix K (0.6 s on one core)
-is most of κ2's time. A smoothed-aggregation hierarchy (pyamg; Vaněk, Mandel & Brezina 1996)
-costs about a third of that, and LOBPCG (Knyazev 2001) with one V-cycle per step reaches the
+At 1e5 unknowns one sparse LDLᵀ factorisation of the Dirichlet matrix K (0.6–0.75 s on one
+core) is most of κ2's time. A smoothed-aggregation hierarchy (pyamg; Vaněk, Mandel & Brezina
+1996) costs about half of that, and LOBPCG (Knyazev 2001) with one V-cycle per step reaches the
 smallest eigenpair in about 20 steps on the meshes qmesh makes: M-matrices of triangles nearly
 equilateral in their metric, for which smoothed aggregation is made. Where pyamg is missing or
 LOBPCG does not converge in MAX_STEPS, None tells the caller to factorise instead.
 
 LOBPCG with one vector is a few lines (`_lobpcg`), written here rather than taken from SciPy:
-κ2 runs it on a worker thread beside λ_max, and SciPy's version warns (Python's warning
-filters are process-wide, so they cannot be silenced per thread) and reduces its Gram
-matrices with threaded BLAS (the last digits then vary from run to run). It stops when the
+κ2 runs it while other threads run (λ_max's Lanczos steps, `report`'s Laplacian κ2), and
+SciPy's version warns (silencing it takes Python's warning filters, which are process-wide
+and not thread-safe) and reduces its Gram matrices with threaded BLAS (the last digits then
+vary from run to run). It stops when the
 residual ‖Kx − θx‖ ≤ √tol · θ (‖x‖ = 1). The Ritz value θ is a Rayleigh quotient, never below
 λ_min, and exceeds it by about residual² / gap (the gap to λ_2), so by about tol · θ where that
 gap is comparable to λ_min (the Dirichlet Laplacian's λ_2 / λ_min is 2.5 on a disk).
