@@ -271,13 +271,18 @@ def _tangents(P, T, twin, fixed):
     a, c = T[tb, kb], T[tb, topology.NXT[kb]]                  # boundary edges a → c
     nxt, prv = np.full(len(P), -1), np.full(len(P), -1)
     nxt[a], prv[c] = c, a
-    v = np.flatnonzero((nxt >= 0) & (prv >= 0) & ~fixed)
-    e1, e2 = P[v] - P[prv[v]], P[nxt[v]] - P[v]
+    return _in_line(P, np.flatnonzero((nxt >= 0) & (prv >= 0) & ~fixed), prv, nxt)
+
+
+def _in_line(P, v, before, after):
+    """The unit tangents (n, 2) of the vertices v lying between their neighbours before[v] and
+    after[v] in line with them (to IN_LINE); 0 for every other vertex."""
+    e1, e2 = P[v] - P[before[v]], P[after[v]] - P[v]
     l1, l2 = np.hypot(*e1.T), np.hypot(*e2.T)
     line = (np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]) <= IN_LINE * l1 * l2) & \
         (np.einsum("ki,ki->k", e1, e2) > 0)
     v = v[line]
-    t = P[nxt[v]] - P[prv[v]]
+    t = P[after[v]] - P[before[v]]
     out = np.zeros((len(P), 2))
     out[v] = t / np.hypot(*t.T)[:, None]
     return out
@@ -737,16 +742,7 @@ def _slides(P, T, cut, fixed):
     for a, c in ((E[:, 0], E[:, 1]), (E[:, 1], E[:, 0])):
         np.minimum.at(lo, a, c)
         np.maximum.at(hi, a, c)
-    v = np.flatnonzero((count == 2) & ~fixed)
-    e1, e2 = P[v] - P[lo[v]], P[hi[v]] - P[v]
-    l1, l2 = np.hypot(*e1.T), np.hypot(*e2.T)
-    line = (np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]) <= IN_LINE * l1 * l2) & \
-        (np.einsum("ki,ki->k", e1, e2) > 0)
-    v = v[line]
-    t = P[hi[v]] - P[lo[v]]
-    out = np.zeros((len(P), 2))
-    out[v] = t / np.hypot(*t.T)[:, None]
-    return out
+    return _in_line(P, np.flatnonzero((count == 2) & ~fixed), lo, hi)
 
 
 def _medium_splits(P, T, twin, cut, reg, fixed, out, h, q, s, b, Qbar, field):
