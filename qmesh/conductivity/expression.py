@@ -216,23 +216,35 @@ def parse_function(text, name: str) -> Callable[[np.ndarray], np.ndarray]:
     "q11(x, y)"), and return its value alone, vectorised: points (n, 2) → (n,). No derivatives
     are formed; the value is not checked here (NaN or inf where the text is undefined — the
     caller checks what it evaluates and names the point). QmeshError if the text is refused."""
-    import sympy as sp
-
-    form = check(text, name)
-    f, x, y = _to_sympy(form)
-    if f.has(sp.zoo, sp.oo, -sp.oo, sp.nan):
-        raise QmeshError(f"{name} = {_quote(text)} is not finite")
-    f_val = sp.lambdify((x, y), f, modules="numpy")
+    g = function_of_xy(text, name)
 
     def value(P: np.ndarray) -> np.ndarray:
         P = np.asarray(P, dtype=float)
         if P.ndim != 2 or P.shape[1] != 2:
             raise QmeshError(f"points must have shape (n, 2), got {P.shape}")
-        with np.errstate(all="ignore"):
-            v = f_val(P[:, 0], P[:, 1])
-        return np.array(np.broadcast_to(np.asarray(v, dtype=float), (len(P),)))
+        return np.array(g(P[:, 0], P[:, 1]))
 
     return value
+
+
+def function_of_xy(text: str, name: str, form: tuple | None = None
+                   ) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
+    """`parse_function`'s value as g(X, Y) on arrays of one shape → that shape, called on X and
+    Y as they come (a field's quadratures evaluate Q a few hundred times a run: a copy of the
+    points each time costs as much as the text). `form`: the text already `check`ed."""
+    import sympy as sp  # lazily: `import qmesh` stays fast
+
+    f, x, y = _to_sympy(check(text, name) if form is None else form)
+    if f.has(sp.zoo, sp.oo, -sp.oo, sp.nan):
+        raise QmeshError(f"{name} = {_quote(text)} is not finite")
+    f_val = sp.lambdify((x, y), f, modules="numpy")
+
+    def g(X: np.ndarray, Y: np.ndarray) -> np.ndarray:
+        with np.errstate(all="ignore"):
+            v = np.asarray(f_val(X, Y), dtype=float)
+        return v if v.shape == np.shape(X) else np.full(np.shape(X), v)
+
+    return g
 
 
 def _build(text: str, form: tuple) -> Expression:

@@ -7,7 +7,7 @@ the field, checks it where it is evaluated (finite, symmetric, positive definite
 point), and computes the means (`means`, `means_with_error`; numerics in `means.py`) and the
 smoothed field the mesher sizes by (`box_means`).
 
-Texts go through the safe parser of s(x, y) (`expression.parse_function`): never eval'd.
+Texts go through the safe parser of s(x, y) (`expression.function_of_xy`): never eval'd.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from qmesh.conductivity import means as _m
-from qmesh.conductivity.expression import _quote, _to_sympy, check
+from qmesh.conductivity.expression import check, function_of_xy
 from qmesh import checks
 from qmesh.errors import QmeshError
 
@@ -52,7 +52,7 @@ def _scalar(v: Any, name: str) -> tuple[float | None, _Scalar, str]:
         if form[0] == "num":
             c = float(form[1])
             return c, (lambda X, Y: np.full(X.shape, c)), v.strip()
-        return None, _lambdified(v, form, f"{name}(x, y)"), v.strip()
+        return None, function_of_xy(v, f"{name}(x, y)", form), v.strip()
     scalar = isinstance(v, numbers.Real) or (isinstance(v, np.ndarray) and v.ndim == 0 and v.dtype.kind in "iuf")
     if isinstance(v, (bool, np.bool_)) or not scalar:
         raise QmeshError(f"{name} must be a number or a text in x and y, got {v!r:.80}")
@@ -60,25 +60,6 @@ def _scalar(v: Any, name: str) -> tuple[float | None, _Scalar, str]:
     if not np.isfinite(c):
         raise QmeshError(f"{name} must be finite, got {c}")
     return c, (lambda X, Y: np.full(X.shape, c)), f"{c:g}"
-
-
-def _lambdified(text: str, form: tuple, name: str) -> _Scalar:
-    """The checked text `form` as g(X, Y) on 1-D arrays → (n,), lambdified by SymPy as
-    `expression.parse_function` does (the same NumPy code, so the same values to the bit), called
-    on X and Y as they come: the means' quadratures evaluate Q a few hundred times a run, on a
-    few to a few thousand points each, and the wrapper's copies cost as much as the text."""
-    import sympy as sp  # lazily, as expression.py: `import qmesh` stays fast
-
-    f, x, y = _to_sympy(form)
-    if f.has(sp.zoo, sp.oo, -sp.oo, sp.nan):
-        raise QmeshError(f"{name} = {_quote(text)} is not finite")
-    f_val = sp.lambdify((x, y), f, modules="numpy")
-
-    def g(X: Array, Y: Array) -> Array:
-        with np.errstate(all="ignore"):
-            v = np.asarray(f_val(X, Y), dtype=float)
-        return v if v.shape == X.shape else np.full(X.shape, v)
-    return g
 
 
 def _value_checked(g: _Scalar, X: Array, Y: Array, name: str, text: str) -> Array:
