@@ -1,8 +1,8 @@
-"""The repair pass (qmesh/fields/certify.py): its flips only lower the total deficit (so they end),
-its splits never put a new vertex off the edge they split, its shape steps add no failing edge,
-a flip or a move it refused is refused again while nothing it is judged on changes (so it is not
-judged again), and a raster whose triangles are
-smaller than its cells — where flips judged on their own edge alone cycled without end — is
+"""The repair pass (qmesh/fields/certify.py and its flips, splits and moves): its flips only
+lower the total deficit (so they end), its splits never put a new vertex off the edge they split,
+its shape steps add no failing edge, a flip or a move it refused is refused again while nothing
+it is judged on changes (so it is not judged again), and a raster whose triangles are smaller
+than its cells — where flips judged on their own edge alone cycled without end — is
 certified on means computed here by clipping."""
 
 import numpy as np
@@ -11,7 +11,7 @@ from hypothesis import given, settings, strategies as st
 from scipy.spatial import Delaunay
 
 import qmesh
-from qmesh.fields import certify as C
+from qmesh.fields import flips, moves, shares, splits
 from qmesh.fields.metric import field_metric
 from qmesh.geometry import topology
 from qmesh.geometry.triangles import signed_areas
@@ -45,7 +45,7 @@ def square_mesh(seed, n):
 def total_deficit(P, T, field):
     """Σ over the edges of max(0, bound − q_ij), from the means of `field` computed afresh."""
     Qbar, err = field.means_with_error(P, T)
-    s, b = C.shares(P, T, np.asarray(Qbar), np.asarray(err))
+    s, b = shares.shares(P, T, np.asarray(Qbar), np.asarray(err))
     twin = topology.twins(T)
     g = np.where(twin >= 0, twin, np.arange(len(twin)))
     q = s + np.where(twin >= 0, s[g], 0.0)
@@ -61,8 +61,8 @@ def test_a_round_of_flips_lowers_the_total_deficit(seed, n, cells):
     edges, k1, k2, angle = random_raster(seed, cells, 3.0)
     field = qmesh.TensorField.from_raster(edges, edges, k1, k2, angle)
     before, s, b, twin = total_deficit(P, T, field)
-    h, _, _ = C._failing(s, b, twin)
-    done = C._flips(P, T, twin, h, s, b, field)
+    h, _, _ = shares.failing(s, b, twin)
+    done = flips.mending_flips(P, T, twin, h, s, b, field)
     if not len(done):
         return
     T2, _ = topology.flip(T, twin, done)
@@ -79,15 +79,15 @@ def test_split_points_lie_inside_the_edges_they_split(seed, n):
     field = qmesh.TensorField.from_raster(edges, edges, k1, k2, angle)
     Qbar, err = field.means_with_error(P, T)
     Qbar, err = np.asarray(Qbar), np.asarray(err)
-    s, b = C.shares(P, T, Qbar, err)
+    s, b = shares.shares(P, T, Qbar, err)
     twin = topology.twins(T)
     for inner in (True, False):
         h = np.flatnonzero((twin >= 0) == inner)
-        h = h[C._independent(h, rng.random(len(h)), (h // 3, np.where(twin[h] >= 0, twin[h], h) // 3))]
-        X = C._split_points(P, T, twin, h, s, b, Qbar, field)
+        h = h[shares.independent(h, rng.random(len(h)), (h // 3, np.where(twin[h] >= 0, twin[h], h) // 3))]
+        X = splits.split_points(P, T, twin, h, s, b, Qbar, field)
         u, v = P[T[h // 3, h % 3]], P[T[h // 3, topology.NXT[h % 3]]]
         t = np.einsum("ki,ki->k", X - u, v - u) / np.einsum("ki,ki->k", v - u, v - u)
-        assert np.all((t >= C.SPLIT_AT - 1e-12) & (t <= 1 - C.SPLIT_AT + 1e-12))
+        assert np.all((t >= splits.SPLIT_AT - 1e-12) & (t <= 1 - splits.SPLIT_AT + 1e-12))
         off = np.abs((X - u)[:, 0] * (v - u)[:, 1] - (X - u)[:, 1] * (v - u)[:, 0])
         assert np.all(off <= 1e-12 * np.einsum("ki,ki->k", v - u, v - u))
 
@@ -116,16 +116,16 @@ def test_shape_steps_never_add_failing_edges_nor_deficit(seed, n, cells, shape):
     field = qmesh.TensorField.from_raster(edges, edges, k1, k2, angle)
     metric = field_metric(field, 0.1, (np.zeros(2), np.ones(2)))
     before, s, b, twin = total_deficit(P, T, field)
-    h0, _, _ = C._failing(s, b, twin)
+    h0, _, _ = shares.failing(s, b, twin)
     Qbar, err = (np.asarray(x) for x in field.means_with_error(P, T))
     fixed = np.zeros(len(P), bool)
     fixed[:4] = True
-    movers = C._movers(T, twin, C._free(T, twin, fixed, np.arange(len(P))),
+    movers = moves.movers(T, twin, moves.free(T, twin, fixed, np.arange(len(P))),
                        np.random.default_rng(seed))
-    P2, _ = C._relax(P, T, twin, Qbar, err, s, b, field, metric, movers, shape=shape)
+    P2, _ = moves.relax(P, T, twin, Qbar, err, s, b, field, metric, movers, shape=shape)
     assert np.all(signed_areas(P2, T) > 0)
     after, s2, b2, _ = total_deficit(P2, T, field)
-    h1, _, _ = C._failing(s2, b2, twin)
+    h1, _, _ = shares.failing(s2, b2, twin)
     assert len(h1) <= len(h0)
     assert after <= before * (1 + 1e-9) + 1e-15
     moved = np.flatnonzero(np.any(P2 != P, axis=1))
@@ -179,23 +179,23 @@ def test_sliding_vertices_keep_to_their_side(seed, n, cells):
     twin = topology.twins(T)
     fixed = np.zeros(len(P), bool)
     fixed[:4] = True
-    tan = C._tangents(P, T, twin, fixed)
+    tan = moves.tangents(P, T, twin, fixed)
     sliding = np.flatnonzero(np.any(tan != 0, axis=1))
     assert set(sliding) == set(range(len(P) - 8, len(P)))
     assert np.allclose(np.abs(tan[sliding]), np.abs(np.round(tan[sliding])))
     edges, k1, k2, angle = random_raster(seed, cells, 2.0)
     field = qmesh.TensorField.from_raster(edges, edges, k1, k2, angle)
     Qbar, err = (np.asarray(x) for x in field.means_with_error(P, T))
-    s, b = C.shares(P, T, Qbar, err)
-    h0, _, _ = C._failing(s, b, twin)
-    movers = C._movers(T, twin, C._free(T, twin, fixed, np.arange(len(P)), tan), rng)
-    P2, _ = C._relax(P, T, twin, Qbar, err, s, b, field, None, movers, shape=True, tangent=tan)
+    s, b = shares.shares(P, T, Qbar, err)
+    h0, _, _ = shares.failing(s, b, twin)
+    movers = moves.movers(T, twin, moves.free(T, twin, fixed, np.arange(len(P)), tan), rng)
+    P2, _ = moves.relax(P, T, twin, Qbar, err, s, b, field, None, movers, shape=True, tangent=tan)
     on_x = np.isin(P[sliding, 1], (0.0, 1.0))            # sides y = 0, 1 keep their y, else x
     assert np.array_equal(P2[sliding[on_x], 1], P[sliding[on_x], 1])
     assert np.array_equal(P2[sliding[~on_x], 0], P[sliding[~on_x], 0])
     assert np.all(signed_areas(P2, T) > 0)
     _, s2, b2, _ = total_deficit(P2, T, field)
-    assert len(C._failing(s2, b2, twin)[0]) <= len(h0)
+    assert len(shares.failing(s2, b2, twin)[0]) <= len(h0)
 
 
 FORMULA = ("1 + x**2 + sin(3*y)", "0.9*sin(4*x)*cos(3*y)", "1.2 + cos(2*x)")
@@ -213,16 +213,16 @@ def test_each_mover_is_judged_on_its_own(seed, n, shape, own):
     field = qmesh.TensorField.from_expressions(*FORMULA)
     metric = None if own else field_metric(field, 0.1, (np.zeros(2), np.ones(2)))
     Qbar, err = (np.asarray(x) for x in field.means_with_error(P, T))
-    s, b = C.shares(P, T, Qbar, err)
+    s, b = shares.shares(P, T, Qbar, err)
     twin = topology.twins(T)
     fixed = np.zeros(len(P), bool)
     fixed[:4] = True
-    movers = C._movers(T, twin, C._free(T, twin, fixed, np.arange(len(P))), rng)
+    movers = moves.movers(T, twin, moves.free(T, twin, fixed, np.arange(len(P))), rng)
     all_refused, some_refused = np.zeros(len(P), bool), np.zeros(len(P), bool)
-    P_all, _ = C._relax(P, T, twin, Qbar, err, s, b, field, metric, movers, shape=shape,
+    P_all, _ = moves.relax(P, T, twin, Qbar, err, s, b, field, metric, movers, shape=shape,
                         refused=all_refused)
     some = movers[rng.random(len(movers)) < 0.5]
-    P_some, t = C._relax(P, T, twin, Qbar, err, s, b, field, metric, some, shape=shape,
+    P_some, t = moves.relax(P, T, twin, Qbar, err, s, b, field, metric, some, shape=shape,
                          refused=some_refused)
     assert np.array_equal(P_some[some], P_all[some])
     assert np.array_equal(some_refused[some], all_refused[some])
@@ -239,14 +239,14 @@ def test_flips_refused_once_are_refused_again(seed, n, cells):
     edges, k1, k2, angle = random_raster(seed, cells, 3.0)
     field = qmesh.TensorField.from_raster(edges, edges, k1, k2, angle)
     _, s, b, twin = total_deficit(P, T, field)
-    h, _, _ = C._failing(s, b, twin)
+    h, _, _ = shares.failing(s, b, twin)
     refused = np.zeros(len(twin), bool)
-    done = C._flips(P, T, twin, h, s, b, field, refused=refused)
+    done = flips.mending_flips(P, T, twin, h, s, b, field, refused=refused)
     assert not refused[done].any()
     again = np.zeros(len(twin), bool)
-    assert not len(C._flips(P, T, twin, h[refused[h]], s, b, field, refused=again))
+    assert not len(flips.mending_flips(P, T, twin, h[refused[h]], s, b, field, refused=again))
     assert again[h[refused[h]]].all()
-    assert np.array_equal(C._flips(P, T, twin, h[~refused[h]], s, b, field), done)
+    assert np.array_equal(flips.mending_flips(P, T, twin, h[~refused[h]], s, b, field), done)
 
 
 @settings(max_examples=10, deadline=None)
@@ -257,7 +257,7 @@ def test_a_change_forgets_what_was_judged_on_it(seed, n):
     P, T = square_mesh(seed, n)
     twin = topology.twins(T)
     rng = np.random.default_rng(seed)
-    seen = C._Judged(len(P), len(T))
+    seen = moves.Judged(len(P), len(T))
     seen.vertices[:] = True
     seen.edges[:] = True
     t = rng.choice(len(T), min(3, len(T)), replace=False)
