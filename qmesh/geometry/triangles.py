@@ -128,9 +128,15 @@ def metric_areas(P: np.ndarray, T: np.ndarray, H: np.ndarray) -> np.ndarray:
 def _metric_areas(areas: np.ndarray, H: np.ndarray) -> np.ndarray:
     if H.strides[0] == 0:
         H = H[:1]
+    e = None
+    top = float(np.abs(H).max(initial=0.0))
+    if top > 1e100 or 0.0 < top < 1e-100:      # det H would over- or underflow (a region's
+        e = np.frexp(np.abs(H).max(axis=(1, 2)))[1]         # adj Q may hold 1e300): scaled by
+        H = np.ldexp(H, -e[:, None, None])                  # a power of two, bit-exact
     det = H[:, 0, 0] * H[:, 1, 1] - H[:, 0, 1] * H[:, 1, 0]
     with np.errstate(invalid="ignore"):
-        return np.sqrt(det) * areas
+        root = np.sqrt(det)
+    return root * areas if e is None else np.ldexp(root, e) * areas
 
 
 def metric_quality(P: np.ndarray, T: np.ndarray, H: np.ndarray) -> np.ndarray:

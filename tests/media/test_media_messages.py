@@ -53,6 +53,7 @@ def test_cells_far_from_the_origin_mesh(offset):
         "q_nonnegative_fraction_interface": 1.0}
 
 
+@pytest.mark.filterwarnings("error::RuntimeWarning")   # det H of 1e300 must not overflow
 def test_a_huge_isotropic_cell_meshes():
     x = np.linspace(0, 1, 5)
     k = np.ones((4, 4))
