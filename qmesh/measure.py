@@ -542,9 +542,9 @@ def conditioning(mesh: Mesh, anisotropy: Given = None, *,
     (matrix-vector products only, on a second thread while λ_min is computed) and λ_min
     as 1 / the largest eigenvalue of K⁻¹, by Lanczos with K⁻¹ applied by ONE sparse
     factorisation (`_inverse`: LDLᵀ by qdldl, else SuperLU in symmetric mode); "multigrid"
-    (n ≥ MULTIGRID_LIMIT under "auto"): the same λ_max, and λ_min by LOBPCG preconditioned
-    by algebraic multigrid (`multigrid_eigen`; the factorisation where that does not
-    converge). `tol` bounds the Lanczos residual relative to the eigenvalue (so an eigenvalue
+    (n ≥ MULTIGRID_LIMIT and K near an M-matrix under "auto"): the same λ_max, and λ_min by
+    LOBPCG preconditioned by algebraic multigrid (`multigrid_eigen`; the factorisation where
+    that does not converge). `tol` bounds the Lanczos residual relative to the eigenvalue (so an eigenvalue
     lies that close), and LOBPCG's to √tol; the extreme eigenvalues themselves come out about
     tol² and tol relative (residual² / gap), far below the figures printed. A κ2 above
     KAPPA_LIMIT is round-off and is reported as numerically singular.
@@ -591,9 +591,11 @@ def _conditioning(mesh: Mesh, anisotropy: Resolved, method: str = "auto", tol: f
 
 def _smallest_eigenvalue(K: sp.csr_matrix, v0: NDArray[np.float64], tol: float,
                          method: str) -> float | str:
-    """λ_min by multigrid where K is large (or "multigrid" is asked), else as 1 / the largest
-    eigenvalue of K⁻¹ by Lanczos through one factorisation; or why K has no factorisation."""
-    if method == "multigrid" or (method == "auto" and len(v0) >= multigrid_eigen.MULTIGRID_LIMIT):
+    """λ_min by multigrid where K is large and near an M-matrix (`multigrid_eigen.suits`), or
+    "multigrid" is asked; else as 1 / the largest eigenvalue of K⁻¹ by Lanczos through one
+    factorisation; or why K has no factorisation."""
+    if method == "multigrid" or (method == "auto" and len(v0) >= multigrid_eigen.MULTIGRID_LIMIT
+                                 and multigrid_eigen.suits(K)):
         lmin = multigrid_eigen.smallest_eigenvalue(K, v0, tol)
         if lmin is not None:
             return lmin

@@ -113,3 +113,32 @@ def test_lobpcg_gives_up_early_where_its_rate_is_too_slow():
     lam = multigrid_eigen._lobpcg(lambda x: applied.append(1) or w * x, lambda r: r, v0, 1e-6)
     assert lam is None
     assert len(applied) < multigrid_eigen.MAX_STEPS
+
+
+def test_auto_factorises_a_matrix_far_from_an_m_matrix_without_trying_multigrid(monkeypatch):
+    """Q = I on a mesh stretched for diag(0.1, 10): many positive off-diagonals, which multigrid
+    is not made for; "auto" goes straight to the factorisation (same κ2), and takes multigrid
+    for the Q the mesh was made for (an M-matrix)."""
+    mesh = qmesh.mesh(qmesh.Disk(48), CHAPTER, target_vertices=600)
+    calls = []
+    real = multigrid_eigen.smallest_eigenvalue
+    monkeypatch.setattr(multigrid_eigen, "smallest_eigenvalue",
+                        lambda *a: calls.append(1) or real(*a))
+    monkeypatch.setattr(multigrid_eigen, "MULTIGRID_LIMIT", 100)
+    K = measure.stiffness_interior(mesh, None)
+    assert not multigrid_eigen.suits(K)
+    c = measure.conditioning(mesh, None)
+    assert not calls
+    assert c.kappa2 == pytest.approx(measure.conditioning(mesh, None, method="sparse").kappa2)
+    assert multigrid_eigen.suits(measure.stiffness_interior(mesh, CHAPTER))
+    measure.conditioning(mesh, CHAPTER)
+    assert calls
+
+
+def test_the_positive_share_is_counted_off_the_diagonal():
+    """A 2 × 2 [[2, −1], [−1, 2]] is an M-matrix; [[2, 1], [1, 2]] has every off-diagonal
+    positive; with POSITIVE_SHARE the border between them."""
+    import scipy.sparse as sp
+    assert multigrid_eigen.suits(sp.csr_matrix([[2.0, -1.0], [-1.0, 2.0]]))
+    assert not multigrid_eigen.suits(sp.csr_matrix([[2.0, 1.0], [1.0, 2.0]]))
+    assert multigrid_eigen.suits(sp.csr_matrix(np.eye(3)))
