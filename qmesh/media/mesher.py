@@ -38,11 +38,14 @@ from qmesh.mesher.options import Options, check_keywords
 from qmesh.mesher.plan import TOLERANCE    # a mesh this share off target_vertices is warned about
 from qmesh.mesher.step import Stats, Step, last_step, recording, summed_up
 from qmesh.triangle_mesh import Mesh
+from qmesh.triangle_mesh import Mesh
 
 FLOOR = 0.3            # a hand-over leaving a face's worst quality below this meshes it again
 FINER = 12             # halvings of the size for a face too thin for it (6 beyond plan.COARSER)
 MAX_HANDOVERS = 1000   # rounds of interface points handed between finished faces
 MAX_NOTES = 3          # the faces' warnings shown one by one; beyond, one line counts them
+TURNING = 1.5          # a field face whose run at the plan's size took this many times the plan's
+                       # count (its field turns across an element there) is named if N overshoots
 
 
 def iterate(domain: Any, conductivity: Any, *, target_vertices: int | None = None, size: float | None = None,
@@ -84,6 +87,7 @@ def _run(plan: MediaPlan, options: dict, every: bool) -> Iterator[Step]:
     notes: list = []                         # (message, category) the faces' runs warned
     cond = {f.region: a for f, a in zip(plan.faces, plan.anis)}
     at, alone, redone = 0, set[int](), set[int]()   # faces of a group whose run failed; meshed again
+    turned: list[str] = []                   # field faces whose runs took far more than planned
     while at < len(plan.order):
         if at:
             plan.size_rest(plan.order[at:], meshes.vertex_count())
@@ -101,6 +105,8 @@ def _run(plan: MediaPlan, options: dict, every: bool) -> Iterator[Step]:
             alone.update(faces)              # meshed one by one instead
             continue
         notes += [(f"{plan.face_name(faces[0])}: {w.message}", w.category) for w in said]
+        if _turned(plan, faces, dom, size, step.mesh):
+            turned.append(plan.face_name(faces[0]))
         ran = polish.collapse_poor_fans(step.mesh, plan.anis[faces[0]], plan.part.outline_tags)
         done = split(ran, sizes)
         for i, thin in zip(faces, thin_faces(done, plan.anis[faces[0]], plan.k[faces[0]])):
@@ -120,8 +126,24 @@ def _run(plan: MediaPlan, options: dict, every: bool) -> Iterator[Step]:
                  f"q_ij >= 0 on their interfaces); ask for more for N to follow the target"
                  if m.n_vertices > plan.target and plan.h_rest > plan.h_euler else
                  " (the interfaces and q_ij >= 0 on them need these)")
+        if turned and m.n_vertices > plan.target:
+            holds = "holds a field that turns" if len(turned) == 1 else "hold fields that turn"
+            least = (f": {', '.join(turned)} {holds} across an element at the size the target "
+                     f"gives, and took more than {TURNING:g} times the vertices planned for it "
+                     "to keep its triangles' shapes; ask for more for N to follow the target")
         warnings.warn(f"target_vertices = {plan.target}: the mesh has {m.n_vertices} vertices"
                       + least, QmeshWarning, stacklevel=3)
+
+
+def _turned(plan: MediaPlan, faces: list, dom: Any, size: dict, mesh: Mesh) -> bool:
+    """Whether one face holding a field's metric (no s), run at a size, took over TURNING times
+    the vertices the plan counted for it: its run added points where the field turns across an
+    element, which the plan's count of area and boundary does not foresee."""
+    a = plan.anis[faces[0]]
+    if len(faces) > 1 or "size" not in size or a.is_constant or a.potential:
+        return False
+    planned = plan.counter(faces, plan.thin)(plan.h_rest) + len(dom.seeds)
+    return mesh.n_vertices > TURNING * planned
 
 
 def _group(plan: MediaPlan, at: int, extra: dict, meshes: FaceMeshes, alone: set) -> tuple[list, Any, list, dict]:
