@@ -15,10 +15,14 @@ from collections.abc import Callable, Iterator
 from dataclasses import replace
 from typing import Any
 
+import numpy as np
+
+from qmesh.conductivity.anisotropy import shape_metric
 from qmesh.domain.domain import as_domain
 from qmesh.errors import QmeshWarning
 from qmesh.fields.certify import certify
 from qmesh.fields.metric import field_metric, smoothing_width
+from qmesh.geometry.triangles import metric_quality
 from qmesh.mesher import loop
 from qmesh.mesher.diagnose import warn_if_thin
 from qmesh.mesher.plan import TOLERANCE
@@ -52,9 +56,10 @@ def _certified(steps: Iterator[Step], field: Any, metric: Any,
     assert last is not None
     warn_if_thin(last.mesh, metric, stacklevel=4)
     m, cert = certify(last.mesh, field, metric=metric)
+    q = metric_quality(m.points, m.triangles, shape_metric(m.conductivity))   # own means
     final = Step("triangulate", last.iteration, m,
-                 Stats(m.n_vertices, m.n_triangles, flips=cert.flips, added=cert.added,
-                       source=(m, metric)), converged=True)
+                 Stats(m.n_vertices, m.n_triangles, float("nan"), float(np.nanmin(q)),
+                       float(np.nanmean(q)), flips=cert.flips, added=cert.added), converged=True)
     # said before the last Step is yielded: a caller that stops at `converged` still hears it
     if cert.added and (target is None or m.n_vertices > (1 + TOLERANCE) * target):
         warnings.warn(f"keeping every q_ij >= 0 with the element means of Q took {cert.added} more "

@@ -131,6 +131,12 @@ def test_iterate_ends_on_the_mesh_and_only_the_last_step_is_converged():
     assert np.array_equal(steps[-1].mesh.points, m.points)
     assert np.array_equal(steps[-1].mesh.triangles, m.triangles)
     assert np.array_equal(steps[-1].mesh.conductivity, m.conductivity)
+    # the certified Step's figures are the mesh's own: quality in each triangle's own means,
+    # as `report` (and the CLI's report of the file) gives them, no energy without an s
+    r = qmesh.measure.report(m)
+    assert steps[-1].stats.min_quality == pytest.approx(r["min_quality"], rel=1e-12)
+    assert steps[-1].stats.mean_quality == pytest.approx(r["mean_quality"], rel=1e-12)
+    assert np.isnan(steps[-1].stats.energy)
 
 
 @pytest.mark.slow(20)
