@@ -38,7 +38,6 @@ from qmesh.mesher.options import Options, check_keywords
 from qmesh.mesher.plan import TOLERANCE    # a mesh this share off target_vertices is warned about
 from qmesh.mesher.step import Stats, Step, last_step, recording, summed_up
 from qmesh.triangle_mesh import Mesh
-from qmesh.triangle_mesh import Mesh
 
 FLOOR = 0.3            # a hand-over leaving a face's worst quality below this meshes it again
 FINER = 12             # halvings of the size for a face too thin for it (6 beyond plan.COARSER)
@@ -127,10 +126,11 @@ def _run(plan: MediaPlan, options: dict, every: bool) -> Iterator[Step]:
                  if m.n_vertices > plan.target and plan.h_rest > plan.h_euler else
                  " (the interfaces and q_ij >= 0 on them need these)")
         if turned and m.n_vertices > plan.target:
-            holds = "holds a field that turns" if len(turned) == 1 else "hold fields that turn"
+            one = len(turned) == 1
+            holds, it = ("holds a field that turns", "it") if one else ("hold fields that turn", "them")
             least = (f": {', '.join(turned)} {holds} across an element at the size the target "
-                     f"gives, and took more than {TURNING:g} times the vertices planned for it "
-                     "to keep its triangles' shapes; ask for more for N to follow the target")
+                     f"gives, and took more than {TURNING:g} times the vertices planned for {it} "
+                     "to keep the triangles' shapes; ask for more for N to follow the target")
         warnings.warn(f"target_vertices = {plan.target}: the mesh has {m.n_vertices} vertices"
                       + least, QmeshWarning, stacklevel=3)
 
