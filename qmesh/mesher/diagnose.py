@@ -64,7 +64,8 @@ def thin_face(mesh: Mesh, anisotropy: Anisotropy, k: float = 1.0) -> str | None:
     nothing to say (its hull would be the cost, for each of a thousand small faces)."""
     if (~mesh.boundary).any() and worst_metric_quality(mesh.points, mesh.triangles, anisotropy) >= SLIVER:
         return None
-    return thin_domain(mesh, Anisotropy.constant(anisotropy.matrix / k) if anisotropy.is_constant else anisotropy)
+    return thin_domain(mesh, Anisotropy.constant(anisotropy.matrix / k) if anisotropy.is_constant else anisotropy,
+                       region=True)
 
 
 def thin_faces(meshes: list[Mesh], anisotropy: Anisotropy, k: float = 1.0) -> list[str | None]:
@@ -85,8 +86,10 @@ def thin_faces(meshes: list[Mesh], anisotropy: Anisotropy, k: float = 1.0) -> li
     return [None if ok else thin_face(m, anisotropy, k) for m, ok in zip(meshes, inner & (worst >= SLIVER))]
 
 
-def thin_domain(mesh: Mesh, anisotropy: Anisotropy) -> str | None:
-    """A message when the domain is too thin for the mesh's size, else None."""
+def thin_domain(mesh: Mesh, anisotropy: Anisotropy, region: bool = False) -> str | None:
+    """A message when the domain is too thin for the mesh's size, else None. `region`: the mesh
+    is one region's of a medium, whose count is its share of target_vertices (the message then
+    says what the region would need, not what to ask for)."""
     X, T = mesh.points, mesh.triangles
     if len(T) == 0:
         return None
@@ -122,10 +125,14 @@ def thin_domain(mesh: Mesh, anisotropy: Anisotropy) -> str | None:
         # splits) took the whole target; the N whose interior matches the boundary's spacing
         n_b = int(mesh.boundary.sum())
         need: int | None = max(vertices_for(area_m, perimeter, perimeter / max(n_b, 1)), mesh.n_vertices + 1)
+        ask = (f"the region would need about {need} vertices to fill its interior at the "
+               "boundary's spacing; a larger target_vertices / --target-vertices gives it more"
+               if region else
+               f"about {need} vertices (target_vertices / --target-vertices) would fill the interior "
+               "at the boundary's spacing")
         return (f"every one of the N = {mesh.n_vertices} vertices lies on the boundary (no interior "
                 f"vertex), although the domain is {width / (ROW_HEIGHT * h):.2g} elements wide in "
-                f"the metric: the boundary's points take the whole target; about {need} vertices "
-                f"(target_vertices / --target-vertices) would fill the interior at the boundary's spacing")
+                f"the metric: the boundary's points take the whole target; {ask}")
     symptom = ("no interior vertex" if n_interior == 0
                else f"{n_interior} interior vertices, minimum metric quality {min_q:.3f}")
     h_need = width / (ROWS * ROW_HEIGHT)
@@ -134,9 +141,14 @@ def thin_domain(mesh: Mesh, anisotropy: Anisotropy) -> str | None:
     ratio = width / (ROWS * ROW_HEIGHT * h)
     need = (max(vertices_for(area_m, perimeter, h_need), int(mesh.n_vertices / min(ratio, 1.0)) + 1)
             if h_need > 0 else None)
-    advice = (f"about {need} vertices (target_vertices / --target-vertices, or a metric size "
-              f"of {h_need * unit:.3g}) would put {ROWS:g} elements across it"
-              if need else "its metric width is zero")
+    if not need:
+        advice = "its metric width is zero"
+    elif region:
+        advice = (f"the region would need about {need} vertices to put {ROWS:g} elements across "
+                  "it; a larger target_vertices / --target-vertices gives it more")
+    else:
+        advice = (f"about {need} vertices (target_vertices / --target-vertices, or a metric size "
+                  f"of {h_need * unit:.3g}) would put {ROWS:g} elements across it")
     return (f"the domain is {width / (ROW_HEIGHT * h):.2g} elements wide in the metric at this "
             f"size (N = {mesh.n_vertices}, {symptom}); {advice}")
 

@@ -9,6 +9,7 @@ from hypothesis import HealthCheck, example, given, settings, strategies as st
 
 import qmesh
 from qmesh import measure
+from qmesh.domain import media_cases
 
 P = qmesh.Anisotropy.principal
 I = qmesh.Anisotropy.constant([[1.0, 0.0], [0.0, 1.0]])
@@ -136,3 +137,16 @@ def test_regions_meeting_at_points_mesh_or_are_refused_naming_the_point(nx, ny, 
             assert "regions meet at the point" in str(e), str(e)
             return
     check_mesh(d, cond, m)
+
+
+def test_a_thin_region_says_what_it_needs_not_a_target_below_the_one_asked():
+    """A region's thin-face note counts what the region would need; it does not tell the user
+    to ask for target_vertices = that count (its share of the target is far below the target)."""
+    domain, conductivity, _ = media_cases.fvca4()
+    c = {**conductivity, 0: qmesh.TensorField.principal(1, 1e-2, "30*sin(pi*x)")}
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        qmesh.mesh(domain, c, target_vertices=1000)
+    notes = [str(w.message) for w in said if str(w.message).startswith("region ")]
+    assert notes and all("the region would need about" in n for n in notes)
+    assert not [n for n in notes if "vertices (target_vertices" in n]
