@@ -93,6 +93,7 @@ def thin_domain(mesh: Mesh, anisotropy: Anisotropy, region: bool = False) -> str
     X, T = mesh.points, mesh.triangles
     if len(T) == 0:
         return None
+    what = "region" if region else "domain"
     Hs = metric_hessians(anisotropy, X, T)
     # lengths in units of the mesh's extent (a domain 1e300 across overflows its areas);
     # every test below compares ratios, and sizes are reported back in the user's units
@@ -126,12 +127,13 @@ def thin_domain(mesh: Mesh, anisotropy: Anisotropy, region: bool = False) -> str
         n_b = int(mesh.boundary.sum())
         need: int | None = max(vertices_for(area_m, perimeter, perimeter / max(n_b, 1)), mesh.n_vertices + 1)
         ask = (f"the region would need about {need} vertices to fill its interior at the "
-               "boundary's spacing; a larger target_vertices / --target-vertices gives it more"
+               "boundary's spacing; a larger target_vertices / --target-vertices (or a smaller "
+               "size) gives it more"
                if region else
                f"about {need} vertices (target_vertices / --target-vertices) would fill the interior "
                "at the boundary's spacing")
         return (f"every one of the N = {mesh.n_vertices} vertices lies on the boundary (no interior "
-                f"vertex), although the domain is {width / (ROW_HEIGHT * h):.2g} elements wide in "
+                f"vertex), although the {what} is {width / (ROW_HEIGHT * h):.2g} elements wide in "
                 f"the metric: the boundary's points take the whole target; {ask}")
     symptom = ("no interior vertex" if n_interior == 0
                else f"{n_interior} interior vertices, minimum metric quality {min_q:.3f}")
@@ -145,11 +147,12 @@ def thin_domain(mesh: Mesh, anisotropy: Anisotropy, region: bool = False) -> str
         advice = "its metric width is zero"
     elif region:
         advice = (f"the region would need about {need} vertices to put {ROWS:g} elements across "
-                  "it; a larger target_vertices / --target-vertices gives it more")
+                  "it; a larger target_vertices / --target-vertices (or a smaller size) gives it "
+                  "more")
     else:
         advice = (f"about {need} vertices (target_vertices / --target-vertices, or a metric size "
                   f"of {h_need * unit:.3g}) would put {ROWS:g} elements across it")
-    return (f"the domain is {width / (ROW_HEIGHT * h):.2g} elements wide in the metric at this "
+    return (f"the {what} is {width / (ROW_HEIGHT * h):.2g} elements wide in the metric at this "
             f"size (N = {mesh.n_vertices}, {symptom}); {advice}")
 
 
