@@ -93,7 +93,7 @@ def thin_domain(mesh: Mesh, anisotropy: Anisotropy, region: bool = False) -> str
     X, T = mesh.points, mesh.triangles
     if len(T) == 0:
         return None
-    what = "region" if region else "domain"
+    what, share = ("region", "its whole share of the target") if region else ("domain", "the whole target")
     Hs = metric_hessians(anisotropy, X, T)
     # lengths in units of the mesh's extent (a domain 1e300 across overflows its areas);
     # every test below compares ratios, and sizes are reported back in the user's units
@@ -134,7 +134,7 @@ def thin_domain(mesh: Mesh, anisotropy: Anisotropy, region: bool = False) -> str
                "at the boundary's spacing")
         return (f"every one of the N = {mesh.n_vertices} vertices lies on the boundary (no interior "
                 f"vertex), although the {what} is {width / (ROW_HEIGHT * h):.2g} elements wide in "
-                f"the metric: the boundary's points take the whole target; {ask}")
+                f"the metric: the boundary's points take {share}; {ask}")
     symptom = ("no interior vertex" if n_interior == 0
                else f"{n_interior} interior vertices, minimum metric quality {min_q:.3f}")
     h_need = width / (ROWS * ROW_HEIGHT)
