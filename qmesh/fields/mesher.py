@@ -20,7 +20,7 @@ import numpy as np
 from qmesh.conductivity.anisotropy import shape_metric
 from qmesh.domain.domain import as_domain
 from qmesh.errors import QmeshWarning
-from qmesh.fields.certify import certify
+from qmesh.fields.certify import Certificate, certify
 from qmesh.fields.metric import field_metric, smoothing_width
 from qmesh.geometry.triangles import metric_quality
 from qmesh.mesher import loop
@@ -56,17 +56,28 @@ def _certified(steps: Iterator[Step], field: Any, metric: Any,
     assert last is not None
     warn_if_thin(last.mesh, metric, stacklevel=4)
     m, cert = certify(last.mesh, field, metric=metric)
-    q = metric_quality(m.points, m.triangles, shape_metric(m.conductivity))   # own means
-    final = Step("triangulate", last.iteration, m,
-                 Stats(m.n_vertices, m.n_triangles, float("nan"), float(np.nanmin(q)),
-                       float(np.nanmean(q)), flips=cert.flips, added=cert.added), converged=True)
     # said before the last Step is yielded: a caller that stops at `converged` still hears it
+    say(m, cert, target, stacklevel=4)
+    yield final_step(m, cert, last.iteration)
+
+
+def final_step(m: Mesh, cert: Certificate, iteration: int) -> Step:
+    """The certified mesh's Step, its quality in each triangle's own means (FIELDS.md §3), as
+    `measure.report` and the views measure it; no energy without an s."""
+    assert m.conductivity is not None
+    q = metric_quality(m.points, m.triangles, shape_metric(m.conductivity))
+    return Step("triangulate", iteration, m, Stats(m.n_vertices, m.n_triangles, float("nan"),
+                float(np.nanmin(q)), float(np.nanmean(q)), flips=cert.flips, added=cert.added),
+                converged=True)
+
+
+def say(m: Mesh, cert: Certificate, target: int | None, stacklevel: int = 3) -> None:
+    """What the repair added beyond the target, and what it left failing: never a silent pass."""
     if cert.added and (target is None or m.n_vertices > (1 + TOLERANCE) * target):
         warnings.warn(f"keeping every q_ij >= 0 with the element means of Q took {cert.added} more "
                       f"vertices (N = {m.n_vertices}): Q changes faster across some triangles than "
-                      "the mesh resolves", QmeshWarning, stacklevel=3)
+                      "the mesh resolves", QmeshWarning, stacklevel=stacklevel)
     if cert.remaining:
         warnings.warn(f"{cert.remaining} edges still have q_ij < 0 with the element means after "
                       f"{cert.rounds} rounds of flips and splits (worst q_ij / sum|q_ij^T| = "
-                      f"{cert.worst:.2e}); ask for more vertices", QmeshWarning, stacklevel=3)
-    yield final
+                      f"{cert.worst:.2e}); ask for more vertices", QmeshWarning, stacklevel=stacklevel)

@@ -14,23 +14,22 @@ mesh carries the means (`Mesh.conductivity`) and its region tags.
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
-from qmesh.conductivity.anisotropy import Anisotropy, shape_metric
+from qmesh.conductivity.anisotropy import Anisotropy
 from qmesh.conductivity.field import TensorField
 from qmesh.domain.domain import as_domain
 from qmesh.domain.regions import conductivity_of_regions
-from qmesh.errors import QmeshError, QmeshWarning
-from qmesh.fields.certify import Certificate, certify
+from qmesh.errors import QmeshError
+from qmesh.fields.certify import certify
+from qmesh.fields.mesher import final_step, say
 from qmesh.fields.metric import field_metric, smoothing_width
 from qmesh.geometry.triangles import metric_quality
 from qmesh.media import mesher
-from qmesh.mesher.plan import TOLERANCE
 from qmesh.mesher.step import Stats, Step
 from qmesh.triangle_mesh import Mesh
 
@@ -72,9 +71,9 @@ def mesh(domain: Any, conductivity: Any, *, target_vertices: int | None = None,
     m = mesher.mesh(domain, metrics, target_vertices=target_vertices, size=size,
                     progress=None if progress is None else show, **options)
     done, cert = certify(m, cond)
-    _say(done, cert, target_vertices)
+    say(done, cert, target_vertices)
     if progress is not None:
-        progress(_final(done, cert, seen[0]))
+        progress(final_step(done, cert, seen[0]))
     return done
 
 
@@ -144,26 +143,5 @@ def _certified(steps: Iterator[Step], cond: dict, metrics: dict,
         yield _shown(last, metrics, False)
     assert last is not None
     done, cert = certify(last.mesh, cond)
-    _say(done, cert, target, stacklevel=4)     # before the last Step: a caller stopping there hears it
-    yield _final(done, cert, last.iteration)
-
-
-def _final(m: Mesh, cert: Certificate, iteration: int) -> Step:
-    """The certified mesh's Step, its quality in each triangle's own means (FIELDS.md §3)."""
-    assert m.conductivity is not None
-    q = metric_quality(m.points, m.triangles, shape_metric(m.conductivity))
-    return Step("triangulate", iteration, m, Stats(m.n_vertices, m.n_triangles, float("nan"),
-                float(np.nanmin(q)), float(np.nanmean(q)), flips=cert.flips, added=cert.added),
-                converged=True)
-
-
-def _say(m: Mesh, cert: Certificate, target: int | None, stacklevel: int = 3) -> None:
-    """What the repair added beyond the target, and what it left failing: never a silent pass."""
-    if cert.added and (target is None or m.n_vertices > (1 + TOLERANCE) * target):
-        warnings.warn(f"keeping every q_ij >= 0 with the element means took {cert.added} more "
-                      f"vertices (N = {m.n_vertices}): Q changes faster across some triangles than "
-                      "the mesh resolves", QmeshWarning, stacklevel=stacklevel)
-    if cert.remaining:
-        warnings.warn(f"{cert.remaining} edges still have q_ij < 0 with the element means after "
-                      f"{cert.rounds} rounds of flips and splits (worst q_ij / sum|q_ij^T| = "
-                      f"{cert.worst:.2e}); ask for more vertices", QmeshWarning, stacklevel=stacklevel)
+    say(done, cert, target, stacklevel=4)     # before the last Step: a caller stopping there hears it
+    yield final_step(done, cert, last.iteration)
