@@ -129,7 +129,7 @@ def _metric_areas(areas: np.ndarray, H: np.ndarray) -> np.ndarray:
     if H.strides[0] == 0:
         H = H[:1]
     e = None
-    top = float(np.abs(H).max(initial=0.0))
+    top = max(float(H.max(initial=0.0)), -float(H.min(initial=0.0)))   # no |H| temporary
     if top > 1e100 or 0.0 < top < 1e-100:      # det H would over- or underflow (a region's
         e = np.frexp(np.abs(H).max(axis=(1, 2)))[1]         # adj Q may hold 1e300): scaled by
         H = np.ldexp(H, -e[:, None, None])                  # a power of two, bit-exact
