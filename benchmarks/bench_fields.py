@@ -554,7 +554,7 @@ def measure_mesh(case: Case, P, T, fixed, problem=None) -> dict:
     out = {"N": int(len(P)), "pos_in": n_in, "pos_b": n_b, "mp": v, "mp_worst": worst,
            "kappa2": measure.conditioning(mesh, Qbar).kappa2,
            "min_q": float(np.nanmin(quality)), "stretch": median_stretch(P, T),
-           "corner_bound": corner_bound(P, T, Qbar),
+           "corner_bound": corner_bound(P, T, Qbar, tags),
            "worst_at": P[T[int(np.nanargmin(quality))]].mean(axis=0).round(3).tolist(),
            "Qbar": Qbar, "rel": rel}
     if case.kind == "formula":
@@ -655,7 +655,8 @@ def summary(rows) -> list[str]:
     notes.append("where qmesh's worst triangle (min quality) lies, its centroid: " + "; ".join(
         f"{r['case']} at {r['target']}: {r['min_q']:.3f} at ({r['worst_at'][0]}, {r['worst_at'][1]})"
         for r in q))
-    notes.append("the min quality the corners of Ω allow on qmesh's mesh (a triangle's angle at a "
+    notes.append("the min quality the corners of Ω allow on qmesh's mesh (in a medium, the corners "
+                 "of each region, the star's tips; a triangle's angle at a "
                  "corner is at most the corner's angle in the triangle's own metric; an angle α "
                  "< 60° allows at most 2√3 sin α / (2 + 4 sin²(α/2))), and qmesh's min quality: " + "; ".join(
                      f"{r['case']} at {r['target']}: {r['corner_bound']:.3f} / {r['min_q']:.3f}" for r in q))

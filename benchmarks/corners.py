@@ -11,10 +11,16 @@ from __future__ import annotations
 import numpy as np
 
 
-def corner_bound(P, T, Qbar) -> float:
+def corner_bound(P, T, Qbar, tags=None) -> float:
     """The bound over the boundary vertices of the triangles T (P their points, Qbar (len(T), 2, 2)
-    each triangle's conductivity; its metric is adj Q̄): 1 where every wedge is 60° or wider."""
+    each triangle's conductivity; its metric is adj Q̄): 1 where every wedge is 60° or wider.
+    With region `tags` (one per triangle), each region's triangles on their own: its wedges are
+    its corners on the outline and on its interfaces."""
     P, T = np.asarray(P, float), np.asarray(T)
+    if tags is not None:
+        tags, Qbar = np.asarray(tags), np.asarray(Qbar, float)
+        return min((corner_bound(P, T[tags == r], Qbar[tags == r]) for r in np.unique(tags)),
+                   default=1.0)
     X = P[T]
     cw = ((X[:, 1, 0] - X[:, 0, 0]) * (X[:, 2, 1] - X[:, 0, 1])
           - (X[:, 1, 1] - X[:, 0, 1]) * (X[:, 2, 0] - X[:, 0, 0])) < 0
@@ -43,7 +49,6 @@ def corner_bound(P, T, Qbar) -> float:
 def regions_corner_bound(mesh, conductivity) -> float:
     """The bound of a medium's mesh: each region's triangles on their own, in its Q (a region's
     wedges are its corners on the outline and on its interfaces)."""
-    bounds = [corner_bound(mesh.points, mesh.triangles[mesh.region_tags == r],
-                           np.broadcast_to(conductivity[r].matrix, (int((mesh.region_tags == r).sum()), 2, 2)))
-              for r in np.unique(mesh.region_tags)]
-    return min(bounds, default=1.0)
+    Qbar = np.stack([conductivity[r].matrix for r in np.asarray(mesh.region_tags).tolist()]) \
+        if len(mesh.region_tags) else np.zeros((0, 2, 2))
+    return corner_bound(mesh.points, mesh.triangles, Qbar, mesh.region_tags)

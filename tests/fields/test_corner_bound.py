@@ -6,6 +6,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+from scipy.spatial import Delaunay
 from hypothesis import given, settings, strategies as st
 
 import qmesh
@@ -38,3 +39,19 @@ def test_an_isosceles_triangle_in_a_sharp_corner_reaches_it():
     q = measure.quality(qmesh.Mesh(P, T, np.ones(3, bool)), Qbar)
     assert np.isclose(bench.corner_bound(P, T, Qbar), q[0], rtol=1e-12)
     assert np.isclose(q[0], 2 * np.sqrt(3) * np.sin(a) / (2 + 4 * np.sin(a / 2) ** 2), rtol=1e-12)
+
+
+def test_a_region_s_sharp_corner_bounds_a_medium():
+    """A 20° wedge region inside a square: its tip bounds the medium's quality, though every
+    corner of Ω is 90°; without the tags the bound sees only Ω's corners."""
+    a = np.radians(20.0)
+    wedge = np.array([[0.0, 0.0], [1.0, 0.0], [np.cos(a), np.sin(a)]])
+    P = np.vstack([wedge, [[-1.0, -1.0], [2.0, -1.0], [2.0, 2.0], [-1.0, 2.0]]])
+    T = Delaunay(P).simplices
+    tags = (np.sort(T, axis=1) == [0, 1, 2]).all(axis=1).astype(int)
+    assert tags.sum() == 1                                   # the wedge is one triangle
+    Qbar = np.broadcast_to(np.eye(2), (len(T), 2, 2)).copy()
+    q = measure.quality(qmesh.Mesh(P, T, np.zeros(len(P), bool)), Qbar)
+    assert bench.corner_bound(P, T, Qbar) == 1.0
+    assert np.isclose(bench.corner_bound(P, T, Qbar, tags), q[tags == 1][0], rtol=1e-12)
+    assert np.nanmin(q) <= bench.corner_bound(P, T, Qbar, tags) + 1e-12
