@@ -639,10 +639,15 @@ def summary(rows) -> list[str]:
         for peer in ("MMG2D", "Triangle"):
             p = by.get((r["case"], r["target"], peer))
             if p is not None:
-                parts.append(f"{r['l2'] / p['l2']:.2f}× {peer}'s")
+                parts.append(f"{r['l2'] / p['l2']:.2f}× {peer}'s (stretch "
+                             f"{r['stretch'] / p['stretch']:.1f}×)")
         ratios.append(f"{r['case']} at {r['target']}: " + ", ".join(parts))
     if ratios:
-        notes.append("L2 error of qmesh: " + "; ".join(ratios))
+        notes.append("L2 error of qmesh, and in brackets the ratio of the median stretches (P1's L2 "
+                     "error of a smooth u is about h_max² |u|_2 per triangle, and h_max² is "
+                     "proportional to stretch × area: at equal N it grows as the stretch, which "
+                     "qmesh takes from Q's shape, as q_ij ≥ 0 needs): "
+                     + "; ".join(ratios))
     notes.append("qmesh's seconds / constant Q's (Anisotropy; constant TensorField): " + "; ".join(
         f"{r['case']} at {r['target']}: {r['seconds'] / r['const_s']:.0f}× "
         f"({r['seconds'] / r['constfield_s']:.1f}×)" for r in q))
