@@ -8,10 +8,11 @@ never passed over. Given the metric the mesh was made in, the corners of the tri
 failing edges first take the mesher's shape step where that mends their star without a vertex
 (moves.py; a boundary vertex between two corners slides along its side), and once every edge
 passes the added vertices take it where that improves their star's worst quality and breaks no
-edge; then the corners of the triangles below FLOOR take it in each triangle's own metric
-adj Q̄_T / √det Q̄_T (the metric quality 2.94 is measured in: a full, half or quarter step), and
-their edges flip where that raises the worse of the two and raises no deficit. The means come
-from `cache.ElementMeans`: each triangle's computed once.
+edge; then the corners of the triangles below FLOOR move in each triangle's own metric
+adj Q̄_T / √det Q̄_T (the metric quality 2.94 is measured in) to the best of their shape step
+and a pattern of places around them (moves.polish), and their edges flip where that raises the
+worse of the two and raises no deficit. The means come from `cache.ElementMeans`: each
+triangle's computed once.
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ import numpy as np
 from qmesh.conductivity.anisotropy import shape_metric
 from qmesh.fields.cache import ElementMeans
 from qmesh.fields.flips import mending_flips, quality_flips
-from qmesh.fields.moves import Judged, corners, free, movers, relax, slides, tangents
+from qmesh.fields.moves import Judged, corners, free, movers, polish, relax, slides, tangents
 from qmesh.fields.piecewise import RegionMeans
 from qmesh.fields.shares import FLOOR, by_bound, cut_interfaces, failing, means_of, shares
 from qmesh.fields.splits import longer, split_failing, split_failing_medium
@@ -36,8 +37,8 @@ MAX_ROUNDS = 400    # rounds of flips and splits before the remaining edges are 
 STALL = 30          # ... or rounds without fewer failing edges than the best so far
 RELAX = 3           # rounds of shape steps mending edges before the next split
 SMOOTH = 4          # shape steps of the vertices the splits added, once every edge passes
-POLISH = 6          # then shape steps, in the element means' metric, of the corners of triangles
-                    # below FLOOR
+POLISH = 6          # then rounds of polish (moves.polish), in each triangle's own means, of
+                    # the corners of triangles below FLOOR
 SHORTEST = 1e-9     # edges shorter than this share of the domain's extent are not split
 
 
@@ -150,11 +151,10 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
         for _ in range(POLISH):                # the worst shapes, each in its own means
             low = metric_quality(P, T, shape_metric(Qbar)) < FLOOR
             poor = free(T, tc, fixed, T[low].ravel(), tan)
+            poor = poor[~seen.vertices[poor]]  # none left: all refused, nothing changed since
             if not len(poor):
                 break
-            who = movers(T, twin, poor, rng)
-            P, t = relax(P, T, tc, Qbar, err, s, b, field, None,
-                          who[~seen.vertices[who]], shape=True, tangent=tan,
+            P, t = polish(P, T, tc, Qbar, s, b, field, movers(T, twin, poor, rng), tangent=tan,
                           refused=seen.vertices, reg=reg)
             Qbar, err, s, b = _refresh(field, P, T, Qbar, err, s, b, t, reg=reg)
             seen.forget(T, twin, t)

@@ -1,5 +1,6 @@
 """The repair's vertex moves: the mesher's shape step, taken only where it mends a star's edges or
-improves its worst quality and breaks nothing (FIELDS.md §4).
+improves its worst quality and breaks nothing, and the polish, which also tries a pattern of
+places around each vertex and takes the best (FIELDS.md §4).
 
 Movers are chosen two triangles apart, so each edge's shares move with one vertex at most; a
 boundary or interface vertex between two others in line slides along that line; a move refused
@@ -19,6 +20,8 @@ from qmesh.mesher.adjust import limit_moves, shape_step
 
 STEPS = (1.0, 0.5, 0.25)   # a refused shape move is tried at these shares of its step
 IN_LINE = 1e-9      # a boundary vertex this near the line of its neighbours (sine) slides along it
+PATTERN = 12        # directions of the polish's places around a vertex ...
+REACH = (0.3, 0.1)  # ... at these shares of its height over its worst triangle's far edge
 
 
 class Judged:
@@ -177,21 +180,104 @@ def relax(P, T, twin, Qbar, err, s, b, field, metric, movers, shape, tangent=Non
     return P, np.flatnonzero(touching(T, take))
 
 
+def polish(P, T, twin, Qbar, s, b, field, movers, tangent=None, refused=None, reg=None):
+    """The polish's moves: each of the `movers` (`movers`) tries its shape step in its star's own
+    means (at STEPS of it) and PATTERN places around it at REACH shares of its height over the
+    far edge of its star's worst triangle, in that triangle's metric (a vertex with a `tangent`:
+    their share along it), and takes the one that raises its star's worst quality (each triangle
+    in its own means) most, with no more failing edges and no higher deficit. The shape step
+    alone, which serves the star's mean shape, is often refused beside a triangle that needs
+    one corner moved another way. All the tries are judged at once (`_judged`). Returns the new
+    P and the triangles that changed."""
+    v = np.asarray(movers, np.int64)
+    if not len(v):
+        return P, np.empty(0, np.int64)
+    n = len(P)
+    mask = np.zeros(n, bool)
+    mask[v] = True
+    star = np.flatnonzero(touching(T, mask))
+    near = T[star]
+    H = shape_metric(Qbar[star])
+    step = shape_step(P, near, _own_metric(H), mask)[v]
+    # each mover's worst triangle (its corner there, the far edge a → c) and its metric
+    quality = np.nan_to_num(metric_quality(P, near, H), nan=0.0)
+    corner = np.argmax(mask[near], axis=1)
+    owner = near[np.arange(len(near)), corner]
+    order = np.lexsort((quality, owner))
+    first = order[np.r_[True, owner[order][1:] != owner[order][:-1]]]   # by owner, ascending
+    first = first[np.searchsorted(owner[first], v)]                       # in v's order
+    k, L = corner[first], np.linalg.cholesky(H[first])           # |x|_H = |Lᵀ x|
+    a, c = P[near[first, (k + 1) % 3]], P[near[first, (k + 2) % 3]]
+    ac = np.einsum("kji,kj->ki", L, c - a)
+    av = np.einsum("kji,kj->ki", L, P[v] - a)
+    height = np.abs(ac[:, 0] * av[:, 1] - ac[:, 1] * av[:, 0]) / np.hypot(ac[:, 0], ac[:, 1])
+    angle = 2.0 * np.pi * np.arange(PATTERN) / PATTERN
+    ring = np.stack([np.cos(angle), np.sin(angle)], axis=1)
+    around = (np.asarray(REACH)[:, None, None, None] * height[None, None, :, None]
+              * ring[None, :, None, :]).reshape(-1, len(v), 2)
+    back = np.linalg.solve(np.swapaxes(L, 1, 2)[None], around[..., None])[..., 0]
+    D = np.concatenate([np.asarray(STEPS)[:, None, None] * step[None], back])   # (K, k, 2)
+    if tangent is not None:                    # a boundary vertex: the move's share along it
+        t = tangent[v]
+        slide = np.any(t != 0, axis=1)
+        D = np.where(slide[None, :, None], t * np.einsum("Kki,ki->Kk", D, t)[..., None], D)
+    ok, q1 = _judged(P, T, twin, Qbar, s, b, field, v, D, True, reg)
+    q1 = np.where(ok, q1, -np.inf)
+    best = np.argmax(q1, axis=0)
+    take = np.isfinite(q1[best, np.arange(len(v))])
+    if refused is not None:
+        refused[v] = ~take
+    if not take.any():
+        return P, np.empty(0, np.int64)
+    P = P.copy()
+    P[v[take]] += D[best[take], np.flatnonzero(take)]
+    moved = np.zeros(n, bool)
+    moved[v[take]] = True
+    return P, np.flatnonzero(touching(T, moved))
+
+
 def _accepted(P, T, twin, Qbar, s, b, field, d, moving, shape, reg=None):
     """Which `moving` vertices (two triangles apart) `relax` takes moved by d: their stars'
     edges and shapes judged on the means at the new places."""
-    n = len(P)
-    star = np.flatnonzero(touching(T, moving))
+    v = np.flatnonzero(moving)
+    out = np.zeros(len(P), bool)
+    out[v] = _judged(P, T, twin, Qbar, s, b, field, v, d[v][None], shape, reg)[0][0]
+    return out
+
+
+def _judged(P, T, twin, Qbar, s, b, field, v, D, shape, reg=None):
+    """K tries D (K, k, 2) at moving the vertices v (k,), two triangles apart, judged at once
+    (one call for the means of all their stars): which each takes ((K, k): `_accepted`'s rule)
+    and the worst quality of its star after the move, each triangle in its own means."""
+    n, (K, k) = len(P), D.shape[:2]
+    mask = np.zeros(n, bool)
+    mask[v] = True
+    star = np.flatnonzero(touching(T, mask))
     if not len(star):
-        return np.zeros(n, bool)
-    Pn = P + np.where(moving[:, None], d, 0.0)
-    Ts = T[star]
-    Qn, en = means_of(field, "means_with_error", Pn, Ts, None if reg is None else reg[star])
+        return np.zeros((K, k), bool), np.full((K, k), -np.inf)
+    Ts, m = T[star], len(star)
+    corner = np.argmax(mask[Ts], axis=1)                      # each star triangle's one mover
+    local_v = np.full(n, -1, np.int64)
+    local_v[v] = np.arange(k)
+    mover = local_v[Ts[np.arange(m), corner]]
+    X = np.repeat(P[Ts][None], K, axis=0)                     # (K, m, 3, 2): the stars
+    moved = X.copy()
+    moved[:, np.arange(m), corner] += D[:, mover]
+    tri = np.arange(3 * K * m).reshape(-1, 3)
+    # a try that flattens or turns over a triangle of its star leaves it (and Ω) and is not
+    # taken: its star is judged unmoved, so the field is never asked outside its domain
+    dead = ~(signed_areas(moved.reshape(-1, 2), tri) > 0).reshape(K, m)
+    flat = np.zeros((K, k), bool)
+    flat[np.nonzero(dead)[0], mover[np.nonzero(dead)[1]]] = True
+    X = np.where(flat[:, mover, None, None], X, moved)
+    pts = X.reshape(-1, 2)
+    tags = None if reg is None else np.tile(reg[star], K)
+    Qn, en = means_of(field, "means_with_error", pts, tri, tags)
     Qn, en = np.asarray(Qn, dtype=float), np.asarray(en, dtype=float)
-    sn, bn = shares(Pn, Ts, Qn, en)
+    sn, bn = (x.reshape(K, 3 * m) for x in shares(pts, tri, Qn, en))
     he = (3 * star[:, None] + np.arange(3)).ravel()
     local = np.full(len(T), -1, np.int64)
-    local[star] = np.arange(len(star))
+    local[star] = np.arange(m)
     tw = twin[he]
     tw_local = np.where(tw >= 0, local[tw // 3], -1)
     inside = tw_local >= 0
@@ -200,29 +286,32 @@ def _accepted(P, T, twin, Qbar, s, b, field, d, moving, shape, reg=None):
     old_q = s[he] + np.where(tw >= 0, s[np.maximum(tw, 0)], 0.0)
     old_b = b[he] + np.where(tw >= 0, b[np.maximum(tw, 0)], 0.0)
     old_c = np.abs(s[he]) + np.where(tw >= 0, np.abs(s[np.maximum(tw, 0)]), 0.0)
-    other = np.where(inside, sn[tw_he_local], np.where(tw >= 0, s[np.maximum(tw, 0)], 0.0))
-    other_b = np.where(inside, bn[tw_he_local], np.where(tw >= 0, b[np.maximum(tw, 0)], 0.0))
+    other = np.where(inside, sn[:, tw_he_local], np.where(tw >= 0, s[np.maximum(tw, 0)], 0.0))
+    other_b = np.where(inside, bn[:, tw_he_local], np.where(tw >= 0, b[np.maximum(tw, 0)], 0.0))
     new_q, new_b = sn + other, bn + other_b
     new_c = np.abs(sn) + np.abs(other)
-    tri_owner = Ts[np.arange(len(star)), np.argmax(moving[Ts], axis=1)]   # its one mover
-    owner = np.repeat(tri_owner, 3)[once]
+    owner = np.repeat(mover, 3)[once]
+    row = (np.arange(K)[:, None] * k + owner).ravel()        # (try, mover) of each edge, flat
 
     def per_vertex(q, bound, scale):
-        fail = np.bincount(owner, ~(q[once] - bound[once] >= -ROUND * scale[once]), minlength=n)
-        short = np.bincount(owner, deficit(q, bound)[once], minlength=n)
-        return fail, short
+        q, bound, scale = (np.broadcast_to(x, (K, 3 * m))[:, once].ravel()
+                           for x in (q, bound, scale))
+        fail = np.bincount(row, ~(q - bound >= -ROUND * scale), minlength=K * k)
+        short = np.bincount(row, deficit(q, bound), minlength=K * k)
+        return fail.reshape(K, k), short.reshape(K, k)
     f0, d0 = per_vertex(old_q, old_b, old_c)
     f1, d1 = per_vertex(new_q, new_b, new_c)
-    flat = np.zeros(n, bool)
-    flat[tri_owner[~(signed_areas(Pn, Ts) > 0)]] = True
+    q0, q1 = np.full(k, np.inf), np.full((K, k), np.inf)
+    np.minimum.at(q0, mover,
+                  np.nan_to_num(metric_quality(P, Ts, shape_metric(Qbar[star])), nan=0.0))
+    np.minimum.at(q1, (np.repeat(np.arange(K), m), np.tile(mover, K)),
+                  np.nan_to_num(metric_quality(pts, tri, shape_metric(Qn)), nan=0.0))
     if shape:
-        q0, q1 = _star_quality(P, Pn, Ts, Qbar[star], Qn, tri_owner, n)
         take = (f1 <= f0) & (d1 <= d0) & (q1 > q0)
     else:
-        q0, q1 = _star_quality(P, Pn, Ts, Qbar[star], Qn, tri_owner, n)
         take = ((f1 <= f0) & (d1 <= d0) & ((f1 < f0) | (d1 < (1.0 - GAIN) * d0))
                 & (q1 >= np.minimum(q0, KEEP * FLOOR)))
-    return take & moving & ~flat
+    return take & (np.hypot(D[..., 0], D[..., 1]) > 0) & ~flat, q1
 
 
 def _own_metric(H):
@@ -232,12 +321,3 @@ def _own_metric(H):
         assert len(X) == len(H)
         return H
     return Anisotropy.metric_only(hessian, "element means")
-
-
-def _star_quality(P, Pn, Ts, Q0, Q1, owner, n):
-    """The worst metric quality (2.94), each triangle in its own means, of the stars before and
-    after their moves, per vertex (inf where it owns none)."""
-    q0, q1 = np.full(n, np.inf), np.full(n, np.inf)
-    np.minimum.at(q0, owner, np.nan_to_num(metric_quality(P, Ts, shape_metric(Q0)), nan=0.0))
-    np.minimum.at(q1, owner, np.nan_to_num(metric_quality(Pn, Ts, shape_metric(Q1)), nan=0.0))
-    return q0, q1

@@ -14,7 +14,8 @@ import qmesh
 from qmesh.fields import flips, moves, shares, splits
 from qmesh.fields.metric import field_metric
 from qmesh.geometry import topology
-from qmesh.geometry.triangles import signed_areas
+from qmesh.conductivity.anisotropy import shape_metric
+from qmesh.geometry.triangles import metric_quality, signed_areas
 from tests.fields.reference import cell_tensors
 from tests.fields.test_field_mesh import (UNIT, meshed, positive_off_diagonals,
                                           raster_reference_means)
@@ -196,6 +197,56 @@ def test_sliding_vertices_keep_to_their_side(seed, n, cells):
     assert np.all(signed_areas(P2, T) > 0)
     _, s2, b2, _ = total_deficit(P2, T, field)
     assert len(shares.failing(s2, b2, twin)[0]) <= len(h0)
+
+
+def star_worst(P, T, field, v):
+    """The worst metric quality of each vertex v's star, each triangle in its own means."""
+    Qbar = np.asarray(field.means(P, T))
+    q = np.nan_to_num(metric_quality(P, T, shape_metric(Qbar)), nan=0.0)
+    return np.array([q[np.any(T == u, axis=1)].min() for u in v])
+
+
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), n=st.integers(30, 200), cells=st.integers(2, 10))
+def test_the_polish_raises_the_worst_quality_of_every_star_it_moves(seed, n, cells):
+    """The polish moves a mover only where its star's worst quality (in each triangle's own
+    means) rises, breaking no edge and turning over no triangle; a boundary vertex slides
+    along its side; what it leaves is what it refused; and a mover is polished as it would be
+    alone (`Judged` relies on it)."""
+    rng = np.random.default_rng(seed)
+    P, T = square_mesh(seed, n)
+    u = rng.uniform(0.1, 0.9, 4)
+    P = np.concatenate([P, np.column_stack([u[:2], [0, 0]]), np.column_stack([[1, 1], u[2:]])])
+    T = Delaunay(P).simplices
+    A, B = P[T[:, 1]] - P[T[:, 0]], P[T[:, 2]] - P[T[:, 0]]
+    cw = A[:, 0] * B[:, 1] - A[:, 1] * B[:, 0] < 0
+    T[cw] = T[cw][:, [0, 2, 1]]
+    T = T.astype(np.int64)
+    edges, k1, k2, angle = random_raster(seed, cells, 2.0)
+    field = qmesh.TensorField.from_raster(edges, edges, k1, k2, angle)
+    before, s, b, twin = total_deficit(P, T, field)
+    h0, _, _ = shares.failing(s, b, twin)
+    Qbar = np.asarray(field.means(P, T))
+    fixed = np.zeros(len(P), bool)
+    fixed[:4] = True
+    tan = moves.tangents(P, T, twin, fixed)
+    movers = moves.movers(T, twin, moves.free(T, twin, fixed, np.arange(len(P)), tan), rng)
+    refused = np.zeros(len(P), bool)
+    P2, _ = moves.polish(P, T, twin, Qbar, s, b, field, movers, tangent=tan, refused=refused)
+    assert np.all(signed_areas(P2, T) > 0)
+    after, s2, b2, _ = total_deficit(P2, T, field)
+    assert len(shares.failing(s2, b2, twin)[0]) <= len(h0)
+    assert after <= before * (1 + 1e-9) + 1e-15
+    moved = np.flatnonzero(np.any(P2 != P, axis=1))
+    assert np.isin(moved, movers).all()
+    assert np.array_equal(refused[movers], ~np.isin(movers, moved))
+    assert np.all(star_worst(P2, T, field, moved) > star_worst(P, T, field, moved))
+    sliding = np.flatnonzero(np.any(tan != 0, axis=1))
+    assert np.array_equal(P2[sliding[P[sliding, 1] == 0], 1], np.zeros(2))
+    assert np.array_equal(P2[sliding[P[sliding, 0] == 1], 0], np.ones(2))
+    some = movers[rng.random(len(movers)) < 0.5]
+    P3, _ = moves.polish(P, T, twin, Qbar, s, b, field, some, tangent=tan)
+    assert np.array_equal(P3[some], P2[some])
 
 
 FORMULA = ("1 + x**2 + sin(3*y)", "0.9*sin(4*x)*cos(3*y)", "1.2 + cos(2*x)")
