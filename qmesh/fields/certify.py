@@ -37,7 +37,7 @@ MAX_ROUNDS = 400    # rounds of flips and splits before the remaining edges are 
 STALL = 30          # ... or rounds without fewer failing edges than the best so far
 RELAX = 3           # rounds of shape steps mending edges before the next split
 SMOOTH = 4          # shape steps of the vertices the splits added, once every edge passes
-POLISH = 6          # then rounds of polish (moves.polish), in each triangle's own means, of
+POLISH = 12         # then rounds of polish (moves.polish), in each triangle's own means, of
                     # the corners of triangles below FLOOR
 SHORTEST = 1e-9     # edges shorter than this share of the domain's extent are not split
 
