@@ -124,9 +124,10 @@ def _checked(plan: Plan, steps, tried: list[tuple[int, int]]) -> Iterator[Step]:
     except conform.SharpCorner as e:
         x, y = plan.norm.user_domain.seeds[e.seed]
         raise QmeshError(f"the corner at ({x:.6g}, {y:.6g}) is {e.angle:.3g}° in the metric: "
-                         f"too sharp for {e.n} vertices, the points that keep q_ij >= 0 on its "
-                         "sides crowd closer than round-off allows; ask for fewer vertices, "
-                         "or blunt the corner") from None
+                         f"too sharp for the {e.n} vertices the run reached at {plan.asked()}: "
+                         "the points that keep q_ij >= 0 on its sides crowd closer than "
+                         "round-off allows; blunt the corner (fewer vertices help only where "
+                         "the boundary then needs fewer)") from None
     check_count(last.mesh, plan, [n for _, n in tried])
 
 

@@ -89,9 +89,13 @@ class Plan:
 
     def too_few(self) -> str:
         """The option that set N, for a message about too few vertices."""
+        return f"{self.asked()} is too {'few' if self.target is not None else 'large'}"
+
+    def asked(self) -> str:
+        """The option that set N, as the user gave it."""
         if self.target is not None:
-            return f"target_vertices = {self.target} is too few"
-        return f"size = {self.user_size():.3g} is too large"
+            return f"target_vertices = {self.target}"
+        return f"size = {self.user_size():.3g}"
 
     def user_size(self) -> float:
         return self.norm.scale * np.sqrt(self.norm.k) * self.h

@@ -23,7 +23,9 @@ def test_a_corner_too_sharp_for_the_target_is_refused_by_name():
     message = str(e.value)
     assert "please report" not in message
     assert "(6304.14, -2909.12)" in message and "° in the metric" in message
-    assert "fewer vertices" in message
+    assert "target_vertices = 2324" in message and "blunt the corner" in message
+    with pytest.raises(qmesh.QmeshError, match="target_vertices = 500 is too few"):
+        qmesh.mesh(qmesh.Polygon(SLIVER), NEAR_ISOTROPIC, target_vertices=500)   # fewer: no way
 
 
 @pytest.mark.parametrize("vb, target", [(20000, 20001), (15468, 15469), (4000, 4080)])
