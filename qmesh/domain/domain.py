@@ -470,13 +470,17 @@ def _crossings(pts: NDArray[np.float64], ia: NDArray[np.int64], ib: NDArray[np.i
     a, b, c, d = pts[ia[i]], pts[ib[i]], pts[ia[j]], pts[ib[j]]
     o1, o2, o3, o4 = (_rings._orient(a, b, c), _rings._orient(a, b, d), _rings._orient(c, d, a),
                       _rings._orient(c, d, b))
+    # the sweep's candidates: segments whose boxes overlap (the orientations of nearly collinear
+    # segments apart along their line can round to a "crossing")
+    box = np.all((np.minimum(a, b) <= np.maximum(c, d)) & (np.minimum(c, d) <= np.maximum(a, b)),
+                 axis=1)
     proper = (o1 * o2 < 0) & (o3 * o4 < 0)
     touch = (((o1 == 0) & _rings._on_segment(a, b, c)) | ((o2 == 0) & _rings._on_segment(a, b, d))
              | ((o3 == 0) & _rings._on_segment(c, d, a)) | ((o4 == 0) & _rings._on_segment(c, d, b)))
     aa, ab, ba = ia[i] == ia[j], ia[i] == ib[j], ib[i] == ia[j]
     shared = aa | ab | ba | (ib[i] == ib[j])
     fold = shared & (o1 == 0) & (o2 == 0) & _rings._fold_back(a, b, c, d, aa, ab, ba)
-    bad = np.where(shared, fold, proper | touch)
+    bad = box & np.where(shared, fold, proper | touch)
     return np.column_stack([i[bad], j[bad]])
 
 

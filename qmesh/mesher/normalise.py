@@ -54,7 +54,7 @@ class Normalisation:
 
     def __init__(self, domain, anisotropy):
         lo, hi = domain.bounds
-        self.center = 0.5 * (lo + hi)
+        self.center = 0.5 * lo + 0.5 * hi        # no overflow near the largest floats
         self.scale = float((hi - lo).max())
         self.k = hessian_scale(anisotropy, domain.seeds)
         self.user_domain, self.user_anisotropy = domain, anisotropy

@@ -127,3 +127,13 @@ def test_raster_balls_find_what_the_sweep_finds(seed, jitter, offset, scale):
     assert np.array_equal(near, near0)
     if jitter > 0.01:
         assert len(near0)
+
+
+def test_a_star_whose_sides_are_nearly_in_line_is_simple():
+    """Sides 1 and 5 of this octagon lie 0.019 apart on nearly one line: no crossing in exact
+    arithmetic, and none found."""
+    P = [[-0.2734029056701845, 0.001656238180632702], [-0.001656238180632702, -0.2734029056701845],
+         [0.12899685514850548, -0.1443232386126474], [-0.03405114534522561, 0.020712247697842922],
+         [-0.02029818815268475, 0.03429958107232051], [0.14274981234104633, -0.1307359052381698],
+         [0.2734029056701845, -0.001656238180632702], [0.001656238180632702, 0.2734029056701845]]
+    assert np.isclose(qmesh.Polygon(P).area, 0.145019, rtol=1e-5)

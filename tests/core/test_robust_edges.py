@@ -128,3 +128,17 @@ def test_a_second_sized_run_refused_names_a_count_above_the_target():
         qmesh.mesh(strip, qmesh.Anisotropy.principal(1, 100, 0), target_vertices=4100)
     need = re.search(r"needs (?:more than )?(\d+) vertices", str(e.value))
     assert need and int(need.group(1)) > 4100, str(e.value)
+
+
+def test_a_domain_near_the_largest_floats_meshes_without_overflow():
+    """A quadrilateral 1e300 across centred at y ≈ 9e307 (every coordinate finite, the sum of
+    its box's corners not): the mesher's centre overflowed, and a ValueError followed."""
+    P = [[9.799515294107126e+299, 8.988465755002108e+307], [5.344774253635019e+299, 8.988465791991414e+307],
+         [1.6234094749021628e+299, 8.988465720877404e+307], [3.0261541972660756e+299, 8.988465714209575e+307]]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        m = qmesh.mesh(qmesh.Polygon(P), qmesh.Anisotropy.principal(1.0, 1.0, 0.0), target_vertices=150)
+    assert np.all(np.isfinite(m.points)) and abs(m.n_vertices - 150) <= 15
+    lo, hi = np.min(P, axis=0), np.max(P, axis=0)
+    assert np.all((m.points >= lo) & (m.points <= hi))
+    assert np.all(signed_areas(m.points / 1e300, m.triangles) > 0)
