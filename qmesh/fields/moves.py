@@ -159,8 +159,7 @@ def relax(P, T, twin, Qbar, err, s, b, field, metric, movers, shape, tangent=Non
         metric = _own_metric(shape_metric(Qbar[star0]))
     d = shape_step(P, near, metric, mask)
     if tangent is not None:                    # boundary vertices: the step's share along it
-        d = tangent * np.einsum("ki,ki->k", d, tangent)[:, None] + np.where(
-            np.any(tangent != 0, axis=1)[:, None], 0.0, d)
+        d = _along(d, tangent)
     _, d = limit_moves(P, near, d)
     moving = mask & (np.hypot(d[:, 0], d[:, 1]) > 0)
     take = np.zeros(n, bool)
@@ -218,9 +217,7 @@ def polish(P, T, twin, Qbar, s, b, field, movers, tangent=None, refused=None, re
     back = np.linalg.solve(np.swapaxes(L, 1, 2)[None], around[..., None])[..., 0]
     D = np.concatenate([np.asarray(STEPS)[:, None, None] * step[None], back])   # (K, k, 2)
     if tangent is not None:                    # a boundary vertex: the move's share along it
-        t = tangent[v]
-        slide = np.any(t != 0, axis=1)
-        D = np.where(slide[None, :, None], t * np.einsum("Kki,ki->Kk", D, t)[..., None], D)
+        D = _along(D, tangent[v])
     ok, q1 = _judged(P, T, twin, Qbar, s, b, field, v, D, True, reg)
     q1 = np.where(ok, q1, -np.inf)
     best = np.argmax(q1, axis=0)
@@ -234,6 +231,13 @@ def polish(P, T, twin, Qbar, s, b, field, movers, tangent=None, refused=None, re
     moved = np.zeros(n, bool)
     moved[v[take]] = True
     return P, np.flatnonzero(touching(T, moved))
+
+
+def _along(d, t):
+    """Moves d (..., k, 2) of k vertices whose unit tangents are t (k, 2) (`tangents`): a vertex
+    with a tangent moves by its move's share along it, the others by their move."""
+    slide = np.any(t != 0, axis=-1)[..., None]
+    return t * np.einsum("...i,...i->...", d, t)[..., None] + np.where(slide, 0.0, d)
 
 
 def _accepted(P, T, twin, Qbar, s, b, field, d, moving, shape, reg=None):

@@ -94,6 +94,7 @@ def thin_domain(mesh: Mesh, anisotropy: Anisotropy, region: bool = False) -> str
     if len(T) == 0:
         return None
     what, share = ("region", "its whole share of the target") if region else ("domain", "the whole target")
+    more = "a larger target_vertices / --target-vertices (or a smaller size) gives it more"
     Hs = metric_hessians(anisotropy, X, T)
     # lengths in units of the mesh's extent (a domain 1e300 across overflows its areas);
     # every test below compares ratios, and sizes are reported back in the user's units
@@ -127,8 +128,7 @@ def thin_domain(mesh: Mesh, anisotropy: Anisotropy, region: bool = False) -> str
         n_b = int(mesh.boundary.sum())
         need: int | None = max(vertices_for(area_m, perimeter, perimeter / max(n_b, 1)), mesh.n_vertices + 1)
         ask = (f"the region would need about {need} vertices to fill its interior at the "
-               "boundary's spacing; a larger target_vertices / --target-vertices (or a smaller "
-               "size) gives it more"
+               f"boundary's spacing; {more}"
                if region else
                f"about {need} vertices (target_vertices / --target-vertices) would fill the interior "
                "at the boundary's spacing")
@@ -146,9 +146,7 @@ def thin_domain(mesh: Mesh, anisotropy: Anisotropy, region: bool = False) -> str
     if not need:
         advice = "its metric width is zero"
     elif region:
-        advice = (f"the region would need about {need} vertices to put {ROWS:g} elements across "
-                  "it; a larger target_vertices / --target-vertices (or a smaller size) gives it "
-                  "more")
+        advice = f"the region would need about {need} vertices to put {ROWS:g} elements across it; {more}"
     else:
         advice = (f"about {need} vertices (target_vertices / --target-vertices, or a metric size "
                   f"of {h_need * unit:.3g}) would put {ROWS:g} elements across it")
