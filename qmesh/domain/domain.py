@@ -22,6 +22,7 @@ from qmesh.conductivity.anisotropy import Anisotropy
 from qmesh.domain import cells
 from qmesh.domain.regions import attach, faces_of
 from qmesh.errors import QmeshError
+from qmesh.geometry.orientation import orient
 
 MAX_POINTS = 10_000_000
 TOUCH = 1e-9    # a point this close (× the domain's size) to a segment not its own touches it
@@ -468,8 +469,7 @@ def _crossings(pts: NDArray[np.float64], ia: NDArray[np.int64], ib: NDArray[np.i
         return _rings.crossings(pts[ia], pts[ib], ia, ib)
     i, j = np.triu_indices(len(ia), 1) if pairs is None else pairs
     a, b, c, d = pts[ia[i]], pts[ib[i]], pts[ia[j]], pts[ib[j]]
-    o1, o2, o3, o4 = (_rings._orient(a, b, c), _rings._orient(a, b, d), _rings._orient(c, d, a),
-                      _rings._orient(c, d, b))
+    o1, o2, o3, o4 = orient(a, b, c), orient(a, b, d), orient(c, d, a), orient(c, d, b)
     # the sweep's candidates: segments whose boxes overlap (the orientations of nearly collinear
     # segments apart along their line can round to a "crossing")
     box = np.all((np.minimum(a, b) <= np.maximum(c, d)) & (np.minimum(c, d) <= np.maximum(a, b)),

@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from qmesh.geometry.orientation import orient
 from qmesh.geometry.topology import sorted_unique
 
 MAX_PAIRS = 262_144     # candidate pairs handled at once (~150 bytes each: bounds the temporary memory)
@@ -200,11 +201,6 @@ def point_segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.nd
     return np.hypot(d[:, 0], d[:, 1])
 
 
-def _orient(a, b, c):
-    """Sign of the turn a→b→c (cross product of b − a and c − a)."""
-    return np.sign((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
-
-
 def _on_segment(a, b, p):
     """p collinear with a–b lies within its bounding box."""
     return ((np.minimum(a[:, 0], b[:, 0]) <= p[:, 0]) & (p[:, 0] <= np.maximum(a[:, 0], b[:, 0]))
@@ -238,7 +234,7 @@ def crossings(A: np.ndarray, B: np.ndarray, ia: np.ndarray, ib: np.ndarray) -> n
         keep = (xlo[i] <= xhi[j]) & (xlo[j] <= xhi[i])
         i, j = i[keep], j[keep]
         a, b, c, d = A[i], B[i], A[j], B[j]
-        o1, o2, o3, o4 = _orient(a, b, c), _orient(a, b, d), _orient(c, d, a), _orient(c, d, b)
+        o1, o2, o3, o4 = orient(a, b, c), orient(a, b, d), orient(c, d, a), orient(c, d, b)
         proper = (o1 * o2 < 0) & (o3 * o4 < 0)
         touch = (((o1 == 0) & _on_segment(a, b, c)) | ((o2 == 0) & _on_segment(a, b, d))
                  | ((o3 == 0) & _on_segment(c, d, a)) | ((o4 == 0) & _on_segment(c, d, b)))
