@@ -1,4 +1,4 @@
-"""The packages' imports form no cycle, counting imports inside functions too (issue 16).
+"""The packages' imports form no cycle, counting imports inside functions too.
 
 A cycle hidden in a function-level import still ties two layers together: the data flow of
 ARCHITECTURE.md (conductivity, domain, geometry → mesher → measure, io → cli, app) points one way.

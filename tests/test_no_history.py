@@ -1,6 +1,7 @@
-"""The code and the README say what is true now, not when or on which ticket it became so: no
-date, issue number or load average in `qmesh/`, `app/` or README.md (history goes to
-CHANGELOG.md, measured figures to the generated benchmark pages in docs/benchmarks/)."""
+"""The code, the README and the guide say what is true now, not when or on which ticket it became
+so: no date, issue number or load average in `qmesh/`, `app/`, README.md or the docs written by
+hand, and no issue number in the tests (history goes to CHANGELOG.md, measured figures to the
+generated benchmark pages in docs/benchmarks/)."""
 
 import re
 from pathlib import Path
@@ -50,8 +51,18 @@ def test_the_patterns_let_plain_text_pass(text):
     assert findings(text) == []
 
 
-@pytest.mark.parametrize("target", ["qmesh", "app", "README.md"])
+@pytest.mark.parametrize("target", ["qmesh", "app", "README.md", "docs/index.md", "docs/guide",
+                                    "docs/design"])
 def test_no_dates_issue_numbers_or_load_averages(target):
     found = [f"{path.relative_to(ROOT).as_posix()}:{n}: {what}: {line[:100]}"
              for path in files(target) for n, what, line in findings(path.read_text(encoding="utf-8"))]
     assert not found, "history belongs in CHANGELOG.md, figures in the benchmark pages:\n" + "\n".join(found)
+
+
+def test_no_issue_numbers_in_the_tests():
+    """A test says what it checks; which ticket asked for it is history (this file's own
+    examples excepted)."""
+    found = [f"{path.relative_to(ROOT).as_posix()}:{n}: {line[:100]}"
+             for path in files("tests") if path.name != Path(__file__).name
+             for n, what, line in findings(path.read_text(encoding="utf-8")) if what == "an issue number"]
+    assert not found, "\n".join(found)

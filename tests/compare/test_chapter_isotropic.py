@@ -1,4 +1,4 @@
-"""The chapter's data, and the isotropic reproduction with Triangle (issue 3 "Tests")."""
+"""The chapter's data, and the isotropic reproduction with Triangle."""
 
 from __future__ import annotations
 

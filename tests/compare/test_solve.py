@@ -1,4 +1,4 @@
-"""The manufactured-solution solver (issue 3 "Tests": the error decreases at the expected rate)."""
+"""The manufactured-solution solver: the error decreases at the expected rate."""
 
 from __future__ import annotations
 

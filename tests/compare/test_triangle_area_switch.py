@@ -1,4 +1,4 @@
-"""Triangle's maximum-area switch in plain decimals (issue 19 item 5): below 1e-4, `%g` gave
+"""Triangle's maximum-area switch in plain decimals: below 1e-4, `%g` gave
 `a6.3e-05`, which Triangle reads as a6.3 and further switches, so the peer missed its target."""
 
 import numpy as np

@@ -1,4 +1,4 @@
-"""Bad input (issue 2, item 5): one QmeshError type, a message naming the problem, nothing written."""
+"""Bad input: one QmeshError type, a message naming the problem, nothing written."""
 
 import re
 
@@ -204,7 +204,7 @@ def test_the_size_of_q_does_not_decide_whether_it_is_spd(c):
 
 @pytest.mark.parametrize("text, area", [(NON_CONVEX, 3.0), (CLOCKWISE, 1.0)])
 def test_non_convex_and_clockwise_polygons_mesh(tmp_path, capsys, text, area):
-    """Non-convex outlines and either orientation are domains now (issue 9)."""
+    """Non-convex outlines and either orientation are domains now."""
     (tmp_path / "p.csv").write_text(text)
     out = tmp_path / "p.vtu"
     assert main(["mesh", "--polygon", str(tmp_path / "p.csv"), "--target-vertices", "60",

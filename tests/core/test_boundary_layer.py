@@ -142,7 +142,7 @@ def test_boundary_layer_rings():
 
 @pytest.mark.parametrize("vb", sorted(CHAPTER_N))
 def test_chapter_disk_quality_target(vb):
-    """Issue 9: min metric quality ≥ 0.3 on every row of the chapter's case, N on target and
+    """Min metric quality ≥ 0.3 on every row of the chapter's case, N on target and
     every q_ij ≥ 0 on interior and boundary edges (the tips have seeds up to 10× finer than h)."""
     A = qmesh.Anisotropy.constant(qmesh.CHAPTER_Q)
     m = qmesh.mesh(qmesh.Disk(vb), A, target_vertices=CHAPTER_N[vb], seed=0)

@@ -79,7 +79,7 @@ def test_bad_counts_and_budgets_are_refused(bad):
     (lambda: qmesh.Anisotropy.from_expression("exp(x) + y**2"), True),
 ])
 def test_mesh_and_iterate_refuse_what_exceeds_the_memory_available(monkeypatch, anisotropy, varying):
-    """The estimate guards qmesh.mesh itself (issue 18 item 3, issue 20 item 3): with 384 MiB
+    """The estimate guards qmesh.mesh itself: with 384 MiB
     available, 200,000 vertices (2e5·600 B + 128 MiB, over half of 384 MiB = 192 MiB) are refused
     before anything of that size is allocated."""
     import tracemalloc

@@ -1,5 +1,5 @@
 """The validators of qmesh.checks: what they accept comes back unchanged, the rest is a QmeshError
-that names the argument and is catchable as ValueError and as TypeError (issue 10 item 4)."""
+that names the argument and is catchable as ValueError and as TypeError."""
 
 import math
 

@@ -15,7 +15,7 @@ from cli_run import run
 
 @pytest.fixture
 def rotated_mesh_file(tmp_path, capsys):
-    """A mesh that `qmesh mesh` made for a rotated Q (the case of issue 12)."""
+    """A mesh that `qmesh mesh` made for a rotated Q."""
     path = tmp_path / "rotated.vtu"
     code, _, err = run(capsys, "mesh", "--principal", 1, 100, 30, "-o", path)
     assert code == 0, err
@@ -30,7 +30,7 @@ def test_report_uses_the_stored_q(rotated_mesh_file, capsys):
     rotated = qmesh.Anisotropy.principal(1, 100, 30)
     assert rep["conductivity"] == file_conductivity.record_of(rotated).split(": ", 1)[1]
     assert rep["n_interior"] > 0 and rep["q_nonnegative_fraction"] == 1.0
-    # measured with the chapter's Q instead, the same mesh loses that (63.5% in issue 12)
+    # measured with the chapter's Q instead, the same mesh loses that
     code, out, _ = run(capsys, "report", rotated_mesh_file, "--json", "--Q", 0.1, 0, 10)
     rep = json.loads(out)
     assert rep["conductivity_source"] == "command line" and rep["conductivity"] == "Q = [[0.1, 0.0], [0.0, 10.0]]"

@@ -1,4 +1,4 @@
-"""Conforming Q-Delaunay on domains with holes (issue 9, GEOMETRY.md §1).
+"""Conforming Q-Delaunay on domains with holes (GEOMETRY.md §1).
 
 The encroachment test is checked against the diametral ellipse written out by hand and against
 the q_ij of the boundary edge it protects; meshes of non-convex and holed domains are checked
@@ -89,7 +89,7 @@ def test_shell_splits_next_to_an_input_point_are_powers_of_two():
 # --------------------------------------------------------------------------- meshes of Ω
 
 def check_mesh(D, A, m, constant=True):
-    """The invariants of issue 9 on one mesh; returns nothing, asserts everything."""
+    """The invariants of a domain with holes on one mesh; returns nothing, asserts everything."""
     P, T = m.points, m.triangles
     assert np.isfinite(P).all()
     area = signed_areas(P, T)

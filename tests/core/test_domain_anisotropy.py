@@ -154,7 +154,7 @@ def test_pentagram_really_has_all_left_turns():
 
 
 def test_non_convex_and_clockwise_polygons_are_domains():
-    """Issue 9: any simple polygon; a clockwise one is turned counter-clockwise, same points."""
+    """Any simple polygon; a clockwise one is turned counter-clockwise, same points."""
     P = qmesh.Polygon([[0, 0], [2, 0], [1, 0.5], [2, 2], [0, 2]])
     assert P.area == pytest.approx(4.0 - 0.5 * 2 * 1.5 + 0.25 * 0.0 - 0.5, rel=1e-12) or P.area > 0
     C = qmesh.Polygon(SQUARE[::-1])

@@ -1,4 +1,4 @@
-"""qmesh.Domain (issue 9 item 1): rings, holes, tags and names, and bad geometry named precisely."""
+"""qmesh.Domain: rings, holes, tags and names, and bad geometry named precisely."""
 
 import numpy as np
 import pytest
@@ -94,7 +94,7 @@ def test_named_domains_are_valid_and_named():
 @given(scale=st.floats(-8, 8), shift=st.tuples(st.floats(-1e8, 1e8), st.floats(-1e8, 1e8)),
        n=st.integers(3, 200))
 def test_far_and_tiny_disks_are_valid_domains(scale, shift, n):
-    """Issue 10: a regular polygon is accepted at any scale and position, with its true area."""
+    """A regular polygon is accepted at any scale and position, with its true area."""
     r = 10.0 ** scale
     c = np.array(shift) * r
     D = qmesh.Disk(n, radius=r, center=c)

@@ -1,4 +1,4 @@
-"""Algorithm 2.1 reads as the chapter's lines (issue 16): the loop calls the stages in the
+"""Algorithm 2.1 reads as the chapter's lines: the loop calls the stages in the
 chapter's order, fits in 30 lines, and the README shows it as it is."""
 
 import ast

@@ -1,5 +1,5 @@
 """qmesh.measure: the share of q_ij ≥ 0 is given for interior and for boundary edges separately,
-None when there is no edge of that kind (issue 9 item 4); its argument checks are in
+None when there is no edge of that kind; its argument checks are in
 tests/properties/bad_calls.py. Expected weights come from the cotangent formula
 q_ij = ½(cot θ_k + cot θ_l) for Q = I, computed here by hand, not by the code under test."""
 
@@ -102,7 +102,7 @@ def test_mesh_command_prints_both_shares(tmp_path, capsys):
 
 
 def test_a_mesh_with_nan_coordinates_cannot_be_made():
-    """So no measurement ever sees one (the Mesh constructor checks, issue 10)."""
+    """So no measurement ever sees one (the Mesh constructor checks)."""
     with pytest.raises(QmeshError, match=r"points has non-finite entries at row 1"):
         qmesh.Mesh([[0.0, 0.0], [1.0, np.nan], [0.0, 1.0]], [[0, 1, 2]])
 

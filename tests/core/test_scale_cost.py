@@ -1,4 +1,4 @@
-"""Cost follows N for inputs that once did not (issue 20): ties in the lifting, steep s.
+"""Cost follows N for inputs that once did not: ties in the lifting, steep s.
 
 Each case once took tens of seconds or gigabytes. A hang or a return to that cost fails the
 test by its pytest-timeout, set loose for a slow shared machine; how fast each case is today

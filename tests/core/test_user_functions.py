@@ -1,5 +1,5 @@
 """A user's s, ∇s and ∇²s (Anisotropy.from_s): their failures become QmeshErrors that name the
-function and the point, and no NumPy warning reaches the user on valid input (issue 10 item 4)."""
+function and the point, and no NumPy warning reaches the user on valid input."""
 
 import warnings
 

@@ -22,7 +22,7 @@ def _report_lines(out):
 
 
 def test_report_counts_a_fold_and_a_duplicate(tmp_path, capsys):
-    """The folded 5-vertex mesh of issue 19 (one clockwise triangle) and a doubled triangle."""
+    """A folded 5-vertex mesh (one clockwise triangle) and a doubled triangle."""
     P = np.array([[0, 0, 0], [2, 0, 0], [2, 1, 0], [0, 1, 0], [1, 0.5, 0]], float)
     T = np.array([[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4], [1, 4, 2]])  # the last: [1, 2, 4] turned
     meshio.write(tmp_path / "fold.vtu", meshio.Mesh(P, [("triangle", T)]))

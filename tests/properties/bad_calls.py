@@ -1,4 +1,4 @@
-"""Invalid calls of every public entry point (issue 10 item 4): each must raise QmeshError whose
+"""Invalid calls of every public entry point: each must raise QmeshError whose
 message names the argument.
 
 `CALLS` is the whole list, built from per-argument kinds of bad value (a count, a positive real,

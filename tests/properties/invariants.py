@@ -1,5 +1,5 @@
 """An evaluator independent of qmesh's own measurements: what every mesh must satisfy against
-its input (issue 10 item 5, issue 9's tests).
+its input.
 
 `defects(mesh, rings, ...)` returns a list of strings, one per broken invariant, each starting
 with a short category ("area: …"), so a test asserts the list is empty and the stress script
@@ -28,7 +28,7 @@ EPS = np.finfo(float).eps
 REL = 1e-9
 MEMORY_CAP = 1 << 30
 """Extra address space one case may take: a mesh of a few thousand vertices that needs more
-than 1 GiB breaks issue 10's "cost follows N"; the cap turns it into a MemoryError (recorded as
+than 1 GiB breaks "cost follows N"; the cap turns it into a MemoryError (recorded as
 a defect) instead of swapping a machine shared by other jobs."""
 
 
@@ -219,7 +219,7 @@ def defects(mesh, rings, *, Q=None, target=None, n_holes=None) -> list[str]:
 
 def tag_defects(mesh, domain) -> list[str]:
     """Boundary tags, when the mesh and domain carry them: each boundary edge has the tag of the
-    input segment it lies on (issue 9 item 3)."""
+    input segment it lies on."""
     if not (hasattr(mesh, "boundary_tags") and hasattr(domain, "segment_tags")):
         return []
     E = np.asarray(mesh.boundary_edges)

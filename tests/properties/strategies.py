@@ -1,9 +1,9 @@
 """Hypothesis strategies for the property suite: domains, conductivities and mesher options.
 
-The kinds of input of issue 10: regular, random convex and very thin convex polygons at scales
+The kinds of input: regular, random convex and very thin convex polygons at scales
 1e-6…1e6 placed up to 1e6 from the origin; random SPD Q with anisotropy up to 1e4 at any angle
 and smooth varying s; boundary refinement on and off, targets from just above the seed count to a
-few thousand, random α and thresholds. Non-convex outlines with holes (issue 9) are drawn when
+few thousand, random α and thresholds. Non-convex outlines with holes are drawn when
 `qmesh.Domain` exists.
 
 Each strategy draws a plain description (numbers and arrays) with a `code` string that rebuilds

@@ -1,5 +1,5 @@
 """Every invalid call of `bad_calls.CALLS` raises a QmeshError (a TypeError and a ValueError)
-whose message names the argument (issue 10 item 4). The list is finite and cheap, so it runs
+whose message names the argument. The list is finite and cheap, so it runs
 completely rather than by sampling."""
 
 import pytest

@@ -1,4 +1,4 @@
-"""`iterate`'s last Step is the mesh `mesh` returns, bit for bit, and both refuse alike (issue 16).
+"""`iterate`'s last Step is the mesh `mesh` returns, bit for bit, and both refuse alike.
 
 The viewer steps through `iterate`, the command line calls `mesh`: the same inputs must give
 the same mesh through both, and a target they cannot meet the same QmeshError.

@@ -1,4 +1,4 @@
-"""Every mesh satisfies the invariants of `invariants.defects` against its input (issue 10 item 5).
+"""Every mesh satisfies the invariants of `invariants.defects` against its input.
 
 One test per kind of input, so each kind's first failure is reported on its own. A failure
 message is the list of defects and a `qmesh.mesh(...)` call that reproduces them.
@@ -50,5 +50,5 @@ def test_seed_only_boundary(case):
 @examples(0.5)
 @given(cases(holed_domains() | named_domains(), conductivity="any"))
 def test_non_convex_domains_with_holes(case):
-    """Issue 9: star-shaped outlines with up to three holes, and the named domains, anywhere."""
+    """Star-shaped outlines with up to three holes, and the named domains, anywhere."""
     check(case)

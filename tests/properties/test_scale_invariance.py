@@ -1,4 +1,4 @@
-"""Any scale, as promised (issue 20 item 4): coordinates from 1e-300 to 1e300 mesh or raise
+"""Any scale, as promised: coordinates from 1e-300 to 1e300 mesh or raise
 QmeshError, and the mesh is the unit-scale mesh moved and scaled.
 
 What holds exactly: the mesher works on y = (x − c)/d, so a domain scaled by a power of two

@@ -82,7 +82,7 @@ def test_every_colouring_has_a_legend():
 
 
 def test_q_sign_colours_stand_out_on_every_quality_colour():
-    """Green q_ij ≥ 0 lines vanished on viridis (issue 18): every interior sign colour keeps an
+    """Green q_ij ≥ 0 lines vanished on viridis: every interior sign colour keeps an
     RGB distance of at least 90 from every colour of the quality map."""
     def rgb(h):
         return np.array([int(h[i:i + 2], 16) for i in (1, 3, 5)])

@@ -1,4 +1,4 @@
-"""Issue 18 in Chromium: typed and fast inputs land, a huge target is refused without wedging
+"""In Chromium: typed and fast inputs land, a huge target is refused without wedging
 the app, warnings reach the page, and the mesh view shows the mesh at N = 10,000."""
 
 import os

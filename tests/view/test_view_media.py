@@ -1,4 +1,4 @@
-"""Media presets in the viewer (issue 17 item 7): `layered` and `inclusion` through the session,
+"""Media presets in the viewer: `layered` and `inclusion` through the session,
 a conductivity per region, the mesh view coloured by region, a legend entry per region with its
 Q, interface edges marked, one lifted piece per region; the disk unchanged after switching back."""
 

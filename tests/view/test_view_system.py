@@ -1,5 +1,5 @@
 """A missing system library stops rendering with one message naming the Debian package, and
-importing the viewer picks EGL before VTK can try an X server (issue 12).
+importing the viewer picks EGL before VTK can try an X server.
 
 Absence is simulated: the library finder is replaced, so the real machine keeps its libraries.
 """
