@@ -25,7 +25,8 @@ import numpy as np
 from qmesh.conductivity.anisotropy import shape_metric
 from qmesh.fields.cache import ElementMeans
 from qmesh.fields.flips import mending_flips, quality_flips
-from qmesh.fields.moves import Judged, corners, free, movers, polish, relax, slides, tangents
+from qmesh.fields.moves import (Judged, corners, free, isosceles, movers, polish, relax, slides,
+                                tangents)
 from qmesh.fields.piecewise import RegionMeans
 from qmesh.fields.shares import FLOOR, by_bound, cut_interfaces, failing, means_of, shares
 from qmesh.fields.splits import longer, split_failing, split_failing_medium
@@ -110,7 +111,9 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
         elif shaping and tries < RELAX:
             tries += 1
             tan = tangents(P, T, twin, fixed) if reg is None else slides(P, T, tc, fixed)
-            ends = free(T, tc, fixed, corners(T, tc, h), tan)
+            P, t = isosceles(P, T, tc, Qbar, s, b, field, h, tan, rng, refused=seen.vertices,
+                             reg=reg)
+            ends = free(T, tc, fixed, corners(T, tc, h), tan) if not len(t) else t[:0]
             if len(ends):
                 who = movers(T, twin, ends, rng)
                 P, t = relax(P, T, tc, Qbar, err, s, b, field, moves,

@@ -179,6 +179,48 @@ def relax(P, T, twin, Qbar, err, s, b, field, metric, movers, shape, tangent=Non
     return P, np.flatnonzero(touching(T, take))
 
 
+def isosceles(P, T, twin, Qbar, s, b, field, h, tangent, rng, refused=None, reg=None):
+    """Mend failing boundary edges h by sliding one end along its side: u→v with apex x fails
+    where x's angle is obtuse in the triangle's metric; with v placed as far from u as x is
+    (|uv'| = |ux|), the triangle is isosceles, both its base angles 90° − ½∠u. The end that may
+    slide (`tangent`) moves, the one with the shorter slide if both may. This is the one cure
+    at a corner sharp in the metric (a raster cell at 1000 : 1): a split there leaves the
+    corner's two edges failing in turn, each split nearer the corner. Judged as `relax` judges
+    a mending move; returns the new P and the triangles that changed."""
+    h = h[twin[h] < 0]
+    t, k = np.divmod(h, 3)
+    u, v, x = T[t, k], T[t, topology.NXT[k]], T[t, topology.PRV[k]]
+    H = shape_metric(Qbar[t])
+    length = lambda d: np.sqrt(np.einsum("ki,kij,kj->k", d, H, d))     # noqa: E731
+    uv = length(P[v] - P[u])
+    to_v = (length(P[x] - P[u]) / uv - 1.0)[:, None] * (P[v] - P[u])   # v slides towards u
+    to_u = (length(P[x] - P[v]) / uv - 1.0)[:, None] * (P[u] - P[v])   # u slides towards v
+    can_v, can_u = np.any(tangent[v] != 0, axis=1), np.any(tangent[u] != 0, axis=1)
+    pick_v = can_v
+    w = np.where(pick_v, v, u)
+    d = np.where(pick_v[:, None], to_v, to_u)
+    keep = (can_v != can_u) & (np.einsum("ki,ki->k", d, d) > 0)
+    if refused is not None:
+        keep &= ~refused[w]
+    w, d = w[keep], d[keep]
+    w, first = np.unique(w, return_index=True)                 # one slide per vertex
+    d = d[first]
+    if not len(w):
+        return P, np.empty(0, np.int64)
+    chosen = movers(T, twin, w, rng)
+    d = d[np.searchsorted(w, chosen)]
+    ok = _judged(P, T, twin, Qbar, s, b, field, chosen, d[None], False, reg)[0][0]
+    if refused is not None:
+        refused[chosen] = ~ok
+    if not ok.any():
+        return P, np.empty(0, np.int64)
+    P = P.copy()
+    P[chosen[ok]] += d[ok]
+    moved = np.zeros(len(P), bool)
+    moved[chosen[ok]] = True
+    return P, np.flatnonzero(touching(T, moved))
+
+
 def polish(P, T, twin, Qbar, s, b, field, movers, tangent=None, refused=None, reg=None):
     """The polish's moves: each of the `movers` (`movers`) tries its shape step in its star's own
     means (at STEPS of it) and PATTERN places around it at REACH shares of its height over the

@@ -206,6 +206,57 @@ def star_worst(P, T, field, v):
     return np.array([q[np.any(T == u, axis=1)].min() for u in v])
 
 
+def square_mesh_with_sides(seed, n, m):
+    """`square_mesh` with m points on each side too (random, in order along it), which may
+    slide along their side."""
+    rng = np.random.default_rng(seed)
+    t = np.sort(rng.uniform(0.05, 0.95, (4, m)), axis=1)
+    sides = np.concatenate([np.column_stack([t[0], 0 * t[0]]), np.column_stack([1 + 0 * t[1], t[1]]),
+                            np.column_stack([t[2], 1 + 0 * t[2]]), np.column_stack([0 * t[3], t[3]])])
+    P = np.concatenate([[(0, 0), (1, 0), (1, 1), (0, 1)], sides, rng.uniform(0.05, 0.95, (n, 2))])
+    T = Delaunay(P).simplices
+    A, B = P[T[:, 1]] - P[T[:, 0]], P[T[:, 2]] - P[T[:, 0]]
+    cw = A[:, 0] * B[:, 1] - A[:, 1] * B[:, 0] < 0
+    T[cw] = T[cw][:, [0, 2, 1]]
+    return P, T.astype(np.int64)
+
+
+@settings(max_examples=15, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), n=st.integers(5, 60), m=st.integers(1, 6),
+       cells=st.integers(1, 6))
+def test_isosceles_slides_keep_to_their_side_and_mend(seed, n, m, cells):
+    """A failing boundary edge next to a corner: its other end slides along its side to where
+    the triangle is isosceles in its metric, only where that leaves fewer failing edges or a
+    lower deficit and no more of either, and no triangle turns over."""
+    P, T = square_mesh_with_sides(seed, n, m)
+    edges, k1, k2, angle = random_raster(seed, cells, 3.0)
+    field = qmesh.TensorField.from_raster(edges, edges, k1, k2, angle)
+    before, s, b, twin = total_deficit(P, T, field)
+    h0, _, _ = shares.failing(s, b, twin)
+    Qbar = np.asarray(field.means_with_error(P, T)[0])
+    fixed = np.zeros(len(P), bool)
+    fixed[:4] = True
+    tangent = moves.tangents(P, T, twin, fixed)
+    P2, changed = moves.isosceles(P, T, twin, Qbar, s, b, field, h0, tangent,
+                                  np.random.default_rng(seed))
+    assert np.all(signed_areas(P2, T) > 0)
+    moved = np.flatnonzero(np.any(P2 != P, axis=1))
+    assert np.all(np.any(tangent[moved] != 0, axis=1))           # sliding side vertices only
+    on_x = np.isin(P[moved], [0.0, 1.0])                        # the coordinate their side fixes
+    assert np.all(on_x.any(axis=1)) and np.array_equal(P2[moved][on_x], P[moved][on_x])
+    assert np.all((P2[moved] >= 0) & (P2[moved] <= 1))
+    beside = np.zeros(len(P), bool)                             # an edge away from a corner
+    E = np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]])
+    E = np.concatenate([E, E[:, ::-1]])
+    beside[E[E[:, 0] < 4, 1]] = True
+    assert beside[moved].all()
+    assert set(np.flatnonzero(topology.touching(T, np.isin(np.arange(len(P)), moved)))) == set(changed)
+    after, s2, b2, _ = total_deficit(P2, T, field)
+    h1, _, _ = shares.failing(s2, b2, twin)
+    assert len(h1) <= len(h0)
+    assert after <= before * (1 + 1e-9) + 1e-15
+
+
 @settings(max_examples=10, deadline=None)
 @given(seed=st.integers(0, 2**31 - 1), n=st.integers(30, 200), cells=st.integers(2, 10))
 def test_the_polish_raises_the_worst_quality_of_every_star_it_moves(seed, n, cells):
