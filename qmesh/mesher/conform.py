@@ -134,10 +134,13 @@ def marked(P: np.ndarray, corners: np.ndarray) -> np.ndarray:
 def beside_corners(x, P, u, v, w, junction, anisotropy) -> np.ndarray:
     """Split points of subsegments u→v with one end a junction: the farthest point from the
     junction whose subsegment the apex w no longer encroaches, ρ = |w|² / ⟨w, t⟩ in the metric
-    (t the unit direction of the subsegment, w from the junction), capped at ¾ of the way.
-    Never nearer the junction than w itself (ρ ≥ |w|): splits next to a junction follow the
+    (t the unit direction of the subsegment, w from the junction), capped at ¾ of the way but
+    never nearer the junction than w itself (ρ ≥ |w|): splits next to a junction follow the
     points already there instead of each face's own powers of two, which do not line up
-    across faces in different metrics and would run towards the junction without end."""
+    across faces in different metrics and would run towards the junction without end. The
+    floor |w| keeps the point out of the diametral ellipse of the junction's subsegment to w
+    (⟨w, t⟩ < |w|): capped below it, in a wedge under 30° in the metric, the two sides' first
+    subsegments would encroach each other in turn, each split ¾ of the last, without end."""
     one = junction[u] != junction[v]
     if not one.any():
         return x
@@ -153,7 +156,7 @@ def beside_corners(x, P, u, v, w, junction, anisotropy) -> np.ndarray:
     with np.errstate(divide="ignore", invalid="ignore"):
         frac = np.where(wt > 0, ww / wt / L, np.nan) * (1 - 1e-6)
     ok = np.isfinite(frac) & (frac > 0) & (frac < 1)
-    frac = np.minimum(frac, 0.75)
+    frac = np.minimum(frac, np.maximum(0.75, np.sqrt(ww) / L))
     out = np.array(x)
     out[k[ok]] = J[ok] + frac[ok, None] * E[ok]
     return out

@@ -139,6 +139,42 @@ def test_regions_meeting_at_points_mesh_or_are_refused_naming_the_point(nx, ny, 
     check_mesh(d, cond, m)
 
 
+def _band(w, ya, yb):
+    """The w × 1 box crossed by the band ya < y < yb (region 1): T-junctions on both sides."""
+    return qmesh.Domain([(0, 0), (w, 0), (w, 1), (0, 1)],
+                        regions=[[(0, ya), (w, ya), (w, yb), (0, yb)]])
+
+
+@pytest.mark.filterwarnings("ignore::qmesh.QmeshWarning")
+def test_a_band_sharp_in_its_metric_at_the_outline_meshes():
+    """The band's corner at (w, ya) is 22° in its metric: the splits beside that junction land
+    where neither side's first subsegment encroaches the other's, instead of ¾ of the way down
+    each in turn, nearer the junction every time until the run refused the point."""
+    w = 1.1875
+    ya, yb = np.sort(np.random.default_rng(1).uniform(0.3, 0.7, 2)) + np.array([0, 0.1])
+    d, cond = _band(w, ya, yb), {0: P(1, 1, 0), 1: P(100, 1, 75)}
+    from tests.media.cases import check_mesh
+    check_mesh(d, cond, qmesh.mesh(d, cond, target_vertices=300))
+
+
+@settings(max_examples=16, deadline=None, suppress_health_check=list(HealthCheck))
+@given(st.floats(0.5, 2.0), st.floats(0.1, 0.8), st.floats(0.03, 0.3), st.floats(1, 3),
+       st.floats(0, 180), st.sampled_from([150, 300, 600, 1200]))
+@example(1.2673, 0.5640, 0.1040, np.log10(19), 141.8, 150)     # 22° corners at x = 0 too
+@example(1.2700, 0.5393, 0.1790, np.log10(47), 115.5, 300)
+def test_a_band_across_a_box_meshes(w, ya, thick, ratio, angle, n):
+    """A band across a w × 1 box, anisotropic up to 1e3:1 at any angle in a box of Q = I: its
+    corners on the outline (however sharp in its metric) are no reason to refuse it; every
+    q_ij >= 0 (interior, interface, boundary)."""
+    from tests.media.cases import check_mesh
+    d = _band(w, ya, min(ya + thick, 0.95))
+    cond = {0: P(1, 1, 0), 1: P(10 ** ratio, 1, angle)}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", qmesh.QmeshWarning)
+        m = qmesh.mesh(d, cond, target_vertices=n)
+    check_mesh(d, cond, m)
+
+
 def test_a_thin_region_says_what_it_needs_not_a_target_below_the_one_asked():
     """A region's thin-face note counts what the region would need; it does not tell the user
     to ask for target_vertices = that count (its share of the target is far below the target)."""
