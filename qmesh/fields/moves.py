@@ -180,13 +180,14 @@ def relax(P, T, twin, Qbar, err, s, b, field, metric, movers, shape, tangent=Non
 
 
 def isosceles(P, T, twin, Qbar, s, b, field, h, tangent, rng, refused=None, reg=None):
-    """Mend failing boundary edges h by sliding one end along its side: u→v with apex x fails
-    where x's angle is obtuse in the triangle's metric; with v placed as far from u as x is
-    (|uv'| = |ux|), the triangle is isosceles, both its base angles 90° − ½∠u. The end that may
-    slide (`tangent`) moves, the one with the shorter slide if both may. This is the one cure
-    at a corner sharp in the metric (a raster cell at 1000 : 1): a split there leaves the
-    corner's two edges failing in turn, each split nearer the corner. Judged as `relax` judges
-    a mending move; returns the new P and the triangles that changed."""
+    """Mend failing boundary edges h from a corner by sliding the other end along its side:
+    u→v with apex x fails where x's angle is obtuse in the triangle's metric; with v placed as
+    far from u as x is (|uv'| = |ux|), the triangle is isosceles, both its base angles
+    90° − ½∠u. Only where one end cannot slide (a corner, a seed, a junction) and the other
+    can (`tangent`). At a corner sharp in the metric (a raster cell at 1000 : 1) nothing else
+    passes on both sides: a split there leaves the corner's two edges failing in turn, each
+    split nearer the corner. Judged as `relax` judges a mending move (`refused` as there);
+    returns the new P and the triangles that changed."""
     h = h[twin[h] < 0]
     t, k = np.divmod(h, 3)
     u, v, x = T[t, k], T[t, topology.NXT[k]], T[t, topology.PRV[k]]
@@ -196,9 +197,8 @@ def isosceles(P, T, twin, Qbar, s, b, field, h, tangent, rng, refused=None, reg=
     to_v = (length(P[x] - P[u]) / uv - 1.0)[:, None] * (P[v] - P[u])   # v slides towards u
     to_u = (length(P[x] - P[v]) / uv - 1.0)[:, None] * (P[u] - P[v])   # u slides towards v
     can_v, can_u = np.any(tangent[v] != 0, axis=1), np.any(tangent[u] != 0, axis=1)
-    pick_v = can_v
-    w = np.where(pick_v, v, u)
-    d = np.where(pick_v[:, None], to_v, to_u)
+    w = np.where(can_v, v, u)
+    d = np.where(can_v[:, None], to_v, to_u)
     keep = (can_v != can_u) & (np.einsum("ki,ki->k", d, d) > 0)
     if refused is not None:
         keep &= ~refused[w]
