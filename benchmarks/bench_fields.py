@@ -45,10 +45,10 @@ Every measurement uses element means Q̄_T computed HERE, not the mesh's: formul
 - min metric quality (2.94) in each triangle's own H_T = adj Q̄_T / √det Q̄_T (`measure.quality`);
 - seconds: qmesh, the whole run (`qmesh.iterate` to its last Step, which is `qmesh.mesh`); peers,
   their final calibrated run (wall clock; qmesh's CPU seconds, and their ratio to the constant
-  Q's, are in the notes). Up to N = 20 000, qmesh and the constant Q run 3 times in their
-  process, the same mesh each time, and the run of least CPU seconds is reported (the first run
-  also pays one-time set-ups such as compiling the field's formula; other processes sharing
-  the cores slow some runs);
+  Q's, are in the notes). qmesh and the constant Q run 7 times in their process up to N = 2000,
+  3 times up to 20 000, the same mesh each time, and the run of least CPU seconds is reported
+  (the first run also pays one-time set-ups such as compiling the field's formula; other
+  processes sharing the cores slow some runs, most of all the short ones);
 - peak memory: every mesher runs in a fresh subprocess (this script with --worker); its peak RSS
   (VmHWM of /proc/self/status) and, in brackets, the growth over the RSS it had after its imports and
   building the field (the peers' over all their calibration runs);
@@ -481,22 +481,24 @@ def peak_rss_kb() -> int:
     return int(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)
 
 
-REPEATS = 3             # qmesh's and the constant Q's runs, each timed this many times in its
-REPEAT_UP_TO = 20_000   # process up to this N (the least CPU seconds: the first run also pays
-                        # one-time set-ups, and other processes sharing the cores slow some runs)
+REPEATS = ((2_000, 7), (20_000, 3))   # qmesh's and the constant Q's runs, each timed this many
+                        # times in its process up to this N (the least CPU seconds: the first run
+                        # also pays one-time set-ups, and other processes sharing the cores slow
+                        # some runs, most of all the short ones: a constant Q at 2000 takes 0.15 s)
 
 
 def run_mesher(case: Case, mesher: str, n: int, Q=None, repeats: int | None = None) -> dict:
     """One mesher on one case at target N, in this process: the mesh's arrays, seconds, runs,
     and the QmeshWarnings said. mesher: qmesh, MMG2D, Triangle, constQ (Anisotropy.constant(Q)),
-    constfield (a constant TensorField Q); timed the least of `repeats` runs (REPEATS)."""
+    constfield (a constant TensorField Q); timed the least of `repeats` runs (by default REPEATS's count for N)."""
     from qmesh.compare import field_peers
     domain = case.domain()
     fld = case.field() if mesher in ("qmesh", "MMG2D") else None
     base = peak_rss_kb()
     out = {"runs": 1, "warnings": [], "base_kb": base}
     if repeats is None:
-        repeats = REPEATS if mesher in ("qmesh", "constQ", "constfield") and n <= REPEAT_UP_TO else 1
+        repeats = next((k for up_to, k in REPEATS if n <= up_to), 1) \
+            if mesher in ("qmesh", "constQ", "constfield") else 1
     best = None
     for _ in range(repeats):                   # the same mesh each time: the least CPU counts
         with warnings.catch_warnings(record=True) as said:
