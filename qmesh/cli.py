@@ -154,9 +154,16 @@ def disk_vertices(vb: int, anisotropy, *, target_vertices: int | None = None, si
 
 # --------------------------------------------------------------------------- commands
 
+def _stage(step) -> str:
+    """The stage a Step ends, as the progress names it: a field's last Step is its certified mesh
+    (its stage, "triangulate", would read as one more triangulation)."""
+    return "certified" if step.converged and step.mesh.conductivity is not None else step.stage
+
+
 def _progress(step, out) -> None:
     s = step.stats
-    print(f"iteration {step.iteration:3d}  {step.stage:<11s}  N={s.n_vertices:<8d}  E={s.energy:.4e}  "
+    energy = f"{s.energy:.4e}" if np.isfinite(s.energy) else "n/a"       # a field has no s
+    print(f"iteration {step.iteration:3d}  {_stage(step):<11s}  N={s.n_vertices:<8d}  E={energy:<10s}  "
           f"min q={s.min_quality:.3f}", file=out, flush=True)
 
 
@@ -173,7 +180,7 @@ def _progress_bar(out):
 
 def _advance(bar, step) -> None:
     # n_vertices only: the Step's energy and quality cost a pass over the triangles
-    bar.set_postfix_str(f"iteration {step.iteration} {step.stage} N={step.stats.n_vertices}", refresh=False)
+    bar.set_postfix_str(f"iteration {step.iteration} {_stage(step)} N={step.stats.n_vertices}", refresh=False)
     bar.update(1)
 
 

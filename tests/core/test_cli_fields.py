@@ -29,6 +29,21 @@ def test_a_field_principal_meshes_and_the_file_keeps_its_means(tmp_path, square,
     assert '"q_nonnegative_fraction": 1.0' in capsys.readouterr().out
 
 
+def test_progress_names_the_certified_mesh_and_no_energy_without_s(tmp_path, square, capsys):
+    """A field's last Step is its certified mesh: --progress says so (not a second
+    "triangulate"), with its N beyond the loop's when the repair added vertices, and never
+    prints an energy a field does not have."""
+    out = tmp_path / "layers.vtu"
+    assert main(["mesh", "--field-principal", "1", "0.001", "30*sin(pi*x)", "--polygon", square,
+                 "--target-vertices", "400", "--progress", "-o", str(out)]) == 0
+    lines = capsys.readouterr().err.splitlines()
+    stages = [line.split()[2] for line in lines if line.startswith("iteration")]
+    assert stages[-1] == "certified" and "certified" not in stages[:-1]
+    assert stages[-2] == "triangulate"
+    assert not any("nan" in line for line in lines)
+    assert lines[-1].split()[3] == f"N={qmesh.io.read(out).n_vertices}"
+
+
 def test_a_raster_file_meshes_at_the_target_not_the_cells(tmp_path, square, capsys):
     rng = np.random.default_rng(3)
     path = tmp_path / "k.npz"
