@@ -14,7 +14,7 @@ import numpy as np
 from qmesh.conductivity.anisotropy import shape_metric
 from qmesh.fields.shares import GAIN, deficit, independent, means_of, shares
 from qmesh.geometry import topology
-from qmesh.geometry.triangles import metric_quality, signed_areas
+from qmesh.geometry.triangles import metric_quality, proper
 
 
 def mending_flips(P, T, twin, h, s, b, field, refused=None, reg=None):
@@ -77,7 +77,7 @@ def _flip_candidates(P, T, twin, h, s, b, field, reg=None):
     u, v, a = T[t1, e1], T[t1, topology.NXT[e1]], T[t1, topology.PRV[e1]]
     bb = T[t2, topology.PRV[e2]]
     new = np.concatenate([np.column_stack([u, bb, a]), np.column_stack([bb, v, a])])
-    ok = (signed_areas(P, new) > 0).reshape(2, -1).all(axis=0)     # a convex quadrilateral
+    ok = proper(P, new).reshape(2, -1).all(axis=0)     # a convex quadrilateral, not flat
     if not ok.any():
         return None
     inner, g, t1, e1, t2, e2 = inner[ok], g[ok], t1[ok], e1[ok], t2[ok], e2[ok]

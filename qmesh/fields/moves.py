@@ -15,7 +15,7 @@ from qmesh.conductivity.anisotropy import Anisotropy, shape_metric
 from qmesh.fields.shares import FLOOR, GAIN, KEEP, ROUND, deficit, means_of, shares
 from qmesh.geometry import topology
 from qmesh.geometry.topology import touching
-from qmesh.geometry.triangles import metric_quality, signed_areas
+from qmesh.geometry.triangles import metric_quality, proper
 from qmesh.mesher.adjust import limit_moves, shape_step
 
 STEPS = (1.0, 0.5, 0.25)   # a refused shape move is tried at these shares of its step
@@ -312,7 +312,7 @@ def _judged(P, T, twin, Qbar, s, b, field, v, D, shape, reg=None):
     tri = np.arange(3 * K * m).reshape(-1, 3)
     # a try that flattens or turns over a triangle of its star leaves it (and Ω) and is not
     # taken: its star is judged unmoved, so the field is never asked outside its domain
-    dead = ~(signed_areas(moved.reshape(-1, 2), tri) > 0).reshape(K, m)
+    dead = ~proper(moved.reshape(-1, 2), tri).reshape(K, m)
     flat = np.zeros((K, k), bool)
     flat[np.nonzero(dead)[0], mover[np.nonzero(dead)[1]]] = True
     X = np.where(flat[:, mover, None, None], X, moved)

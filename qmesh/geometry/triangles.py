@@ -42,6 +42,20 @@ def _signed_areas(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     return 0.5 * ((x[:, 1] - x[:, 0]) * (y[:, 2] - y[:, 0]) - (y[:, 1] - y[:, 0]) * (x[:, 2] - x[:, 0]))
 
 
+FLAT = 1e-12   # a triangle whose area is below this share of its longest edge squared is flat
+
+
+def proper(P, T: np.ndarray) -> np.ndarray:
+    """Which triangles are counter-clockwise and not flat to round-off: area above FLAT times
+    the square of the longest edge. Three points of one straight side, each off it by a last
+    bit, make a positive area of 1e-16 of that square: a triangle of no width, whose mean over
+    raster cells (its points clipped to the raster) is undefined."""
+    x, y = corners(P, T)
+    ex, ey = np.roll(x, -1, axis=1) - x, np.roll(y, -1, axis=1) - y
+    longest = np.max(ex * ex + ey * ey, axis=1)
+    return _signed_areas(x, y) > FLAT * longest
+
+
 class Frame:
     """Per-triangle quantities of one stage, from one gather of the corner coordinates.
 
