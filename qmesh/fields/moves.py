@@ -214,11 +214,7 @@ def isosceles(P, T, twin, Qbar, s, b, field, h, tangent, rng, refused=None, reg=
         refused[chosen] = ~ok
     if not ok.any():
         return P, np.empty(0, np.int64)
-    P = P.copy()
-    P[chosen[ok]] += d[ok]
-    moved = np.zeros(len(P), bool)
-    moved[chosen[ok]] = True
-    return P, np.flatnonzero(touching(T, moved))
+    return _moved(P, T, chosen[ok], d[ok])
 
 
 def polish(P, T, twin, Qbar, s, b, field, movers, tangent=None, refused=None, reg=None):
@@ -268,10 +264,15 @@ def polish(P, T, twin, Qbar, s, b, field, movers, tangent=None, refused=None, re
         refused[v] = ~take
     if not take.any():
         return P, np.empty(0, np.int64)
+    return _moved(P, T, v[take], D[best[take], np.flatnonzero(take)])
+
+
+def _moved(P, T, v, d):
+    """P with the vertices v moved by d, and the triangles that changed (their stars)."""
     P = P.copy()
-    P[v[take]] += D[best[take], np.flatnonzero(take)]
-    moved = np.zeros(n, bool)
-    moved[v[take]] = True
+    P[v] += d
+    moved = np.zeros(len(P), bool)
+    moved[v] = True
     return P, np.flatnonzero(touching(T, moved))
 
 
