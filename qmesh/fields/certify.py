@@ -35,7 +35,7 @@ from qmesh.geometry.triangles import metric_quality
 from qmesh.triangle_mesh import Mesh
 
 MAX_ROUNDS = 400    # rounds of flips and splits before the remaining edges are reported
-STALL = 30          # ... or rounds without fewer failing edges than the best so far
+STALL = 120         # ... or rounds without fewer failing edges than the best so far
 RELAX = 3           # rounds of shape steps mending edges before the next split
 SMOOTH = 4          # shape steps of the vertices the splits added, once every edge passes
 POLISH = 12         # then rounds of polish (moves.polish), in each triangle's own means, of
