@@ -151,12 +151,17 @@ def test_iterate_ends_on_the_mesh_and_only_the_last_step_is_converged():
 @example(ratio=1334.0, turns=1.25, tilt=0.0, aspect=3.0, hole=True, target=165)
 @example(ratio=2420.0, turns=1.25, tilt=0.0, aspect=3.0, hole=False, target=162)
 @example(ratio=2000.0, turns=0.0, tilt=90.0, aspect=4.0, hole=False, target=150)
+# and rotating fields whose repair gave up after 30 rounds without fewer failing edges
+@example(ratio=1210.0, turns=0.21797110427298838, tilt=170.26753815967714,
+         aspect=3.023712257849475, hole=True, target=452)
+@example(ratio=1628.0, turns=1.776459282593665, tilt=163.05014757745047,
+         aspect=3.711689180762488, hole=True, target=559)
 def test_random_smooth_fields_are_certified_or_say_what_fails(ratio, turns, tilt, aspect, hole,
                                                                target):
     """A rotating anisotropy: k1 = ratio·(1 + x²), k2 = 1, the axis turning `turns` half-turns
     across the domain, on a box of any aspect, with or without a hole. The edges an independent
     assembly finds failing are never more than the run's warning says (0 without a warning):
-    never a silent pass."""
+    never a silent pass; and none fail for ratios up to 2000."""
     angle = f"{tilt} + {180 * turns}*x/{aspect}"
     F = qmesh.TensorField.principal(f"{ratio}*(1 + x**2)", 1.0, angle)
     outline = [(0, 0), (aspect, 0), (aspect, 1), (0, 1)]
@@ -176,7 +181,7 @@ def test_random_smooth_fields_are_certified_or_say_what_fails(ratio, turns, tilt
                          np.stack([(k1 - 1) * c * s, k1 * s * s + c * c], -1)], -2)
     ref = reference_means(f, m.points, m.triangles)
     assert positive_off_diagonals(m.points, m.triangles, ref) <= failing
-    if ratio <= 100:
+    if ratio <= 2000:
         assert failing == 0
 
 
