@@ -181,13 +181,17 @@ def first_triangulation(P: np.ndarray, anisotropy, boundary: np.ndarray | None =
     try:
         twin = topology.twins(T)
     except ValueError:      # round-off decided the orientation of a flat triangle: exact 2-D
-        twin, T, candidates = None, _exact_delaunay(P, anisotropy), None
-    if twin is None:
+        twin, candidates = None, None
+    for whiten in (False, True):
+        if twin is not None:
+            break
+        T = _exact_delaunay(P, anisotropy, whiten)
         try:
             twin = topology.twins(T)
         except ValueError:
-            raise Crowded("the points the boundary needs are closer than round-off allows "
-                          "there") from None
+            if whiten:
+                raise Crowded("the points the boundary needs are closer than round-off allows "
+                              "there") from None
     T, twin, _ = restore(P, T, twin, anisotropy, candidates=candidates)
     return T, twin
 
@@ -202,12 +206,18 @@ def _exact_lower_hull(P: np.ndarray, anisotropy) -> np.ndarray | None:
         return None
 
 
-def _exact_delaunay(P: np.ndarray, anisotropy) -> np.ndarray:
+def _exact_delaunay(P: np.ndarray, anisotropy, whiten: bool = False) -> np.ndarray:
     """Qhull's exact 2-D Delaunay triangulation of the points mapped by the (mean) metric
     factor: the fallback where the perturbed lifted hull leaves a flat triangle whose
     orientation round-off decided (a sliver corner's concentric shells); `restore` then
-    makes it regular for a varying s."""
+    makes it regular for a varying s. `whiten`: mapped to unit covariance instead, the last
+    resort where Qhull folds the metric's map (the points of a straight side of a domain 1000
+    times longer than wide, nearly in line): an affine map keeps a triangulation valid, and
+    `restore` makes it regular."""
     X = (P - P.mean(axis=0)) @ _mean_factor(P, anisotropy)
+    if whiten:
+        w, V = np.linalg.eigh(np.cov(X.T))
+        X = X @ (V / np.sqrt(np.maximum(w, w.max() * 1e-30)))
     T = _valid(P, _delaunay(X / np.abs(X).max()))
     if T is None:
         raise QmeshError("some points are not vertices of the triangulation (duplicate points?)")

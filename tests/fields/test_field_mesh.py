@@ -81,12 +81,12 @@ def positive_off_diagonals(P, T, Qbar) -> int:
     return int((once & (k > ROUND * scale)).sum())
 
 
-def meshed(domain, field, target):
+def meshed(domain, field, target, **options):
     """The mesh, and how many edges its warning says still fail (0 without one). N off the
     target by more than 10% must be said too."""
     with warnings.catch_warnings(record=True) as said:
         warnings.simplefilter("always", qmesh.QmeshWarning)
-        m = qmesh.mesh(domain, field, target_vertices=target)
+        m = qmesh.mesh(domain, field, target_vertices=target, **options)
     words = [str(w.message) for w in said]
     if abs(m.n_vertices - target) > 0.1 * target:
         assert any("vertices" in w for w in words), "N off target without a word"
