@@ -23,6 +23,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import ConvexHull, Delaunay, QhullError
 
+from qmesh.conductivity.anisotropy import Anisotropy, adj2
 from qmesh.geometry import topology
 from qmesh.errors import QmeshError
 from qmesh.geometry.triangles import columns, signed_areas
@@ -182,14 +183,14 @@ def first_triangulation(P: np.ndarray, anisotropy, boundary: np.ndarray | None =
         twin = topology.twins(T)
     except ValueError:      # round-off decided the orientation of a flat triangle: exact 2-D
         twin, candidates = None, None
-    for whiten in (False, True):
+    for fallback in (_exact_delaunay, _mean_lower_hull):
         if twin is not None:
             break
-        T = _exact_delaunay(P, anisotropy, whiten)
+        T = fallback(P, anisotropy)
         try:
             twin = topology.twins(T)
         except ValueError:
-            if whiten:
+            if fallback is _mean_lower_hull:
                 raise Crowded("the points the boundary needs are closer than round-off allows "
                               "there") from None
     T, twin, _ = restore(P, T, twin, anisotropy, candidates=candidates)
@@ -206,22 +207,25 @@ def _exact_lower_hull(P: np.ndarray, anisotropy) -> np.ndarray | None:
         return None
 
 
-def _exact_delaunay(P: np.ndarray, anisotropy, whiten: bool = False) -> np.ndarray:
+def _exact_delaunay(P: np.ndarray, anisotropy) -> np.ndarray:
     """Qhull's exact 2-D Delaunay triangulation of the points mapped by the (mean) metric
     factor: the fallback where the perturbed lifted hull leaves a flat triangle whose
     orientation round-off decided (a sliver corner's concentric shells); `restore` then
-    makes it regular for a varying s. `whiten`: mapped to unit covariance instead, the last
-    resort where Qhull folds the metric's map (the points of a straight side of a domain 1000
-    times longer than wide, nearly in line): an affine map keeps a triangulation valid, and
-    `restore` makes it regular."""
+    makes it regular for a varying s."""
     X = (P - P.mean(axis=0)) @ _mean_factor(P, anisotropy)
-    if whiten:
-        w, V = np.linalg.eigh(np.cov(X.T))
-        X = X @ (V / np.sqrt(np.maximum(w, w.max() * 1e-30)))
     T = _valid(P, _delaunay(X / np.abs(X).max()))
     if T is None:
         raise QmeshError("some points are not vertices of the triangulation (duplicate points?)")
     return T
+
+
+def _mean_lower_hull(P: np.ndarray, anisotropy) -> np.ndarray:
+    """`lower_hull` of the points lifted onto the quadratic of the mean metric (`_mean_factor`),
+    the route a constant Q takes: the last resort where Qhull's 2-D Delaunay folds (the points
+    of a straight side of a polygon 300 times longer than wide, nearly in line, for a metric
+    without s); `restore` then makes it regular."""
+    L = _mean_factor(P, anisotropy)
+    return lower_hull(P, Anisotropy.constant(adj2(L @ L.T)))
 
 
 def _mean_factor(P: np.ndarray, anisotropy) -> np.ndarray:
