@@ -151,7 +151,8 @@ def first_triangulation(P: np.ndarray, anisotropy, boundary: np.ndarray | None =
     ½|xL|², the heights of the `boundary` points (default: all) perturbed by 1e-9 of their
     range: Qhull's exact modes are quadratic on ties (Disk(30000) with Q = I: its lifted
     boundary is one plane); the perturbation breaks them at random (points closer than
-    √1e-9 may then leave the hull: there, Qhull's exact 2-D Delaunay of the mapped points).
+    √1e-9 may then leave the hull: there, Qhull's exact 2-D Delaunay of the mapped points, and
+    for a metric without s, where that folds too, the lower hull of its mean quadratic).
     `restore` then flips every edge left locally non-regular (for a constant Q only the
     perturbed points' stars can be), with the local tangent-plane test (2.74)–(2.75), which
     needs no global precision (s = exp(20x) + exp(20y) spans 1e17 in curvature over Disk(32),
@@ -183,14 +184,15 @@ def first_triangulation(P: np.ndarray, anisotropy, boundary: np.ndarray | None =
         twin = topology.twins(T)
     except ValueError:      # round-off decided the orientation of a flat triangle: exact 2-D
         twin, candidates = None, None
-    for fallback in (_exact_delaunay, _mean_lower_hull):
+    fallbacks = [_exact_delaunay] + ([] if anisotropy.potential else [_mean_lower_hull])
+    for fallback in fallbacks:
         if twin is not None:
             break
         T = fallback(P, anisotropy)
         try:
             twin = topology.twins(T)
         except ValueError:
-            if fallback is _mean_lower_hull:
+            if fallback is fallbacks[-1]:
                 raise Crowded("the points the boundary needs are closer than round-off allows "
                               "there") from None
     T, twin, _ = restore(P, T, twin, anisotropy, candidates=candidates)
