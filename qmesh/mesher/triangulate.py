@@ -183,18 +183,7 @@ def first_triangulation(P: np.ndarray, anisotropy, boundary: np.ndarray | None =
     try:
         twin = topology.twins(T)
     except ValueError:      # round-off decided the orientation of a flat triangle: exact 2-D
-        twin, candidates = None, None
-    fallbacks = [_exact_delaunay] + ([] if anisotropy.potential else [_mean_lower_hull])
-    for fallback in fallbacks:
-        if twin is not None:
-            break
-        T = fallback(P, anisotropy)
-        try:
-            twin = topology.twins(T)
-        except ValueError:
-            if fallback is fallbacks[-1]:
-                raise Crowded("the points the boundary needs are closer than round-off allows "
-                              "there") from None
+        (T, twin), candidates = _fallback(P, anisotropy), None
     T, twin, _ = restore(P, T, twin, anisotropy, candidates=candidates)
     return T, twin
 
@@ -207,6 +196,24 @@ def _exact_lower_hull(P: np.ndarray, anisotropy) -> np.ndarray | None:
         return lower_hull(P, anisotropy)
     except QmeshError:
         return None
+
+
+def _fallback(P: np.ndarray, anisotropy) -> tuple[np.ndarray, np.ndarray]:
+    """A triangulation (and its twins) where the lifted hull's is not one: Qhull's exact 2-D
+    Delaunay of the mapped points, then, for a metric without s, the lower hull of its mean
+    quadratic; Crowded where none is (a constant Q or an s: the 2-D one's lost points said as
+    they are)."""
+    routes = [_exact_delaunay] + ([] if anisotropy.potential else [_mean_lower_hull])
+    for route in routes:
+        try:
+            T = route(P, anisotropy)
+            return T, topology.twins(T)
+        except QmeshError:
+            if len(routes) == 1:
+                raise
+        except ValueError:
+            pass
+    raise Crowded("the points the boundary needs are closer than round-off allows there")
 
 
 def _exact_delaunay(P: np.ndarray, anisotropy) -> np.ndarray:
