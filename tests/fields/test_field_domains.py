@@ -28,7 +28,7 @@ def fields_on(draw):
 
 
 @pytest.mark.slow(20)
-@settings(max_examples=int(__import__('os').environ.get('NEX', 8)), deadline=None)
+@settings(max_examples=8, deadline=None)
 @given(fields_on())
 def test_a_turning_field_on_any_domain_is_certified_or_says_what_fails(case):
     spec, ratio, turns, tilt, opts = case
