@@ -135,7 +135,9 @@ def q_delaunay(P: np.ndarray, anisotropy) -> np.ndarray:
 
 EXACT_MAX = 4000     # up to this many points the first triangulation is Qhull's exact hull
 FIRST_ROUNDS = 100_000   # flip rounds allowed (only a defect could need them all)
-METRIC_ROUNDS = 2000     # flip rounds in a metric without s, where flips may cycle
+METRIC_ROUNDS = 2000     # flip rounds in a metric without s, where flips may cycle ...
+WATCH = 200              # ... and past this round an edge flipped away a second time (a cycle)
+                         # is kept
 VIOLATION_CHUNK = 131_072   # edges tested at once (bounds the temporary memory)
 THIN = 100.0         # a point set this many times longer than wide is joggled for Qhull (_thin)
 PERTURB = 1e-9       # lifted heights (range 1) raised by up to this: ties broken, cost O(N log N)
@@ -362,6 +364,13 @@ def _canonical(twin: np.ndarray, h: np.ndarray | None = None) -> np.ndarray:
     return topology.sorted_unique(h)
 
 
+def _edge_keys(T: np.ndarray, h: np.ndarray, n: int) -> np.ndarray:
+    """One number per edge of the half-edges h, from its two vertices (the same both ways)."""
+    k = h % 3
+    u, v = T[h // 3, k], T[h // 3, topology.NXT[k]]
+    return np.minimum(u, v) * n + np.maximum(u, v)
+
+
 def restore(P: np.ndarray, T: np.ndarray, twin: np.ndarray, anisotropy,
             candidates: np.ndarray | None = None, max_rounds: int | None = None,
             rewritten: list | None = None):
@@ -372,8 +381,11 @@ def restore(P: np.ndarray, T: np.ndarray, twin: np.ndarray, anisotropy,
     s, flipping terminates (Lawson): the rounds are capped only against a defect
     (FIRST_ROUNDS; a flip wave along a boundary of 20,000 points in a needle-thin metric takes
     thousands, each touching only the last round's triangles). A metric without s has no
-    global lifting, so flips may cycle: after METRIC_ROUNDS the triangulation is kept as it is
-    (the tensor field's certification decides its edges on the element means).
+    global lifting, so flips may cycle: past WATCH rounds an edge (its two vertices) flipped
+    away a second time is kept (a cycle of one flip a round along a raster's 1 : 10⁴ needle ran
+    to the cap, METRIC_ROUNDS, 24 times in one run: 21 of its 23 s), and after METRIC_ROUNDS
+    the triangulation is kept as it is (the tensor field's certification decides its edges on
+    the element means).
     `rewritten`: a list that receives, each round, the rows of T its flips rewrite.
     """
     if max_rounds is None:
@@ -384,7 +396,10 @@ def restore(P: np.ndarray, T: np.ndarray, twin: np.ndarray, anisotropy,
         g = np.asarray(anisotropy.grad(P), dtype=float)
     cand = _canonical(twin, candidates)
     flips, owned = 0, False       # after the first round T and twin are restore's own arrays
-    for _ in range(max_rounds):
+    flipped = kept = np.empty(0, np.int64)     # past WATCH, without s: edges flipped away, kept
+    for rounds in range(max_rounds):
+        if len(kept):
+            cand = cand[~np.isin(_edge_keys(T, cand, len(P)), kept)]
         if len(cand) == 0:
             return T, twin, flips
         viol = _violation(P, T, twin, cand, anisotropy, s, g)
@@ -402,6 +417,10 @@ def restore(P: np.ndarray, T: np.ndarray, twin: np.ndarray, anisotropy,
         tri = np.concatenate([h // 3, twin[h] // 3])
         if rewritten is not None:
             rewritten.append(tri)
+        if rounds >= WATCH and not anisotropy.potential:
+            key = _edge_keys(T, h, len(P))
+            kept = np.union1d(kept, key[np.isin(key, flipped)])
+            flipped = np.union1d(flipped, key)
         T, twin = topology.flip(T, twin, h, copy=not owned)
         flips, owned = flips + len(h), True
         touched = (3 * tri[:, None] + np.arange(3)).ravel()
