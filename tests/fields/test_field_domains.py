@@ -69,8 +69,9 @@ THIN = ([(2.0, 0.0), (0.6771195952285536, 0.0029929053513511363),
 @pytest.mark.parametrize("outline", THIN)
 def test_a_field_on_a_thin_polygon_is_refused_with_a_count_that_meshes(outline):
     """Polygons 150–300 times longer than wide, the points of their sides nearly in line: Qhull
-    folded their 2-D triangulation in the field's map, and the run was refused for a sharp corner (to be blunted) where a constant Q names the count to ask
-    for. Now the field's refusal names it too, and that count meshes."""
+    folded their 2-D triangulation in the field's map, and the run was refused for a sharp
+    corner (to be blunted) where a constant Q names the count to ask for. Now the field's
+    refusal names it too, and that count meshes."""
     domain, field = qmesh.Polygon(outline), qmesh.TensorField.principal(1.0, 1.0, 0.0)
     with pytest.raises(qmesh.QmeshError, match=r"ask for at least (\d+)") as refused:
         qmesh.mesh(domain, field, target_vertices=100, boundary_refinement=False)

@@ -250,7 +250,8 @@ def test_a_field_turning_a_right_angle_at_3600_to_1_is_certified():
     The repair's failing edges fell from 68 to 2, then rose and fell between 2 and 11 as splits
     made new ones; after 30 rounds without fewer than 2 it gave up with a warning. Later rounds
     reach 0: the repair gives up only after 120 rounds without a new fewest."""
-    r, angle = 0.0002732458799840147, "-68.85474116663886*x + 17.721927902971203*y + 170.11245267723086"
+    r = 0.0002732458799840147
+    angle = "-68.85474116663886*x + 17.721927902971203*y + 170.11245267723086"
     m, failing = meshed(UNIT, qmesh.TensorField.principal(1.0, r, angle), 348)
     assert failing == 0
 
