@@ -36,6 +36,14 @@ def cell_tensors(k1, k2, angle):
                      for j in range(ny)])
 
 
+def principal(k1, k2, angle):
+    """Q = R diag(k1, k2) Rᵀ on arrays, R the rotation by `angle` degrees (the reference's own)."""
+    a = np.radians(angle)
+    c, s = np.cos(a), np.sin(a)
+    return np.stack([np.stack([k1 * c * c + k2 * s * s, (k1 - k2) * c * s], -1),
+                     np.stack([(k1 - k2) * c * s, k1 * s * s + k2 * c * c], -1)], -2)
+
+
 def raster_mean_by_clipping(x, y, Q, tri):
     """Area-weighted mean of the cells' Q (ny, nx, 2, 2) over triangle `tri` (3, 2), computed in
     coordinates centred on the triangle (areas of small pieces far from the origin stay exact)."""

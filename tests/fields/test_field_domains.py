@@ -10,6 +10,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 import qmesh
+from tests.fields.reference import principal
 from tests.fields.test_field_mesh import ASKED, meshed, positive_off_diagonals, reference_means
 from tests.properties.invariants import defects
 from tests.properties.strategies import any_domain, options
@@ -49,10 +50,7 @@ def test_a_turning_field_on_any_domain_is_certified_or_says_what_fails(case):
     assert defects(m, rings) == []
 
     def f(x, y):
-        a = np.radians(tilt + 180.0 * turns * (x - cx) / size)
-        c, s = np.cos(a), np.sin(a)
-        return np.stack([np.stack([ratio * c * c + s * s, (ratio - 1) * c * s], -1),
-                         np.stack([(ratio - 1) * c * s, ratio * s * s + c * c], -1)], -2)
+        return principal(ratio, 1.0, tilt + 180.0 * turns * (x - cx) / size)
     ref = reference_means(f, m.points, m.triangles)
     assert positive_off_diagonals(m.points, m.triangles, ref) <= failing
     if ratio <= 100:

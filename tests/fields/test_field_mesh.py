@@ -12,7 +12,7 @@ from hypothesis import example, given, settings, strategies as st
 import qmesh
 from qmesh.conductivity.anisotropy import adj2
 from qmesh.geometry import topology
-from tests.fields.reference import _collapsed_rule, cell_tensors, clip, area
+from tests.fields.reference import _collapsed_rule, area, cell_tensors, clip, principal
 
 UNIT = qmesh.Polygon([(0, 0), (1, 0), (1, 1), (0, 1)])
 DELTA = 1e-3
@@ -174,11 +174,7 @@ def test_random_smooth_fields_are_certified_or_say_what_fails(ratio, turns, tilt
         return
 
     def f(x, y):
-        k1 = ratio * (1 + x * x)
-        a = np.radians(tilt + 180 * turns * x / aspect)
-        c, s = np.cos(a), np.sin(a)
-        return np.stack([np.stack([k1 * c * c + s * s, (k1 - 1) * c * s], -1),
-                         np.stack([(k1 - 1) * c * s, k1 * s * s + c * c], -1)], -2)
+        return principal(ratio * (1 + x * x), 1.0, tilt + 180 * turns * x / aspect)
     ref = reference_means(f, m.points, m.triangles)
     assert positive_off_diagonals(m.points, m.triangles, ref) <= failing
     if ratio <= 2000:
@@ -207,10 +203,10 @@ def test_random_rasters_are_certified_by_exact_clipping(seed, cells, target):
     assert failing == 0
 
 
-def offset_raster(seed):
-    """A raster over a rectangle anywhere (scale 1e-2…1e2, offset up to 3 sizes), nx, ny up to
-    40 cells of uneven widths, anisotropy up to 1e4 at any angle, and a target 150…5000."""
-    rng = np.random.default_rng(seed)
+def uneven_cells(rng):
+    """Cell edges x, y over a rectangle anywhere (scale 1e-2…1e2, offset up to 3 sizes), nx, ny
+    up to 40 cells of uneven widths; its corner, width and height, and an anisotropy up to 1e4
+    (the random search's draws, in its order)."""
     nx, ny = int(rng.integers(2, 41)), int(rng.integers(2, 41))
     scale = 10 ** rng.uniform(-2, 2)
     off = rng.uniform(-3, 3, 2) * scale * rng.choice([0, 1])
@@ -218,7 +214,15 @@ def offset_raster(seed):
     xe = np.cumsum(np.r_[0, rng.uniform(0.2, 1.0, nx) ** (2 if rng.random() < .5 else 1)])
     ye = np.cumsum(np.r_[0, rng.uniform(0.2, 1.0, ny) ** (2 if rng.random() < .5 else 1)])
     xe, ye = off[0] + W * xe / xe[-1], off[1] + H * ye / ye[-1]
-    ratio = 10 ** rng.uniform(0, 4)
+    return xe, ye, off, W, H, 10 ** rng.uniform(0, 4)
+
+
+def offset_raster(seed):
+    """A raster over its rectangle anywhere (`uneven_cells`), anisotropy up to 1e4 at any angle,
+    and a target 150…5000."""
+    rng = np.random.default_rng(seed)
+    xe, ye, _, _, _, ratio = uneven_cells(rng)
+    ny, nx = len(ye) - 1, len(xe) - 1
     rng.choice(3)                                  # the kind of field (kept: the draws in order)
     k1 = np.exp(rng.normal(0, rng.uniform(0, 2), (ny, nx)))
     k2 = k1 / 10 ** rng.uniform(0, np.log10(ratio), (ny, nx))
@@ -256,10 +260,8 @@ def test_a_field_turning_a_right_angle_at_3600_to_1_is_certified():
     assert failing == 0
 
     def f(x, y):
-        a = np.radians(-68.85474116663886 * x + 17.721927902971203 * y + 170.11245267723086)
-        c, s = np.cos(a), np.sin(a)
-        return np.stack([np.stack([c * c + r * s * s, (1 - r) * c * s], -1),
-                         np.stack([(1 - r) * c * s, s * s + r * c * c], -1)], -2)
+        return principal(1.0, r, -68.85474116663886 * x + 17.721927902971203 * y
+                         + 170.11245267723086)
     ref = reference_means(f, m.points, m.triangles)
     assert positive_off_diagonals(m.points, m.triangles, ref) == 0
 

@@ -8,22 +8,17 @@ import pytest
 import qmesh
 import qmesh.mesher.triangulate as triangulate
 from tests.fields.reference import cell_tensors
-from tests.fields.test_field_mesh import meshed, positive_off_diagonals, raster_reference_means
+from tests.fields.test_field_mesh import (meshed, positive_off_diagonals, raster_reference_means,
+                                          uneven_cells)
 
 
 def irregular_smooth_raster(seed):
     """A raster of 1 : 10⁴ or less whose angle turns smoothly, on irregular cell lines, and a
     star-shaped polygon inside it (the random search's generator, one of its cases)."""
     rng = np.random.default_rng(seed)
-    nx, ny = int(rng.integers(2, 41)), int(rng.integers(2, 41))
-    scale = 10 ** rng.uniform(-2, 2)
-    off = rng.uniform(-3, 3, 2) * scale * rng.choice([0, 1])
-    W, H = scale, scale * rng.uniform(0.3, 3)
-    xe = np.cumsum(np.r_[0, rng.uniform(0.2, 1.0, nx) ** (2 if rng.random() < .5 else 1)])
-    ye = np.cumsum(np.r_[0, rng.uniform(0.2, 1.0, ny) ** (2 if rng.random() < .5 else 1)])
-    xe, ye = off[0] + W * xe / xe[-1], off[1] + H * ye / ye[-1]
-    ratio = 10 ** rng.uniform(0, 4)
-    rng.choice(3)
+    xe, ye, off, W, H, ratio = uneven_cells(rng)
+    ny, nx = len(ye) - 1, len(xe) - 1
+    rng.choice(3)                                  # the kind of field (kept: the draws in order)
     X, Y = np.meshgrid((xe[:-1] + xe[1:]) / 2, (ye[:-1] + ye[1:]) / 2)
     angle = rng.uniform(0, 360) * ((X - off[0]) / W) + rng.uniform(0, 180) * ((Y - off[1]) / H)
     k1, k2 = np.ones((ny, nx)), np.full((ny, nx), 1 / ratio)
@@ -56,7 +51,8 @@ def test_a_flip_cycle_ends_a_few_rounds_past_watch(monkeypatch):
 
     monkeypatch.setattr(triangulate, "_violation", counted)
     monkeypatch.setattr(triangulate, "restore", restore)
-    monkeypatch.setattr("qmesh.mesher.stages.restore", restore)
+    for user in ("qmesh.mesher.stages", "qmesh.mesher.conform"):   # each call counted on its own
+        monkeypatch.setattr(f"{user}.restore", restore)
     x, y, k1, k2, angle, outline, target = irregular_smooth_raster(20067)
     m, failing = meshed(qmesh.Polygon(outline), qmesh.TensorField.from_raster(x, y, k1, k2, angle),
                         target)

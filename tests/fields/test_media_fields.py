@@ -17,18 +17,11 @@ import qmesh
 from qmesh.fields.certify import certify
 from qmesh.media import field_regions
 from tests.fields.media_reference import failing_edges, region_means
+from tests.fields.reference import principal
 from tests.fields.test_field_mesh import cell_tensors, meshed, raster_reference_means
 from tests.media.cases import check_mesh, media
 
 UNIT = [(0, 0), (1, 0), (1, 1), (0, 1)]
-
-
-def principal(k1, k2, angle):
-    """Q = R diag(k1, k2) Rᵀ on arrays, R the rotation by `angle` degrees (the reference's own)."""
-    a = np.radians(angle)
-    c, s = np.cos(a), np.sin(a)
-    return np.stack([np.stack([k1 * c * c + k2 * s * s, (k1 - k2) * c * s], -1),
-                     np.stack([(k1 - k2) * c * s, k1 * s * s + k2 * c * c], -1)], -2)
 
 
 def smooth_field(size, ratio, tilt, turn, wave):
