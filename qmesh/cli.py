@@ -19,33 +19,25 @@ exit status 2 and no output file.
 from __future__ import annotations
 
 import argparse
-import inspect
 import json
+import math
 import os
 import sys
 import time
 import warnings
 from contextlib import nullcontext
+from typing import TYPE_CHECKING
 
-import numpy as np
-
-from qmesh import CHAPTER_Q, __version__, io, measure
-from qmesh.conductivity.anisotropy import Anisotropy
-from qmesh.conductivity.field import TensorField
-from qmesh.domain import domain as domain_types
-from qmesh.domain.domain import Disk, Polygon
-from qmesh.mesher import sizing
+from qmesh import CHAPTER_Q, __version__
 from qmesh.errors import QmeshError, QmeshWarning
-from qmesh.geometry.folds import folded_triangles
-from qmesh.io.conductivity import PREFIX as RECORD_PREFIX, record_of
-from qmesh.mesher import budget
-from qmesh.meshing import iterate
-from qmesh.meshing import mesh as run_mesher
-from qmesh.domain.polygon_file import read_domain
-from qmesh.domain.region_file import conductivity_per_region, read_regions
-from qmesh.sweep.cli import add_dask_options, add_parser as add_sweep_parser
 
-_MESHER_DEFAULTS = {k: v.default for k, v in inspect.signature(iterate).parameters.items()}
+if TYPE_CHECKING:
+    from qmesh.conductivity.anisotropy import Anisotropy
+    from qmesh.conductivity.field import TensorField
+    from qmesh.domain.domain import Polygon
+
+# The mesher, NumPy and SciPy are imported by the commands that use them, so that
+# `qmesh --version` and a usage error answer at once.
 
 
 # --------------------------------------------------------------------------- inputs
@@ -79,6 +71,8 @@ def _vertex_count(text: str) -> int:
 def anisotropy_from(args) -> Anisotropy | TensorField:
     """--Q Q11 Q12 Q22, --principal K1 K2 ANGLE or --s TEXT, or a field (--field-Q, --field-principal,
     --raster); the chapter's Q = diag(0.1, 10) by default."""
+    from qmesh.conductivity.anisotropy import Anisotropy
+    from qmesh.conductivity.field import TensorField
     if getattr(args, "field_Q", None) is not None:
         return TensorField.from_expressions(*args.field_Q)
     if getattr(args, "field_principal", None) is not None:
@@ -104,6 +98,7 @@ DISK = 64
 
 def raster_rectangle(field: TensorField) -> Polygon:
     """The rectangle a raster's cells cover: where its conductivity is known."""
+    from qmesh.domain.domain import Polygon
     assert field.bounds is not None
     (x0, y0), (x1, y1) = field.bounds
     return Polygon([(x0, y0), (x1, y0), (x1, y1), (x0, y1)])
@@ -139,6 +134,11 @@ def disk_vertices(vb: int, anisotropy, *, target_vertices: int | None = None, si
     with neither a target nor a size the default size (the mean metric length of its edges,
     about 2π/vb of the circle's metric perimeter) fills the disk with about vb² vertices,
     computed here on a 64-gon whose edges are scaled down to the vb-gon's."""
+    import numpy as np
+
+    from qmesh.conductivity.anisotropy import Anisotropy
+    from qmesh.domain import domain as domain_types
+    from qmesh.mesher import sizing
     n = float(max(vb, target_vertices or 0))
     if target_vertices is not None or size is not None or vb <= 64:
         return n
@@ -162,7 +162,7 @@ def _stage(step) -> str:
 
 def _progress(step, out) -> None:
     s = step.stats
-    energy = f"{s.energy:.4e}" if np.isfinite(s.energy) else "n/a"       # a field has no s
+    energy = f"{s.energy:.4e}" if math.isfinite(s.energy) else "n/a"       # a field has no s
     print(f"iteration {step.iteration:3d}  {_stage(step):<11s}  N={s.n_vertices:<8d}  E={energy:<10s}  "
           f"min q={s.min_quality:.3f}", file=out, flush=True)
 
@@ -185,6 +185,15 @@ def _advance(bar, step) -> None:
 
 
 def cmd_mesh(args) -> int:
+    from qmesh import io, measure
+    from qmesh.conductivity.anisotropy import Anisotropy
+    from qmesh.conductivity.field import TensorField
+    from qmesh.domain.domain import Disk
+    from qmesh.domain.polygon_file import read_domain
+    from qmesh.domain.region_file import conductivity_per_region, read_regions
+    from qmesh.meshing import mesh as run_mesher
+    from qmesh.mesher import budget
+
     out = io.check_writable(args.output)
     anisotropy = anisotropy_from(args)
     raster_box = args.raster is not None and args.disk is None and not (args.polygon or args.regions)
@@ -271,6 +280,9 @@ def conductivity_for_report(args, mesh=None) -> tuple[Anisotropy | None, str]:
     the conductivity the file stores (`qmesh.io.read_anisotropy`); else the chapter's Q (2.95),
     which the caller must announce.
     """
+    from qmesh import io
+    from qmesh.conductivity.anisotropy import Anisotropy
+
     given = any(getattr(args, name, None) is not None for name in ("Q", "principal", "s"))
     if given:
         return anisotropy_from(args), "command line"
@@ -287,11 +299,15 @@ def _conductivity_text(anisotropy) -> str:
         return "element means Q11 Q12 Q22 per triangle"
     if isinstance(anisotropy, dict):           # a conductivity per region
         return "; ".join(f"region {tag}: {_conductivity_text(a)}" for tag, a in sorted(anisotropy.items()))
+    from qmesh.io.conductivity import PREFIX as RECORD_PREFIX, record_of
     record = record_of(anisotropy)
     return record[len(RECORD_PREFIX):] if record else anisotropy.label
 
 
 def cmd_report(args) -> int:
+    from qmesh import io, measure
+    from qmesh.geometry.folds import folded_triangles
+
     mesh = io.read(args.meshfile)
     anisotropy, source = conductivity_for_report(args, mesh)
     conductivity = _conductivity_text(anisotropy)
@@ -356,6 +372,15 @@ def _add_anisotropy(p, fields: bool = False) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The `qmesh` command's parser with every subcommand (it imports the file formats, the
+    mesher's defaults and the sweep's options to describe them)."""
+    import inspect
+
+    from qmesh import io
+    from qmesh.meshing import iterate
+    from qmesh.sweep.cli import add_dask_options, add_parser as add_sweep_parser
+
+    defaults = {k: v.default for k, v in inspect.signature(iterate).parameters.items()}
     parser = argparse.ArgumentParser(prog="qmesh", description="Triangle meshes adapted to an anisotropic "
                                      "conductivity Q (the Q-adapted meshes of Algorithm 2.1).")
     parser.add_argument("--version", action="version", version=f"qmesh {__version__}")
@@ -385,7 +410,7 @@ def build_parser() -> argparse.ArgumentParser:
     for flag, kind, meta, text in (("--alpha", float, "A", "relaxation of the vertex step"),
                                    ("--seed", _non_negative_int, "S", "random seed"),
                                    ("--max-iterations", int, "K", "iteration cap")):
-        default = _MESHER_DEFAULTS[flag[2:].replace("-", "_")]
+        default = defaults[flag[2:].replace("-", "_")]
         p.add_argument(flag, type=kind, default=default, metavar=meta, help=f"{text} (default: {default})")
     p.add_argument("-o", "--output", required=True, metavar="OUT", help="output mesh file")
     p.add_argument("--progress", action="store_true", help="print a line per stage on stderr, also when it is not "
@@ -427,8 +452,22 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _asks_version(argv) -> bool:
+    """True when `qmesh --version` (or an abbreviation, as argparse takes) comes before any
+    subcommand: answered before `build_parser`, which imports the mesher to describe it."""
+    for arg in argv:
+        if not isinstance(arg, str) or not arg.startswith("-") or arg in ("-h", "--help", "--"):
+            return False
+        if len(arg) > 2 and "--version".startswith(arg):
+            return True
+    return False
+
+
 def main(argv=None) -> int:
     """Run the command line; returns the exit status (2 for bad input, with one error line)."""
+    if _asks_version(sys.argv[1:] if argv is None else argv):
+        print(f"qmesh {__version__}")
+        return 0
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
