@@ -294,14 +294,42 @@ def conductivity_for_report(args, mesh=None) -> tuple[Anisotropy | None, str]:
     return Anisotropy.constant(CHAPTER_Q), "default"
 
 
-def _conductivity_text(anisotropy) -> str:
+def _conductivity_text(anisotropy, exact: bool = True) -> str:
+    """The conductivity as the report names it: a constant Q's entries exact (as the file stores
+    them, for --json) or to 6 significant digits (the table)."""
     if anisotropy is None:                     # the element means stored per triangle
         return "element means Q11 Q12 Q22 per triangle"
     if isinstance(anisotropy, dict):           # a conductivity per region
-        return "; ".join(f"region {tag}: {_conductivity_text(a)}" for tag, a in sorted(anisotropy.items()))
-    from qmesh.io.conductivity import PREFIX as RECORD_PREFIX, record_of
-    record = record_of(anisotropy)
-    return record[len(RECORD_PREFIX):] if record else anisotropy.label
+        return "; ".join(f"region {tag}: {_conductivity_text(a, exact)}"
+                         for tag, a in sorted(anisotropy.items()))
+    from qmesh.io.conductivity import to_json
+    value = to_json(anisotropy)               # {"Q": 2×2}, {"s": text}, or None for a callable s
+    if value is None:
+        return anisotropy.label
+    if "s" in value:
+        return f"s(x, y) = {value['s']}"
+    (a, b), (c, d) = (map(repr if exact else _short, row) for row in value["Q"])
+    return f"Q = [[{a}, {b}], [{c}, {d}]]"
+
+
+def _short(value: float) -> str:
+    """A number to 6 significant digits, written as Python writes floats (0.1, 10.0, 3.08941):
+    a Q from --principal is a rotation's cos and sin, 17 digits that say nothing more."""
+    return repr(float(f"{value:.6g}"))
+
+
+def _table_value(key: str, value) -> str:
+    """One value of the report's table: 6 significant digits, "n/a" for None; a min_q_ij_relative
+    within the shares' tolerance below 0 (−Q_RTOL ≤ value < 0, rounding in the assembly) is
+    printed as 0, as the shares count it (`--json` gives the value as computed)."""
+    from qmesh.measure import Q_RTOL
+    if value is None:
+        return "n/a"
+    if not isinstance(value, float):
+        return str(value)
+    if key.startswith("min_q_ij_relative") and -Q_RTOL <= value < 0:
+        return "0"
+    return f"{value:.6g}"
 
 
 def cmd_report(args) -> int:
@@ -310,22 +338,20 @@ def cmd_report(args) -> int:
 
     mesh = io.read(args.meshfile)
     anisotropy, source = conductivity_for_report(args, mesh)
-    conductivity = _conductivity_text(anisotropy)
     where = {"file": "stored in the file", "command line": "from the command line",
              "means": "stored in the file; no s, so no energy or interpolation errors",
              "default": "the chapter's default: the file stores none"}[source]
     rep = measure.report(mesh, anisotropy)
     rep["folded_triangles"] = folded_triangles(mesh)  # a file's folds and overlaps, not re-oriented away
     if args.json:
-        print(json.dumps({"file": str(args.meshfile), "conductivity": conductivity,
+        print(json.dumps({"file": str(args.meshfile), "conductivity": _conductivity_text(anisotropy),
                           "conductivity_source": source, **rep}, indent=2))
         return 0
     why = rep.pop("kappa2_undefined", None)
     width = max(map(len, rep))
-    print(f"{args.meshfile}: conductivity {conductivity} ({where})")
+    print(f"{args.meshfile}: conductivity {_conductivity_text(anisotropy, exact=False)} ({where})")
     for key, value in rep.items():
-        text = "n/a" if value is None else f"{value:.6g}" if isinstance(value, float) else str(value)
-        print(f"  {key:<{width}}  {text}")
+        print(f"  {key:<{width}}  {_table_value(key, value)}")
     if why:                                 # beside the table, which stays two columns
         print(f"qmesh: kappa2 is undefined: {why}", file=sys.stderr)
     return 0
@@ -423,7 +449,9 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Print qmesh.measure.report of a mesh file, written by qmesh or any other "
                        "program. Without --Q/--principal it measures with the conductivity the file stores "
                        "(qmesh mesh stores it), else with the chapter's Q = diag(0.1, 10) and a note; "
-                       "the 'conductivity' line says which.")
+                       "the 'conductivity' line says which. The shares of q_ij >= 0 count q_ij >= -1e-9 "
+                       "max|q_ij| (rounding), and a min_q_ij_relative in that band prints as 0 "
+                       "(--json: as computed).")
     p.add_argument("meshfile", metavar="MESHFILE")
     _add_anisotropy(p)
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")

@@ -66,3 +66,34 @@ def test_report_of_a_file_with_a_broken_record_is_one_error_line(tmp_path, capsy
     code, out, err = run(capsys, "report", path)
     assert code == 2 and out == ""
     assert err.startswith("qmesh: error: ") and "stored conductivity is not valid" in err and err.count("\n") == 1
+
+
+def test_report_text_gives_a_rotated_q_to_six_digits(rotated_mesh_file, capsys):
+    """--principal's Q is a rotation's cosines and sines: the table shows 6 significant digits
+    (25.75, −99·cos 30°·sin 30° = −42.8683, 75.25); --json keeps the exact record."""
+    code, out, _ = run(capsys, "report", rotated_mesh_file, "--principal", 1, 100, 30)
+    first = out.splitlines()[0]
+    assert code == 0 and first.endswith(": conductivity Q = [[25.75, -42.8683], [-42.8683, 75.25]] "
+                                        "(from the command line)"), first
+    code, out, _ = run(capsys, "report", rotated_mesh_file, "--principal", 1, 100, 30, "--json")
+    exact = file_conductivity.record_of(qmesh.Anisotropy.principal(1, 100, 30)).split(": ", 1)[1]
+    assert json.loads(out)["conductivity"] == exact and len(exact) > len(first.split("conductivity ")[1])
+
+
+def test_a_min_q_within_the_shares_tolerance_prints_as_zero(rotated_mesh_file, capsys, monkeypatch):
+    """A min_q_ij_relative of −5e-15 (rounding) is counted as q_ij ≥ 0 by the shares: the table
+    prints it as 0 beside a share of 1, and prints −2e-9, beyond the tolerance, as it is."""
+    real = qmesh.measure.report
+
+    def rounded(*a, **k):
+        rep = real(*a, **k)
+        rep.update(min_q_ij_relative=-5e-15, min_q_ij_relative_boundary=-2e-9)
+        return rep
+
+    monkeypatch.setattr(qmesh.measure, "report", rounded)
+    code, out, _ = run(capsys, "report", rotated_mesh_file)
+    rows = dict(line.split() for line in out.splitlines()[1:])
+    assert code == 0 and rows["q_nonnegative_fraction"] == "1"
+    assert rows["min_q_ij_relative"] == "0" and rows["min_q_ij_relative_boundary"] == "-2e-09"
+    code, out, _ = run(capsys, "report", rotated_mesh_file, "--json")
+    assert json.loads(out)["min_q_ij_relative"] == -5e-15
