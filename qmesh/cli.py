@@ -9,7 +9,8 @@
                  (default Q: the one stored in the file)
     qmesh table  [--vb VB ...] [--out DIR] [--peers] [--solve] [--workers N | --scheduler ADDRESS]
     qmesh setup  [--check] [--all]
-    qmesh sweep  STUDY -o RESULTS [--scheduler ADDRESS | --workers N]   (qmesh.sweep.cli)
+    qmesh sweep  STUDY -o RESULTS [--scheduler ADDRESS | --workers N] [--meshes DIR] [--max-jobs N]
+                 [--quiet]   (qmesh.sweep.cli)
 
 Defaults are the chapter's case: Q = diag(0.1, 10) (2.95) on the regular 64-gon. Bad input
 (any QmeshError, or an OSError on a file) ends with one line `qmesh: error: ...` on stderr,
