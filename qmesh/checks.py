@@ -146,6 +146,21 @@ def choice(value: object, name: str, options: Iterable[str]) -> str:
     return value
 
 
+_KINDS = {"b": "a boolean", "c": "a complex", "M": "a datetime64", "m": "a timedelta64",
+          "U": "a string", "S": "a bytes", "O": "an object", "V": "a structured"}
+
+
+def real_dtype(dtype: Any, name: str) -> np.dtype:
+    """`dtype` when it holds real numbers (integers or floats); else QmeshError naming `name` and
+    what it holds ("a complex array (dtype complex128)"): a cast would drop an imaginary part,
+    turn dates into counts or booleans into 0 and 1 without a word."""
+    dtype = np.dtype(dtype)
+    if dtype.kind not in "iuf" or dtype.names is not None:
+        raise QmeshError(f"{name} must hold real numbers, got {_KINDS.get(dtype.kind, 'a non-numeric')} "
+                         f"array (dtype {dtype})")
+    return dtype
+
+
 def real_array(value: ArrayLike, name: str, shape: tuple[int | None, ...]) -> NDArray[np.float64]:
     """`value` as a finite float array of `shape` (None in `shape` matches any length).
 
