@@ -79,7 +79,8 @@ def anisotropy_from(args) -> Anisotropy | TensorField:
     if getattr(args, "field_principal", None) is not None:
         return TensorField.principal(*args.field_principal)
     if getattr(args, "raster", None) is not None:
-        return raster_from(args.raster)
+        from qmesh.raster_file import read_raster
+        return read_raster(args.raster)
     if args.Q is not None:
         q11, q12, q22 = args.Q
         return Anisotropy.constant([[q11, q12], [q12, q22]])
@@ -88,9 +89,6 @@ def anisotropy_from(args) -> Anisotropy | TensorField:
     if args.s is not None:
         return Anisotropy.from_expression(args.s)
     return Anisotropy.constant(CHAPTER_Q)
-
-
-RASTER_KEYS = ("x", "y", "k1", "k2")
 
 
 DISK = 64
@@ -103,30 +101,6 @@ def raster_rectangle(field: TensorField) -> Polygon:
     assert field.bounds is not None
     (x0, y0), (x1, y1) = field.bounds
     return Polygon([(x0, y0), (x1, y0), (x1, y1), (x0, y1)])
-
-
-def raster_from(path: str) -> TensorField:
-    """A raster field from a NumPy .npz file holding arrays x (nx+1,), y (ny+1,) (cell edges),
-    k1, k2 (ny, nx) and optionally angle (ny, nx; degrees, default 0): what numpy.savez writes
-    from the arrays a MODFLOW or geostatistics script already holds. Read without pickles."""
-    import numpy as np
-    try:
-        data = np.load(path, allow_pickle=False)
-    except (ValueError, EOFError):
-        data = None
-    if not isinstance(data, np.lib.npyio.NpzFile):
-        raise QmeshError(f"{path}: not a NumPy .npz file (numpy.savez writes one from named "
-                         "arrays x, y, k1, k2, angle)")
-    with data:
-        files = list(data.files)
-        arrays = {k: data[k] for k in (*RASTER_KEYS, "angle") if k in files}
-    missing = [k for k in RASTER_KEYS if k not in arrays]
-    if missing:
-        raise QmeshError(f"{path}: a raster file needs arrays {', '.join(RASTER_KEYS)} (and "
-                         f"optionally angle); it has no {', '.join(missing)} (it has "
-                         f"{', '.join(files) or 'no arrays'})")
-    return TensorField.from_raster(arrays["x"], arrays["y"], arrays["k1"], arrays["k2"],
-                                   arrays.get("angle", 0.0))
 
 
 def disk_vertices(vb: int, anisotropy, *, target_vertices: int | None = None, size: float | None = None) -> float:

@@ -1,6 +1,9 @@
 """`qmesh mesh --field-Q / --field-principal / --raster`: a field from the command line, its mesh
 file carrying the element means `qmesh report` measures with; bad rasters refused in one line."""
 
+import io
+import zipfile
+
 import numpy as np
 import pytest
 
@@ -91,6 +94,52 @@ def test_bad_raster_files_are_one_line(tmp_path, square, capsys, arrays, message
     err = capsys.readouterr().err
     assert err.startswith("qmesh: error:") and message in err and err.count("\n") == 1
     assert not (tmp_path / "x.vtu").exists()
+
+
+def _npz(path, members, compress=zipfile.ZIP_STORED):
+    """A .npz written member by member: name → the bytes of its .npy, or an array (numpy's own)."""
+    with zipfile.ZipFile(path, "w", compress) as z:
+        for name, value in members.items():
+            if isinstance(value, np.ndarray):
+                buffer = io.BytesIO()
+                np.lib.format.write_array(buffer, value, allow_pickle=True)
+                value = buffer.getvalue()
+            z.writestr(f"{name}.npy", value)
+
+
+def _header_only(shape, descr="<f8", data=b""):
+    """The bytes of a .npy that declares `shape` and `descr` and holds `data`."""
+    buffer = io.BytesIO()
+    np.lib.format.write_array_header_1_0(buffer, {"descr": descr, "fortran_order": False, "shape": shape})
+    return buffer.getvalue() + data
+
+
+EDGES = {"x": np.linspace(0, 1, 5), "y": np.linspace(0, 1, 4), "k2": np.ones((3, 4))}
+
+
+@pytest.mark.parametrize("k1, message", [
+    (np.array([[object()] * 4] * 3, dtype=object), "array k1 must hold real numbers, got an object array"),
+    (_header_only((3, 4), data=b"\0" * 40), "array k1 is truncated or corrupt"),
+    (_header_only((-3, 4)), "array k1 declares the negative shape (-3, 4)"),
+    (_header_only((2**62, 2**62)), "the raster's arrays declare 2.13e+37 cells"),
+    (_header_only((100_000, 100_000), data=b"\0" * 1000), "declare 1e+10 cells, which need about"),
+    (np.ones((3, 4), dtype=complex), "got a complex array"),
+    (np.ones((3, 4), dtype="datetime64[s]"), "got a datetime64 array"),
+    (b"not a .npy", "array k1 has no readable .npy header"),
+])
+def test_hostile_raster_members_are_refused_from_their_headers(tmp_path, square, capsys, k1, message,
+                                                                 monkeypatch):
+    """Each member's header declares its shape and dtype before its data: a raster file that
+    would inflate past the memory budget, hold objects, or end early is one error line, exit 2,
+    and its data is never read (read_array is not called for a member refused by its header)."""
+    read, real = [], np.lib.format.read_array
+    monkeypatch.setattr(np.lib.format, "read_array", lambda f, **k: read.append(1) or real(f, **k))
+    path = tmp_path / "hostile.npz"
+    _npz(path, {**EDGES, "k1": k1})
+    assert main(["mesh", "--raster", str(path), "--polygon", square, "-o", str(tmp_path / "x.vtu")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"qmesh: error: {path}: ") and message in err and err.count("\n") == 1, err
+    assert "truncated" in message or read == []
 
 
 def test_a_bad_field_text_names_its_component(tmp_path, capsys):
