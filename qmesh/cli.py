@@ -206,7 +206,11 @@ def cmd_mesh(args) -> int:
     seconds = time.perf_counter() - start
     last = steps[-1]
     field = isinstance(anisotropy, TensorField)      # measured and stored by its element means
-    io.write(out, mesh, anisotropy=None if field else anisotropy)   # one Q, or one per region
+    held = anisotropy.values() if isinstance(anisotropy, dict) else [anisotropy]
+    # one Q, or one per region, as JSON; with a field anywhere, the element means alone (a field
+    # has no stored form; the file keeps the means, which the mesh carries)
+    stored = None if any(isinstance(a, TensorField) for a in held) else anisotropy
+    io.write(out, mesh, anisotropy=stored)
     given = None if field else anisotropy
     q = measure.quality(mesh, given)
     # with no interior vertex there is no Dirichlet matrix whose signs q_ij would matter: n/a

@@ -96,6 +96,31 @@ def test_bad_raster_files_are_one_line(tmp_path, square, capsys, arrays, message
     assert not (tmp_path / "x.vtu").exists()
 
 
+REGIONS = ('{"type": "FeatureCollection", "features": ['
+           '{"type": "Feature", "properties": {"region": 0}, "geometry": {"type": "Polygon", '
+           '"coordinates": [[[0, 0], [1, 0], [1, 1], [0, 1], [0, 0]]]}}, '
+           '{"type": "Feature", "properties": {"region": "lens", "Q": [10, 0, 1]}, "geometry": '
+           '{"type": "Polygon", "coordinates": [[[0.3, 0.3], [0.6, 0.3], [0.6, 0.6], [0.3, 0.6], [0.3, 0.3]]]}}]}')
+
+
+def test_a_field_with_regions_writes_its_file_with_the_means(tmp_path, capsys):
+    """--field-Q on a region file: the regions without a Q of their own hold the field; the
+    mesh is written, with each triangle's mean (the field's, or the region's constant Q)."""
+    regions, out = tmp_path / "r.geojson", tmp_path / "fr.vtu"
+    regions.write_text(REGIONS)
+    code = main(["mesh", "--field-Q", "1 + x", "0", "1", "--regions", str(regions),
+                 "--target-vertices", "300", "-o", str(out)])
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    assert "interface 100.0%" in captured.out
+    m = qmesh.io.read(out)
+    lens = m.region_tags == 1
+    assert lens.any() and (~lens).any()
+    np.testing.assert_allclose(m.conductivity[lens], np.broadcast_to([[10, 0], [0, 1]], (lens.sum(), 2, 2)))
+    field = qmesh.TensorField.from_expressions("1 + x", 0, 1)
+    np.testing.assert_allclose(m.conductivity[~lens], field.means(m.points, m.triangles[~lens]), rtol=1e-9)
+
+
 def _npz(path, members, compress=zipfile.ZIP_STORED):
     """A .npz written member by member: name → the bytes of its .npy, or an array (numpy's own)."""
     with zipfile.ZipFile(path, "w", compress) as z:
