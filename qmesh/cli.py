@@ -311,12 +311,29 @@ def _table_value(key: str, value) -> str:
     return f"{value:.6g}"
 
 
+def _check_means(Q, path) -> None:
+    """QmeshError unless every stored element mean is positive definite, as `qmesh mesh`
+    refuses a Q that is not: a report on a zero or indefinite conductivity would count its
+    q_ij and print figures that mean nothing."""
+    import numpy as np
+    q11, q12, q22 = Q[:, 0, 0], 0.5 * (Q[:, 0, 1] + Q[:, 1, 0]), Q[:, 1, 1]
+    bad = ~((q11 > 0) & (q22 > 0) & (q11 * q22 - q12 * q12 > 0))
+    if bad.any():
+        k = int(np.flatnonzero(bad)[0])
+        raise QmeshError(f"{path}: the element means it stores (cell data Q11 Q12 Q22) must be "
+                         f"symmetric positive definite; {int(bad.sum())} of {len(Q)} triangles' are "
+                         f"not, the first triangle {k}'s: Q = [[{q11[k]:g}, {q12[k]:g}], "
+                         f"[{q12[k]:g}, {q22[k]:g}]]")
+
+
 def cmd_report(args) -> int:
     from qmesh import io, measure
     from qmesh.geometry.folds import folded_triangles
 
     mesh = io.read(args.meshfile)
     anisotropy, source = conductivity_for_report(args, mesh)
+    if source == "means":
+        _check_means(mesh.conductivity, args.meshfile)
     where = {"file": "stored in the file", "command line": "from the command line",
              "means": "stored in the file; no s, so no energy or interpolation errors",
              "default": "the chapter's default: the file stores none"}[source]

@@ -97,3 +97,22 @@ def test_a_min_q_within_the_shares_tolerance_prints_as_zero(rotated_mesh_file, c
     assert rows["min_q_ij_relative"] == "0" and rows["min_q_ij_relative_boundary"] == "-2e-09"
     code, out, _ = run(capsys, "report", rotated_mesh_file, "--json")
     assert json.loads(out)["min_q_ij_relative"] == -5e-15
+
+
+@pytest.mark.parametrize("bad", [[[0.0, 0.0], [0.0, 0.0]], [[1.0, 2.0], [2.0, 1.0]], [[-1.0, 0.0], [0.0, 1.0]]])
+def test_report_refuses_stored_means_that_are_not_positive_definite(tmp_path, capsys, delaunay_mesh, bad):
+    """Means Q11 Q12 Q22 written by any program are measured only when each is SPD, as qmesh
+    mesh refuses such a Q: zeros, an indefinite or a negative one is one error line naming the
+    triangle, exit 2."""
+    Q = np.broadcast_to(np.eye(2), (delaunay_mesh.n_triangles, 2, 2)).copy()
+    Q[3] = bad
+    path = tmp_path / "means.vtu"
+    io.write(path, qmesh.Mesh(delaunay_mesh.points, delaunay_mesh.triangles, delaunay_mesh.fixed,
+                              conductivity=Q))
+    code, out, err = run(capsys, "report", path)
+    assert code == 2 and out == "" and err.count("\n") == 1
+    assert err.startswith(f"qmesh: error: {path}: the element means") and "the first triangle 3's" in err
+    Q[3] = np.eye(2)
+    io.write(path, qmesh.Mesh(delaunay_mesh.points, delaunay_mesh.triangles, delaunay_mesh.fixed,
+                              conductivity=Q))
+    assert run(capsys, "report", path)[0] == 0
