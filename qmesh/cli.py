@@ -23,6 +23,7 @@ import argparse
 import json
 import math
 import os
+import re
 import sys
 import time
 import warnings
@@ -198,19 +199,21 @@ def cmd_mesh(args) -> int:
 
     # the API's mesh(): the same checks of the options and of the vertex count it lands on;
     # its thin-domain warning is kept and printed below as one line (not measured again)
-    with warnings.catch_warnings(record=True) as caught, nullcontext() if bar is None else bar:
+    # the writer's too (a format that drops the element means warns): one line each, or none
+    with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", QmeshWarning)
-        mesh = run_mesher(domain, anisotropy, target_vertices=args.target_vertices, size=args.size,
-                          alpha=args.alpha, max_iterations=args.max_iterations, seed=args.seed,
-                          progress=on_step)
-    seconds = time.perf_counter() - start
+        with nullcontext() if bar is None else bar:
+            mesh = run_mesher(domain, anisotropy, target_vertices=args.target_vertices,
+                              size=args.size, alpha=args.alpha, max_iterations=args.max_iterations,
+                              seed=args.seed, progress=on_step)
+        seconds = time.perf_counter() - start
+        held = anisotropy.values() if isinstance(anisotropy, dict) else [anisotropy]
+        # one Q, or one per region, as JSON; with a field anywhere, the element means alone (a
+        # field has no stored form; the file keeps the means, which the mesh carries)
+        stored = None if any(isinstance(a, TensorField) for a in held) else anisotropy
+        io.write(out, mesh, anisotropy=stored)
     last = steps[-1]
     field = isinstance(anisotropy, TensorField)      # measured and stored by its element means
-    held = anisotropy.values() if isinstance(anisotropy, dict) else [anisotropy]
-    # one Q, or one per region, as JSON; with a field anywhere, the element means alone (a field
-    # has no stored form; the file keeps the means, which the mesh carries)
-    stored = None if any(isinstance(a, TensorField) for a in held) else anisotropy
-    io.write(out, mesh, anisotropy=stored)
     given = None if field else anisotropy
     q = measure.quality(mesh, given)
     # with no interior vertex there is no Dirichlet matrix whose signs q_ij would matter: n/a
@@ -371,15 +374,34 @@ def cmd_table(args) -> int:
 
 # --------------------------------------------------------------------------- parser
 
+class _Parser(argparse.ArgumentParser):
+    """argparse, except that an argument starting with "-" that no option name can be — it holds
+    an operator, a bracket or a point: "-1+x", "-x**2", "-exp(y)" — is a value, as argparse
+    already takes "-2" or an argument holding a space. The subcommands' parsers are of this
+    class too (argparse makes them of their parent's)."""
+
+    def _parse_optional(self, arg_string):
+        short = [o for o in self._option_string_actions if not o.startswith("--")]   # -o OUT, -oOUT
+        if (arg_string.startswith("-") and re.search(r"[^\w-]", arg_string.split("=", 1)[0])
+                and not any(arg_string.startswith(o) for o in short)):
+            return None
+        return super()._parse_optional(arg_string)
+
+
+FIELD_TEXT = ("a text may start with - (e.g. '-1 + x', '-x**2'); write a lone -x as '(-x)'")
+"""What the field options' help says about texts starting with "-"."""
+
+
 def _add_anisotropy(p, fields: bool = False) -> None:
     g = p.add_mutually_exclusive_group()
     if fields:
         g.add_argument("--field-Q", nargs=3, metavar=("Q11", "Q12", "Q22"),
                        help="a conductivity field: each entry a number or a text in x, y (as --s), "
-                       "e.g. --field-Q '1 + x**2' 0 2; the mesh is certified q_ij >= 0 on its element means")
+                       "e.g. --field-Q '1 + x**2' 0 2; the mesh is certified q_ij >= 0 on its element means; "
+                       + FIELD_TEXT)
         g.add_argument("--field-principal", nargs=3, metavar=("K1", "K2", "ANGLE"),
                        help="a conductivity field by principal values and the angle of K1's axis in "
-                       "degrees, each a number or a text in x, y")
+                       "degrees, each a number or a text in x, y; " + FIELD_TEXT)
         g.add_argument("--raster", metavar="FILE.npz",
                        help="a raster field: a NumPy .npz with arrays x (nx+1), y (ny+1) (cell edges), "
                        "k1, k2 and optionally angle (ny, nx), MODFLOW's K, K22, ANGLEX")
@@ -403,7 +425,7 @@ def build_parser() -> argparse.ArgumentParser:
     from qmesh.sweep.cli import add_dask_options, add_parser as add_sweep_parser
 
     defaults = {k: v.default for k, v in inspect.signature(iterate).parameters.items()}
-    parser = argparse.ArgumentParser(prog="qmesh", description="Triangle meshes adapted to an anisotropic "
+    parser = _Parser(prog="qmesh", description="Triangle meshes adapted to an anisotropic "
                                      "conductivity Q (the Q-adapted meshes of Algorithm 2.1).")
     parser.add_argument("--version", action="version", version=f"qmesh {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")

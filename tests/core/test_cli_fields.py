@@ -2,6 +2,8 @@
 file carrying the element means `qmesh report` measures with; bad rasters refused in one line."""
 
 import io
+import subprocess
+import sys
 import zipfile
 
 import numpy as np
@@ -119,6 +121,40 @@ def test_a_field_with_regions_writes_its_file_with_the_means(tmp_path, capsys):
     np.testing.assert_allclose(m.conductivity[lens], np.broadcast_to([[10, 0], [0, 1]], (lens.sum(), 2, 2)))
     field = qmesh.TensorField.from_expressions("1 + x", 0, 1)
     np.testing.assert_allclose(m.conductivity[~lens], field.means(m.points, m.triangles[~lens]), rtol=1e-9)
+
+
+@pytest.mark.parametrize("ext", [".mesh", ".obj"])
+def test_a_format_without_cell_data_warns_in_one_line_and_quiet_silences_it(tmp_path, ext):
+    """The writer's warning (the means are dropped) is the command's own one line, and
+    --quiet silences it (a fresh interpreter: the warning is printed as a user sees it)."""
+    out = tmp_path / f"f{ext}"
+    command = [sys.executable, "-m", "qmesh", "mesh", "--field-Q", "1 + x", "0", "1",
+               "--target-vertices", "150", "-o", str(out)]
+    loud = subprocess.run(command, capture_output=True, text=True, timeout=120)
+    assert loud.returncode == 0 and out.exists()
+    assert loud.stderr.startswith("qmesh: warning: ") and loud.stderr.count("\n") == 1, loud.stderr
+    assert "element means" in loud.stderr and "QmeshWarning" not in loud.stderr
+    quiet = subprocess.run(command + ["--quiet"], capture_output=True, text=True, timeout=120)
+    assert quiet.returncode == 0 and quiet.stderr == ""
+
+
+@pytest.mark.parametrize("option, values", [
+    ("--field-principal", ["2", "1", "-30+10*x"]),
+    ("--field-Q", ["1", "-0.2*x", "1"]),
+    ("--field-Q", ["-x**2+2", "0", "1"]),
+])
+def test_a_field_text_starting_with_a_minus_is_a_value(tmp_path, square, capsys, option, values):
+    out = tmp_path / "minus.vtu"
+    assert main(["mesh", option, *values, "--polygon", square, "--target-vertices", "150",
+                 "-o", str(out)]) == 0, capsys.readouterr().err
+    assert qmesh.io.read(out).conductivity is not None
+    assert main(["mesh", f"-o{tmp_path / 'short.vtu'}", "--target-vertices", "150"]) == 0   # -oOUT still
+
+
+def test_the_field_options_help_says_how_to_write_a_leading_minus(capsys):
+    assert main(["mesh", "--help"]) == 0
+    text = " ".join(capsys.readouterr().out.split())
+    assert text.count("a text may start with - (e.g. '-1 + x', '-x**2'); write a lone -x as '(-x)'") == 2
 
 
 def _npz(path, members, compress=zipfile.ZIP_STORED):
