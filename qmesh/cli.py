@@ -178,6 +178,7 @@ def cmd_mesh(args) -> int:
         budget.check(disk_vertices(args.disk, anisotropy, target_vertices=args.target_vertices,
                                           size=args.size),
                      varying=not (isinstance(anisotropy, Anisotropy) and anisotropy.is_constant),
+                     field=isinstance(anisotropy, TensorField),
                      what=f"--disk {args.disk}" + ("" if args.target_vertices or args.size else " at the default size"))
     domain = (read_domain(args.polygon) if args.polygon else
               raster_rectangle(anisotropy) if raster_box else Disk(args.disk))

@@ -79,5 +79,6 @@ def say(m: Mesh, cert: Certificate, target: int | None, stacklevel: int = 3) -> 
                       "the mesh resolves", QmeshWarning, stacklevel=stacklevel)
     if cert.remaining:
         warnings.warn(f"{cert.remaining} edges still have q_ij < 0 with the element means after "
-                      f"{cert.rounds} rounds of flips and splits (worst q_ij / sum|q_ij^T| = "
-                      f"{cert.worst:.2e}); ask for more vertices", QmeshWarning, stacklevel=stacklevel)
+                      f"{cert.rounds} rounds of flips and splits (worst (q_ij - bound) / "
+                      f"(sum|q_ij^T| + bound) = {cert.worst:.2e}, the bound the means' error); ask "
+                      "for more vertices", QmeshWarning, stacklevel=stacklevel)
