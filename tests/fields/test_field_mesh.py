@@ -299,3 +299,17 @@ def test_the_memory_refusal_of_a_field_says_field(monkeypatch):
     with pytest.raises(qmesh.QmeshError, match=r"^4e\+07 vertices with a field need about") as e:
         qmesh.mesh(qmesh.Disk(16), field, target_vertices=40_000_000)
     assert "varying s" not in str(e.value)
+
+
+@pytest.mark.parametrize("options, message", [
+    ({"size": float("inf")}, "size must be a finite number > 0, got inf"),
+    ({"size": 0.0}, "size must be a finite number > 0, got 0.0"),
+    ({"size": "a"}, "size must be a finite number > 0, got 'a'"),
+    ({"target_vertices": 10**400}, "target_vertices = 1e+300 asks for"),
+])
+def test_a_fields_options_are_checked_before_its_smoothing_reads_them(options, message):
+    """Not "half_width must be finite" (the smoothing's own argument, which no one gave), a
+    ValueError or an OverflowError: the option, named as for a constant Q."""
+    raster = qmesh.TensorField.from_raster([0, 1], [0, 1], [[2.0]], 1.0)
+    with pytest.raises(qmesh.QmeshError, match=re.escape(message)):
+        qmesh.mesh(qmesh.Polygon([(0, 0), (1, 0), (1, 1), (0, 1)]), raster, **options)
