@@ -28,6 +28,7 @@ LN2_LO = 1.90821492927058770002e-10
 INV_LN2 = 1.44269504088896338700e+00
 SQRT_HALF = 0.70710678118654752440
 HALF_PI = 1.57079632679489661923
+_ROOTS = [1.0, math.sqrt(math.sqrt(2.0)), math.sqrt(2.0), math.sqrt(2.0) * math.sqrt(math.sqrt(2.0))]  # 2^(j/4)
 # Taylor coefficients, each a correctly rounded quotient of integers
 _EXP = [1.0 / math.factorial(n) for n in range(14)]                 # |r| ≤ ln2/2: error < 1e-17
 _ATANH = [1.0 / (2 * n + 1) for n in range(12)]                    # |f| ≤ 0.172
@@ -140,38 +141,36 @@ def arctan2(y: ArrayLike, x: ArrayLike) -> F:
     return np.copysign(r, y)
 
 
-def _integer_power(b: F, n: int) -> F:
-    """bⁿ by repeated squaring (|n| multiplications at most 2 log₂|n|)."""
-    out, base, k = np.ones_like(b), b, abs(n)
-    while k:
-        if k & 1:
-            out = out * base
-        k >>= 1
-        if k:
+def _whole_power(b: F, n: NDArray[np.int64]) -> F:
+    """bⁿ for whole n (|n| ≤ 64, one per element or one for all) by repeated squaring: at most
+    two products per bit of n, the same on every machine."""
+    k = np.abs(n)
+    out, base = np.ones(np.broadcast(b, k).shape), b
+    with np.errstate(all="ignore"):
+        for bit in range(7):
+            out = np.where((k >> bit) & 1, out * base, out)
             base = base * base
-    if n < 0:
-        with np.errstate(all="ignore"):
-            out = 1.0 / out
-    return out
+        return np.where(n < 0, 1.0 / out, out)
 
 
 def power(b: ArrayLike, e: ArrayLike) -> F:
-    """bᵉ: whole and half-whole constant exponents by products and sqrt, others exp(e ln b)."""
+    """bᵉ: whole exponents up to 64 by products, half-whole constant ones on √b, the rest as
+    exp(e ln b) (negative b: a whole e only, as numpy.power)."""
     b = _float(b)
-    if np.ndim(e) == 0:
+    if np.ndim(e) == 0 and abs(float(e)) <= 64 and 2 * float(e) == round(2 * float(e)):
         ev = float(e)
-        if ev == round(ev) and abs(ev) <= 64:
-            return _integer_power(b, int(ev))
-        if 2 * ev == round(2 * ev) and abs(ev) <= 64:
-            with np.errstate(all="ignore"):
-                return _integer_power(np.sqrt(b), int(2 * ev))
+        if ev == round(ev):
+            return _whole_power(b, np.int64(ev))
+        with np.errstate(all="ignore"):
+            return _whole_power(np.sqrt(b), np.int64(2 * ev))
     e = _float(e)
+    whole = (e == np.round(e)) & (np.abs(e) <= 64)
     with np.errstate(all="ignore"):
-        out = exp(e * log(np.abs(b)))
-        whole = e == np.round(e)
-        odd = whole & (np.fmod(e, 2.0) != 0)
-        out = np.where(b < 0, np.where(whole, np.where(odd, -out, out), np.nan), out)
-    return np.where(e == 0, 1.0, out)
+        general = exp(e * log(np.abs(b)))
+        odd = (e == np.round(e)) & (np.fmod(e, 2.0) != 0)
+        general = np.where(b < 0, np.where(e == np.round(e), np.where(odd, -general, general), np.nan),
+                           general)
+        return np.where(whole, _whole_power(b, np.where(whole, e, 0).astype(np.int64)), general)
 
 
 def round_log2(x: ArrayLike) -> NDArray[np.int64]:
@@ -185,13 +184,43 @@ def floor_log2(x: ArrayLike) -> NDArray[np.int64]:
     return (np.frexp(_float(x))[1] - 1).astype(np.int64)
 
 
+def ceil_log2(x: ArrayLike) -> NDArray[np.int64]:
+    """⌈log₂ x⌉ exactly, for x > 0."""
+    m, e = np.frexp(_float(x))
+    return (e - (m == 0.5)).astype(np.int64)
+
+
 def floor_log2_steps(x: ArrayLike, steps: int) -> NDArray[np.int64]:
-    """⌊steps · log₂ x⌋ for x > 0 (steps a small whole number), by comparing the mantissa with
-    the powers 2^(j/steps) written out once."""
+    """⌊steps · log₂ x⌋ for x > 0 and steps 1, 2 or 4, by comparing the mantissa with the
+    powers 2^(j/steps) (square roots of 2, never pow)."""
     m, e = np.frexp(_float(x))
     m = 2.0 * m                                           # x = m 2^(e−1), m in [1, 2)
-    bounds = np.array([2.0 ** (j / steps) for j in range(1, steps)])   # Python's pow, fixed at import
+    bounds = np.array(_ROOTS[4 // steps::4 // steps])
     return (steps * (e - 1) + np.searchsorted(bounds, m, side="right")).astype(np.int64)
+
+
+def ceil_pow2_steps(x: float, steps: int) -> float:
+    """The least 2^(j/steps) ≥ x (x > 0, steps 1, 2 or 4)."""
+    for j in (int(floor_log2_steps(x, steps)) + k for k in (0, 1)):
+        value = float(np.ldexp(_ROOTS[(4 // steps) * (j % steps)], j // steps))
+        if value >= x:
+            break
+    return value
+
+
+def gauss_legendre(n: int) -> tuple[F, F]:
+    """numpy.polynomial.legendre.leggauss(n) without LAPACK: Newton's method on the three-term
+    recurrence from Tricomi's first guesses, a fixed number of steps, symmetrised."""
+    k = np.arange(1, n + 1, dtype=np.float64)
+    x = -np.cos(np.pi * (k - 0.25) / (n + 0.5))          # ascending
+    for _ in range(13):
+        p0, p1 = np.ones_like(x), x
+        for j in range(2, n + 1):
+            p0, p1 = p1, ((2 * j - 1) * x * p1 - (j - 1) * p0) / j
+        dp = n * (x * p1 - p0) / (x * x - 1.0)           # P_n'(x), from P_n and P_{n−1}
+        x = x - p1 / dp if _ < 12 else x
+    w = 2.0 / ((1.0 - x * x) * dp * dp)
+    return 0.5 * (x - x[::-1]), 0.5 * (w + w[::-1])
 
 
 # ---- 2 × 2 matrices, stacked over leading axes ------------------------------------------------
@@ -208,6 +237,14 @@ def inv2(M: ArrayLike) -> F:
     out[..., 0, 0], out[..., 1, 1] = M[..., 1, 1] / d, M[..., 0, 0] / d
     out[..., 0, 1], out[..., 1, 0] = -M[..., 0, 1] / d, -M[..., 1, 0] / d
     return out
+
+
+def solve2(M: ArrayLike, b: ArrayLike) -> F:
+    """x with M x = b for stacks of 2 × 2 matrices M (..., 2, 2) and vectors b (..., 2)."""
+    M, b = _float(M), _float(b)
+    d = det2(M)
+    return np.stack([(M[..., 1, 1] * b[..., 0] - M[..., 0, 1] * b[..., 1]) / d,
+                     (M[..., 0, 0] * b[..., 1] - M[..., 1, 0] * b[..., 0]) / d], axis=-1)
 
 
 def cholesky2(H: ArrayLike) -> F:
@@ -251,6 +288,12 @@ def eigh2(H: ArrayLike) -> tuple[F, F]:
     return w, V
 
 
+def dot2(u: ArrayLike, v: ArrayLike) -> F:
+    """u · v over a last axis of size 2."""
+    u, v = _float(u), _float(v)
+    return u[..., 0] * v[..., 0] + u[..., 1] * v[..., 1]
+
+
 def times2(X: ArrayLike, M: ArrayLike) -> F:
     """X @ M for points X (..., 2) and one 2 × 2 matrix M."""
     X, M = _float(X), _float(M)
@@ -263,9 +306,17 @@ def matmul2(A: ArrayLike, B: ArrayLike) -> F:
     return A[..., :, :1] * B[..., None, 0, :] + A[..., :, 1:] * B[..., None, 1, :]
 
 
+def moments2(D: ArrayLike, w: ArrayLike) -> F:
+    """Σₙ wₙ Dₙ Dₙᵀ for points D (..., n, 2) with weights w (..., n): each entry one pairwise sum
+    along n, so a stack of point sets gives every set the bits it gives alone."""
+    D, w = _float(D), _float(w)
+    x, y = D[..., 0], D[..., 1]
+    xx, xy, yy = (w * x * x).sum(axis=-1), (w * x * y).sum(axis=-1), (w * y * y).sum(axis=-1)
+    return np.stack([np.stack([xx, xy], axis=-1), np.stack([xy, yy], axis=-1)], axis=-2)
+
+
 def cov2(X: ArrayLike) -> F:
     """numpy.cov(X.T) for points X (n, 2), with NumPy's own pairwise sums instead of BLAS."""
     X = _float(X)
     D = X - X.sum(axis=0) / len(X)
-    xx, xy, yy = (D[:, 0] * D[:, 0]).sum(), (D[:, 0] * D[:, 1]).sum(), (D[:, 1] * D[:, 1]).sum()
-    return np.array([[xx, xy], [xy, yy]]) / (len(X) - 1)
+    return moments2(D, np.ones(len(X))) / (len(X) - 1)
