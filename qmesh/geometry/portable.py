@@ -144,6 +144,17 @@ def arctan2(y: ArrayLike, x: ArrayLike) -> F:
 def _whole_power(b: F, n: NDArray[np.int64]) -> F:
     """bⁿ for whole n (|n| ≤ 64, one per element or one for all) by repeated squaring: at most
     two products per bit of n, the same on every machine."""
+    if np.ndim(n) == 0:                                   # one exponent: only its own bits
+        k, out, base = abs(int(n)), None, b
+        while k:
+            if k & 1:
+                out = base if out is None else out * base
+            k >>= 1
+            if k:
+                base = base * base
+        out = np.ones_like(b) if out is None else out
+        with np.errstate(all="ignore"):
+            return 1.0 / out if n < 0 else out
     k = np.abs(n)
     out, base = np.ones(np.broadcast(b, k).shape), b
     with np.errstate(all="ignore"):
