@@ -76,7 +76,8 @@ def median_dual(P: NDArray[np.float64], T: NDArray[np.int64], edges: NDArray[np.
     corners[end - 2] = mid0 + np.searchsorted(keys, edge_keys(c_in, v_in, n))
     corners[end - 1] = bnd_index[v_in]
 
-    areas = np.bincount(T.ravel(), weights=np.repeat(np.abs(signed_areas(P, T)) / 3.0, 3), minlength=n)
+    areas = np.bincount(T.ravel(), weights=np.repeat(np.abs(signed_areas(P, T)) / 3.0, 3),
+                        minlength=n).astype(np.float64, copy=False)
     return MedianDual(points, corners, offsets, areas)
 
 

@@ -131,9 +131,9 @@ def modflow_cells(mesh: Mesh, *, tags: Union[int, str, Iterable[Union[int, str]]
     wanted = [tags] if isinstance(tags, (int, str, np.integer)) else list(tags)  # type: ignore[arg-type]
     by_name = {v: k for k, v in mesh.tag_names.items()}
     present = set(np.unique(mesh.boundary_tags).tolist())
-    ids = []
+    ids: list[int] = []
     for t in wanted:
-        tag = by_name.get(t) if isinstance(t, str) else checks.integer(t, "tags")
+        tag = by_name.get(t, -1) if isinstance(t, str) else checks.integer(t, "tags")
         if tag not in present:
             raise QmeshError(f"tags: {t!r} is no boundary tag of the mesh (tags {sorted(present)}, "
                              f"names {mesh.tag_names})")
