@@ -19,6 +19,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from qmesh.geometry.portable import arctan2
 from qmesh.geometry.topology import edge_keys
 from qmesh.geometry.triangles import centroids, signed_areas
 
@@ -57,9 +58,9 @@ def median_dual(P: NDArray[np.float64], T: NDArray[np.int64], edges: NDArray[np.
     # CCW order about a, from the direction of a's outgoing boundary edge (0 inside)
     ref = np.zeros(n)
     d = P[boundary[:, 1]] - P[boundary[:, 0]]
-    ref[boundary[:, 0]] = np.arctan2(d[:, 1], d[:, 0])
+    ref[boundary[:, 0]] = arctan2(d[:, 1], d[:, 0])
     c = points[cen0 + t] - P[a]
-    angle = np.mod(np.arctan2(c[:, 1], c[:, 0]) - ref[a], 2 * np.pi)
+    angle = np.mod(arctan2(c[:, 1], c[:, 0]) - ref[a], 2 * np.pi)
     order = np.lexsort((angle, a))
     wedges = np.stack([mid[order], cen0 + t[order]], axis=1)             # (3M, 2), grouped by vertex
 

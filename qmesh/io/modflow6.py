@@ -41,6 +41,7 @@ from scipy.spatial import cKDTree
 from qmesh import checks, measure
 from qmesh.errors import QmeshError
 from qmesh.geometry.median_dual import dual_faces, median_dual
+from qmesh.geometry.portable import arctan2
 from qmesh.io import boundary
 from qmesh.io.adapters import _check, _import
 from qmesh.triangle_mesh import Mesh
@@ -184,7 +185,7 @@ def _disu(mesh: Mesh, edges: NDArray[np.int64], q: NDArray[np.float64]) -> dict[
     width, normal = dual_faces(P, T, edges)
     keep = q > 0
     e, qk, w, nrm = edges[keep], q[keep], width[keep], normal[keep]
-    angle = np.degrees(np.arctan2(nrm[:, 1], nrm[:, 0])) % 360.0            # from i to j (i < j)
+    angle = np.degrees(arctan2(nrm[:, 1], nrm[:, 0])) % 360.0               # from i to j (i < j)
     k = len(e)
     # n–m and m–n entries, then the diagonal, each row sorted with itself first
     row = np.concatenate([e[:, 0], e[:, 1], np.arange(n)])
