@@ -62,7 +62,7 @@ def to_modflow6(mesh: Mesh, workspace: Union[str, PathLike[str]], anisotropy: me
     VERTICES/CELL2D with its area as AREA, TOP = `top`, BOT = `bottom`; one horizontal connection
     per edge with q_ij > 0 whose conductance is q_ij × (top − bottom) (the NPF K / CL12 / HWVA /
     ANGLDEGX convention is in this module's docstring); TDIS one steady period; IMS conjugate
-    gradients to 1e-12 (a linear problem: the first outer iteration converges); NPF; IC; OC
+    gradients to 1e-12; NPF; IC; OC
     saving heads to `<name>.hds` and the budget to `<name>.cbc`. Add CHD, WEL, RCH (or STO) with
     flopy, cell id = vertex index (`modflow_cells`), then `sim.write_simulation()` and
     `sim.run_simulation()` (`exe_name` is the mf6 program).
@@ -75,10 +75,10 @@ def to_modflow6(mesh: Mesh, workspace: Union[str, PathLike[str]], anisotropy: me
     The cells are the median dual (each triangle cut into three by its medians), not the
     Q-Voronoi dual: a median-dual cell is a polygon about its vertex inside the mesh for any
     mesh and conductivity, its area is the P1 lumped mass Σ_T |T|/3 (so STO and RCH act as the
-    mass-lumped P1 scheme), and the areas sum to the mesh's. A Q-Voronoi cell, made of the
-    circumcentres of each triangle in its own metric, leaves a triangle that is obtuse in its
-    metric (which q_ij ≥ 0 allows) and can overlap its neighbours. The heads do not depend on
-    the choice: the conductances are q_ij either way.
+    mass-lumped P1 scheme), and the areas sum to the mesh's. The Q-Voronoi cells are made of
+    the circumcentres of the triangles, each in its triangle's own metric: the circumcentre of a
+    triangle obtuse in its metric (which q_ij ≥ 0 allows) lies outside it, and cells can
+    overlap. The heads do not depend on the choice: the conductances are q_ij either way.
 
     Everything is checked before the folder is touched, and the files are written to a
     temporary folder beside it and then moved in: an error leaves nothing half-written.
