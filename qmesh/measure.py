@@ -506,10 +506,11 @@ Monotonicity = _monotone.Monotonicity
 def monotonicity(mesh: Mesh, conductivity: Given = None, *, rtol: float = 1e-9) -> Monotonicity:
     """Which certificate shows that the Dirichlet stiffness matrix keeps the discrete maximum
     principle with its boundary couplings (A⁻¹ ≥ 0 and −A⁻¹B ≥ 0): `str()` of the value is
-    "M-matrix" (every q_ij ≥ 0 on an edge with an interior end), "monotone" (the positive
-    entries are dominated by two-edge paths through an eliminated independent set: the
-    Schur complement is an M-matrix; [monotonicity](../guide/monotonicity.md)) or "none",
-    with the evidence (`qmesh.monotonicity.Monotonicity`: counts, the pairs that break it).
+    "M-matrix" (every q_ij ≥ 0 on an edge with an interior end), "monotone" (every positive
+    entry is dominated by the paths through vertices without one, eliminated level by level
+    until an M-matrix is left: the guide's page "Monotonicity" states and proves it) or
+    "none", with the evidence (`qmesh.monotonicity.Monotonicity`: counts, the vertex pairs
+    whose positive entry is left).
 
     `conductivity` as in `stiffness` (None: the mesh's element means, or Q = I). Entries
     within rtol · max |K_ij| of 0 count as 0. A mesh without interior vertex is an M-matrix

@@ -7,16 +7,16 @@ discrete maximum principle, with the boundary couplings, exactly when A⁻¹ ≥
 second weaker (docs/guide/monotonicity.md states them and proves the second):
 
 - "M-matrix": every off-diagonal of A and every entry of B is ≤ 0 (every q_ij ≥ 0);
-- "monotone": one step of block elimination leaves an M-matrix. An independent set F of
-  interior vertices whose couplings are all ≤ 0 is eliminated; every positive entry a_ij (or
-  b_iγ) left is dominated by its two-edge paths i–k–j through F:
-  a_ij ≤ Σ_{k∈F} a_ik a_kj / a_kk, i.e. the Schur complement S = A_CC − A_CF A_FF⁻¹ A_FC and
-  B_C − A_CF A_FF⁻¹ B_F have no positive off-diagonal. Then A = M₁M₂ with M₁, M₂ M-matrices,
-  the product form of Lorenz (1977).
+- "monotone": block elimination leaves an M-matrix. The set F of interior vertices with no
+  positive coupling is eliminated; A_FF is then a Stieltjes matrix, A_FF⁻¹ ≥ D⁻¹ + D⁻¹ N D⁻¹,
+  and every positive entry left must be dominated by its two- and three-edge paths through F:
+  the bound A_CC − A_CF (D⁻¹ + D⁻¹ N D⁻¹) A_FC of the Schur complement, and the same bound of
+  its boundary couplings, have no positive off-diagonal. The rows that bound leaves without a
+  positive entry are eliminated in turn, up to LEVELS times. At one level A = M₁M₂ with
+  M₁, M₂ M-matrices, the product form of Lorenz (1977).
 
-F is chosen greedily, by rounds of Luby's independent set with the vertices that dominate the
-most positive weight first (vectorised over the vertices; a loop over rounds only): the
-certificate is sufficient, never exact — "none" means that neither condition was found.
+Everything is sparse-matrix algebra over all rows at once; the only loop is over the levels. The
+certificate is sufficient, never exact: "none" means that neither condition was found.
 """
 
 from __future__ import annotations
@@ -41,10 +41,11 @@ class Monotonicity(NamedTuple):
 
     `certificate`: "M-matrix", "monotone" or "none". Counts: `n_interior` unknowns,
     `n_positive` off-diagonals a_ij > tol of A (each pair i < j once), `n_positive_boundary`
-    couplings b_iγ > tol to boundary vertices, `n_eliminated` vertices in F. `breaking`: the
-    vertex pairs (i, j) (mesh indices, i interior) whose positive entry no path through F
-    dominates, `excess` what is left of each, a_ij − Σ_k a_ik a_kj / a_kk, relative to the
-    largest |off-diagonal| (both empty unless "none"). `eliminated`: F's vertices.
+    couplings b_iγ > tol to boundary vertices, `n_eliminated` vertices eliminated over all
+    levels. `breaking`: the vertex pairs (i, j) (mesh indices, i interior) whose positive
+    entry the paths through the eliminated vertices do not dominate, `excess` the bound of
+    what is left of each (relative to the largest |off-diagonal| of A and B), both empty
+    unless "none". `eliminated`: the eliminated vertices (mesh indices).
     `perturbation`: the largest weight, relative to that scale, that the certificate moved
     from a positive entry onto the diagonal (K + that edge Laplacian is what is certified;
     ≤ rtol). `reason`: why there is no matrix to certify, or None.
