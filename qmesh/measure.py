@@ -838,9 +838,9 @@ def report(mesh: Mesh, anisotropy: Given = None, *, laplacian: bool = True) -> R
     `min_q_ij_relative_interface` the interface edges (MEDIA.md §4). With one Q per triangle —
     None for a mesh that carries its element means, an array (M, 2, 2) or a TensorField — the
     stiffness matrix, q_ij, κ2 and the quality use those means, and the energy and the
-    interpolation errors, which need an s, are None. `monotonicity` is the certificate of
-    `monotonicity` ("M-matrix", "monotone" or "none"; None with a zero-area triangle). κ2 is
-    computed once per matrix
+    interpolation errors, which need an s, are None. `monotonicity` is
+    `str(monotonicity(mesh, anisotropy))`: "M-matrix", "monotone" or "none" (None with a
+    zero-area triangle). κ2 is computed once per matrix
     (`kappa2` with the conductivity, `kappa2_laplacian` with Q = I); `laplacian=False` leaves
     `kappa2_laplacian` out, for callers that keep only `kappa2` (it is another matrix's κ2,
     as long to compute).

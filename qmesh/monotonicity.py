@@ -74,7 +74,7 @@ def without_matrix(certificate: Certificate, n_interior: int, reason: str) -> Mo
 
 
 def certify(K: sp.csr_matrix, interior: NDArray[np.int64], boundary: NDArray[np.int64],
-            rtol: float, levels: int | None = None) -> Monotonicity:
+            rtol: float) -> Monotonicity:
     """The certificate of A = K[interior, interior] with B = K[interior, boundary].
 
     K: the symmetric Neumann stiffness matrix (zero row sums) of a conductivity whose Dirichlet
@@ -100,8 +100,7 @@ def certify(K: sp.csr_matrix, interior: NDArray[np.int64], boundary: NDArray[np.
     C = np.arange(n)                                 # the rows left, as indices into `interior`
     eliminated: list[NDArray[np.int64]] = []
     moved = 0.0
-    last = LEVELS if levels is None else levels
-    for level in range(last + 1):
+    for level in range(LEVELS + 1):
         # 1. entries in (0, tol] onto the diagonal: K + an edge Laplacian, zero row sums kept
         M, B, d, small = _move_small(M, B, d, tol)
         moved = max(moved, small)
@@ -110,7 +109,7 @@ def certify(K: sp.csr_matrix, interior: NDArray[np.int64], boundary: NDArray[np.
             return Monotonicity("monotone", n, n_pos, n_pos_b, sum(map(len, eliminated)),
                                 _NO_PAIRS, np.zeros(0), interior[np.concatenate(eliminated)],
                                 moved / scale)
-        if positive.all() or level == last:                      # nothing (more) to eliminate
+        if positive.all() or level == LEVELS:                    # nothing (more) to eliminate
             break
         # 2. eliminate F = every row without a positive entry; bound the Schur complement
         F = np.flatnonzero(~positive)
