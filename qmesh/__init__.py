@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import importlib
 import importlib.util
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:   # for type checkers and IDEs; at run time `__getattr__` loads them
     from qmesh.conductivity.anisotropy import Anisotropy
@@ -58,7 +58,7 @@ CHAPTER_Q = ((0.1, 0.0), (0.0, 10.0))
 """The chapter's test conductivity (2.95): Q = diag(0.1, 10)."""
 
 
-def __getattr__(name: str):
+def __getattr__(name: str) -> Any:
     """Import a public name, or a subpackage (`qmesh.geometry` after `import qmesh`), on first
     use and keep it on the package."""
     if name not in _LAZY:

@@ -325,8 +325,8 @@ def _check_means(Q, path) -> None:
     if bad.any():
         k = int(np.flatnonzero(bad)[0])
         raise QmeshError(f"{path}: the element means it stores (cell data Q11 Q12 Q22) must be "
-                         f"symmetric positive definite; {int(bad.sum())} of {len(Q)} triangles' are "
-                         f"not, the first triangle {k}'s: Q = [[{q11[k]:g}, {q12[k]:g}], "
+                         f"symmetric positive definite; {int(bad.sum())} of {len(Q)} are not, the "
+                         f"first that of triangle {k}: Q = [[{q11[k]:g}, {q12[k]:g}], "
                          f"[{q12[k]:g}, {q22[k]:g}]]")
 
 

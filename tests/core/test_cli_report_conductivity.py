@@ -111,7 +111,7 @@ def test_report_refuses_stored_means_that_are_not_positive_definite(tmp_path, ca
                               conductivity=Q))
     code, out, err = run(capsys, "report", path)
     assert code == 2 and out == "" and err.count("\n") == 1
-    assert err.startswith(f"qmesh: error: {path}: the element means") and "the first triangle 3's" in err
+    assert err.startswith(f"qmesh: error: {path}: the element means") and "the first that of triangle 3:" in err
     Q[3] = np.eye(2)
     io.write(path, qmesh.Mesh(delaunay_mesh.points, delaunay_mesh.triangles, delaunay_mesh.fixed,
                               conductivity=Q))
