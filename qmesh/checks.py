@@ -162,6 +162,24 @@ def real_dtype(dtype: Any, name: str) -> np.dtype:
     return dtype
 
 
+def real_values(value: ArrayLike, name: str) -> NDArray[np.float64]:
+    """`value` (a number or an array) as floats, refusing by name what a cast would change
+    silently (`real_dtype`) and Python integers beyond any float."""
+    try:
+        raw = np.asarray(value)
+    except (TypeError, ValueError) as e:
+        raise QmeshError(f"{name} must be a number or an array of real numbers: {e}") from None
+    if raw.dtype.kind == "O":                         # Python ints beyond int64 are held as objects
+        try:
+            return np.asarray(raw, dtype=float)
+        except OverflowError:
+            raise QmeshError(f"{name} holds an integer beyond any float") from None
+        except (TypeError, ValueError):
+            pass                                      # not numbers: refused by their kind below
+    real_dtype(raw.dtype, name)
+    return raw.astype(float)
+
+
 def real_array(value: ArrayLike, name: str, shape: tuple[int | None, ...]) -> NDArray[np.float64]:
     """`value` as a finite float array of `shape` (None in `shape` matches any length).
 

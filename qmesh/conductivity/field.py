@@ -119,7 +119,7 @@ def _triangles(triangles: ArrayLike, n_points: int) -> NDArray[np.intp]:
 def _raster_array(v: ArrayLike, shape: tuple[int, int], name: str, x: Array, y: Array,
                   positive: bool) -> Array:
     """One per-cell array (a number stands for every cell); QmeshError naming the first bad cell."""
-    a = _real(v, name)
+    a = checks.real_values(v, name)
     try:
         a = np.broadcast_to(a, shape)
     except ValueError:
@@ -135,27 +135,8 @@ def _raster_array(v: ArrayLike, shape: tuple[int, int], name: str, x: Array, y: 
     return a
 
 
-def _real(v: ArrayLike, name: str) -> Array:
-    """`v` as floats, refusing by name what a cast would change silently: booleans, complex,
-    datetime64, strings, bytes, structured and object arrays (`checks.real_dtype`), and integers
-    beyond any float."""
-    try:
-        raw = np.asarray(v)
-    except (TypeError, ValueError) as e:
-        raise QmeshError(f"{name} must be a number or an array of real numbers: {e}") from None
-    if raw.dtype.kind == "O":                         # Python ints beyond int64 are held as objects
-        try:
-            return np.asarray(raw, dtype=float)
-        except OverflowError:
-            raise QmeshError(f"{name} holds an integer beyond any float") from None
-        except (TypeError, ValueError):
-            pass                                      # not numbers: refused by their kind below
-    checks.real_dtype(raw.dtype, name)
-    return raw.astype(float)
-
-
 def _axis(v: ArrayLike, name: str) -> Array:
-    a = _real(v, name)
+    a = checks.real_values(v, name)
     if a.ndim != 1 or len(a) < 2 or not np.all(np.isfinite(a)) or not np.all(np.diff(a) > 0):
         raise QmeshError(f"{name} must be at least two increasing finite cell edges, got {v!r:.80}")
     return a
