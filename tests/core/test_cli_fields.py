@@ -157,9 +157,9 @@ def test_the_field_options_help_says_how_to_write_a_leading_minus(capsys):
     assert text.count("a text may start with - (e.g. '-1 + x', '-x**2'); write a lone -x as '(-x)'") == 2
 
 
-def _npz(path, members, compress=zipfile.ZIP_STORED):
+def _npz(path, members):
     """A .npz written member by member: name → the bytes of its .npy, or an array (numpy's own)."""
-    with zipfile.ZipFile(path, "w", compress) as z:
+    with zipfile.ZipFile(path, "w") as z:
         for name, value in members.items():
             if isinstance(value, np.ndarray):
                 buffer = io.BytesIO()
