@@ -321,6 +321,15 @@ class TensorField:
                              f"got {Q.shape} for n = {len(X)}") from None
         return _check_components(X, Y, Q[:, 0, 0], Q[:, 0, 1], Q[:, 1, 0], Q[:, 1, 1], self.label)
 
+    def place(self, point: ArrayLike) -> str:
+        """Where a point is, for messages: its raster cell (row, column) and coordinates."""
+        p = np.asarray(point, dtype=float).reshape(2)
+        at = f"({float(p[0]):.6g}, {float(p[1]):.6g})"
+        if self._raster is None:
+            return at
+        j, i = self._raster.cell_of(p[:1], p[1:])
+        return f"raster cell (row {int(j[0])}, column {int(i[0])}) at {at}"
+
     def _inside(self, X: Array, Y: Array, what: str = "point") -> None:
         """Refuse the first point outside the raster by more than RASTER_SLACK of its size."""
         assert self.bounds is not None
