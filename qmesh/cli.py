@@ -416,10 +416,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("setup", help="install the system libraries the installed extras need (Debian/Ubuntu)",
                        description="Check with dpkg that the system packages the installed extras load are "
-                       "there (Mesa EGL for off-screen rendering, gmsh's X/GL libraries) and install the "
-                       "missing ones with apt-get when run as root or with password-less sudo; otherwise "
-                       "print the command to run and exit 1. --test: also what the test suite needs "
-                       "(chromium for the browser tests).")
+                       "there (Mesa EGL for off-screen rendering, gmsh's X/GL libraries, NGSolve's Fortran "
+                       "runtime) and install the missing ones with apt-get when run as root or with "
+                       "password-less sudo; otherwise print the command to run and exit 1. --test: also "
+                       "what the test suite needs (chromium for the browser tests).")
     p.add_argument("--check", action="store_true", help="only check; install nothing")
     mode = p.add_mutually_exclusive_group()
     mode.add_argument("--test", action="store_true", help="every group the test suite needs (chromium too)")

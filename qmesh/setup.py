@@ -2,7 +2,8 @@
 
 pip installs the wheels but not the shared libraries they load: VTK renders off-screen through
 Mesa's EGL, Playwright's node binary needs libatomic, the browser tests drive Debian's chromium,
-and gmsh's wheel (the `peers` extra) links against X, GLU and OpenMP. Without them the viewer's
+gmsh's wheel (the `peers` extra) links against X, GLU and OpenMP, and NGSolve's OpenBLAS (the
+`fem-ngsolve` extra) against the GNU Fortran runtime. Without them the viewer's
 tests die with a segfault rather than an error. Two modes, one for each of the README's set-up
 commands: `qmesh setup` installs the groups whose Python package is installed, those only the
 tests need left out, so the core alone needs nothing and the viewer only Mesa; `qmesh setup
@@ -53,6 +54,9 @@ GROUPS = (
                            "libxrender1", "libfontconfig1", "libgomp1"),
           "the peers extra's gmsh wheel (BAMG): X, GL, GLU and OpenMP libraries",
           libraries=("GL", "GLU", "Xcursor", "Xft", "Xinerama", "Xrender", "fontconfig", "gomp")),
+    Group("ngsolve", "ngsolve", ("libgfortran5",),
+          "NGSolve's OpenBLAS (the fem-ngsolve extra): the GNU Fortran runtime it links",
+          libraries=("gfortran",)),
 )
 """Every group of system packages, with the module whose presence makes it needed; the test suite
 needs them all."""

@@ -21,12 +21,13 @@ from qmesh.cli import main
 
 ALL = [p for g in sp.GROUPS for p in g.packages]
 # What each group installs, written out: the viewer's off-screen rendering, the browser tests,
-# gmsh's wheel (the peers extra).
+# gmsh's wheel (the peers extra), NGSolve's OpenBLAS (the fem-ngsolve extra).
 RENDERING = ["libegl1", "libgl1", "libgl1-mesa-dri"]
 BROWSER = ["chromium", "libatomic1"]
 GMSH = ["libgl1", "libglu1-mesa", "libxcursor1", "libxft2", "libxinerama1", "libxrender1",
         "libfontconfig1", "libgomp1"]
-NEEDED_BY = {"vtk": RENDERING, "playwright": BROWSER, "gmsh": GMSH}
+NGSOLVE = ["libgfortran5"]
+NEEDED_BY = {"vtk": RENDERING, "playwright": BROWSER, "gmsh": GMSH, "ngsolve": NGSOLVE}
 
 
 class FakeSystem:
@@ -138,7 +139,7 @@ def test_each_mode_asks_for_its_packages(modules):
     assert set(default) == {p for m in modules - {"playwright"} for p in NEEDED_BY[m]}
     assert not set(BROWSER) & set(default)
     assert len(default) == len(set(default))
-    assert sorted(asked_for(modules, tests=True)) == sorted(set(RENDERING + BROWSER + GMSH))
+    assert sorted(asked_for(modules, tests=True)) == sorted(set(RENDERING + BROWSER + GMSH + NGSOLVE))
 
 
 def test_without_root_the_first_command_prints_the_apt_get_line_and_stops(monkeypatch):
@@ -163,11 +164,11 @@ def test_groups_follow_the_installed_extras():
     ghost = sp.Group("ghost", "no_such_module_qmesh", ("libghost",), "")
     assert sp.needed_groups(groups=(ghost,)) == []
     assert sp.needed_groups(everything=True, groups=(ghost,)) == [ghost]
-    assert {g.module for g in sp.GROUPS} == {"vtk", "playwright", "gmsh"}
+    assert {g.module for g in sp.GROUPS} == {"vtk", "playwright", "gmsh", "ngsolve"}
 
 
 def test_this_machine_has_every_package_and_the_command_is_quick(capsys):
-    """The test suite needs them all (it renders, drives chromium, runs gmsh)."""
+    """The test suite needs them all (it renders, drives chromium, runs gmsh and NGSolve)."""
     assert sp.missing(sp.GROUPS) == []
     assert main(["setup", "--check", "--test"]) == 0
     assert "installed" in capsys.readouterr().out
