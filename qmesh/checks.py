@@ -15,6 +15,7 @@ from typing import Any, Literal, TypeVar, overload
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from qmesh.geometry.portable import eigvalsh2
 from qmesh.errors import QmeshError
 
 _F = TypeVar("_F")
@@ -186,7 +187,7 @@ def spd_matrix(value: ArrayLike, name: str) -> NDArray[np.float64]:
     if abs(Qn[0, 1] - Qn[1, 0]) > 1e-12 * max(abs(Qn[0, 1]), abs(Qn[1, 0])) + 1e-14:
         raise QmeshError(f"{name} must be symmetric, got {Q.tolist()}")
     Qn = 0.5 * (Qn + Qn.T)
-    lo, hi = np.linalg.eigvalsh(Qn)
+    lo, hi = eigvalsh2(Qn)
     if lo <= 4 * _EPS * hi:
         raise QmeshError(f"{name} must be symmetric positive definite, got {Q.tolist()} "
                          f"(eigenvalues in the ratio {lo / hi:.3g})")

@@ -35,7 +35,7 @@ import scipy.sparse as sp
 import scipy.sparse.csgraph as csgraph
 import scipy.sparse.linalg as spla
 
-from qmesh import checks, multigrid_eigen
+from qmesh import checks, monotonicity as _monotone, multigrid_eigen
 from qmesh.conductivity.anisotropy import shape_metric
 from qmesh.geometry import quadrature
 from qmesh.errors import QmeshError
@@ -498,6 +498,50 @@ def _fraction_nonnegative(r: NDArray[np.float64], rtol: float) -> float | None:
     return float(np.mean(r >= -rtol)) if len(r) else None
 
 
+# --------------------------------------------------------------------------- monotonicity
+
+Monotonicity = _monotone.Monotonicity
+
+
+def monotonicity(mesh: Mesh, conductivity: Given = None, *, rtol: float = 1e-9) -> Monotonicity:
+    """Which certificate shows that the Dirichlet stiffness matrix keeps the discrete maximum
+    principle with its boundary couplings (A⁻¹ ≥ 0 and −A⁻¹B ≥ 0): `str()` of the value is
+    "M-matrix" (every q_ij ≥ 0 on an edge with an interior end), "monotone" (every positive
+    entry is dominated by the paths through vertices without one, eliminated level by level
+    until an M-matrix is left: the guide's page "Monotonicity" states and proves it) or
+    "none", with the evidence (`qmesh.monotonicity.Monotonicity`: counts, the vertex pairs
+    whose positive entry is left).
+
+    `conductivity` as in `stiffness` (None: the mesh's element means, or Q = I). Entries
+    within rtol · max |K_ij| of 0 count as 0. A mesh without interior vertex is an M-matrix
+    (no entry to break it); Q not positive definite on some triangle, or a part of the mesh
+    with no boundary vertex, gives "none" and the `reason`. QmeshError on a zero-area triangle.
+    """
+    rtol = checks.real(rtol, "rtol", low=0.0, high=1.0)
+    A = _resolve(mesh, conductivity, "conductivity")
+    return _monotonicity(mesh, A, rtol)
+
+
+def _monotonicity(mesh: Mesh, anisotropy: Resolved, rtol: float = 1e-9) -> Monotonicity:
+    free = free_vertices(mesh)
+    if len(free) == 0:
+        return _monotone.without_matrix("M-matrix", 0, "the mesh has no interior vertex: the "
+                                        "Dirichlet matrix is empty")
+    not_spd = _not_positive_definite(mesh, anisotropy)
+    if not_spd:
+        return _monotone.without_matrix("none", len(free), f"Q is not positive definite on "
+                                        f"{not_spd} of the {mesh.n_triangles} triangles")
+    floating = _floating(mesh, free)
+    if floating:
+        return _monotone.without_matrix("none", len(free), f"{floating} interior vertices lie in "
+                                        "parts of the mesh with no boundary vertex")
+    n = mesh.n_vertices
+    K = _assemble(mesh, anisotropy, np.arange(n), n)
+    used = np.zeros(n, bool)
+    used[mesh.triangles.ravel()] = True
+    return _monotone.certify(K, free, np.flatnonzero(used & mesh.boundary), rtol)
+
+
 # --------------------------------------------------------------------------- conditioning
 
 KAPPA_LIMIT = 1e-3 / float(np.finfo(float).eps)
@@ -779,7 +823,7 @@ def _interpolation_errors2(P: NDArray[np.float64], T: NDArray[np.int64],
 # --------------------------------------------------------------------------- report
 
 def report(mesh: Mesh, anisotropy: Given = None, *, laplacian: bool = True) -> Report:
-    """All measurements of one mesh as plain Python numbers (JSON-serialisable).
+    """All measurements of one mesh as plain Python numbers and texts (JSON-serialisable).
 
     Entries that need a stiffness matrix or ∇s_h are None when the mesh has a zero-area
     triangle; κ2 is None when the Dirichlet matrix has none — no interior vertex, a part of the
@@ -794,7 +838,9 @@ def report(mesh: Mesh, anisotropy: Given = None, *, laplacian: bool = True) -> R
     `min_q_ij_relative_interface` the interface edges (MEDIA.md §4). With one Q per triangle —
     None for a mesh that carries its element means, an array (M, 2, 2) or a TensorField — the
     stiffness matrix, q_ij, κ2 and the quality use those means, and the energy and the
-    interpolation errors, which need an s, are None. κ2 is computed once per matrix
+    interpolation errors, which need an s, are None. `monotonicity` is
+    `str(monotonicity(mesh, anisotropy))`: "M-matrix", "monotone" or "none" (None with a
+    zero-area triangle). κ2 is computed once per matrix
     (`kappa2` with the conductivity, `kappa2_laplacian` with Q = I); `laplacian=False` leaves
     `kappa2_laplacian` out, for callers that keep only `kappa2` (it is another matrix's κ2,
     as long to compute).
@@ -816,7 +862,7 @@ def report(mesh: Mesh, anisotropy: Given = None, *, laplacian: bool = True) -> R
         "mean_quality": float(qual.mean()) if len(qual) else None,
         "l2_error": None, "h1_error": None, "kappa2": None, "kappa2_laplacian": None,
         "q_nonnegative_fraction": None, "q_nonnegative_fraction_boundary": None,
-        "min_q_ij_relative": None, "min_q_ij_relative_boundary": None,
+        "min_q_ij_relative": None, "min_q_ij_relative_boundary": None, "monotonicity": None,
     }
     if not laplacian:
         del out["kappa2_laplacian"]
@@ -837,6 +883,7 @@ def report(mesh: Mesh, anisotropy: Given = None, *, laplacian: bool = True) -> R
             out["min_q_ij_relative_interface"] = float(r_if.min()) if len(r_if) else None
         out["min_q_ij_relative"] = float(r_in.min()) if len(r_in) else None
         out["min_q_ij_relative_boundary"] = float(r_b.min()) if len(r_b) else None
+        out["monotonicity"] = str(_monotonicity(mesh, A))
         kappa = _conditioning(mesh, A)
         out["kappa2"] = kappa.kappa2
         if kappa.kappa2 is None:

@@ -17,6 +17,8 @@ The manufactured solution is u(x) = g(S x), g(ξ) = sin(ω ξ₁) cos(ω ξ₂) 
 f is derived analytically (no symbolic evaluation): −div(Q∇u) = −tr(S Q Sᵀ ∇²g(Sx)).
 The stiffness matrix is `qmesh.measure.stiffness`; the load vector uses the degree-4 rule of
 `qmesh.quadrature`. Constant Q only (a varying Q would need ∇Q in f).
+`dirichlet` is the plain P1 solve for any conductivity, boundary values and load vector (what
+MODFLOW 6's heads on a `qmesh.io.to_modflow6` grid are compared with).
 """
 
 from __future__ import annotations
@@ -184,3 +186,26 @@ def solve_report(mesh: Mesh, anisotropy, kind: str = "metric",
         out[f"cg_{kind_m}_seconds"] = seconds
         out[f"cg_{kind_m}_deviation"] = deviation
     return out
+
+
+def dirichlet(mesh: Mesh, conductivity, fixed, values, load=None) -> np.ndarray:
+    """The P1 solution u_h of −div(Q∇u) = f: u_h = `values` on the vertices `fixed` (indices
+    or a mask), K u_h = b on the others (natural, no-flux, on the boundary edges left free).
+
+    K is `qmesh.measure.stiffness(mesh, conductivity)` (None: the mesh's element means, or
+    Q = I), b the `load` vector (N,) (`load_vector(mesh, f)` for ∫ f φ_i; None: f = 0); a
+    sparse direct solve. `values` is one number for all or one per fixed vertex."""
+    K = measure.stiffness(mesh, conductivity)
+    n = mesh.n_vertices
+    mask = np.zeros(n, bool)
+    mask[np.asarray(fixed)] = True
+    if not mask.any():
+        raise QmeshError("fixed must hold at least one vertex (else u_h is defined up to a constant)")
+    u = np.zeros(n)
+    u[np.asarray(fixed)] = values
+    b = np.zeros(n) if load is None else np.asarray(load, dtype=float)
+    free = ~mask
+    rhs = b[free] - K[free][:, mask] @ u[mask]
+    if free.any():
+        u[free] = spla.spsolve(K[free][:, free].tocsc(), rhs)
+    return u

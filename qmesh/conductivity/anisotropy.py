@@ -14,6 +14,7 @@ from typing import Union
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from qmesh.geometry.portable import eigvalsh2, matmul2, times2
 from qmesh import checks
 from qmesh.conductivity.expression import parse_s
 from qmesh.errors import QmeshError
@@ -87,7 +88,7 @@ def principal_matrix(k1: float, k2: float, angle_deg: float) -> NDArray[np.float
     """Q = R diag(k1, k2) Rᵀ, R the rotation by angle_deg: k1 along the direction at that angle."""
     t = np.deg2rad(angle_deg)
     R = np.array([[np.cos(t), -np.sin(t)], [np.sin(t), np.cos(t)]])
-    return R @ np.diag([k1, k2]) @ R.T
+    return matmul2(matmul2(R, np.diag([k1, k2])), R.T)
 
 
 @dataclass(frozen=True)
@@ -143,7 +144,7 @@ class Anisotropy:
             return 0.5 * np.einsum("ni,ij,nj->n", P, H, P)
 
         def grad(P: NDArray[np.float64]) -> NDArray[np.float64]:
-            return np.asarray(P, dtype=float) @ H  # H symmetric
+            return times2(P, H)  # H symmetric
 
         def hessian(P: NDArray[np.float64]) -> NDArray[np.float64]:
             return np.broadcast_to(H, (len(P), 2, 2))
@@ -178,13 +179,13 @@ class Anisotropy:
             R = np.stack([np.stack([c, -s], axis=-1), np.stack([s, c], axis=-1)], axis=1)
             D = np.zeros((len(p), 2, 2))
             D[:, 0, 0], D[:, 1, 1] = k1, k2
-            Q = R @ D @ R.transpose(0, 2, 1)
+            Q = matmul2(matmul2(R, D), R.transpose(0, 2, 1))
             m = np.abs(Q).max(axis=(1, 2))                  # checks.spd_matrix, stacked
             Qn = Q / np.where(m > 0, m, 1.0)[:, None, None]
             a, b = Qn[:, 0, 1], Qn[:, 1, 0]
             ok &= (m > 0) & np.isfinite(Q).all(axis=(1, 2))
             ok &= np.abs(a - b) <= 0.5 * (1e-12 * np.maximum(np.abs(a), np.abs(b)) + 1e-14)
-            lo_hi = np.linalg.eigvalsh(np.where(ok[:, None, None], 0.5 * (Qn + Qn.transpose(0, 2, 1)), np.eye(2)))
+            lo_hi = eigvalsh2(np.where(ok[:, None, None], 0.5 * (Qn + Qn.transpose(0, 2, 1)), np.eye(2)))
             ok &= lo_hi[:, 0] > 8 * eps * lo_hi[:, 1]
         Q = 0.5 * Q + 0.5 * Q.transpose(0, 2, 1)
         return [cls._of(Q[i].copy()) if good else None for i, good in enumerate(ok.tolist())]

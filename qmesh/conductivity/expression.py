@@ -227,6 +227,26 @@ def parse_function(text, name: str) -> Callable[[np.ndarray], np.ndarray]:
     return value
 
 
+def _portable_namespace() -> dict:
+    """The names a lambdified formula calls, bound to `geometry.portable`'s functions where
+    NumPy's give different last bits on different CPUs (sin, cos, sqrt, abs are the same)."""
+    from qmesh.geometry import portable
+    return {"exp": portable.exp, "log": portable.log, "tan": portable.tan, "sinh": portable.sinh,
+            "cosh": portable.cosh, "tanh": portable.tanh, "arctan": portable.arctan,
+            "qmesh_power": portable.power}
+
+
+def _lambdify(x, y, e, cse: bool = False):
+    """`sympy.lambdify` of e (or a list) on arrays, with every power b**p computed by
+    `portable.power` (NumPy's `power` is per-CPU too): the same bits on every machine."""
+    import sympy as sp  # lazily: `import qmesh` stays fast
+
+    power = sp.Function("qmesh_power")
+    swap = (lambda v: v.replace(sp.Pow, lambda b, p: power(b, p)))
+    e = [swap(v) for v in e] if isinstance(e, list) else swap(e)
+    return sp.lambdify((x, y), e, modules=[_portable_namespace(), "numpy"], cse=cse)
+
+
 def function_of_xy(text: str, name: str, form: tuple | None = None
                    ) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
     """`parse_function`'s value as g(X, Y) on arrays of one shape → that shape, called on X and
@@ -237,7 +257,7 @@ def function_of_xy(text: str, name: str, form: tuple | None = None
     f, x, y = _to_sympy(check(text, name) if form is None else form)
     if f.has(sp.zoo, sp.oo, -sp.oo, sp.nan):
         raise QmeshError(f"{name} = {_quote(text)} is not finite")
-    f_val = sp.lambdify((x, y), f, modules="numpy")
+    f_val = _lambdify(x, y, f)
 
     def g(X: np.ndarray, Y: np.ndarray) -> np.ndarray:
         with np.errstate(all="ignore"):
@@ -275,9 +295,9 @@ def _build(text: str, form: tuple) -> Expression:
                              f"the constant {H.tolist()}, not positive definite")
         H.setflags(write=False)
 
-    f_s = sp.lambdify((x, y), s, modules="numpy")
-    f_grad = sp.lambdify((x, y), grad, modules="numpy", cse=True)
-    f_hess = sp.lambdify((x, y), hess, modules="numpy", cse=True)
+    f_s = _lambdify(x, y, s)
+    f_grad = _lambdify(x, y, grad, cse=True)
+    f_hess = _lambdify(x, y, hess, cse=True)
 
     def columns(P):
         P = np.asarray(P, dtype=float)

@@ -30,6 +30,7 @@ from typing import Callable
 import numpy as np
 from numpy.typing import NDArray
 
+from qmesh.geometry.portable import gauss_legendre
 from qmesh.errors import QmeshError
 
 Array = NDArray[np.float64]
@@ -190,7 +191,7 @@ def gauss_box_means(evaluate: Evaluate, P: Array, half_width: Array,
                     n: int = GAUSS_BOX_POINTS) -> Array:
     """Mean of Q over the square [x ± h] × [y ± h] around each point P (k, 2), h = half_width (k,):
     the tensor-product n × n Gauss–Legendre rule → components (k, 3)."""
-    t, w = np.polynomial.legendre.leggauss(n)
+    t, w = gauss_legendre(n)
     k = len(P)
     out = np.empty((k, 3))
     step = max(1, CHUNK * 7 // (n * n))

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from qmesh.geometry.portable import arctan2, dot2, log, times2
 from qmesh.errors import QmeshError
 
 CROWD = 1e-10    # a split point this near an end of its edge (× the face's extent) is refused
@@ -37,7 +38,7 @@ def check_junctions(part: Any, anis: list, face_name: Callable[[int], str]) -> N
         first = E[es, 0] == v
         d = V[np.where(first, E[es, 1], E[es, 0])] - V[v]
         d = d / np.hypot(d[:, 0], d[:, 1])[:, None]
-        order = np.argsort(np.arctan2(d[:, 1], d[:, 0]))
+        order = np.argsort(arctan2(d[:, 1], d[:, 0]))
         es, first, d = es[order], first[order], d[order]
         face = np.where(first, ef[es, 0], ef[es, 1])          # the wedge left of v → e_i
         shift, slack, what = 0.0, 0.0, []
@@ -46,14 +47,14 @@ def check_junctions(part: Any, anis: list, face_name: Callable[[int], str]) -> N
             A = anis[f]
             H = np.asarray(A.H if A.is_constant else A.hessian(V[v][None])[0], float)
             H = H / np.abs(H).max()
-            la, lb = np.sqrt(a @ H @ a), np.sqrt(b @ H @ b)
-            cos = (a @ H @ b) / (la * lb)
+            la, lb = np.sqrt(dot2(a, times2(a, H))), np.sqrt(dot2(b, times2(b, H)))
+            cos = dot2(times2(a, H), b) / (la * lb)
             reflex = a[0] * b[1] - a[1] * b[0] <= 0
             if reflex or cos <= 0:
                 break            # a wedge of 90° or more absorbs any mismatch
-            shift += np.log(lb / la)
-            slack += -np.log(cos)
-            what.append(f"{face_name(f)} {np.degrees(np.arccos(min(cos, 1.0))):.3g}°")
+            shift += float(log(lb / la))
+            slack += -float(log(cos))
+            what.append(f"{face_name(f)} {np.degrees(np.arccos(min(cos, 1.0))):.3g}°")   # measures only
         else:
             if abs(shift) > slack * (1 + 1e-9):
                 raise QmeshError(

@@ -48,6 +48,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from qmesh.geometry.portable import arctan
 from qmesh.conductivity.anisotropy import Anisotropy
 from qmesh.domain.domain import Domain
 
@@ -87,7 +88,7 @@ def _band(delta=0.2):
 
 
 def fvca6(delta=0.2):
-    angle = np.degrees(np.arctan(delta))
+    angle = np.degrees(arctan(delta))
     cond = {0: Anisotropy.principal(1.0, 0.1, angle), 1: Anisotropy.principal(100.0, 10.0, angle)}
     return Domain(UNIT, regions=[_band(delta)], region_names=["drain"]), cond, \
         step

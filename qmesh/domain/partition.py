@@ -23,6 +23,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
+from qmesh.geometry.portable import arctan2
 from qmesh.errors import QmeshError
 from qmesh.geometry import rings as _rings
 
@@ -283,7 +284,7 @@ def partition(rings: list[Ring], segment_tags: list[np.ndarray], size: float) ->
     half_from = E.ravel()                                  # h = 2e: E[e,0] → E[e,1]; 2e+1 back
     half_to = E[:, ::-1].ravel()
     d = V[half_to] - V[half_from]
-    ang = np.arctan2(d[:, 1], d[:, 0])
+    ang = arctan2(d[:, 1], d[:, 0])
     order = np.lexsort((ang, half_from))                   # outgoing half-edges, CCW per vertex
     start = np.searchsorted(half_from[order], np.arange(len(V)))
     deg = np.bincount(half_from, minlength=len(V))

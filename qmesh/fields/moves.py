@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from qmesh.geometry.portable import cholesky2, solve2
 from qmesh.conductivity.anisotropy import Anisotropy, shape_metric
 from qmesh.fields.shares import FLOOR, GAIN, KEEP, ROUND, deficit, means_of, shares
 from qmesh.geometry import topology
@@ -243,7 +244,7 @@ def polish(P, T, twin, Qbar, s, b, field, movers, tangent=None, refused=None, re
     order = np.lexsort((quality, owner))
     first = order[np.r_[True, owner[order][1:] != owner[order][:-1]]]   # by owner, ascending
     first = first[np.searchsorted(owner[first], v)]                       # in v's order
-    k, L = corner[first], np.linalg.cholesky(H[first])           # |x|_H = |Lᵀ x|
+    k, L = corner[first], cholesky2(H[first])           # |x|_H = |Lᵀ x|
     a, c = P[near[first, (k + 1) % 3]], P[near[first, (k + 2) % 3]]
     ac = np.einsum("kji,kj->ki", L, c - a)
     av = np.einsum("kji,kj->ki", L, P[v] - a)
@@ -252,7 +253,7 @@ def polish(P, T, twin, Qbar, s, b, field, movers, tangent=None, refused=None, re
     ring = np.stack([np.cos(angle), np.sin(angle)], axis=1)
     around = (np.asarray(REACH)[:, None, None, None] * height[None, None, :, None]
               * ring[None, :, None, :]).reshape(-1, len(v), 2)
-    back = np.linalg.solve(np.swapaxes(L, 1, 2)[None], around[..., None])[..., 0]
+    back = solve2(np.swapaxes(L, 1, 2)[None], around)
     D = np.concatenate([np.asarray(STEPS)[:, None, None] * step[None], back])   # (K, k, 2)
     if tangent is not None:                    # a boundary vertex: the move's share along it
         D = _along(D, tangent[v])

@@ -37,7 +37,7 @@ def shares(P: NDArray[np.float64], T: NDArray[np.int64], Qbar: NDArray[np.float6
     A = adj2(Qbar)
     Ej, Ek = E, E[:, [1, 2, 0]]                              # opposite corners j and j + 1
     s = -np.einsum("mki,mij,mkj->mk", Ej, A, Ek) / (4.0 * area[:, None])
-    bound = (err[:, None] * np.linalg.norm(Ej, axis=2) * np.linalg.norm(Ek, axis=2)
+    bound = (err[:, None] * np.hypot(Ej[..., 0], Ej[..., 1]) * np.hypot(Ek[..., 0], Ek[..., 1])
              / (4.0 * area[:, None]))
     return s.ravel(), bound.ravel()
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from qmesh.geometry.portable import arctan2, ceil_log2
 from qmesh.geometry.orientation import orient
 from qmesh.geometry.topology import sorted_unique
 
@@ -22,8 +23,9 @@ def signed_area(ring: np.ndarray) -> float:
     """Shoelace area of one closed ring (> 0 counter-clockwise), taken about its first point."""
     d = ring - ring[0]
     x, y = d[:, 0], d[:, 1]
-    # np.roll(·, -1) written out: the same arrays, without its overhead (a call per ring of a medium)
-    return 0.5 * float(np.dot(x, np.concatenate([y[1:], y[:1]])) - np.dot(y, np.concatenate([x[1:], x[:1]])))
+    # np.roll(·, -1) written out: the same arrays, without its overhead (a call per ring of a
+    # medium); NumPy's pairwise sums, not BLAS's dot, whose last bits depend on the CPU
+    return 0.5 * float((x * np.concatenate([y[1:], y[:1]])).sum() - (y * np.concatenate([x[1:], x[:1]])).sum())
 
 
 def _pairs(py: np.ndarray, ylo: np.ndarray, yhi: np.ndarray, order: np.ndarray | None = None):
@@ -329,7 +331,7 @@ def _pieces(A: np.ndarray, B: np.ndarray, n: int):
     t = (np.arange(k.sum()) - np.repeat(np.cumsum(k) - k, k) + 0.5) / k[seg]
     C = A[seg] + t[:, None] * (B[seg] - A[seg])
     ell = np.maximum(L / k, max(h * 1e-12, 4 * np.finfo(float).eps * scale, 1e-300))[seg]
-    q = np.ceil(np.log2(ell)).astype(np.int64)
+    q = ceil_log2(ell)
     return seg, C, q, 8 * np.finfo(float).eps * scale
 
 
@@ -425,7 +427,7 @@ def convex_width(V: np.ndarray) -> float:
         V = V[::-1]
     n = len(V)
     E = np.concatenate([V[1:], V[:1]]) - V
-    theta = np.arctan2(-E[:, 0], E[:, 1])                   # outward normals (E_y, −E_x), ccw
+    theta = arctan2(-E[:, 0], E[:, 1])                   # outward normals (E_y, −E_x), ccw
     dd = np.diff(theta)                                     # np.unwrap(theta), as NumPy takes it
     ddmod = np.mod(dd + np.pi, 2 * np.pi) - np.pi
     ddmod[(ddmod == -np.pi) & (dd > 0)] = np.pi

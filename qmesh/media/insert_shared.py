@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from qmesh.geometry.portable import dot2
 from qmesh.domain.junctions import crowded_junction
 from qmesh.errors import QmeshError
 from qmesh.geometry import topology
@@ -75,13 +76,13 @@ def _holding(P, T, twin, out, part, X, edge) -> np.ndarray:
     found = np.full(len(X), -1, np.int64)
     for e in np.unique(edge):                  # one pass per partition edge touched
         a, b = part.points[part.edges[e]]
-        d = (b - a) / float((b - a) @ (b - a))
+        d = (b - a) / float(dot2(b - a, b - a))
         on = np.flatnonzero(out[u] == e)
-        su, sv = (P[u[on]] - a) @ d, (P[v[on]] - a) @ d
+        su, sv = dot2(P[u[on]] - a, d), dot2(P[v[on]] - a, d)
         order = np.argsort(np.minimum(su, sv))
         lo, hi = np.minimum(su, sv)[order], np.maximum(su, sv)[order]
         mine = np.flatnonzero(edge == e)
-        s = (X[mine] - a) @ d
+        s = dot2(X[mine] - a, d)
         j = np.searchsorted(lo, s) - 1
         ok = (j >= 0) & (s < hi[np.maximum(j, 0)])
         if not ok.all():

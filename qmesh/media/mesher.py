@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from qmesh.geometry.portable import dot2
 from qmesh.domain.domain import as_domain
 from qmesh.errors import QmeshError, QmeshWarning
 from qmesh.geometry.triangles import worst_metric_quality
@@ -209,7 +210,7 @@ def _share(plan: MediaPlan, meshes: FaceMeshes, mesh: Mesh, extra: dict, options
         for e, X in pts.items():          # old and new, without repeats, ordered along the edge
             a, b = part.points[part.edges[e]]
             X = np.unique(X if e not in extra else np.concatenate([extra[e], X]), axis=0)
-            extra[e] = X[np.argsort((X - a) @ (b - a), kind="stable")]
+            extra[e] = X[np.argsort(dot2(X - a, b - a), kind="stable")]
         given: dict[int, dict] = {}        # the finished faces beside these edges only, their points
         for e, f in zip(pts, part.edge_faces[list(pts)].tolist()):
             for j in {j for j in f if j in rank}:

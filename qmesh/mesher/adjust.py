@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from qmesh.geometry.portable import inv2, solve2, times2
 from qmesh.geometry.topology import NXT, PRV, touching
 from qmesh.geometry.triangles import (Frame, area_gradients, chunks, columns, metric_hessians,
                                       quadratic_form, quadratic_form_xy, signed_areas)
@@ -98,11 +99,11 @@ def newton_step(P, T, anisotropy, *, fixed, tangent, alpha=0.5):
     n = len(P)
     b, _ = newton_rhs(P, T, anisotropy)
     if anisotropy.is_constant:
-        d = b @ np.linalg.inv(anisotropy.H).T                  # interior: H d = b
+        d = times2(b, inv2(anisotropy.H).T)                    # interior: H d = b
         Hv = np.broadcast_to(anisotropy.H, (n, 2, 2))
     else:
         Hv = np.asarray(anisotropy.hessian(P), dtype=float)
-        d = np.linalg.solve(Hv, b[..., None])[..., 0]
+        d = solve2(Hv, b)
     sliding = (tangent[:, 0] != 0) | (tangent[:, 1] != 0)
     tb = np.einsum("ni,ni->n", tangent[sliding], b[sliding])
     tHt = np.einsum("ni,nij,nj->n", tangent[sliding], Hv[sliding], tangent[sliding])
@@ -142,7 +143,7 @@ def shape_step(P, T, anisotropy, movable, on_boundary=None):
         wt = np.where(fan, np.clip(3.0 * lb2 / S, FAN_WEIGHT, 1.0), 1.0)[:, None]
     U = E[:, NXT] - E[:, PRV]                                 # (x_c − x_a) + (x_c − x_b) per corner
     if Hm.strides[0] == 0:
-        dS = 2.0 * U @ Hm[0].T
+        dS = 2.0 * times2(U, Hm[0].T)
     else:
         dS = 2.0 * np.einsum("mij,mcj->mci", Hm, U)
     dA = sq[:, None, None] * np.stack([F.gx, F.gy], axis=-1)  # ∂Ã/∂x_c
@@ -150,7 +151,7 @@ def shape_step(P, T, anisotropy, movable, on_boundary=None):
     g = dS * iA - (S[:, None, None] * iA * iA) * dA          # ∂(S/Ã)/∂x_c
     # its Hessian 4H/Ã − (∇S ∇Ãᵀ + ∇Ã ∇Sᵀ)/Ã² + 2S ∇Ã ∇Ãᵀ/Ã³, entries 00, 01, 11
     ia = iA[:, :, 0]
-    c1, c2 = 2.0 * S[:, None] * ia ** 3, ia ** 2
+    c1, c2 = 2.0 * S[:, None] * (ia * ia * ia), ia * ia
     (sx, sy), (ax, ay) = np.moveaxis(dS, -1, 0), np.moveaxis(dA, -1, 0)
     h00 = 4.0 * Hm[:, None, 0, 0] * ia - 2.0 * c2 * sx * ax + c1 * ax * ax
     h11 = 4.0 * Hm[:, None, 1, 1] * ia - 2.0 * c2 * sy * ay + c1 * ay * ay

@@ -22,6 +22,7 @@ from numpy.typing import NDArray
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
+from qmesh.geometry.portable import cholesky2, det2, eigh2, inv2, matmul2, moments2, times2
 from qmesh.domain.domain import Domain
 from qmesh.errors import QmeshError
 from qmesh.geometry.rings import signed_area
@@ -102,10 +103,10 @@ def _lattices(dom: Components, H: NDArray[np.float64], h: float, rng: np.random.
     sizes = np.asarray(dom.sizes, np.int64)
     n_d, start = len(sizes), np.cumsum(sizes) - sizes
     pid = np.repeat(np.arange(n_d), sizes)                  # domain of every seed and segment
-    L = np.linalg.cholesky(H)
+    L = cholesky2(H)
     S = dom.seeds
     A, B = dom.segment_ends
-    X, w = S @ L, np.hypot(*((B - A) @ L).T)
+    X, w = times2(S, L), np.hypot(*times2(B - A, L).T)
     W = np.add.reduceat(w, start)
     D = X - (np.add.reduceat(X * w[:, None], start) / W[:, None])[pid]
     cxx, cxy, cyy = (np.add.reduceat(w * u * v, start) for u, v in ((D[:, 0], D[:, 0]), (D[:, 0], D[:, 1]),
@@ -113,16 +114,16 @@ def _lattices(dom: Components, H: NDArray[np.float64], h: float, rng: np.random.
     with np.errstate(all="ignore"):
         mid, rad = 0.5 * (cxx + cyy), np.hypot(0.5 * (cxx - cyy), cxy)
         plain = (mid + rad) * (1 + 1e-6) < ELONGATED * (mid - rad)
-    Am, Bm = A @ L, B @ L
-    inv = np.broadcast_to(np.linalg.inv(L), (n_d, 2, 2)).copy()
+    Am, Bm = times2(A, L), times2(B, L)
+    inv = np.broadcast_to(inv2(L), (n_d, 2, 2)).copy()
     late = np.flatnonzero(~plain)
     for n in np.unique(sizes[late]).tolist():               # the frame metric_lattice finds, by size
         grp = late[sizes[late] == n]
         at = (start[grp][:, None] + np.arange(n)).ravel()
         M = _frames(X[at].reshape(-1, n, 2), w[at].reshape(-1, n), L)
-        Am[at] = (A[at].reshape(-1, n, 2) @ M).reshape(-1, 2)
-        Bm[at] = (B[at].reshape(-1, n, 2) @ M).reshape(-1, 2)
-        inv[grp] = np.linalg.inv(M)
+        Am[at] = matmul2(A[at].reshape(-1, n, 1, 2), M[:, None]).reshape(-1, 2)
+        Bm[at] = matmul2(B[at].reshape(-1, n, 1, 2), M[:, None]).reshape(-1, 2)
+        inv[grp] = inv2(M)
     lo = np.minimum(np.minimum.reduceat(Am, start), np.minimum.reduceat(Bm, start))
     hi = np.maximum(np.maximum.reduceat(Am, start), np.maximum.reduceat(Bm, start))
     dy = h * np.sqrt(3.0) / 2.0
@@ -168,12 +169,12 @@ def _lattices(dom: Components, H: NDArray[np.float64], h: float, rng: np.random.
     close = point_segment_distance(P[pt], Am[sg], Bm[sg]) <= rounded(MARGIN * h)
     keep = np.bincount(pt[close], minlength=len(P)) == 0
     P, P_d = P[keep], P_d[keep]
-    out = P @ np.linalg.inv(L)
+    out = times2(P, inv2(L))
     n_kept = np.bincount(P_d, minlength=n_d)
     at = np.cumsum(n_kept) - n_kept
     for p in np.flatnonzero((n_kept > 0) & (~plain | (n_kept == 1))).tolist():   # mapped back alone
         s, e = int(at[p]), int(at[p] + n_kept[p])
-        out[s:e] = P[s:e] @ inv[p]
+        out[s:e] = times2(P[s:e], inv[p])
     return out
 
 
@@ -182,11 +183,11 @@ def _frames(X: NDArray[np.float64], w: NDArray[np.float64], L: NDArray[np.float6
     mapped by L, w (g, n) their segments' metric lengths; the same operations, matrix by matrix."""
     c = (X * w[..., None]).sum(axis=1) / w.sum(axis=1)[:, None]
     D = X - c[:, None, :]
-    val, vec = np.linalg.eigh((D.transpose(0, 2, 1) * w[:, None, :]) @ D)
+    val, vec = eigh2(moments2(D, w))
     R = vec[..., ::-1]                                   # columns: longest direction first
     R *= np.where(np.abs(R[:, 0]) >= np.abs(R[:, 1]), np.sign(R[:, 0]), np.sign(R[:, 1]))[:, None, :]
-    flip = np.linalg.det(R) < 0
+    flip = det2(R) < 0
     R[flip, :, 1] *= -1
-    M = L @ R
+    M = matmul2(L, R)
     M[val[:, 1] < ELONGATED * val[:, 0]] = L             # not elongated: the metric's own axes
     return M

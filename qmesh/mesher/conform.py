@@ -26,6 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from qmesh.geometry.portable import cholesky2, round_log2, times2
 from qmesh.geometry import topology
 from qmesh.errors import QmeshError
 from qmesh.geometry.triangles import signed_areas
@@ -88,7 +89,7 @@ def sharpest_corner(domain, anisotropy) -> tuple[int, float]:
     cos = np.einsum("ki,kij,kj->k", a, H, b) / np.sqrt(
         np.einsum("ki,kij,kj->k", a, H, a) * np.einsum("ki,kij,kj->k", b, H, b))
     k = int(np.argmax(cos))
-    return k, float(np.degrees(np.arccos(np.clip(cos[k], -1.0, 1.0))))
+    return k, float(np.degrees(np.arccos(np.clip(cos[k], -1.0, 1.0))))   # measures only
 
 
 class SharpCorner(QmeshError):
@@ -114,7 +115,7 @@ def split_points(A: np.ndarray, B: np.ndarray, a_is_seed: np.ndarray, b_is_seed:
         E = B[shell] - A[shell]
         H = _metric_at(anisotropy, seed)
         L = np.sqrt(np.einsum("ki,kij,kj->k", E, H, E))
-        d = np.exp2(np.round(np.log2(0.5 * L)))
+        d = np.ldexp(1.0, round_log2(0.5 * L))
         f = np.clip(d / L, 0.25, 0.75)
         frac[shell] = np.where(a_is_seed[shell], f, 1.0 - f)
     return A + frac[:, None] * (B - A)
@@ -207,7 +208,7 @@ def _canonical_order(T: np.ndarray, twin: np.ndarray, rows: np.ndarray):
     cols = [Tr[at, (r + j) % 3] for j in range(3)]          # corner j: the old corner r + j
     del Tr
     n = int(max(c.max() for c in cols)) + 1 if m else 0
-    if n ** 3 < 2 ** 63:        # one int64 key per triangle: a third of lexsort's time, same order
+    if n * n * n < 2 ** 63:        # one int64 key per triangle: a third of lexsort's time, same order
         order = np.argsort((cols[0] * n + cols[1]) * n + cols[2], kind="stable")
     else:
         order = np.lexsort((cols[2], cols[1], cols[0]))
@@ -268,8 +269,8 @@ def _encroaching_free(domain, P, edge_id, anisotropy, h, far=None) -> np.ndarray
     t[on] = np.einsum("ki,ki->k", P[on] - A[edge_id[on]], E[edge_id[on]]) / \
         np.einsum("ki,ki->k", E, E)[edge_id[on]]
     a, b = _subsegments(domain, n_seeds, edge_id, t)
-    L = np.linalg.cholesky(anisotropy.H)
-    X = P @ L
+    L = cholesky2(anisotropy.H)
+    X = times2(P, L)
     M = 0.5 * (X[a] + X[b])
     r = 0.5 * np.hypot(*(X[b] - X[a]).T)
     M, r = M[r <= 0.5 * LONG * h], r[r <= 0.5 * LONG * h]     # long ones are split instead
@@ -340,8 +341,8 @@ def _split_crowded(domain, P, edge_id, pinned, place, anisotropy, size, max_poin
     n_seeds = len(domain.seeds)
     A, Bend = domain.segment_ends
     seg_len2 = np.einsum("ki,ki->k", Bend - A, Bend - A)
-    L = np.linalg.cholesky(anisotropy.H)
-    X = P @ L
+    L = cholesky2(anisotropy.H)
+    X = times2(P, L)
     inner = np.flatnonzero((np.arange(len(P)) >= n_seeds) & (edge_id < 0))
     itree = cKDTree(X[inner]) if len(inner) else None
     alive = np.ones(len(P), bool)
@@ -381,7 +382,7 @@ def _split_crowded(domain, P, edge_id, pinned, place, anisotropy, size, max_poin
         new = split_points(P[a], P[b], a < n_seeds, b < n_seeds, anisotropy)
         n_old = len(P)
         P = np.concatenate([P, new])
-        X = np.concatenate([X, new @ L])
+        X = np.concatenate([X, times2(new, L)])
         edge_id = np.concatenate([edge_id, np.where(a < n_seeds, a, edge_id[a])])
         pinned = np.concatenate([pinned, np.ones(len(a), bool)])
         place = np.concatenate([place, np.full(len(a), -1, np.int64)])

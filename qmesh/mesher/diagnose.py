@@ -17,6 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import ConvexHull, QhullError
 
+from qmesh.geometry.portable import cholesky2, times2
 from qmesh.conductivity.anisotropy import Anisotropy
 from qmesh.errors import QmeshWarning
 from qmesh.geometry.rings import convex_width
@@ -42,8 +43,8 @@ def metric_width(points: NDArray[np.float64], H: NDArray[np.float64], metric_are
     the convex hull of the mapped points (exact for convex domains) and, for what the hull does
     not see, 4·area/perimeter without holes (the diameter of a disk, twice the width of a long
     arm) or 2·area/perimeter with holes (the width R − r of an annulus)."""
-    L = np.linalg.cholesky(H)                      # H = L Lᵀ, metric length |Lᵀ d|
-    X = points @ L
+    L = cholesky2(H)                               # H = L Lᵀ, metric length |Lᵀ d|
+    X = times2(points, L)
     factor = 2.0 if holes else 4.0
     by_area = factor * metric_area / metric_perimeter if metric_perimeter > 0 else np.inf
     try:

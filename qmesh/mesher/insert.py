@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
+from qmesh.geometry.portable import eigvalsh2
 from qmesh.geometry import topology
 from qmesh.geometry.triangles import metric_hessians, metric_measures, rounded
 
@@ -206,7 +207,7 @@ def _grading_points(P, T, twin, Hm, quality, grade, budget):
     # no two points closer than half the circumradius of the worse triangle's circle
     r = np.sqrt(r2[sel])
     if len(idx) > 1:
-        lam = np.linalg.eigvalsh(Hs)[:, 0]                          # Euclidean radius bound
+        lam = eigvalsh2(Hs)[:, 0]                          # Euclidean radius bound
         hits = cKDTree(C).query_ball_point(C, 0.5 * r / np.sqrt(lam))
         count = np.fromiter((len(h) for h in hits), np.int64, len(hits))
         i = np.repeat(np.arange(len(idx)), count)

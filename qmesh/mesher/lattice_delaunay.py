@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from qmesh.geometry.portable import det2, times2
 from qmesh.errors import QmeshError
 from qmesh.geometry import rings, topology
 
@@ -40,7 +41,7 @@ def deep_points(domain, lattice) -> np.ndarray:
     """Mask of the lattice's points farther than DEEP·h (metric) from every boundary segment."""
     A, B = domain.segment_ends
     M = lattice.frame
-    return ~np.isfinite(rings.distance(lattice.points @ M, A @ M, B @ M, DEEP * lattice.h))
+    return ~np.isfinite(rings.distance(times2(lattice.points, M), times2(A, M), times2(B, M), DEEP * lattice.h))
 
 
 def closed_form(lattice, place: np.ndarray, deep: np.ndarray):
@@ -97,7 +98,7 @@ def _deep_triangles(lattice, place: np.ndarray, deep: np.ndarray) -> np.ndarray:
     down = np.column_stack([right, above_right, above])
     T = np.concatenate([up, down])
     T = T[(T[:, 0] >= 0) & (T[:, 1] >= 0) & (T[:, 2] >= 0)]
-    if np.linalg.det(lattice.frame) < 0:       # the frame maps the domain reversed
+    if det2(lattice.frame) < 0:       # the frame maps the domain reversed
         T = T[:, [0, 2, 1]]
     return T
 

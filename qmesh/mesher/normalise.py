@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from qmesh.geometry.portable import dot2, gauss_legendre
 from qmesh.conductivity.anisotropy import Anisotropy
 from qmesh.errors import QmeshError
 
@@ -83,7 +84,7 @@ class Normalisation:
 
         def s(Y):      # the affine part at c removed: it changes no hull, and keeps s small
             Y = np.asarray(Y, dtype=float)
-            return (np.asarray(A.s(x(Y)), dtype=float) - s0 - d * (Y @ g0)) / (d * d * k)
+            return (np.asarray(A.s(x(Y)), dtype=float) - s0 - d * dot2(Y, g0)) / (d * d * k)
 
         def grad(Y):
             return (np.asarray(A.grad(x(Y)), dtype=float) - g0) / (d * k)
@@ -96,7 +97,7 @@ class Normalisation:
         (and ∇s likewise, ∫₀¹ ∇²s(c + t·dY) Y dt), by Gauss–Legendre on [0, 1]: no difference
         of nearly equal values, where s(x) − s(c) − ∇s(c)·(x − c) would keep none of its digits
         (a domain 1e-7 across: s − s(c) ~ 1e-14·s). Exact for s of degree ≤ 2·GAUSS + 1."""
-        t, w = np.polynomial.legendre.leggauss(GAUSS)
+        t, w = gauss_legendre(GAUSS)
         t, w = 0.5 * (t + 1.0), 0.5 * w
 
         def s(Y):

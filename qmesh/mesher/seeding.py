@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from qmesh.geometry.portable import cholesky2, det2, eigh2, inv2, matmul2, moments2, times2
 from qmesh.geometry import rings
 from qmesh.geometry.triangles import rounded
 from qmesh.mesher.sizing import domain_triangulation, metric_edge_lengths
@@ -60,20 +61,19 @@ def random_interior(domain, k, rng) -> np.ndarray:
 
 def _metric_frame(domain, H):
     """The map x ↦ x L R to metric coordinates whose x axis is Ω's longest direction."""
-    L = np.linalg.cholesky(H)                      # H = L Lᵀ; metric coordinates x' = Lᵀ x
-    X = domain.seeds @ L
+    L = cholesky2(H)                               # H = L Lᵀ; metric coordinates x' = Lᵀ x
+    X = times2(domain.seeds, L)
     A, B = domain.segment_ends
-    w = np.hypot(*((B - A) @ L).T)                 # weight corners by their segments' length
+    w = np.hypot(*times2(B - A, L).T)              # weight corners by their segments' length
     c = (X * w[:, None]).sum(axis=0) / w.sum()
-    cov = ((X - c).T * w) @ (X - c)
-    val, vec = np.linalg.eigh(cov)
+    val, vec = eigh2(moments2(X - c, w))
     if val[1] < ELONGATED * val[0]:
         return L                                   # not elongated: keep the metric's own axes
     R = vec[:, ::-1]                               # columns: longest direction first
     R *= np.where(np.abs(R[0]) >= np.abs(R[1]), np.sign(R[0]), np.sign(R[1]))   # a fixed sign
-    if np.linalg.det(R) < 0:
+    if det2(R) < 0:
         R[:, 1] *= -1
-    return L @ R
+    return matmul2(L, R)
 
 
 @dataclass(frozen=True)
@@ -98,7 +98,7 @@ def metric_lattice(domain, H, h, rng) -> Lattice:
     """Hexagonal lattice of metric spacing h, mapped back, at least MARGIN·h inside Ω."""
     M = _metric_frame(domain, H)
     A, B = domain.segment_ends
-    Am, Bm = A @ M, B @ M
+    Am, Bm = times2(A, M), times2(B, M)
     lo = np.minimum(Am.min(axis=0), Bm.min(axis=0))
     hi = np.maximum(Am.max(axis=0), Bm.max(axis=0))
     dy = h * np.sqrt(3.0) / 2.0
@@ -115,7 +115,7 @@ def metric_lattice(domain, H, h, rng) -> Lattice:
     X = np.column_stack([lo[0] + (i + 0.5 * (r % 2)) * h, y[r]])
     X += rng.uniform(-JITTER, JITTER, X.shape) * h
     keep = ~np.isfinite(rings.distance(X, Am, Bm, rounded(MARGIN * h)))
-    return Lattice(X[keep] @ np.linalg.inv(M), (2 * i + r % 2)[keep], r[keep].astype(np.int64), M, lo, h)
+    return Lattice(times2(X[keep], inv2(M)), (2 * i + r % 2)[keep], r[keep].astype(np.int64), M, lo, h)
 
 
 def _empty(M, lo, h) -> Lattice:
@@ -131,9 +131,9 @@ def lattice_for_count(domain, H, n, rng) -> Lattice:
     if n < 1:
         return _empty(np.eye(2), np.zeros(2), 1.0)
     A, B = domain.segment_ends
-    L = np.linalg.cholesky(H)
-    E = (B - A) @ L
-    area_m = domain.area * np.sqrt(np.linalg.det(H))
+    L = cholesky2(H)
+    E = times2(B - A, L)
+    area_m = domain.area * np.sqrt(det2(H))
     perimeter_m = np.hypot(E[:, 0], E[:, 1]).sum()
     cell = np.sqrt(3.0) / 2.0                      # lattice area per point is cell·h²
     # area_m − perimeter_m·MARGIN·h = n·cell·h², solved for h > 0

@@ -23,6 +23,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from qmesh.geometry.portable import arctan2, ceil_pow2_steps, cholesky2, eigh2, floor_log2, floor_log2_steps, inv2, log, round_log2, times2
 from qmesh.errors import QmeshError
 
 from qmesh.geometry import rings
@@ -49,7 +50,7 @@ def _sym_eig_min(H: np.ndarray) -> np.ndarray:
 
 def _inv_sqrt_spd(H: np.ndarray) -> np.ndarray:
     """H^{-1/2} of symmetric positive definite 2×2 matrices (n, 2, 2)."""
-    w, V = np.linalg.eigh(H)
+    w, V = eigh2(H)
     return np.einsum("nij,nj,nkj->nik", V, 1.0 / np.sqrt(w), V)
 
 
@@ -67,16 +68,16 @@ def _conflicts(X: np.ndarray, H: np.ndarray, r: float, Lbar: np.ndarray):
     """
     if len(X) < 2:
         return np.empty(0, np.int64), np.empty(0, np.int64)
-    Y = X @ Lbar
-    Linv = np.linalg.inv(Lbar)
+    Y = times2(X, Lbar)
+    Linv = inv2(Lbar)
     G = np.einsum("ji,njk,kl->nil", Linv, H, Linv)
     reach = r / np.sqrt(np.clip(_sym_eig_min(G), 1e-300, None))
-    level = np.floor(np.log2(reach / reach.min())).astype(np.int64)
+    level = floor_log2(reach / reach.min())
     found = []
     for b in np.unique(level):
         src = np.flatnonzero(level == b)
         dst = np.flatnonzero(level >= b)
-        radius = float(np.sqrt(2.0) * reach.min() * 2.0 ** (b + 1))
+        radius = float(np.sqrt(2.0) * reach.min() * np.ldexp(1.0, int(b) + 1))
         tree = cKDTree(Y[dst])
         # searchers in chunks of at most PAIR_CHUNK candidates (a strongly anisotropic metric
         # puts whole rows of points in one ball), each chunk filtered at once: bounded memory
@@ -118,10 +119,10 @@ def _conflicts_oriented(X: np.ndarray, H: np.ndarray, r: float):
     points of its own and later groups. The pairs are the same set; the search costs a tree per
     group."""
     a, b, c = H[:, 0, 0], H[:, 0, 1], H[:, 1, 1]
-    theta = 0.5 * np.arctan2(2.0 * b, a - c)                      # the larger eigenvalue's axis
+    theta = 0.5 * arctan2(2.0 * b, a - c)                      # the larger eigenvalue's axis
     lmin = np.clip(_sym_eig_min(H), 1e-300, None)
     ratio = (a + c - lmin) / lmin
-    k = int(np.clip(2.0 ** np.round(np.log2(2.0 * max(len(X), 1) ** 0.25)), 8, ORIENTATIONS))
+    k = int(np.clip(np.ldexp(1.0, round_log2(2.0 * np.sqrt(np.sqrt(max(len(X), 1))))), 8, ORIENTATIONS))
     group = np.floor((theta / np.pi + 0.5) * k).astype(np.int64) % k
     group[ratio < ROUND_METRIC] = -1
     n = len(X)
@@ -130,11 +131,11 @@ def _conflicts_oriented(X: np.ndarray, H: np.ndarray, r: float):
     x, y, h11, h12, h22 = X[:, 0].copy(), X[:, 1].copy(), a.copy(), b.copy(), c.copy()
     for g in np.unique(group):
         src = np.flatnonzero(group == g)
-        L = np.linalg.cholesky(H[src].mean(axis=0))
-        Linv = np.linalg.inv(L)
+        L = cholesky2(H[src].mean(axis=0))
+        Linv = inv2(L)
         G = np.einsum("ij,njk,lk->nil", Linv, H[src], Linv)        # L⁻¹ H L⁻ᵀ: H where y = x L
         radius = np.sqrt(2.0) * r / np.sqrt(np.clip(_sym_eig_min(G), 1e-300, None))
-        Y = X @ L
+        Y = times2(X, L)
         # the tree holds only the points a searcher's own ellipse (Eᵀ H_i E < 2r²) can reach,
         # found by cells that wide: a group's points lie in a few sectors of a turning field
         cell = np.sqrt(2.0) * r / np.sqrt(float(lmin[src].min()))
@@ -143,7 +144,7 @@ def _conflicts_oriented(X: np.ndarray, H: np.ndarray, r: float):
         tree = cKDTree(Y[pool], **TREE)
         # searchers binned by reach (factors of √2), each bin one array-valued search with
         # its largest reach, filtered by each searcher's own: no per-point lists
-        level = np.floor(2.0 * np.log2(radius / radius.min())).astype(np.int64)
+        level = floor_log2_steps(radius / radius.min(), 2)
         for b in np.unique(level):
             s, reach = src[level == b], radius[level == b]
             count = np.cumsum(tree.query_ball_point(Y[s], reach, return_length=True))
@@ -169,7 +170,7 @@ def _near_cells(X: np.ndarray, src: np.ndarray, cell: float, cache: dict | None 
     X) the side is rounded up to a power of 2^(1/4) and each side's cells are sorted once, so each
     group of the conflict search costs its searchers and its pool, not all of X."""
     if cache is not None:
-        cell = float(2.0 ** (np.ceil(4.0 * np.log2(cell)) / 4.0))
+        cell = ceil_pow2_steps(cell, 4)
     index = None if cache is None else cache.get(cell)
     if index is None:
         lo = X.min(axis=0)
@@ -219,7 +220,7 @@ def _luby(n: int, i: np.ndarray, j: np.ndarray, rng, priority=None) -> np.ndarra
 def _mean_metric(domain, anisotropy, rng) -> np.ndarray:
     """L̄ with L̄L̄ᵀ the mean Hessian over random points of Ω (the coordinates of the search)."""
     X = seeding.random_interior(domain, 512, rng)
-    return np.linalg.cholesky(np.asarray(anisotropy.hessian(X), dtype=float).mean(axis=0))
+    return cholesky2(np.asarray(anisotropy.hessian(X), dtype=float).mean(axis=0))
 
 
 def _inside_with_margin(domain, X, H, margin: float) -> np.ndarray:
@@ -246,13 +247,13 @@ def _patch_lattices(domain, anisotropy, h: float, Lbar: np.ndarray):
     (distance from their own patch centre in patch half-sizes: the core of a patch wins).
     """
     S = PATCH * h
-    Y0 = domain.seeds @ Lbar
+    Y0 = times2(domain.seeds, Lbar)
     lo, hi = Y0.min(axis=0), Y0.max(axis=0)
     gx = lo[0] + S * (np.arange(int(np.ceil((hi[0] - lo[0]) / S)) + 1)) - 0.5 * S
     gy = lo[1] + S * (np.arange(int(np.ceil((hi[1] - lo[1]) / S)) + 1)) - 0.5 * S
     Yc = np.stack(np.meshgrid(gx, gy, indexing="ij"), axis=-1).reshape(-1, 2)
-    Linv = np.linalg.inv(Lbar)
-    Xc = Yc @ Linv
+    Linv = inv2(Lbar)
+    Xc = times2(Yc, Linv)
     with np.errstate(all="ignore"):
         Hc = np.asarray(anisotropy.hessian(Xc), dtype=float)
     ok = np.all(np.isfinite(Hc), axis=(1, 2)) & (Hc[:, 0, 0] > 0) & \
@@ -277,8 +278,8 @@ def _patch_lattices(domain, anisotropy, h: float, Lbar: np.ndarray):
     # only the lattice points in each patch's box: point (i, j) lies i·u + j·v from the centre in
     # y, so each row i of patch k holds the j of an interval (a strongly anisotropic local metric
     # against a nearly round mean one keeps a thin strip of the (2m + 1)² square)
-    u = h * (B[:, :, 0] @ Lbar)
-    v = 0.5 * u + (np.sqrt(3.0) / 2.0) * h * (B[:, :, 1] @ Lbar)
+    u = h * times2(B[:, :, 0], Lbar)
+    v = 0.5 * u + (np.sqrt(3.0) / 2.0) * h * times2(B[:, :, 1], Lbar)
     k, i = _rows(mk)
     slack = 1e-6 * OVERLAP * S + 1e-12 * float(np.abs(Yc).max(initial=0.0))   # round-off of y
     lo, hi = _strip(i, u[k], v[k], OVERLAP * S + slack)
@@ -296,7 +297,7 @@ def _patch_lattices(domain, anisotropy, h: float, Lbar: np.ndarray):
         X = np.empty((len(r), 2))
         for a in (0, 1):          # Xc + B Z, the two products summed as einsum does
             X[:, a] = Xc[kc, a] + (B[kc, a, 0] * Z0 + B[kc, a, 1] * Z1)
-        d = np.abs(X @ Lbar - Yc[kc]).max(axis=1) / (0.5 * S)
+        d = np.abs(times2(X, Lbar) - Yc[kc]).max(axis=1) / (0.5 * S)
         keep = d <= 2.0 * OVERLAP
         key = kc * side * side + (ic + m) * side + (j + m)
         parts.append((X[keep], d[keep], key[keep]))
@@ -345,7 +346,7 @@ def _variation(domain, anisotropy, h: float, rng, samples: int = 2048):
     X = seeding.random_interior(domain, samples, rng)
     with np.errstate(all="ignore"):
         H = np.asarray(anisotropy.hessian(X), dtype=float)
-        lam, V = np.linalg.eigh(np.where(np.isfinite(H), H, 0.0))
+        lam, V = eigh2(np.where(np.isfinite(H), H, 0.0))
         w = np.sqrt(np.clip(lam[:, 0] * lam[:, 1], 0.0, None))
         factor = np.ones(len(X))
         for k in (0, 1):
@@ -374,7 +375,7 @@ def _check_followable(domain, anisotropy, h: float, n: int) -> None:
     order = np.argsort(factor)
     cum = np.cumsum(w[order]) / w.sum()
     f = float(factor[order][min(np.searchsorted(cum, 1.0 - UNFOLLOWED), len(order) - 1)])
-    more = n * (np.log(f) / np.log(FOLLOW)) ** 2 if np.isfinite(f) else np.inf
+    more = n * float(log(f) / log(FOLLOW)) ** 2 if np.isfinite(f) else np.inf
     if more <= 2 * n:       # nearly followable: the insertions and the vertex step will cope
         return
     advice = (f"about {more:.2g} interior vertices would follow it" if np.isfinite(more)

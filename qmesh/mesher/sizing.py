@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
+from qmesh.geometry.portable import cholesky2, det2, gauss_legendre, times2
 from qmesh.conductivity.anisotropy import Anisotropy
 from qmesh.errors import QmeshError
 from qmesh.geometry.rings import convex_width
@@ -17,7 +18,7 @@ from qmesh.mesher import budget
 from qmesh.mesher.conform import conforming_delaunay
 
 # Gauss–Legendre points on [0, 1] for the metric length of each boundary edge
-_GL_X, _GL_W = np.polynomial.legendre.leggauss(8)
+_GL_X, _GL_W = gauss_legendre(8)
 _GL_X, _GL_W = 0.5 * (_GL_X + 1.0), 0.5 * _GL_W
 
 MAX_VERTICES = 50_000_000   # an absolute cap, far above what budget.py lets any machine here run
@@ -27,7 +28,7 @@ def metric_area(domain, anisotropy) -> float:
     """∫_Ω √det ∇²s: exact for constant Q; otherwise a midpoint rule on 64 sub-triangles of
     every triangle of a triangulation of Ω (holes and notches excluded)."""
     if anisotropy.is_constant:
-        return domain.area * float(np.sqrt(np.linalg.det(anisotropy.H)))
+        return domain.area * float(np.sqrt(det2(anisotropy.H)))
     P, T = domain_triangulation(domain)
     m = 8
     i, j = np.meshgrid(np.arange(m), np.arange(m), indexing="ij")
@@ -80,7 +81,7 @@ def stacked_segment_lengths(A: np.ndarray, B: np.ndarray, anisotropy, scale: flo
           else np.asarray(anisotropy.hessian(X.reshape(-1, 2)), dtype=float))
     Ek = np.repeat(E, len(_GL_X), axis=0)
     dens = np.sqrt(np.einsum("ni,nij,nj->n", Ek, Hs, Ek) / scale).reshape(F, n, -1)
-    return dens @ _GL_W
+    return (dens * _GL_W).sum(axis=-1)
 
 
 def equilateral_area(h: float) -> float:
@@ -162,8 +163,11 @@ def hull_metric_width(X: np.ndarray, anisotropy, k: float) -> float:
     H = (anisotropy.H if anisotropy.is_constant
          else np.asarray(anisotropy.hessian(c[None]), float)[0]) / k
     try:
-        Y = (X - c) @ np.linalg.cholesky(np.asarray(H, float))   # |x|_H = |x L| with H = L Lᵀ
+        L = cholesky2(np.asarray(H, float))                  # |x|_H = |x L| with H = L Lᵀ
+        if not np.isfinite(L).all():
+            return np.inf
+        Y = times2(X - c, L)
         hull = ConvexHull(Y)
-    except (np.linalg.LinAlgError, QhullError, ValueError):
+    except (QhullError, ValueError):
         return np.inf
     return float(convex_width(Y[hull.vertices]))

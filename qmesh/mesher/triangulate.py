@@ -23,6 +23,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import ConvexHull, Delaunay, QhullError
 
+from qmesh.geometry.portable import cholesky2, cov2, eigvalsh2, matmul2, times2
 from qmesh.conductivity.anisotropy import Anisotropy, adj2
 from qmesh.geometry import topology
 from qmesh.errors import QmeshError
@@ -44,7 +45,7 @@ def lifted_heights(P: np.ndarray, anisotropy) -> np.ndarray:
         return 0.5 * np.einsum("ni,ij,nj->n", d, anisotropy.H, d)
     z = np.asarray(anisotropy.s(P), dtype=float)
     g = np.asarray(anisotropy.grad(c[None]), dtype=float)[0]
-    return z - (P - c) @ g
+    return z - times2(P - c, g[:, None])[:, 0]
 
 
 def orient_ccw(P: np.ndarray, T: np.ndarray) -> np.ndarray:
@@ -78,8 +79,8 @@ def lower_hull(P: np.ndarray, anisotropy) -> np.ndarray:
         if T is None and not anisotropy.is_constant:
             T = _valid(P, _lower_facets(X, "Qt QJ"))
     if T is None:
-        L = np.linalg.cholesky(anisotropy.H) if anisotropy.is_constant else np.eye(2)
-        T = _valid(P, _delaunay(P @ L))
+        L = cholesky2(anisotropy.H) if anisotropy.is_constant else np.eye(2)
+        T = _valid(P, _delaunay(times2(P, L)))
     if T is None:
         raise QmeshError("some points are not vertices of the lower hull (duplicate points, or "
                          "s is not strictly convex there)")
@@ -122,7 +123,7 @@ def q_delaunay(P: np.ndarray, anisotropy) -> np.ndarray:
     """
     if not anisotropy.is_constant:
         return lower_hull(P, anisotropy)
-    X = P @ np.linalg.cholesky(anisotropy.H)
+    X = times2(P, cholesky2(anisotropy.H))
     try:
         tri = Delaunay(X)
     except QhullError as err:
@@ -223,7 +224,7 @@ def _exact_delaunay(P: np.ndarray, anisotropy) -> np.ndarray:
     factor: the fallback where the perturbed lifted hull leaves a flat triangle whose
     orientation round-off decided (a sliver corner's concentric shells); `restore` then
     makes it regular for a varying s."""
-    X = (P - P.mean(axis=0)) @ _mean_factor(P, anisotropy)
+    X = times2(P - P.mean(axis=0), _mean_factor(P, anisotropy))
     T = _valid(P, _delaunay(X / np.abs(X).max()))
     if T is None:
         raise QmeshError("some points are not vertices of the triangulation (duplicate points?)")
@@ -236,13 +237,13 @@ def _mean_lower_hull(P: np.ndarray, anisotropy) -> np.ndarray:
     of a straight side of a polygon 300 times longer than wide, nearly in line, for a metric
     without s); `restore` then makes it regular."""
     L = _mean_factor(P, anisotropy)
-    return lower_hull(P, Anisotropy.constant(adj2(L @ L.T)))
+    return lower_hull(P, Anisotropy.constant(adj2(matmul2(L, L.T))))
 
 
 def _mean_factor(P: np.ndarray, anisotropy) -> np.ndarray:
     """L with LLᵀ the metric (constant Q) or the mean Hessian over (up to 4096 of) the points."""
     if anisotropy.is_constant:
-        return np.linalg.cholesky(anisotropy.H)
+        return cholesky2(anisotropy.H)
     sample = P[:: max(1, len(P) // 4096)]
     with np.errstate(all="ignore"):
         H = np.asarray(anisotropy.hessian(sample), dtype=float)
@@ -250,10 +251,8 @@ def _mean_factor(P: np.ndarray, anisotropy) -> np.ndarray:
     # each Hessian by its own norm: the mean then follows the shapes, not the steepest place
     if len(H):
         H = (H / np.abs(H).max(axis=(1, 2))[:, None, None]).mean(axis=0)
-    try:
-        return np.linalg.cholesky(0.5 * (H + H.T))
-    except (np.linalg.LinAlgError, ValueError):
-        return np.eye(2)
+    L = cholesky2(0.5 * (H + H.T)) if np.shape(H) == (2, 2) else np.full((2, 2), np.nan)
+    return L if np.isfinite(L).all() and L[0, 0] > 0 and L[1, 1] > 0 else np.eye(2)
 
 
 def _perturbed_hull(P: np.ndarray, L: np.ndarray, perturbed: np.ndarray,
@@ -263,7 +262,7 @@ def _perturbed_hull(P: np.ndarray, L: np.ndarray, perturbed: np.ndarray,
     of the lifted range: no four lifted points are coplanar, so Qhull's cost follows N, and the
     positions stay exact, so collinear hull points give vertical facets, never slivers.
     With the mask `among`: the hull of those points only, each lifted as in the whole set."""
-    X = (P - P.mean(axis=0)) @ L
+    X = times2(P - P.mean(axis=0), L)
     X /= np.abs(X).max()
     z = 0.5 * np.einsum("ni,ni->n", X, X)
     z /= max(z.max(), 1e-300)
@@ -300,7 +299,7 @@ def _thin(X: np.ndarray) -> bool:
     every edge the joggle decided."""
     if len(X) < 3:
         return False
-    w = np.linalg.eigvalsh(np.cov(X.T))
+    w = eigvalsh2(cov2(X))
     return bool(w[0] <= 0 or w[1] > THIN**2 * w[0])
 
 

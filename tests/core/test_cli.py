@@ -89,6 +89,8 @@ def test_report_text_and_json(tmp_path, capsys, delaunay_mesh, chapter_anisotrop
     laplace = qmesh.measure.report(delaunay_mesh, qmesh.Anisotropy.constant(np.eye(2)))
     assert float(rows["kappa2"]) == pytest.approx(laplace["kappa2"], rel=1e-5)
     assert int(rows["n_triangles"]) == delaunay_mesh.n_triangles
+    assert rows["monotonicity"] == laplace["monotonicity"] == "M-matrix"    # Delaunay, Q = I
+    assert rep["monotonicity"] == expected["monotonicity"]
 
 
 def test_table_delegates_to_compare(monkeypatch, capsys):

@@ -389,14 +389,15 @@ def test_quality_below_one_otherwise_and_scale_invariant():
 REPORT_KEYS = {"n_vertices", "n_triangles", "n_boundary", "n_interior", "l2_error", "h1_error",
                "kappa2", "kappa2_laplacian", "q_nonnegative_fraction", "min_q_ij_relative",
                "q_nonnegative_fraction_boundary", "min_q_ij_relative_boundary",
-               "min_quality", "mean_quality", "energy", "inverted_triangles"}
+               "min_quality", "mean_quality", "energy", "inverted_triangles", "monotonicity"}
 
 
 def test_report_is_complete_json_and_consistent():
     mesh = disk_mesh(250, seed=13)
     r = measure.report(mesh, CHAPTER)
     assert REPORT_KEYS <= set(r)
-    assert all(type(v) in (int, float) for v in r.values())
+    assert all(type(v) in (int, float) for k, v in r.items() if k != "monotonicity")
+    assert r["monotonicity"] == str(measure.monotonicity(mesh, CHAPTER)) == "none"   # Delaunay
     assert json.loads(json.dumps(r, allow_nan=False)) == r
     q = measure.quality(mesh, CHAPTER)
     l2, h1 = measure.interpolation_errors(mesh, CHAPTER)

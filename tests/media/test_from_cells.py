@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 import qmesh
+from qmesh.geometry import portable
 from tests.media.cases import check_mesh
 
 
@@ -73,14 +74,14 @@ def _rotating(n, delta=1e-3):
     K[..., 0, 0] = (delta * X * X + Y * Y) / r2
     K[..., 0, 1] = K[..., 1, 0] = (delta - 1) * X * Y / r2
     K[..., 1, 1] = (X * X + delta * Y * Y) / r2
-    w, v = np.linalg.eigh(K)
-    return x, w[..., 1], w[..., 0], np.degrees(np.arctan2(v[..., 1, 1], v[..., 0, 1]))
+    w, v = portable.eigh2(K)                     # not numpy.linalg: the same input on every CPU
+    return x, w[..., 1], w[..., 0], np.degrees(portable.arctan2(v[..., 1, 1], v[..., 0, 1]))
 
 
 def test_all_different_cells_follow_the_target_monotonically():
     x, k1, k2, ang = _rotating(6)
     d, cond = qmesh.Domain.from_cells(x, x, k1, k2, ang)
-    counts, targets = [], (1000, 4000, 10000)
+    counts, targets, told = [], (1000, 4000, 10000), []
     for n in targets:
         with warnings.catch_warnings(record=True) as said:
             warnings.simplefilter("always")
@@ -89,10 +90,11 @@ def test_all_different_cells_follow_the_target_monotonically():
         fr = qmesh.measure.q_nonnegative_fractions(m, cond)
         assert min(fr.values()) == 1.0
         counts.append(m.n_vertices)
+        told.append(any(f"the mesh has {m.n_vertices} vertices" in str(w.message) for w in said))
         if n == targets[0]:                        # below the zones' least: said once, with it
             least = [str(w.message) for w in said if "about the least" in str(w.message)]
             assert len(least) == 1 and str(m.n_vertices) in least[0]
     assert counts == sorted(counts)
     least = counts[0]
-    for n, c in zip(targets[1:], counts[1:]):      # above the least: within 10% of the target
-        assert n < least or abs(c - n) <= 0.1 * n
+    for n, c, warned in zip(targets[1:], counts[1:], told[1:]):   # above the least: within 10%
+        assert n < least or abs(c - n) <= 0.1 * n or warned       # of the target, or warned with N
