@@ -306,3 +306,54 @@ def test_files_the_commands_write_are_ignored_by_git():
     assert "disk64.vtu" in outputs and "chapter.msh" in outputs
     done = subprocess.run(["git", "check-ignore", *outputs], cwd=ROOT, capture_output=True, text=True)
     assert sorted(done.stdout.split()) == outputs
+
+
+def _synopsis(page: str, command: str) -> str:
+    """The ```text block of `page` that gives `command`'s synopsis."""
+    found = [code for lang, code in fenced(page) if lang == "text" and code.startswith(command + " ")]
+    assert found, f"{page} has no synopsis of {command}"
+    return found[0]
+
+
+def _named(option: str, text: str) -> bool:
+    return re.search(rf"(?<![\w-]){re.escape(option)}(?![\w-])", text) is not None
+
+
+def _parsers():
+    """(command, page, parser) for every subcommand of `qmesh` and for `qmesh-view`."""
+    import argparse
+
+    from qmesh.cli import build_parser
+    from qmesh_view.cli import parser as view_parser
+    sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+    return ([(f"qmesh {name}", "docs/guide/cli.md", p) for name, p in sub.choices.items()]
+            + [("qmesh-view", "docs/guide/viewer.md", view_parser())])
+
+
+def test_every_option_of_every_command_is_in_its_synopsis():
+    """The guide's synopses are checked against the argparse parsers: every option (one of its
+    spellings), its metavar and every positional argument of each command."""
+    missing = []
+    for command, page, parser in _parsers():
+        text = _synopsis(page, command)
+        for action in parser._actions:
+            if "-h" in action.option_strings:
+                continue
+            names = action.option_strings or [action.metavar or action.dest]
+            if not any(_named(n, text) for n in names):
+                missing.append(f"{command} {names[0]}")
+            metavar = action.metavar if action.option_strings and action.choices is None else None
+            for word in ([metavar] if isinstance(metavar, str) else metavar or []):
+                if not _named(word, text):
+                    missing.append(f"{command} {names[0]} {word}")
+    assert missing == []
+
+
+def test_the_viewer_page_names_every_domain_preset():
+    from qmesh import domains
+    from qmesh_view.problem import FIELDS, MEDIA
+    page = TEXT["docs/guide/viewer.md"]
+    start = page.index("`--domain`")
+    text = " ".join(page[start:page.index("\n\n", start)].split())       # the option's paragraph
+    presets = [*domains.NAMED, *MEDIA, *FIELDS]
+    assert "rotating" in presets and [n for n in presets if f"`{n}`" not in text] == []

@@ -51,7 +51,7 @@ class Certificate:
     flips: int
     added: int
     remaining: int
-    worst: float        # the smallest q_ij / Σ|q_ij^T| over the edges (≥ −ROUND when certified)
+    worst: float        # the smallest (q_ij − bound) / (Σ|q_ij^T| + bound): in [−1, 1]; ≥ −ROUND certified
 
 
 def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
