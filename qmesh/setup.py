@@ -3,11 +3,11 @@
 pip installs the wheels but not the shared libraries they load: VTK renders off-screen through
 Mesa's EGL, Playwright's node binary needs libatomic, the browser tests drive Debian's chromium,
 gmsh's wheel (the `peers` extra) links against X, GLU and OpenMP, and NGSolve's OpenBLAS (the
-`fem-ngsolve` extra) against the GNU Fortran runtime. Without them the viewer's
-tests die with a segfault rather than an error. Two modes, one for each of the README's set-up
-commands: `qmesh setup` installs the groups whose Python package is installed, those only the
-tests need left out, so the core alone needs nothing and the viewer only Mesa; `qmesh setup
---test` installs every group the test suite needs (it renders, drives chromium, runs gmsh).
+`fem-ngsolve` extra) against the GNU Fortran runtime. Without them the viewer's tests die with a
+segfault rather than an error. Two modes, one for each of the README's set-up commands: `qmesh
+setup` installs the groups whose Python package is installed, those only the tests need left
+out, so the core alone needs nothing and the viewer only Mesa; `qmesh setup --test` installs
+every group (the test suite renders, drives chromium, runs gmsh and NGSolve).
 
 `setup()` asks dpkg which packages are missing (one `dpkg-query`, quick when all are there),
 installs them with apt-get when it may (root, or sudo without a password), and otherwise prints
