@@ -8,7 +8,7 @@
     qmesh report MESHFILE [--Q ... | --principal ... | --s TEXT] [--json]
                  (default Q: the one stored in the file)
     qmesh table  [--vb VB ...] [--out DIR] [--peers] [--solve] [--workers N | --scheduler ADDRESS]
-    qmesh setup  [--check] [--all]
+    qmesh setup  [--check] [--test | --all]
     qmesh sweep  STUDY -o RESULTS [--scheduler ADDRESS | --workers N] [--meshes DIR] [--max-jobs N]
                  [--quiet]   (qmesh.sweep.cli)
 
@@ -359,7 +359,7 @@ def cmd_report(args) -> int:
 
 def cmd_setup(args) -> int:
     from qmesh.setup import setup
-    return setup(check_only=args.check, everything=args.all)
+    return setup(check_only=args.check, everything=args.all, tests=args.test)
 
 
 def cmd_table(args) -> int:
@@ -488,11 +488,14 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("setup", help="install the system libraries the installed extras need (Debian/Ubuntu)",
                        description="Check with dpkg that the system packages the installed extras load are "
-                       "there (Mesa EGL for off-screen rendering, chromium for the browser tests, gmsh's "
-                       "X/GL libraries) and install the missing ones with apt-get when run as root or with "
-                       "password-less sudo; otherwise print the command to run and exit 1.")
+                       "there (Mesa EGL for off-screen rendering, gmsh's X/GL libraries, NGSolve's Fortran "
+                       "runtime) and install the missing ones with apt-get when run as root or with "
+                       "password-less sudo; otherwise print the command to run and exit 1. --test: also "
+                       "what the test suite needs (chromium for the browser tests).")
     p.add_argument("--check", action="store_true", help="only check; install nothing")
-    p.add_argument("--all", action="store_true", help="every group, whether or not its extra is installed")
+    mode = p.add_mutually_exclusive_group()
+    mode.add_argument("--test", action="store_true", help="every group the test suite needs (chromium too)")
+    mode.add_argument("--all", action="store_true", help="every group, whether or not its extra is installed")
     p.set_defaults(handler=cmd_setup)
 
     add_sweep_parser(sub)
