@@ -372,3 +372,15 @@ def test_a_change_forgets_what_was_judged_on_it(seed, n):
     he = np.union1d(he, twin[he][twin[he] >= 0])
     assert np.array_equal(np.flatnonzero(~seen.edges), he)
     assert np.array_equal(np.flatnonzero(~seen.vertices), np.unique(T[near]))
+
+
+def test_the_worst_slack_the_warning_prints_stays_within_one_in_size():
+    """An edge failing by its means' error bound alone (bound 1e9 × its shares) reports a slack
+    of about −1, not −1e9: q_ij − bound over Σ|q_ij^T| + bound, as q_ij / Σ|q_ij^T| is bounded."""
+    twin = np.array([1, 0, -1])                 # one interior edge (half-edges 0, 1), one boundary
+    s = np.array([0.5, -1.0, 2.0])
+    b = np.array([1e9, 0.0, 0.0])
+    h, q, slack = shares.failing(s, b, twin, slack=True)
+    assert list(h) == [0] and q[0] == -0.5
+    assert np.all(np.abs(slack) <= 1) and slack.min() == pytest.approx(-1.0, rel=1e-8)
+    assert slack.max() == 1.0                   # the boundary edge: 2 / 2
