@@ -23,7 +23,7 @@ from qmesh.errors import QmeshWarning
 from qmesh.fields.certify import Certificate, certify
 from qmesh.fields.metric import field_metric, smoothing_width
 from qmesh.geometry.triangles import metric_quality
-from qmesh.mesher import loop
+from qmesh.mesher import budget, loop
 from qmesh.mesher.diagnose import warn_if_thin
 from qmesh.mesher.options import Options
 from qmesh.mesher.plan import TOLERANCE
@@ -43,6 +43,8 @@ def iterate(domain: Any, field: Any, *, target_vertices: int | None = None,
     # reads target_vertices or size
     Options.checked(target_vertices=target_vertices, size=size,
                     **{k: v for k, v in options.items() if k in OPTION_NAMES})
+    if target_vertices is not None:            # refused before the metric's table is built
+        budget.check(int(target_vertices), varying=True, field=True)
     metric = field_metric(field, smoothing_width(domain, target_vertices, size), domain.bounds)
     steps = loop.iterate(domain, metric, target_vertices=target_vertices, size=size, **options)
     return _certified(steps, field, metric, target_vertices)
