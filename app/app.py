@@ -312,9 +312,13 @@ class QmeshView(TrameApp):
         finally:
             with self.state:
                 self.state.busy = False
-            if self._options_changed:                # a view option changed while busy
-                self._options_changed = False
-                self._redraw()
+            self._redraw_changed_options()
+
+    def _redraw_changed_options(self) -> None:
+        """Once the work in hand is done: redraw for a view option changed meanwhile."""
+        if self._options_changed:
+            self._options_changed = False
+            self._redraw()
 
     async def _after_stage(self, outcome, before=None) -> None:
         """Show the stage on screen, then measure it (κ2, q_ij signs, warnings) and chart."""
@@ -491,6 +495,7 @@ class QmeshView(TrameApp):
             finally:
                 with self.state:
                     self.state.busy = False
+                self._redraw_changed_options()       # a view option changed while measuring
 
     # ------------------------------------------------------------------ reactions
     @change("history_index")
