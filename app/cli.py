@@ -71,9 +71,9 @@ def parser() -> argparse.ArgumentParser:
                    help="remote (default): the server renders and sends images; local: the "
                         "browser renders with vtk.js (measured slower: benchmarks/bench_view.py)")
     p.add_argument("--vb", type=int, default=64, help="seed points on the disk (default 64)")
-    p.add_argument("--target-vertices", type=vertex_count, default=212,
+    p.add_argument("--target-vertices", type=vertex_count, default=212, metavar="N",
                    help="target vertex count N (default 212, the chapter's case)")
-    p.add_argument("--domain", default="disk", help=domain_help())
+    p.add_argument("--domain", default="disk", metavar="NAME", help=domain_help())
     p.add_argument("--s", dest="s_text", default=None, metavar="TEXT",
                    help="start with s(x, y) given as text, e.g. 'exp(x) + y**2' "
                         "(default: the constant Q = diag(0.1, 10))")

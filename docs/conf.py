@@ -3,7 +3,8 @@
 Why Sphinx: it is what the scientific-Python projects qmesh sits beside build their sites with —
 NumPy, SciPy, scikit-fem and PyVista — so the API reference comes from the docstrings by
 ``autodoc`` and the theme is theirs (pydata-sphinx-theme). The pages are Markdown, read by MyST,
-with ``dollarmath`` and ``amsmath`` for the equations. The build needs no network.
+with ``dollarmath`` and ``amsmath`` for the equations. Neither the build nor the built pages need a
+network: MathJax comes from the ``sphinx-mathjax-offline`` wheel and is copied into ``_static``.
 
 Build: ``python -m sphinx -W --keep-going -b html docs build/docs`` (warnings are errors;
 ``tests/test_docs.py`` runs this). The benchmark pages ``benchmarks/*.md`` are written by the
@@ -27,6 +28,7 @@ extensions = [
     "sphinx.ext.autodoc",
     "sphinx.ext.mathjax",
     "sphinx.ext.viewcode",
+    "sphinx-mathjax-offline",      # sets mathjax_path to the copy it puts in _static/mathjax
 ]
 
 source_suffix = {".md": "markdown"}
@@ -45,11 +47,17 @@ autodoc_mock_imports = []
 
 html_theme = "pydata_sphinx_theme"
 html_title = "qmesh"
-html_static_path = []
+templates_path = ["_templates"]
+html_static_path = ["_static"]
+html_css_files = ["wrap-code.css"]          # code blocks wrap instead of scrolling sideways
+# Every page in the left sidebar (`_templates/site-nav.html`), so the header holds no page links
+# (it showed five and hid the rest under "More").
+html_sidebars = {"**": ["site-nav"]}
 html_theme_options = {
     "navigation_with_keys": False,
     "show_toc_level": 2,
     "secondary_sidebar_items": ["page-toc"],
+    "navbar_center": [],
 }
 
 # The docstrings are plain text (backticks for names, indented tables of arguments, `|e|_h1`,
@@ -128,6 +136,17 @@ def plain_docstring(app, what, name, obj, options, lines):
 def setup(app):
     app.connect("autodoc-process-docstring", plain_docstring, priority=600)
     app.connect("source-read", no_benchmark_pages_yet)
+    app.connect("html-collect-pages", no_sourceless_modules, priority=400)
+
+
+def no_sourceless_modules(app):
+    """Drop the modules viewcode found no source for (`builtins`, from a name it met in the API
+    pages) before it writes `_modules/index.html`: it lists them there with a link to a page it
+    never writes. Runs before viewcode's own handler (priority 400 < 500); adds no page."""
+    modules = getattr(app.env, "_viewcode_modules", {})
+    for name in [name for name, entry in modules.items() if entry is False]:
+        del modules[name]
+    return []
 
 
 # The benchmark pages are the scripts' output (benchmarks/*.md beside benchmarks/index.md), taken

@@ -147,6 +147,39 @@ def choice(value: object, name: str, options: Iterable[str]) -> str:
     return value
 
 
+_KINDS = {"b": "a boolean", "c": "a complex", "M": "a datetime64", "m": "a timedelta64",
+          "U": "a string", "S": "a bytes", "O": "an object", "V": "a structured"}
+
+
+def real_dtype(dtype: Any, name: str) -> np.dtype:
+    """`dtype` when it holds real numbers (integers or floats); else QmeshError naming `name` and
+    what it holds ("a complex array (dtype complex128)"): a cast would drop an imaginary part,
+    turn dates into counts or booleans into 0 and 1 without a word."""
+    dtype = np.dtype(dtype)
+    if dtype.kind not in "iuf" or dtype.names is not None:
+        raise QmeshError(f"{name} must hold real numbers, got {_KINDS.get(dtype.kind, 'a non-numeric')} "
+                         f"array (dtype {dtype})")
+    return dtype
+
+
+def real_values(value: ArrayLike, name: str) -> NDArray[np.float64]:
+    """`value` (a number or an array) as floats, refusing by name what a cast would change
+    silently (`real_dtype`) and Python integers beyond any float."""
+    try:
+        raw = np.asarray(value)
+    except (TypeError, ValueError) as e:
+        raise QmeshError(f"{name} must be a number or an array of real numbers: {e}") from None
+    if raw.dtype.kind == "O":                         # Python ints beyond int64 are held as objects
+        try:
+            return np.asarray(raw, dtype=float)
+        except OverflowError:
+            raise QmeshError(f"{name} holds an integer beyond any float") from None
+        except (TypeError, ValueError):
+            pass                                      # not numbers: refused by their kind below
+    real_dtype(raw.dtype, name)
+    return raw.astype(float)
+
+
 def real_array(value: ArrayLike, name: str, shape: tuple[int | None, ...]) -> NDArray[np.float64]:
     """`value` as a finite float array of `shape` (None in `shape` matches any length).
 

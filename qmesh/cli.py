@@ -8,8 +8,9 @@
     qmesh report MESHFILE [--Q ... | --principal ... | --s TEXT] [--json]
                  (default Q: the one stored in the file)
     qmesh table  [--vb VB ...] [--out DIR] [--peers] [--solve] [--workers N | --scheduler ADDRESS]
-    qmesh setup  [--check] [--all]
-    qmesh sweep  STUDY -o RESULTS [--scheduler ADDRESS | --workers N]   (qmesh.sweep.cli)
+    qmesh setup  [--check] [--test | --all]
+    qmesh sweep  STUDY -o RESULTS [--scheduler ADDRESS | --workers N] [--meshes DIR] [--max-jobs N]
+                 [--quiet]   (qmesh.sweep.cli)
 
 Defaults are the chapter's case: Q = diag(0.1, 10) (2.95) on the regular 64-gon. Bad input
 (any QmeshError, or an OSError on a file) ends with one line `qmesh: error: ...` on stderr,
@@ -19,33 +20,26 @@ exit status 2 and no output file.
 from __future__ import annotations
 
 import argparse
-import inspect
 import json
+import math
 import os
+import re
 import sys
 import time
 import warnings
 from contextlib import nullcontext
+from typing import TYPE_CHECKING
 
-import numpy as np
-
-from qmesh import CHAPTER_Q, __version__, io, measure
-from qmesh.conductivity.anisotropy import Anisotropy
-from qmesh.conductivity.field import TensorField
-from qmesh.domain import domain as domain_types
-from qmesh.domain.domain import Disk, Polygon
-from qmesh.mesher import sizing
+from qmesh import CHAPTER_Q, __version__
 from qmesh.errors import QmeshError, QmeshWarning
-from qmesh.geometry.folds import folded_triangles
-from qmesh.io.conductivity import PREFIX as RECORD_PREFIX, record_of
-from qmesh.mesher import budget
-from qmesh.meshing import iterate
-from qmesh.meshing import mesh as run_mesher
-from qmesh.domain.polygon_file import read_domain
-from qmesh.domain.region_file import conductivity_per_region, read_regions
-from qmesh.sweep.cli import add_dask_options, add_parser as add_sweep_parser
 
-_MESHER_DEFAULTS = {k: v.default for k, v in inspect.signature(iterate).parameters.items()}
+if TYPE_CHECKING:
+    from qmesh.conductivity.anisotropy import Anisotropy
+    from qmesh.conductivity.field import TensorField
+    from qmesh.domain.domain import Polygon
+
+# The mesher, NumPy and SciPy are imported by the commands that use them, so that
+# `qmesh --version` and a usage error answer at once.
 
 
 # --------------------------------------------------------------------------- inputs
@@ -79,12 +73,15 @@ def _vertex_count(text: str) -> int:
 def anisotropy_from(args) -> Anisotropy | TensorField:
     """--Q Q11 Q12 Q22, --principal K1 K2 ANGLE or --s TEXT, or a field (--field-Q, --field-principal,
     --raster); the chapter's Q = diag(0.1, 10) by default."""
+    from qmesh.conductivity.anisotropy import Anisotropy
+    from qmesh.conductivity.field import TensorField
     if getattr(args, "field_Q", None) is not None:
         return TensorField.from_expressions(*args.field_Q)
     if getattr(args, "field_principal", None) is not None:
         return TensorField.principal(*args.field_principal)
     if getattr(args, "raster", None) is not None:
-        return raster_from(args.raster)
+        from qmesh.raster_file import read_raster
+        return read_raster(args.raster)
     if args.Q is not None:
         q11, q12, q22 = args.Q
         return Anisotropy.constant([[q11, q12], [q12, q22]])
@@ -95,42 +92,16 @@ def anisotropy_from(args) -> Anisotropy | TensorField:
     return Anisotropy.constant(CHAPTER_Q)
 
 
-RASTER_KEYS = ("x", "y", "k1", "k2")
-
-
 DISK = 64
 """--disk's VB when no domain is given (and no raster, whose rectangle is then the domain)."""
 
 
 def raster_rectangle(field: TensorField) -> Polygon:
     """The rectangle a raster's cells cover: where its conductivity is known."""
+    from qmesh.domain.domain import Polygon
     assert field.bounds is not None
     (x0, y0), (x1, y1) = field.bounds
     return Polygon([(x0, y0), (x1, y0), (x1, y1), (x0, y1)])
-
-
-def raster_from(path: str) -> TensorField:
-    """A raster field from a NumPy .npz file holding arrays x (nx+1,), y (ny+1,) (cell edges),
-    k1, k2 (ny, nx) and optionally angle (ny, nx; degrees, default 0): what numpy.savez writes
-    from the arrays a MODFLOW or geostatistics script already holds. Read without pickles."""
-    import numpy as np
-    try:
-        data = np.load(path, allow_pickle=False)
-    except (ValueError, EOFError):
-        data = None
-    if not isinstance(data, np.lib.npyio.NpzFile):
-        raise QmeshError(f"{path}: not a NumPy .npz file (numpy.savez writes one from named "
-                         "arrays x, y, k1, k2, angle)")
-    with data:
-        files = list(data.files)
-        arrays = {k: data[k] for k in (*RASTER_KEYS, "angle") if k in files}
-    missing = [k for k in RASTER_KEYS if k not in arrays]
-    if missing:
-        raise QmeshError(f"{path}: a raster file needs arrays {', '.join(RASTER_KEYS)} (and "
-                         f"optionally angle); it has no {', '.join(missing)} (it has "
-                         f"{', '.join(files) or 'no arrays'})")
-    return TensorField.from_raster(arrays["x"], arrays["y"], arrays["k1"], arrays["k2"],
-                                   arrays.get("angle", 0.0))
 
 
 def disk_vertices(vb: int, anisotropy, *, target_vertices: int | None = None, size: float | None = None) -> float:
@@ -139,6 +110,11 @@ def disk_vertices(vb: int, anisotropy, *, target_vertices: int | None = None, si
     with neither a target nor a size the default size (the mean metric length of its edges,
     about 2π/vb of the circle's metric perimeter) fills the disk with about vb² vertices,
     computed here on a 64-gon whose edges are scaled down to the vb-gon's."""
+    import numpy as np
+
+    from qmesh.conductivity.anisotropy import Anisotropy
+    from qmesh.domain import domain as domain_types
+    from qmesh.mesher import sizing
     n = float(max(vb, target_vertices or 0))
     if target_vertices is not None or size is not None or vb <= 64:
         return n
@@ -162,7 +138,7 @@ def _stage(step) -> str:
 
 def _progress(step, out) -> None:
     s = step.stats
-    energy = f"{s.energy:.4e}" if np.isfinite(s.energy) else "n/a"       # a field has no s
+    energy = f"{s.energy:.4e}" if math.isfinite(s.energy) else "n/a"       # a field has no s
     print(f"iteration {step.iteration:3d}  {_stage(step):<11s}  N={s.n_vertices:<8d}  E={energy:<10s}  "
           f"min q={s.min_quality:.3f}", file=out, flush=True)
 
@@ -185,6 +161,15 @@ def _advance(bar, step) -> None:
 
 
 def cmd_mesh(args) -> int:
+    from qmesh import io, measure
+    from qmesh.conductivity.anisotropy import Anisotropy
+    from qmesh.conductivity.field import TensorField
+    from qmesh.domain.domain import Disk
+    from qmesh.domain.polygon_file import read_domain
+    from qmesh.domain.region_file import conductivity_per_region, read_regions
+    from qmesh.meshing import mesh as run_mesher
+    from qmesh.mesher import budget
+
     out = io.check_writable(args.output)
     anisotropy = anisotropy_from(args)
     raster_box = args.raster is not None and args.disk is None and not (args.polygon or args.regions)
@@ -193,6 +178,7 @@ def cmd_mesh(args) -> int:
         budget.check(disk_vertices(args.disk, anisotropy, target_vertices=args.target_vertices,
                                           size=args.size),
                      varying=not (isinstance(anisotropy, Anisotropy) and anisotropy.is_constant),
+                     field=isinstance(anisotropy, TensorField),
                      what=f"--disk {args.disk}" + ("" if args.target_vertices or args.size else " at the default size"))
     domain = (read_domain(args.polygon) if args.polygon else
               raster_rectangle(anisotropy) if raster_box else Disk(args.disk))
@@ -214,15 +200,21 @@ def cmd_mesh(args) -> int:
 
     # the API's mesh(): the same checks of the options and of the vertex count it lands on;
     # its thin-domain warning is kept and printed below as one line (not measured again)
-    with warnings.catch_warnings(record=True) as caught, nullcontext() if bar is None else bar:
+    # the writer's too (a format that drops the element means warns): one line each, or none
+    with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", QmeshWarning)
-        mesh = run_mesher(domain, anisotropy, target_vertices=args.target_vertices, size=args.size,
-                          alpha=args.alpha, max_iterations=args.max_iterations, seed=args.seed,
-                          progress=on_step)
-    seconds = time.perf_counter() - start
+        with nullcontext() if bar is None else bar:
+            mesh = run_mesher(domain, anisotropy, target_vertices=args.target_vertices,
+                              size=args.size, alpha=args.alpha, max_iterations=args.max_iterations,
+                              seed=args.seed, progress=on_step)
+        seconds = time.perf_counter() - start
+        held = anisotropy.values() if isinstance(anisotropy, dict) else [anisotropy]
+        # one Q, or one per region, as JSON; with a field anywhere, the element means alone (a
+        # field has no stored form; the file keeps the means, which the mesh carries)
+        stored = None if any(isinstance(a, TensorField) for a in held) else anisotropy
+        io.write(out, mesh, anisotropy=stored)
     last = steps[-1]
     field = isinstance(anisotropy, TensorField)      # measured and stored by its element means
-    io.write(out, mesh, anisotropy=None if field else anisotropy)   # one Q, or one per region
     given = None if field else anisotropy
     q = measure.quality(mesh, given)
     # with no interior vertex there is no Dirichlet matrix whose signs q_ij would matter: n/a
@@ -271,6 +263,9 @@ def conductivity_for_report(args, mesh=None) -> tuple[Anisotropy | None, str]:
     the conductivity the file stores (`qmesh.io.read_anisotropy`); else the chapter's Q (2.95),
     which the caller must announce.
     """
+    from qmesh import io
+    from qmesh.conductivity.anisotropy import Anisotropy
+
     given = any(getattr(args, name, None) is not None for name in ("Q", "principal", "s"))
     if given:
         return anisotropy_from(args), "command line"
@@ -282,34 +277,81 @@ def conductivity_for_report(args, mesh=None) -> tuple[Anisotropy | None, str]:
     return Anisotropy.constant(CHAPTER_Q), "default"
 
 
-def _conductivity_text(anisotropy) -> str:
+def _conductivity_text(anisotropy, exact: bool = True) -> str:
+    """The conductivity as the report names it: a constant Q's entries exact (as the file stores
+    them, for --json) or to 6 significant digits (the table)."""
     if anisotropy is None:                     # the element means stored per triangle
         return "element means Q11 Q12 Q22 per triangle"
     if isinstance(anisotropy, dict):           # a conductivity per region
-        return "; ".join(f"region {tag}: {_conductivity_text(a)}" for tag, a in sorted(anisotropy.items()))
-    record = record_of(anisotropy)
-    return record[len(RECORD_PREFIX):] if record else anisotropy.label
+        return "; ".join(f"region {tag}: {_conductivity_text(a, exact)}"
+                         for tag, a in sorted(anisotropy.items()))
+    from qmesh.io.conductivity import to_json
+    value = to_json(anisotropy)               # {"Q": 2×2}, {"s": text}, or None for a callable s
+    if value is None:
+        return anisotropy.label
+    if "s" in value:
+        return f"s(x, y) = {value['s']}"
+    (a, b), (c, d) = (map(repr if exact else _short, row) for row in value["Q"])
+    return f"Q = [[{a}, {b}], [{c}, {d}]]"
+
+
+def _short(value: float) -> str:
+    """A number to 6 significant digits, written as Python writes floats (0.1, 10.0, 3.08941):
+    a Q from --principal is a rotation's cos and sin, 17 digits that say nothing more."""
+    return repr(float(f"{value:.6g}"))
+
+
+def _table_value(key: str, value) -> str:
+    """One value of the report's table: 6 significant digits, "n/a" for None; a min_q_ij_relative
+    within the shares' tolerance below 0 (−Q_RTOL ≤ value < 0, rounding in the assembly) is
+    printed as 0, as the shares count it (`--json` gives the value as computed)."""
+    from qmesh.measure import Q_RTOL
+    if value is None:
+        return "n/a"
+    if not isinstance(value, float):
+        return str(value)
+    if key.startswith("min_q_ij_relative") and -Q_RTOL <= value < 0:
+        return "0"
+    return f"{value:.6g}"
+
+
+def _check_means(Q, path) -> None:
+    """QmeshError unless every stored element mean is positive definite, as `qmesh mesh`
+    refuses a Q that is not: a report on a zero or indefinite conductivity would count its
+    q_ij and print figures that mean nothing."""
+    import numpy as np
+    q11, q12, q22 = Q[:, 0, 0], 0.5 * (Q[:, 0, 1] + Q[:, 1, 0]), Q[:, 1, 1]
+    bad = ~((q11 > 0) & (q22 > 0) & (q11 * q22 - q12 * q12 > 0))
+    if bad.any():
+        k = int(np.flatnonzero(bad)[0])
+        raise QmeshError(f"{path}: the element means it stores (cell data Q11 Q12 Q22) must be "
+                         f"symmetric positive definite; {int(bad.sum())} of {len(Q)} are not, the "
+                         f"first that of triangle {k}: Q = [[{q11[k]:g}, {q12[k]:g}], "
+                         f"[{q12[k]:g}, {q22[k]:g}]]")
 
 
 def cmd_report(args) -> int:
+    from qmesh import io, measure
+    from qmesh.geometry.folds import folded_triangles
+
     mesh = io.read(args.meshfile)
     anisotropy, source = conductivity_for_report(args, mesh)
-    conductivity = _conductivity_text(anisotropy)
+    if source == "means":
+        _check_means(mesh.conductivity, args.meshfile)
     where = {"file": "stored in the file", "command line": "from the command line",
              "means": "stored in the file; no s, so no energy or interpolation errors",
              "default": "the chapter's default: the file stores none"}[source]
     rep = measure.report(mesh, anisotropy)
     rep["folded_triangles"] = folded_triangles(mesh)  # a file's folds and overlaps, not re-oriented away
     if args.json:
-        print(json.dumps({"file": str(args.meshfile), "conductivity": conductivity,
+        print(json.dumps({"file": str(args.meshfile), "conductivity": _conductivity_text(anisotropy),
                           "conductivity_source": source, **rep}, indent=2))
         return 0
     why = rep.pop("kappa2_undefined", None)
     width = max(map(len, rep))
-    print(f"{args.meshfile}: conductivity {conductivity} ({where})")
+    print(f"{args.meshfile}: conductivity {_conductivity_text(anisotropy, exact=False)} ({where})")
     for key, value in rep.items():
-        text = "n/a" if value is None else f"{value:.6g}" if isinstance(value, float) else str(value)
-        print(f"  {key:<{width}}  {text}")
+        print(f"  {key:<{width}}  {_table_value(key, value)}")
     if why:                                 # beside the table, which stays two columns
         print(f"qmesh: kappa2 is undefined: {why}", file=sys.stderr)
     return 0
@@ -317,7 +359,7 @@ def cmd_report(args) -> int:
 
 def cmd_setup(args) -> int:
     from qmesh.setup import setup
-    return setup(check_only=args.check, everything=args.all)
+    return setup(check_only=args.check, everything=args.all, tests=args.test)
 
 
 def cmd_table(args) -> int:
@@ -333,15 +375,34 @@ def cmd_table(args) -> int:
 
 # --------------------------------------------------------------------------- parser
 
+class _Parser(argparse.ArgumentParser):
+    """argparse, except that an argument starting with "-" that no option name can be — it holds
+    an operator, a bracket or a point: "-1+x", "-x**2", "-exp(y)" — is a value, as argparse
+    already takes "-2" or an argument holding a space. The subcommands' parsers are of this
+    class too (argparse makes them of their parent's)."""
+
+    def _parse_optional(self, arg_string):
+        short = [o for o in self._option_string_actions if not o.startswith("--")]   # -o OUT, -oOUT
+        if (arg_string.startswith("-") and re.search(r"[^\w-]", arg_string.split("=", 1)[0])
+                and not any(arg_string.startswith(o) for o in short)):
+            return None
+        return super()._parse_optional(arg_string)
+
+
+FIELD_TEXT = ("a text may start with - (e.g. '-1 + x', '-x**2'); write a lone -x as '(-x)'")
+"""What the field options' help says about texts starting with "-"."""
+
+
 def _add_anisotropy(p, fields: bool = False) -> None:
     g = p.add_mutually_exclusive_group()
     if fields:
         g.add_argument("--field-Q", nargs=3, metavar=("Q11", "Q12", "Q22"),
                        help="a conductivity field: each entry a number or a text in x, y (as --s), "
-                       "e.g. --field-Q '1 + x**2' 0 2; the mesh is certified q_ij >= 0 on its element means")
+                       "e.g. --field-Q '1 + x**2' 0 2; the mesh is certified q_ij >= 0 on its element means; "
+                       + FIELD_TEXT)
         g.add_argument("--field-principal", nargs=3, metavar=("K1", "K2", "ANGLE"),
                        help="a conductivity field by principal values and the angle of K1's axis in "
-                       "degrees, each a number or a text in x, y")
+                       "degrees, each a number or a text in x, y; " + FIELD_TEXT)
         g.add_argument("--raster", metavar="FILE.npz",
                        help="a raster field: a NumPy .npz with arrays x (nx+1), y (ny+1) (cell edges), "
                        "k1, k2 and optionally angle (ny, nx), MODFLOW's K, K22, ANGLEX")
@@ -356,7 +417,16 @@ def _add_anisotropy(p, fields: bool = False) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="qmesh", description="Triangle meshes adapted to an anisotropic "
+    """The `qmesh` command's parser with every subcommand (it imports the file formats, the
+    mesher's defaults and the sweep's options to describe them)."""
+    import inspect
+
+    from qmesh import io
+    from qmesh.meshing import iterate
+    from qmesh.sweep.cli import add_dask_options, add_parser as add_sweep_parser
+
+    defaults = {k: v.default for k, v in inspect.signature(iterate).parameters.items()}
+    parser = _Parser(prog="qmesh", description="Triangle meshes adapted to an anisotropic "
                                      "conductivity Q (the Q-adapted meshes of Algorithm 2.1).")
     parser.add_argument("--version", action="version", version=f"qmesh {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
@@ -385,7 +455,7 @@ def build_parser() -> argparse.ArgumentParser:
     for flag, kind, meta, text in (("--alpha", float, "A", "relaxation of the vertex step"),
                                    ("--seed", _non_negative_int, "S", "random seed"),
                                    ("--max-iterations", int, "K", "iteration cap")):
-        default = _MESHER_DEFAULTS[flag[2:].replace("-", "_")]
+        default = defaults[flag[2:].replace("-", "_")]
         p.add_argument(flag, type=kind, default=default, metavar=meta, help=f"{text} (default: {default})")
     p.add_argument("-o", "--output", required=True, metavar="OUT", help="output mesh file")
     p.add_argument("--progress", action="store_true", help="print a line per stage on stderr, also when it is not "
@@ -398,7 +468,9 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Print qmesh.measure.report of a mesh file, written by qmesh or any other "
                        "program. Without --Q/--principal it measures with the conductivity the file stores "
                        "(qmesh mesh stores it), else with the chapter's Q = diag(0.1, 10) and a note; "
-                       "the 'conductivity' line says which.")
+                       "the 'conductivity' line says which. The shares of q_ij >= 0 count q_ij >= -1e-9 "
+                       "max|q_ij| (rounding), and a min_q_ij_relative in that band prints as 0 "
+                       "(--json: as computed).")
     p.add_argument("meshfile", metavar="MESHFILE")
     _add_anisotropy(p)
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
@@ -416,19 +488,36 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("setup", help="install the system libraries the installed extras need (Debian/Ubuntu)",
                        description="Check with dpkg that the system packages the installed extras load are "
-                       "there (Mesa EGL for off-screen rendering, chromium for the browser tests, gmsh's "
-                       "X/GL libraries) and install the missing ones with apt-get when run as root or with "
-                       "password-less sudo; otherwise print the command to run and exit 1.")
+                       "there (Mesa EGL for off-screen rendering, gmsh's X/GL libraries, NGSolve's Fortran "
+                       "runtime) and install the missing ones with apt-get when run as root or with "
+                       "password-less sudo; otherwise print the command to run and exit 1. --test: also "
+                       "what the test suite needs (chromium for the browser tests).")
     p.add_argument("--check", action="store_true", help="only check; install nothing")
-    p.add_argument("--all", action="store_true", help="every group, whether or not its extra is installed")
+    mode = p.add_mutually_exclusive_group()
+    mode.add_argument("--test", action="store_true", help="every group the test suite needs (chromium too)")
+    mode.add_argument("--all", action="store_true", help="every group, whether or not its extra is installed")
     p.set_defaults(handler=cmd_setup)
 
     add_sweep_parser(sub)
     return parser
 
 
+def _asks_version(argv) -> bool:
+    """True when `qmesh --version` (or an abbreviation, as argparse takes) comes before any
+    subcommand: answered before `build_parser`, which imports the mesher to describe it."""
+    for arg in argv:
+        if not isinstance(arg, str) or not arg.startswith("-") or arg in ("-h", "--help", "--"):
+            return False
+        if len(arg) > 2 and "--version".startswith(arg):
+            return True
+    return False
+
+
 def main(argv=None) -> int:
     """Run the command line; returns the exit status (2 for bad input, with one error line)."""
+    if _asks_version(sys.argv[1:] if argv is None else argv):
+        print(f"qmesh {__version__}")
+        return 0
     parser = build_parser()
     try:
         args = parser.parse_args(argv)

@@ -61,6 +61,11 @@ Resolved = Union["Conductivity", NDArray[np.float64], None]
 """A conductivity as the assembly uses it: an Anisotropy or {tag: Anisotropy}, a per-triangle
 array (M, 2, 2), or None for Q = I."""
 
+Q_RTOL = 1e-9
+"""The shares count q_ij ≥ −Q_RTOL·max|q| as q_ij ≥ 0: rounding in the assembly leaves an edge
+that is exactly 0 in exact arithmetic (a right angle in the metric) at about −1e-15 of the
+largest |q|."""
+
 DENSE_LIMIT = 300
 """Up to this many unknowns condition_number uses a dense eigvalsh; above it, the Lanczos path.
 
@@ -445,7 +450,7 @@ def _relative_q(mesh: Mesh, anisotropy: Resolved,
 
 
 def q_nonnegative_fractions(mesh: Mesh, anisotropy: Given,
-                            rtol: float = 1e-9) -> dict[str, float | None]:
+                            rtol: float = Q_RTOL) -> dict[str, float | None]:
     """The shares of q_ij ≥ −rtol·max|q| as `report` gives them, from one assembly:
     "q_nonnegative_fraction" (interior edges; None also with no interior vertex: no Dirichlet
     matrix), "q_nonnegative_fraction_boundary", and "q_nonnegative_fraction_interface" when
@@ -466,7 +471,7 @@ def _shares(relative: tuple[NDArray[np.float64], ...], has_interior: bool, per_r
     return out
 
 
-def q_nonnegative_fraction(mesh: Mesh, anisotropy: Given, rtol: float = 1e-9) -> float | None:
+def q_nonnegative_fraction(mesh: Mesh, anisotropy: Given, rtol: float = Q_RTOL) -> float | None:
     """Fraction of interior edges with q_ij ≥ −rtol·max|q| (None when there is no interior edge).
 
     ≥ 0 on every interior edge makes the Dirichlet stiffness matrix an M-matrix.
@@ -476,7 +481,7 @@ def q_nonnegative_fraction(mesh: Mesh, anisotropy: Given, rtol: float = 1e-9) ->
 
 
 def q_nonnegative_fraction_interface(mesh: Mesh, anisotropy: Given,
-                                     rtol: float = 1e-9) -> float | None:
+                                     rtol: float = Q_RTOL) -> float | None:
     """Fraction of interface edges (two triangles of different regions, each with its own Q)
     with q_ij ≥ −rtol·max|q| (None when there is none). MEDIA.md §2."""
     rtol = checks.real(rtol, "rtol", low=0.0, high=1.0)
@@ -484,7 +489,7 @@ def q_nonnegative_fraction_interface(mesh: Mesh, anisotropy: Given,
 
 
 def q_nonnegative_fraction_boundary(mesh: Mesh, anisotropy: Given,
-                                    rtol: float = 1e-9) -> float | None:
+                                    rtol: float = Q_RTOL) -> float | None:
     """Fraction of boundary edges with q_ij ≥ −rtol·max|q| (None when there is no boundary edge).
 
     A boundary edge's q_ij is the off-diagonal of its one triangle's element matrix; ≥ 0 there
@@ -878,7 +883,7 @@ def report(mesh: Mesh, anisotropy: Given = None, *, laplacian: bool = True) -> R
         if has_s:
             out["l2_error"], out["h1_error"] = interpolation_errors(mesh, A)
         r_in, r_b, r_if = relative = _relative_q(mesh, A, split=True)
-        out.update(_shares(relative, n_interior > 0, isinstance(anisotropy, Mapping), 1e-9))
+        out.update(_shares(relative, n_interior > 0, isinstance(anisotropy, Mapping), Q_RTOL))
         if len(r_if) or isinstance(anisotropy, Mapping):
             out["min_q_ij_relative_interface"] = float(r_if.min()) if len(r_if) else None
         out["min_q_ij_relative"] = float(r_in.min()) if len(r_in) else None

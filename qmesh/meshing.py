@@ -10,6 +10,7 @@ and certified on its element means (`qmesh.media.field_regions` for a medium).
 from __future__ import annotations
 
 from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
 from functools import wraps
 from typing import Any, Union
 
@@ -18,6 +19,7 @@ from qmesh.media import field_regions
 from qmesh.conductivity.anisotropy import Anisotropy
 from qmesh.conductivity.field import TensorField
 from qmesh.domain.domain import as_domain
+from qmesh.errors import QmeshError
 from qmesh.mesher import loop
 from qmesh.mesher.step import Step
 from qmesh.triangle_mesh import Mesh
@@ -37,8 +39,30 @@ def _field_domain(domain: Any, field: TensorField) -> Any:
     return domain
 
 
+@contextmanager
+def _memory_said() -> Iterator[None]:
+    """A MemoryError the budget's estimate did not foresee, said as a QmeshError (the last resort:
+    `mesher.budget` refuses what it can foresee before anything is allocated)."""
+    try:
+        yield
+    except MemoryError as e:
+        raise QmeshError("the run ran out of memory (an allocation failed: "
+                         f"{str(e)[:120] or 'MemoryError'}); ask for fewer vertices, or free memory "
+                         "or raise the process's memory limit") from None
+
+
+def _guarded(steps: Iterator[Step]) -> Iterator[Step]:
+    with _memory_said():
+        return (yield from steps)
+
+
 @wraps(loop.mesh)
 def mesh(domain: Any, anisotropy: Conductivity, **options: Any) -> Mesh:
+    with _memory_said():
+        return _mesh(domain, anisotropy, **options)
+
+
+def _mesh(domain: Any, anisotropy: Conductivity, **options: Any) -> Mesh:
     if isinstance(anisotropy, TensorField) and not getattr(domain, "regions", ()):
         return fields.mesh(_field_domain(domain, anisotropy), anisotropy, **options)
     if field_regions.holds_fields(domain, anisotropy):
@@ -50,6 +74,11 @@ def mesh(domain: Any, anisotropy: Conductivity, **options: Any) -> Mesh:
 
 @wraps(loop.iterate)
 def iterate(domain: Any, anisotropy: Conductivity, **options: Any) -> Iterator[Step]:
+    with _memory_said():
+        return _guarded(_iterate(domain, anisotropy, **options))
+
+
+def _iterate(domain: Any, anisotropy: Conductivity, **options: Any) -> Iterator[Step]:
     if isinstance(anisotropy, TensorField) and not getattr(domain, "regions", ()):
         return fields.iterate(_field_domain(domain, anisotropy), anisotropy, **options)
     if field_regions.holds_fields(domain, anisotropy):

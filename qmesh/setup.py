@@ -2,9 +2,12 @@
 
 pip installs the wheels but not the shared libraries they load: VTK renders off-screen through
 Mesa's EGL, Playwright's node binary needs libatomic, the browser tests drive Debian's chromium,
-and gmsh's wheel (the `peers` extra) links against X, GLU and OpenMP. Without them the viewer's
-tests die with a segfault rather than an error. Each group below is needed only when the Python
-package that needs it is installed, so the core alone needs nothing.
+gmsh's wheel (the `peers` extra) links against X, GLU and OpenMP, and NGSolve's OpenBLAS (the
+`fem-ngsolve` extra) against the GNU Fortran runtime. Without them the viewer's tests die with a
+segfault rather than an error. Two modes, one for each of the README's set-up commands: `qmesh
+setup` installs the groups whose Python package is installed, those only the tests need left
+out, so the core alone needs nothing and the viewer only Mesa; `qmesh setup --test` installs
+every group (the test suite renders, drives chromium, runs gmsh and NGSolve).
 
 `setup()` asks dpkg which packages are missing (one `dpkg-query`, quick when all are there),
 installs them with apt-get when it may (root, or sudo without a password), and otherwise prints
@@ -28,7 +31,8 @@ from qmesh.errors import QmeshError
 @dataclass(frozen=True)
 class Group:
     """Debian packages needed when the Python module `module` is installed; `libraries` and
-    `programs` are what they provide, looked for where there is no dpkg to ask."""
+    `programs` are what they provide, looked for where there is no dpkg to ask. `tests_only`:
+    only the test suite needs the group, never a user's `qmesh setup`."""
 
     name: str
     module: str
@@ -36,6 +40,7 @@ class Group:
     why: str
     libraries: tuple[str, ...] = ()
     programs: tuple[str, ...] = ()
+    tests_only: bool = False
 
 
 GROUPS = (
@@ -44,20 +49,33 @@ GROUPS = (
           libraries=("EGL", "GL")),
     Group("browser", "playwright", ("chromium", "libatomic1"),
           "the browser tests: Debian's chromium, driven by Playwright's node (needs libatomic)",
-          libraries=("atomic",), programs=("chromium",)),
+          libraries=("atomic",), programs=("chromium",), tests_only=True),
     Group("gmsh", "gmsh", ("libgl1", "libglu1-mesa", "libxcursor1", "libxft2", "libxinerama1",
                            "libxrender1", "libfontconfig1", "libgomp1"),
           "the peers extra's gmsh wheel (BAMG): X, GL, GLU and OpenMP libraries",
           libraries=("GL", "GLU", "Xcursor", "Xft", "Xinerama", "Xrender", "fontconfig", "gomp")),
+    Group("ngsolve", "ngsolve", ("libgfortran5",),
+          "NGSolve's OpenBLAS (the fem-ngsolve extra): the GNU Fortran runtime it links",
+          libraries=("gfortran",)),
 )
-"""Every group of system packages, with the module whose presence makes it needed."""
+"""Every group of system packages, with the module whose presence makes it needed; the test suite
+needs them all."""
 
 APT_INSTALL = ("apt-get", "install", "-y", "-q", "--no-install-recommends")
 
 
-def needed_groups(everything: bool = False, groups: Sequence[Group] = GROUPS) -> list[Group]:
-    """The groups whose Python module is installed (all of them with `everything`)."""
-    return [g for g in groups if everything or importlib.util.find_spec(g.module) is not None]
+def module_installed(name: str) -> bool:
+    """Whether the Python module `name` can be imported here (found, not imported)."""
+    return importlib.util.find_spec(name) is not None
+
+
+def needed_groups(everything: bool = False, groups: Sequence[Group] = GROUPS,
+                  tests: bool = False) -> list[Group]:
+    """The groups to install: every one with `everything` or `tests` (the test suite needs them
+    all); otherwise those whose Python module is installed, less the ones only the tests need."""
+    if everything or tests:
+        return list(groups)
+    return [g for g in groups if not g.tests_only and module_installed(g.module)]
 
 
 def installed(packages: Sequence[str], run: Callable = subprocess.run) -> set[str] | None:
@@ -105,14 +123,15 @@ def manual_command(packages: Sequence[str]) -> str:
 
 
 def setup(check_only: bool = False, everything: bool = False, run: Callable = subprocess.run,
-          prefix: Callable = may_use_apt, out=None) -> int:
-    """Make sure the system packages for the installed extras are there; the exit status.
+          prefix: Callable = may_use_apt, out=None, tests: bool = False) -> int:
+    """Make sure the system packages for the installed extras (with `tests`: for the test
+    suite) are there; the exit status.
 
     0: all present (or just installed); 1: some are missing and were not installed (the
     command to run is printed), or apt-get failed.
     """
     out = out or sys.stdout
-    groups = needed_groups(everything)
+    groups = needed_groups(everything, tests=tests)
     if not groups:
         print("qmesh setup: no extra needs system packages", file=out)
         return 0

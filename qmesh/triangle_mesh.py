@@ -138,10 +138,13 @@ def _indices(value: ArrayLike, name: str, width: int | None) -> NDArray[np.int64
             a = np.asarray(value)
         except (TypeError, ValueError) as e:
             raise QmeshError(f"{name} must be an array of integers: {e}") from None
-        if a.dtype.kind == "f" and a.size and np.all(np.isfinite(a)) and np.all(a == np.round(a)):
+        if (a.dtype.kind == "f" and a.size and np.all(np.isfinite(a)) and np.all(a == np.round(a))
+                and np.all(np.abs(a) < 2.0**63)):
             a = a.astype(np.int64)
         if a.dtype.kind not in "iu" and not (a.size == 0 and a.dtype.kind == "f"):
             raise QmeshError(f"{name} must be an array of integers (indices), got dtype {a.dtype}")
+    if a.dtype.kind == "u" and a.size and a.max() > np.iinfo(np.int64).max:    # would wrap negative
+        raise QmeshError(f"{name} must be integers below 2**63, got {int(a.max())}")
     want = (None, width) if width else (None,)
     if a.size == 0:
         a = a.reshape((0, width) if width else (0,))

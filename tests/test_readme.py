@@ -13,12 +13,14 @@ outputs their comments claim come out.
   with the reason (nothing else is skipped):
     * `python3 -m venv .venv`, `. .venv/bin/activate`: make and enter the virtual environment
       these tests already run in;
-    * `pip install -e ".[all,peers,test]"`: minutes of downloads; the tests run in its result;
+    * `pip install -e ".[io,view]"`, `pip install -e ".[test]"`: minutes of downloads; the tests
+      run in their result;
     * `python -m pytest -q -n auto --dist worksteal`: this test suite itself.
-  `qmesh setup` runs as `qmesh setup --check` (a test must not install system packages; a
-  missing package fails it just the same).
+  `qmesh setup` (and `qmesh setup --test`) runs with `--check` (a test must not install system
+  packages; a missing package fails it just the same).
 - Claims are deterministic outputs only — vertex counts, tags, names, shares of q_ij ≥ 0 — never
-  a time; `.ci/run` holds exactly the README's two Set-up commands; the mesh files the commands
+  a time; `.ci/run` holds exactly the README's two Set-up commands, the first installing the
+  main job's extras only and the second the test suite's; the mesh files the commands
   write are ignored by git; what the pages and `qmesh mesh --help` say about `target_vertices`
   holds.
 """
@@ -40,8 +42,8 @@ PAGES = ["README.md"] + sorted(str(p.relative_to(ROOT)) for p in (ROOT / "docs" 
 TEXT = {page: (ROOT / page).read_text() for page in PAGES}
 README = TEXT["README.md"]
 BIN = Path(sys.executable).parent
-SKIPPED_FOR_COST = ("python3 -m venv .venv", ". .venv/bin/activate", 'pip install -e ".[all,peers,test]"',
-                    "python -m pytest -q -n auto --dist worksteal")
+SKIPPED_FOR_COST = ("python3 -m venv .venv", ". .venv/bin/activate", 'pip install -e ".[io,view]"',
+                    'pip install -e ".[test]"', "python -m pytest -q -n auto --dist worksteal")
 HEADLESS = {"PYVISTA_OFF_SCREEN": "true", "VTK_DEFAULT_OPENGL_WINDOW": "vtkEGLRenderWindow"}
 NUMBER = re.compile(r"-?\d+(?:\.\d+)?(?:e[-+]?\d+)?")
 FENCE = re.compile(r"^```(\S*)\n(.*?)^```", flags=re.S | re.M)
@@ -115,7 +117,8 @@ def shell_lines(code: str):
     for line in code.strip().splitlines():
         command, _, comment = line.partition("   # ")
         parts = [p.strip() for p in command.split(" && ")]
-        run = [p + (" --check" if p == "qmesh setup" else "") for p in parts if p not in SKIPPED_FOR_COST]
+        run = [p + (" --check" if p.startswith("qmesh setup") and "--check" not in p else "")
+               for p in parts if p not in SKIPPED_FOR_COST]
         yield line, run, [f.strip() for f in comment.split("…") if f.strip()]
 
 
@@ -201,7 +204,8 @@ def test_only_the_costly_commands_are_skipped():
     commands = [c for b in blocks("sh") for _, cs, _ in shell_lines(b) for c in cs]
     assert set(parts) & set(SKIPPED_FOR_COST) == set(SKIPPED_FOR_COST)
     assert len(commands) == len([p for p in parts if p not in SKIPPED_FOR_COST])
-    assert "qmesh setup --check" in commands and "qmesh setup" not in commands
+    assert "qmesh setup --check" in commands and "qmesh setup --test --check" in commands
+    assert "qmesh setup" not in commands and "qmesh setup --test" not in commands
 
 
 def test_ci_runs_exactly_the_readme_commands():
@@ -214,6 +218,55 @@ def test_ci_runs_exactly_the_readme_commands():
     assert commands[0].removesuffix("\\").strip() == first
     assert commands[1].removesuffix("|| status=$?").strip() == second
     assert len(commands) == 2, commands
+
+
+def extras() -> dict[str, set[str]]:
+    """pyproject.toml's extras, each as the set of distribution names it installs, qmesh[...]
+    references followed."""
+    try:
+        import tomllib
+    except ImportError:                       # Python < 3.11
+        tomllib = pytest.importorskip("tomli")
+    table = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["optional-dependencies"]
+
+    def names(extra: str) -> set[str]:
+        out = set()
+        for requirement in table[extra]:
+            name = re.match(r"[A-Za-z0-9_.-]+", requirement).group().lower()
+            if name == "qmesh":
+                for inner in re.search(r"\[(.*)\]", requirement).group(1).split(","):
+                    out |= names(inner.strip())
+            else:
+                out.add(name)
+        return out
+    return {extra: names(extra) for extra in table}
+
+
+def installed_by(command: str) -> set[str]:
+    """The distributions a set-up command's `pip install -e ".[...]"` asks for."""
+    table = extras()
+    asked = re.search(r'pip install -e "\.\[([^\]]*)\]"', command).group(1).split(",")
+    return set().union(*(table[extra] for extra in asked))
+
+
+def test_the_first_command_installs_the_main_job_only():
+    """Files and the viewer; no test, docs, peer, FEM or notebook package, no browser driver."""
+    first, second = setup_commands()
+    light = installed_by(first)
+    assert {"meshio", "pyvista", "trame"} <= light
+    assert not light & {"pytest", "hypothesis", "mypy", "playwright", "jupyterlab", "ipykernel",
+                        "nbclient", "sphinx", "gmsh", "mmgpy", "ngsolve", "scikit-fem", "triangle",
+                        "ipywidgets", "dask"}, light
+    assert "qmesh setup &&" in first and "--test" not in first
+
+
+def test_the_second_command_installs_what_the_tests_use():
+    """Every extra but DOLFINx's (its wheels need Python >= 3.12), and the test tools."""
+    first, second = setup_commands()
+    table, full = extras(), installed_by(second)
+    assert set().union(*(names for extra, names in table.items() if extra != "fem-dolfinx")) <= full
+    assert {"pytest", "playwright", "sphinx", "sphinx-mathjax-offline", "gmsh", "ngsolve"} <= full
+    assert "qmesh setup --test &&" in second and second.endswith("python -m pytest -q -n auto --dist worksteal")
 
 
 @settings(max_examples=12, deadline=None, derandomize=True)
@@ -253,3 +306,54 @@ def test_files_the_commands_write_are_ignored_by_git():
     assert "disk64.vtu" in outputs and "chapter.msh" in outputs
     done = subprocess.run(["git", "check-ignore", *outputs], cwd=ROOT, capture_output=True, text=True)
     assert sorted(done.stdout.split()) == outputs
+
+
+def _synopsis(page: str, command: str) -> str:
+    """The ```text block of `page` that gives `command`'s synopsis."""
+    found = [code for lang, code in fenced(page) if lang == "text" and code.startswith(command + " ")]
+    assert found, f"{page} has no synopsis of {command}"
+    return found[0]
+
+
+def _named(option: str, text: str) -> bool:
+    return re.search(rf"(?<![\w-]){re.escape(option)}(?![\w-])", text) is not None
+
+
+def _parsers():
+    """(command, page, parser) for every subcommand of `qmesh` and for `qmesh-view`."""
+    import argparse
+
+    from qmesh.cli import build_parser
+    from qmesh_view.cli import parser as view_parser
+    sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+    return ([(f"qmesh {name}", "docs/guide/cli.md", p) for name, p in sub.choices.items()]
+            + [("qmesh-view", "docs/guide/viewer.md", view_parser())])
+
+
+def test_every_option_of_every_command_is_in_its_synopsis():
+    """The guide's synopses are checked against the argparse parsers: every option (one of its
+    spellings), its metavar and every positional argument of each command."""
+    missing = []
+    for command, page, parser in _parsers():
+        text = _synopsis(page, command)
+        for action in parser._actions:
+            if "-h" in action.option_strings:
+                continue
+            names = action.option_strings or [action.metavar or action.dest]
+            if not any(_named(n, text) for n in names):
+                missing.append(f"{command} {names[0]}")
+            metavar = action.metavar if action.option_strings and action.choices is None else None
+            for word in ([metavar] if isinstance(metavar, str) else metavar or []):
+                if not _named(word, text):
+                    missing.append(f"{command} {names[0]} {word}")
+    assert missing == []
+
+
+def test_the_viewer_page_names_every_domain_preset():
+    from qmesh import domains
+    from qmesh_view.problem import FIELDS, MEDIA
+    page = TEXT["docs/guide/viewer.md"]
+    start = page.index("`--domain`")
+    text = " ".join(page[start:page.index("\n\n", start)].split())       # the option's paragraph
+    presets = [*domains.NAMED, *MEDIA, *FIELDS]
+    assert "rotating" in presets and [n for n in presets if f"`{n}`" not in text] == []

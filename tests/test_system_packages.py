@@ -1,7 +1,10 @@
-"""`qmesh setup`: which Debian packages, when apt-get runs, and the command printed when it may not.
+"""`qmesh setup`: which Debian packages each mode asks for, when apt-get runs, and the command
+printed when it may not.
 
-apt-get is never run for real here: a fake `run` plays dpkg-query and apt-get. One test asks the
-real dpkg of this machine (the test suite itself needs every package installed).
+The README's first command runs `qmesh setup` after installing the viewer: Mesa only, never the
+browser; its second runs `qmesh setup --test`: everything the test suite needs. apt-get is never
+run for real here: a fake `run` plays dpkg-query and apt-get. One test asks the real dpkg of this
+machine (the test suite itself needs every package installed).
 """
 
 import io
@@ -10,12 +13,21 @@ import sys
 import types
 
 import pytest
+from hypothesis import given, settings, strategies as st
 
 import qmesh
 from qmesh import setup as sp
 from qmesh.cli import main
 
 ALL = [p for g in sp.GROUPS for p in g.packages]
+# What each group installs, written out: the viewer's off-screen rendering, the browser tests,
+# gmsh's wheel (the peers extra), NGSolve's OpenBLAS (the fem-ngsolve extra).
+RENDERING = ["libegl1", "libgl1", "libgl1-mesa-dri"]
+BROWSER = ["chromium", "libatomic1"]
+GMSH = ["libgl1", "libglu1-mesa", "libxcursor1", "libxft2", "libxinerama1", "libxrender1",
+        "libfontconfig1", "libgomp1"]
+NGSOLVE = ["libgfortran5"]
+NEEDED_BY = {"vtk": RENDERING, "playwright": BROWSER, "gmsh": GMSH, "ngsolve": NGSOLVE}
 
 
 class FakeSystem:
@@ -101,18 +113,64 @@ def test_every_group_can_be_looked_for_without_dpkg():
     assert sp.not_found(sp.GROUPS) == []          # this machine has them all (the tests need them)
 
 
+def asked_for(modules, **mode) -> list[str]:
+    """The packages `qmesh setup` (as root, nothing installed yet) gives apt-get when only the
+    Python modules `modules` are installed."""
+    fake = FakeSystem()
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(sp, "module_installed", lambda name: name in modules)
+        assert sp.setup(run=fake, prefix=lambda run: [], out=io.StringIO(), **mode) == 0
+    installs = [c for c in fake.apt_calls() if "install" in c]
+    return installs[0][len(sp.APT_INSTALL):] if installs else []
+
+
+def test_the_first_commands_setup_asks_for_mesa_only():
+    """After `pip install -e ".[io,view]"` (VTK, no Playwright, no gmsh)."""
+    assert asked_for({"vtk"}) == RENDERING
+    assert asked_for(set()) == []
+
+
+@settings(max_examples=16, deadline=None)
+@given(modules=st.sets(st.sampled_from(sorted(NEEDED_BY))))
+def test_each_mode_asks_for_its_packages(modules):
+    """Plain `qmesh setup`: the packages of the installed modules, never the browser (only the
+    tests need it); `--test`: every package the test suite needs, whatever is installed."""
+    default = asked_for(modules)
+    assert set(default) == {p for m in modules - {"playwright"} for p in NEEDED_BY[m]}
+    assert not set(BROWSER) & set(default)
+    assert len(default) == len(set(default))
+    assert sorted(asked_for(modules, tests=True)) == sorted(set(RENDERING + BROWSER + GMSH + NGSOLVE))
+
+
+def test_without_root_the_first_command_prints_the_apt_get_line_and_stops(monkeypatch):
+    monkeypatch.setattr(sp, "module_installed", lambda name: name == "vtk")
+    fake, out = FakeSystem(), io.StringIO()
+    assert sp.setup(run=fake, prefix=lambda run: None, out=out) == 1
+    assert fake.apt_calls() == []
+    assert out.getvalue().endswith(f"run: sudo apt-get update && sudo {' '.join(sp.APT_INSTALL)} "
+                                   f"{' '.join(RENDERING)}\n")
+
+
+def test_the_command_line_has_a_test_mode():
+    done = subprocess.run([sys.executable, "-m", "qmesh", "setup", "--help"], capture_output=True, text=True)
+    assert done.returncode == 0 and "--test" in done.stdout
+    done = subprocess.run([sys.executable, "-m", "qmesh", "setup", "--check", "--test", "--all"],
+                          capture_output=True, text=True)
+    assert done.returncode == 2 and "not allowed with argument" in done.stderr
+
+
 def test_groups_follow_the_installed_extras():
     """Each group's module is what needs it; a module that is not installed needs nothing."""
     ghost = sp.Group("ghost", "no_such_module_qmesh", ("libghost",), "")
     assert sp.needed_groups(groups=(ghost,)) == []
     assert sp.needed_groups(everything=True, groups=(ghost,)) == [ghost]
-    assert {g.module for g in sp.GROUPS} == {"vtk", "playwright", "gmsh"}
+    assert {g.module for g in sp.GROUPS} == {"vtk", "playwright", "gmsh", "ngsolve"}
 
 
 def test_this_machine_has_every_package_and_the_command_is_quick(capsys):
-    """The test suite needs them all (it renders, drives chromium, runs gmsh)."""
+    """The test suite needs them all (it renders, drives chromium, runs gmsh and NGSolve)."""
     assert sp.missing(sp.GROUPS) == []
-    assert main(["setup", "--check", "--all"]) == 0
+    assert main(["setup", "--check", "--test"]) == 0
     assert "installed" in capsys.readouterr().out
 
 

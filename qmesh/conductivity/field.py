@@ -56,7 +56,11 @@ def _scalar(v: Any, name: str) -> tuple[float | None, _Scalar, str]:
     scalar = isinstance(v, numbers.Real) or (isinstance(v, np.ndarray) and v.ndim == 0 and v.dtype.kind in "iuf")
     if isinstance(v, (bool, np.bool_)) or not scalar:
         raise QmeshError(f"{name} must be a number or a text in x and y, got {v!r:.80}")
-    c = float(v)
+    try:
+        c = float(v)
+    except OverflowError:                   # an int beyond any float: 10**400
+        raise QmeshError(f"{name} must be finite, got an integer of {len(str(abs(int(v))))} digits, "
+                         "beyond any float") from None
     if not np.isfinite(c):
         raise QmeshError(f"{name} must be finite, got {c}")
     return c, (lambda X, Y: np.full(X.shape, c)), f"{c:g}"
@@ -115,11 +119,12 @@ def _triangles(triangles: ArrayLike, n_points: int) -> NDArray[np.intp]:
 def _raster_array(v: ArrayLike, shape: tuple[int, int], name: str, x: Array, y: Array,
                   positive: bool) -> Array:
     """One per-cell array (a number stands for every cell); QmeshError naming the first bad cell."""
+    a = checks.real_values(v, name)
     try:
-        a = np.broadcast_to(np.asarray(v, dtype=float), shape)
-    except (TypeError, ValueError):
+        a = np.broadcast_to(a, shape)
+    except ValueError:
         raise QmeshError(f"{name} must be a number or an array of real numbers of shape {shape} "
-                         f"(ny, nx) = (rows, columns), got {np.shape(v)}") from None
+                         f"(ny, nx) = (rows, columns), got shape {a.shape}") from None
     ok = np.isfinite(a) & (a > 0) if positive else np.isfinite(a)
     if not ok.all():
         j, i = (int(c) for c in np.argwhere(~ok)[0])
@@ -131,10 +136,7 @@ def _raster_array(v: ArrayLike, shape: tuple[int, int], name: str, x: Array, y: 
 
 
 def _axis(v: ArrayLike, name: str) -> Array:
-    try:
-        a = np.asarray(v, dtype=float)
-    except (TypeError, ValueError):
-        raise QmeshError(f"{name} must be increasing finite cell edges, got {v!r:.80}") from None
+    a = checks.real_values(v, name)
     if a.ndim != 1 or len(a) < 2 or not np.all(np.isfinite(a)) or not np.all(np.diff(a) > 0):
         raise QmeshError(f"{name} must be at least two increasing finite cell edges, got {v!r:.80}")
     return a
@@ -298,8 +300,15 @@ class TensorField:
         """A user's f(x, y) at 1-D points → checked components (n, 3)."""
         try:
             with np.errstate(all="ignore"):
-                raw = self._f(X, Y)
-            Q = np.asarray(raw, dtype=float)
+                raw = np.asarray(self._f(X, Y))
+            if raw.dtype.kind == "c" and np.any(raw.imag != 0):   # a cast would drop it silently
+                where = ""
+                if raw.ndim == 3 and len(raw) == len(X):
+                    k = int(np.flatnonzero(np.any(raw.imag != 0, axis=(1, 2)))[0])
+                    where = f" at {_point(X, Y, k)}"
+                raise QmeshError(f"{self.label} returned a complex Q with an imaginary part{where}: "
+                                 "a conductivity is real")
+            Q = np.asarray(raw.real if raw.dtype.kind == "c" else raw, dtype=float)
         except QmeshError:
             raise
         except Exception as e:
@@ -311,6 +320,15 @@ class TensorField:
             raise QmeshError(f"{self.label} must return shape (n, 2, 2) for x, y of shape (n,), "
                              f"got {Q.shape} for n = {len(X)}") from None
         return _check_components(X, Y, Q[:, 0, 0], Q[:, 0, 1], Q[:, 1, 0], Q[:, 1, 1], self.label)
+
+    def place(self, point: ArrayLike) -> str:
+        """Where a point is, for messages: its raster cell (row, column) and coordinates."""
+        p = np.asarray(point, dtype=float).reshape(2)
+        at = f"({float(p[0]):.6g}, {float(p[1]):.6g})"
+        if self._raster is None:
+            return at
+        j, i = self._raster.cell_of(p[:1], p[1:])
+        return f"raster cell (row {int(j[0])}, column {int(i[0])}) at {at}"
 
     def _inside(self, X: Array, Y: Array, what: str = "point") -> None:
         """Refuse the first point outside the raster by more than RASTER_SLACK of its size."""

@@ -18,20 +18,22 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from qmesh import checks
 from qmesh.errors import QmeshError
 
 
 def _grid_axis(v, name: str) -> np.ndarray:
-    a = np.asarray(v, dtype=float)
+    a = checks.real_values(v, name)
     if a.ndim != 1 or len(a) < 2 or not np.all(np.isfinite(a)) or not np.all(np.diff(a) > 0):
         raise QmeshError(f"{name} must be at least two increasing finite cell edges, got {v!r:.80}")
     return a
 
 
 def _field(v, shape, name: str) -> np.ndarray:
+    a = checks.real_values(v, name)
     try:
-        a = np.broadcast_to(np.asarray(v, dtype=float), shape)
-    except (TypeError, ValueError):
+        a = np.broadcast_to(a, shape)
+    except ValueError:
         raise QmeshError(f"{name} must be a number or an array of shape {shape} (ny, nx)") from None
     if not np.all(np.isfinite(a)):
         raise QmeshError(f"{name} has values that are not finite numbers")

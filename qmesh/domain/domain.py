@@ -105,13 +105,13 @@ def _ring_tags(tag: ArrayLike | None, n: int, default: int, name: str) -> NDArra
     t = np.asarray(tag)
     if t.dtype == bool or not np.issubdtype(t.dtype, np.integer):
         raise QmeshError(f"tags of {name} must be integers, got {tag!r:.80}")
+    if np.any(t < 1) or np.any(t > 2**31 - 1):      # before int64: 2**63 arrives as uint64
+        raise QmeshError(f"tags of {name} must be integers from 1 to 2**31 - 1")
     if t.ndim == 0:
         t = np.full(n, int(t), np.int64)
     if t.shape != (n,):
         raise QmeshError(f"tags of {name} must be one integer or {n} integers (one per segment), "
                          f"got shape {t.shape}")
-    if np.any(t < 1) or np.any(t > 2**31 - 1):
-        raise QmeshError(f"tags of {name} must be integers from 1 to 2**31 - 1")
     return t.astype(np.int64)
 
 

@@ -30,7 +30,10 @@ from qmesh.fields.moves import (Judged, corners, free, isosceles, movers, polish
 from qmesh.fields.piecewise import RegionMeans
 from qmesh.fields.shares import FLOOR, by_bound, cut_interfaces, failing, means_of, shares
 from qmesh.fields.splits import longer, split_failing, split_failing_medium
+from qmesh.errors import QmeshError
 from qmesh.geometry import topology
+from qmesh.geometry.portable import eigvalsh2
+from qmesh.mesher import budget
 from qmesh.geometry.triangles import metric_quality
 from qmesh.triangle_mesh import Mesh
 
@@ -41,6 +44,8 @@ SMOOTH = 4          # shape steps of the vertices the splits added, once every e
 POLISH = 12         # then rounds of polish (moves.polish), in each triangle's own means, of
                     # the corners of triangles below FLOOR
 SHORTEST = 1e-9     # edges shorter than this share of the domain's extent are not split
+GROWTH = 10         # the repair may take the mesh to this many times its vertices (at least
+SPARE = 2000        # this many more), and never past the memory budget: refused beyond
 
 
 @dataclass(frozen=True)
@@ -51,7 +56,7 @@ class Certificate:
     flips: int
     added: int
     remaining: int
-    worst: float        # the smallest q_ij / Σ|q_ij^T| over the edges (≥ −ROUND when certified)
+    worst: float        # the smallest (q_ij − bound) / (Σ|q_ij^T| + bound): in [−1, 1]; ≥ −ROUND certified
 
 
 def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
@@ -69,6 +74,8 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
     keeps its parent's tag), its vertices fixed or sliding along it; shapes are judged in each
     triangle's own means, and the mesh keeps its region tags."""
     P, T = np.array(mesh.points), np.array(mesh.triangles)
+    limit = growth_limit(mesh.n_vertices)
+    given = field
     twin = topology.twins(T)
     reg = np.array(mesh.region_tags) if isinstance(field, Mapping) else None
     tc = cut_interfaces(twin, reg)         # twin less the interfaces (= twin without regions)
@@ -96,6 +103,8 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
             tight[t] = True
             seen.forget(T, twin, t)
             h, q, slack = failing(s, b, tc)
+        if len(h) and len(P) > limit:
+            _refuse_growth(given, P, T, Qbar, h, mesh.n_vertices, limit, reg)
         if len(h) < fewest:
             fewest, since = len(h), 0
         since += 1
@@ -180,6 +189,37 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
     regions = {} if reg is None else {"region_tags": reg, "region_names": mesh.region_names}
     done_mesh = Mesh(P, T, fixed, E, out[E[:, 0]], mesh.tag_names, conductivity=Qbar, **regions)
     return done_mesh, Certificate(rounds, flips, added, len(h), worst)
+
+
+def growth_limit(n: int) -> int:
+    """The most vertices the repair may reach from n: GROWTH·n (at least n + SPARE), and no more
+    than the memory budget holds (`budget.max_vertices` with a field's bytes per vertex)."""
+    return min(max(GROWTH * n, n + SPARE), max(n, budget.max_vertices(budget.default_budget(), varying=True)))
+
+
+def _refuse_growth(field, P, T, Qbar, h, start: int, limit: int, reg) -> None:
+    """QmeshError naming what drove the repair past `limit`: of the triangles beside failing
+    edges, the one whose mean has the largest eigenvalue (a mean's small eigenvalue is lost to
+    round-off at such ratios, its large one is not), and in it the point of a barycentric grid
+    where Q itself is the most anisotropic (its raster cell, for a raster)."""
+    k = np.unique(h // 3)
+    k = int(k[np.argmax(eigvalsh2(Qbar[k])[:, 1])])
+    u, v = np.meshgrid(np.linspace(0, 1, 11), np.linspace(0, 1, 11))
+    inside = u + v <= 1
+    A, B, C = P[T[k]]
+    X = A + u[inside][:, None] * (B - A) + v[inside][:, None] * (C - A)
+    src = field if reg is None else field[int(reg[k])]
+    Q = np.asarray(src(X) if callable(src) else np.broadcast_to(src.Q(X[:1])[0], (len(X), 2, 2)), float)
+    w = eigvalsh2(Q)
+    ratio = w[:, 1] / np.maximum(w[:, 0], np.finfo(float).tiny)
+    worst = int(np.argmax(ratio))
+    place = getattr(src, "place", None)
+    where = place(X[worst]) if callable(place) else f"({X[worst][0]:.6g}, {X[worst][1]:.6g})"
+    raise QmeshError(
+        f"keeping every q_ij >= 0 with the element means took the mesh past {limit} vertices "
+        f"(from {start}) with {len(h)} edges still failing, the worst beside {where}, where Q is "
+        f"{float(ratio[worst]):.3g} : 1. A jump to an anisotropy that strong needs ever smaller "
+        "triangles along it: bound or smooth Q there")
 
 
 def _refresh(field, P, T, Qbar, err, s, b, t, tighten=False, reg=None):

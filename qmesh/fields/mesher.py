@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Callable, Iterator
-from dataclasses import replace
+from dataclasses import fields, replace
 from typing import Any
 
 import numpy as np
@@ -23,11 +23,14 @@ from qmesh.errors import QmeshWarning
 from qmesh.fields.certify import Certificate, certify
 from qmesh.fields.metric import field_metric, smoothing_width
 from qmesh.geometry.triangles import metric_quality
-from qmesh.mesher import loop
+from qmesh.mesher import budget, loop
 from qmesh.mesher.diagnose import warn_if_thin
+from qmesh.mesher.options import Options
 from qmesh.mesher.plan import TOLERANCE
 from qmesh.mesher.step import Stats, Step, last_step
 from qmesh.triangle_mesh import Mesh
+
+OPTION_NAMES = {f.name for f in fields(Options)}
 
 
 def iterate(domain: Any, field: Any, *, target_vertices: int | None = None,
@@ -36,6 +39,12 @@ def iterate(domain: Any, field: Any, *, target_vertices: int | None = None,
     mesh passes q_ij ≥ 0 on every edge with the element means (`Mesh.conductivity`), the only
     one `converged`. The options are those of a constant Q (`qmesh.iterate`)."""
     domain = as_domain(domain)
+    # the options, checked as the mesher checks them (naming them), before the smoothing width
+    # reads target_vertices or size
+    Options.checked(target_vertices=target_vertices, size=size,
+                    **{k: v for k, v in options.items() if k in OPTION_NAMES})
+    if target_vertices is not None:            # refused before the metric's table is built
+        budget.check(int(target_vertices), varying=True, field=True)
     metric = field_metric(field, smoothing_width(domain, target_vertices, size), domain.bounds)
     steps = loop.iterate(domain, metric, target_vertices=target_vertices, size=size, **options)
     return _certified(steps, field, metric, target_vertices)
@@ -79,5 +88,6 @@ def say(m: Mesh, cert: Certificate, target: int | None, stacklevel: int = 3) -> 
                       "the mesh resolves", QmeshWarning, stacklevel=stacklevel)
     if cert.remaining:
         warnings.warn(f"{cert.remaining} edges still have q_ij < 0 with the element means after "
-                      f"{cert.rounds} rounds of flips and splits (worst q_ij / sum|q_ij^T| = "
-                      f"{cert.worst:.2e}); ask for more vertices", QmeshWarning, stacklevel=stacklevel)
+                      f"{cert.rounds} rounds of flips and splits (worst (q_ij - bound) / "
+                      f"(sum|q_ij^T| + bound) = {cert.worst:.2e}, the bound the means' error); ask "
+                      "for more vertices", QmeshWarning, stacklevel=stacklevel)

@@ -57,8 +57,10 @@ def field_metric(field, width: float, box) -> Anisotropy:
     n = np.clip(np.ceil((hi - lo) * GRID / width).astype(int) + 1, 2, MAX_GRID)
     gx, gy = np.linspace(lo[0], hi[0], n[0]), np.linspace(lo[1], hi[1], n[1])
     nodes = np.column_stack([np.repeat(gx, n[1]), np.tile(gy, n[0])])
-    table = shape_metric(smoothed(field, nodes, width, (lo, hi))).reshape(-1, 4)
-    table = np.ascontiguousarray(table[:, [0, 1, 3]])           # h11, h12, h22 at node i·n1 + j
+    table = np.empty((len(nodes), 3))                          # h11, h12, h22 at node i·n1 + j
+    for s in range(0, len(nodes), CHUNK):                      # a chunk's samples at a time
+        part = shape_metric(smoothed(field, nodes[s:s + CHUNK], width, (lo, hi))).reshape(-1, 4)
+        table[s:s + CHUNK] = part[:, [0, 1, 3]]
 
     du, dv = gx[1] - gx[0], gy[1] - gy[0]
     top_u, top_v = n[0] - 1.0, n[1] - 1.0
@@ -87,3 +89,4 @@ def field_metric(field, width: float, box) -> Anisotropy:
 
 GRID = 2          # grid nodes per smoothing width
 MAX_GRID = 2048   # nodes a side at most (4e6 in all)
+CHUNK = 1 << 16   # nodes smoothed at a time: the table's samples never all held at once

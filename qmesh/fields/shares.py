@@ -62,14 +62,16 @@ def failing(s, b, twin, slack=False):
 
 
 def _slack(s, b, twin):
-    """Every edge's q_ij − bound over Σ|q_ij^T| (each edge once)."""
+    """Every edge's q_ij − bound over Σ|q_ij^T| + bound (each edge once): between −1 and 1, as
+    q_ij / Σ|q_ij^T| is, also where the means' error bound outweighs the shares."""
     g = np.where(twin >= 0, twin, np.arange(len(twin)))
     inner = twin >= 0
     q = s + np.where(inner, s[g], 0.0)
     bound = b + np.where(inner, b[g], 0.0)
     scale = np.abs(s) + np.where(inner, np.abs(s[g]), 0.0)
     one = ~inner | (np.arange(len(twin)) < twin)            # each edge once
-    return (q - bound)[one] / np.where(scale[one] > 0, scale[one], 1.0)
+    total = (scale + np.abs(bound))[one]
+    return (q - bound)[one] / np.where(total > 0, total, 1.0)
 
 
 def by_bound(s, b, twin, h, tight):

@@ -163,18 +163,23 @@ def _load(path: Path, fmt: Format) -> Any:
         raise QmeshError(f"cannot read {str(path)!r} as {fmt.meshio_name}: {str(e)[:200] or type(e).__name__}") from e
 
 
-def read_anisotropy(path: PathLike) -> Anisotropy | dict[int, Anisotropy] | None:
-    """The conductivity stored in a mesh file by `write`: an Anisotropy, a {region tag:
-    Anisotropy} mapping, or None when the file has none.
+def read_anisotropy(path: PathLike) -> Anisotropy | dict[int, Anisotropy] | NDArray[np.float64] | None:
+    """The conductivity a mesh file holds: the one `write` stored (an Anisotropy, or a {region
+    tag: Anisotropy} mapping); else the element means of a mesh made for a tensor field, one Q
+    per triangle (M, 2, 2) in `read(path)`'s order, which every measure takes as a conductivity;
+    else None.
 
     A constant Q comes back exactly; an s stored as text is rebuilt with
     `Anisotropy.from_expression`. Use it with `read`: `mesh, A = read(p), read_anisotropy(p)`.
     """
     path, fmt = _existing(path)
     doc = _metadata(path, fmt)
-    if doc is None or doc.get("conductivity") is None:
+    if doc is not None and doc.get("conductivity") is not None:
+        return conductivity.from_json(doc["conductivity"], repr(str(path)))
+    if not fmt.keeps_means:                   # no cell data: no means to give back
         return None
-    return conductivity.from_json(doc["conductivity"], repr(str(path)))
+    means = read(path).conductivity
+    return None if means is None else np.array(means)
 
 
 def read_names(path: PathLike) -> tuple[dict[int, str], dict[int, str]]:

@@ -97,7 +97,9 @@ class MediaPlan:
                 self.h = min(self._size_for(self.order, target_vertices, True), COARSER * self.h)
         else:
             self.h = self.h_euler = float(size) if size is not None else float(np.mean(self._seg_len))
-            sizing.check_vertex_count(self.counter(self.order)(self.h), f"size = {self.h:.3g}")
+            asked = (f"size = {self.h:.3g}" if size is not None
+                     else f"the default size (the mean edge length in the metrics, {self.h:.3g})")
+            sizing.check_vertex_count(self.counter(self.order)(self.h), asked)
         self.h_rest = self.h
         # interface edges cut evenly into pieces ≤ h in both sides' metrics (the others: by their face)
         self.extra = SharedPoints(part.even_cuts(self._inter, np.ceil(self.longest / (BOUNDARY_FACTOR * self.h))),

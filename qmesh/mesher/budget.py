@@ -152,10 +152,12 @@ def _gib(n: float) -> str:
     return f"{n / 2**30:.2f} GiB" if n < 10 * 2**30 else f"{n / 2**30:.0f} GiB"
 
 
-def check(n_vertices, *, varying: bool, budget: int | None = None, what: str | None = None) -> int:
+def check(n_vertices, *, varying: bool, budget: int | None = None, what: str | None = None,
+          field: bool = False) -> int:
     """Raise QmeshError when meshing `n_vertices` would need more than `budget` bytes (default:
     `default_budget_of`: half the memory available now, or less under a process limit);
-    otherwise return the estimate in bytes. `what` names the input that implies the count."""
+    otherwise return the estimate in bytes. `what` names the input that implies the count;
+    `field`: the conductivity is a tensor field (no s), as the message then says."""
     need = estimate_bytes(n_vertices, varying=varying)
     if budget is None:
         budget, whose = default_budget_of()
@@ -168,13 +170,13 @@ def check(n_vertices, *, varying: bool, budget: int | None = None, what: str | N
             raise QmeshError(f"budget must be > 0 bytes, got {budget}")
         whose = "the memory budget"
     if need > budget:
-        kind = "a varying" if varying else "a constant"
+        kind = "a field" if field else "a varying s" if varying else "a constant s"
         most = max_vertices(budget, varying=varying)
         advice = (f"ask for fewer vertices (at most about {most:.3g})" if most >= 3 else
                   f"any run needs about {_gib(FIXED_BYTES)}, so give a larger budget")
-        count = f"{float(n_vertices):.3g} vertices with {kind} s need"
+        count = f"{float(n_vertices):.3g} vertices with {kind} need"
         if what:
-            count = f"{what} implies {float(n_vertices):.3g} vertices, which with {kind} s need"
+            count = f"{what} implies {float(n_vertices):.3g} vertices, which with {kind} need"
         raise QmeshError(f"{count} about {_gib(need)} of memory, more than {whose} ({_gib(budget)}); {advice}")
     return need
 

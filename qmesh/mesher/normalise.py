@@ -31,8 +31,25 @@ def hessian_scale(anisotropy, X: np.ndarray) -> float:
     norm = m * (np.abs(0.5 * (a + c)) + np.hypot(0.5 * (a - c), b))
     k = float(np.median(norm))
     if not (np.isfinite(k) and k > 0):
-        raise QmeshError(f"the Hessian of s has norm {k:g} on the domain; it must be finite and > 0")
+        raise QmeshError(f"{metric_name(anisotropy)} has norm {k:g} on the domain; it must be finite "
+                         f"and > 0{metric_advice(anisotropy)}")
     return k
+
+
+def metric_name(anisotropy) -> str:
+    """What the metric is called in a message: the Hessian of s, or a tensor field's metric (a
+    field has no s)."""
+    if getattr(anisotropy, "potential", True):
+        return "the Hessian of s"
+    return f"the metric adj Q / √det Q of the field ({anisotropy.label})"
+
+
+def metric_advice(anisotropy) -> str:
+    """What to change when a field's metric overflows: a field meshes by Q's shape alone."""
+    if getattr(anisotropy, "potential", True):
+        return ""
+    return ("; Q and det Q must be finite floats > 0 everywhere: rescale Q (its mesh depends on "
+            "its shape, not its size) or lower its anisotropy")
 
 
 def hessian_scales(anisotropies: list, point_sets: list) -> list[float]:

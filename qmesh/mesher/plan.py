@@ -16,7 +16,7 @@ import numpy as np
 from qmesh.errors import QmeshError
 from qmesh.mesher import budget, seeding, sizing
 from qmesh.mesher.diagnose import thin_domain
-from qmesh.mesher.normalise import Normalisation
+from qmesh.mesher.normalise import Normalisation, metric_advice, metric_name
 from qmesh.mesher.options import Options
 
 BOUNDARY_FACTOR = 1.0   # split boundary edges longer than this many target metric lengths
@@ -95,7 +95,7 @@ class Plan:
         """The option that set N, as the user gave it."""
         if self.target is not None:
             return f"target_vertices = {self.target}"
-        return f"size = {self.user_size():.3g}"
+        return _size_text(self.options.size, self.user_size())
 
     def user_size(self) -> float:
         return self.norm.scale * np.sqrt(self.norm.k) * self.h
@@ -114,7 +114,19 @@ def plan(domain, anisotropy, options: Options) -> Plan:
     if target is not None and target <= len(dom.seeds):
         raise QmeshError(f"target_vertices = {target} must exceed the "
                          f"{len(dom.seeds)} input points of the domain")
-    return _sized(norm, options, target, sizing.metric_area(dom, A), sizing.metric_edge_lengths(dom, A))
+    with np.errstate(all="ignore"):
+        area_m, lengths = sizing.metric_area(dom, A), sizing.metric_edge_lengths(dom, A)
+    if not (np.isfinite(area_m) and area_m > 0 and np.all(np.isfinite(lengths))):
+        raise QmeshError(f"{metric_name(anisotropy)} overflows or underflows on the domain: the "
+                         f"domain's area in it is {area_m:.3g}{metric_advice(anisotropy)}")
+    return _sized(norm, options, target, area_m, lengths)
+
+
+def _size_text(given: float | None, h: float) -> str:
+    """The size that set N, as a message names it: the user's, or the default no one typed."""
+    if given is not None:
+        return f"size = {h:.3g}"
+    return f"the default size (the domain's mean edge length in the metric, {h:.3g})"
 
 
 def _sized(norm, options: Options, aim: int | None, area_m: float, lengths: np.ndarray) -> Plan:
@@ -127,8 +139,9 @@ def _sized(norm, options: Options, aim: int | None, area_m: float, lengths: np.n
     else:
         h = norm.metric_length(float(options.size)) if options.size is not None else float(lengths.mean())
         expected = sizing.vertices_for_size(area_m, lengths, h, bfac)
-        sizing.check_vertex_count(expected, f"size = {norm.scale * np.sqrt(norm.k) * h:.3g}")
-    budget.check(expected, varying=not norm.anisotropy.is_constant)   # refused before allocating
+        sizing.check_vertex_count(expected, _size_text(options.size, norm.scale * np.sqrt(norm.k) * h))
+    budget.check(expected, varying=not norm.anisotropy.is_constant,   # refused before allocating
+                 field=not norm.anisotropy.potential)
     min_area = (sizing.equilateral_area(h) / 16 if options.min_area is None
                 else norm.metric_area(float(options.min_area)))
     cap = int(min(sizing.MAX_VERTICES, 4 * expected + 4 * len(dom.seeds) + 100))

@@ -115,6 +115,24 @@ def test_api_errors(build, message):
     assert isinstance(info.value, ValueError)
 
 
+TRIANGLE = ([[0, 0], [1, 0], [0, 1]], [[0, 1, 2]])
+
+
+@pytest.mark.parametrize("build, message", [
+    (lambda: qmesh.Mesh(*TRIANGLE, region_tags=[2**63]), "region_tags must be integers below 2\\*\\*63"),
+    (lambda: qmesh.Mesh(*TRIANGLE, boundary_edges=[[0, 1]], boundary_tags=[2**63]), "boundary_tags must be"),
+    (lambda: qmesh.Mesh(*TRIANGLE, region_tags=[1e30]), "region_tags must be an array of integers"),
+    (lambda: qmesh.Domain.from_cells([0, 1], [0, 1], [[10**400]], 1), "k1 holds an integer beyond any float"),
+    (lambda: qmesh.Domain.from_cells([0, 1], [0, 1], [[1 + 1j]], 1), "k1 must hold real numbers, got a complex"),
+    (lambda: qmesh.Domain.from_cells([False, True], [0, 1], 1, 1), "x must hold real numbers, got a boolean"),
+])
+def test_integers_a_cast_would_wrap_and_values_it_would_change_are_refused(build, message):
+    """2**63 as an int64 tag is −2**63, 1e30 as one is garbage, 10**400 overflows, a complex
+    k1 loses its imaginary part: each is refused, naming the argument."""
+    with pytest.raises(QmeshError, match=message):
+        build()
+
+
 def test_square_csv_is_accepted():
     """The CSV fixtures above are rejected for their defect, not for their form: a square passes."""
     P = np.loadtxt(SQUARE.splitlines(), delimiter=",")

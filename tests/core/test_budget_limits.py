@@ -83,15 +83,16 @@ def test_the_disk_alone_is_refused_before_its_points_are_made(monkeypatch, capsy
     """--disk 10000000 with the default size implies ~2e12 vertices; with a target, at least
     its 1e7 boundary points: refused from the count, no Disk built."""
     from qmesh import cli
-    made = []
-    monkeypatch.setattr(cli, "Disk", lambda vb: made.append(vb))
+    from qmesh.domain import domain
+    made, real = [], domain.Disk
+    monkeypatch.setattr(domain, "Disk", lambda vb: made.append(vb) or real(vb))
     monkeypatch.setattr(budget, "available_bytes", lambda: 8 * 2**30)
     monkeypatch.setattr(budget, "process_limits", lambda: [])
     for extra, count in (([], "2.19e+12"), (["--target-vertices", "10000001"], "1e+07")):
         assert cli.main(["mesh", "--disk", "10000000", *extra, "-o", "x.vtu"]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and f"implies {count} vertices" in err[0] and "--disk 10000000" in err[0], err
-    assert made == []
+    assert 10000000 not in made        # the 64-gon disk_vertices measures on is made
 
 
 @pytest.mark.parametrize("vb, target", [(100, None), (3000, 5000), (64, 500)])
@@ -102,3 +103,47 @@ def test_the_disks_count_is_what_the_plan_expects_or_less(vb, target):
     implied = disk_vertices(vb, A, target_vertices=target)
     expected = plan(qmesh.Disk(vb), A, Options(target_vertices=target)).expected
     assert implied <= expected * 1.01 and implied >= 0.9 * min(expected, max(vb, target or 0))
+
+
+FIELD_CHILD = r"""
+import resource, sys
+resource.setrlimit(resource.RLIMIT_AS, (int(sys.argv[1]), resource.RLIM_INFINITY))
+import qmesh
+F = qmesh.TensorField.principal(100, 1, "30*x")
+try:
+    m = qmesh.mesh(qmesh.Polygon([(0, 0), (1, 0), (1, 1), (0, 1)]), F, target_vertices=int(float(sys.argv[2])))
+    print("meshed", m.n_vertices)
+except qmesh.QmeshError as e:
+    print("refused", e)
+hwm = [l for l in open("/proc/self/status") if l.startswith("VmHWM")][0].split()[1]
+print("peak", int(hwm) * 1024, flush=True)
+"""
+
+
+@pytest.mark.parametrize("target", ["5e5", "4e7"])
+def test_a_field_over_the_address_space_limit_is_refused_before_its_metric_is_built(target):
+    """A field's metric table was built before the budget was asked: under 1 GiB of address
+    space, 5e5 vertices ended in MemoryError and 4e7 took seconds and gigabytes first."""
+    out = subprocess.run([sys.executable, "-c", FIELD_CHILD, str(2**30), target], capture_output=True,
+                         text=True, timeout=120)
+    assert "refused" in out.stdout and "with a field need" in out.stdout, out.stdout + out.stderr
+    assert "RLIMIT_AS" in out.stdout and "MemoryError" not in out.stderr
+    words = out.stdout.split()
+    assert int(words[words.index("peak") + 1]) < 400 * 2**20
+
+
+def test_a_memory_error_the_estimate_missed_is_said_as_a_qmesh_error(monkeypatch):
+    import qmesh.meshing as meshing
+
+    def allocation_fails(*args, **kwargs):
+        raise MemoryError("Unable to allocate 256. MiB")
+    monkeypatch.setattr(meshing.loop, "mesh", allocation_fails)
+    with pytest.raises(qmesh.QmeshError, match="ran out of memory.*256. MiB.*fewer vertices"):
+        qmesh.mesh(qmesh.Disk(16), qmesh.Anisotropy.constant([[1, 0], [0, 1]]), target_vertices=50)
+
+    def steps_fail(*args, **kwargs):
+        yield from ()
+        raise MemoryError()
+    monkeypatch.setattr(meshing.loop, "iterate", steps_fail)
+    with pytest.raises(qmesh.QmeshError, match="ran out of memory"):
+        list(qmesh.iterate(qmesh.Disk(16), qmesh.Anisotropy.constant([[1, 0], [0, 1]]), target_vertices=50))

@@ -140,3 +140,29 @@ def test_cli_meshes_through_the_api_and_refuses_a_target_it_cannot_meet(tmp_path
     err = capsys.readouterr().err
     assert "target_vertices = 9" in err and err.count("\n") == 1
     assert not out.exists()
+
+
+@pytest.mark.parametrize("argv", [["--version"], ["--vers"], ["--bogus", "--version"]])
+def test_version_loads_neither_the_mesher_nor_numpy(argv):
+    """`qmesh --version` answers from a fresh interpreter without importing what meshing needs."""
+    heavy = ("numpy", "scipy", "scipy.sparse.linalg", "sympy", "meshio", "qmesh.meshing", "qmesh.io")
+    code = ("import sys; from qmesh.cli import main; code = main(%r); "
+            "print(code, [m for m in %r if m in sys.modules])" % (argv, heavy))
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60,
+                          cwd=ROOT)
+    assert done.stdout.splitlines() == [f"qmesh {qmesh.__version__}", "0 []"], done.stderr
+
+
+def test_the_package_imports_its_public_names_on_first_use():
+    """`import qmesh` alone loads no NumPy; each public name still resolves to its object."""
+    code = ("import sys, qmesh; before = 'numpy' in sys.modules; "
+            "names = [getattr(qmesh, n) for n in qmesh.__all__]; "
+            "print(before, all(n is not None for n in names), qmesh.io.read is qmesh.io.formats.read)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60,
+                          cwd=ROOT)
+    assert done.stdout.split() == ["False", "True", "True"], done.stderr
+    with pytest.raises(AttributeError, match="no attribute 'nothing'"):
+        qmesh.nothing
+    done = subprocess.run([sys.executable, "-c", "import qmesh; print(qmesh.geometry.__name__)"],
+                          capture_output=True, text=True, timeout=60, cwd=ROOT)
+    assert done.stdout.split() == ["qmesh.geometry"], done.stderr

@@ -273,6 +273,22 @@ def test_callable_s_is_not_stored(tmp_path, delaunay_mesh):
     assert io.read_anisotropy(tmp_path / "m.vtu") is None
 
 
+@pytest.mark.parametrize("ext", sorted(io.KEEPS_MEANS))
+def test_a_field_meshs_conductivity_comes_back_as_its_element_means(tmp_path, delaunay_mesh, ext):
+    """A mesh made for a TensorField stores no formula, only its means: read_anisotropy gives
+    those, one Q per triangle, and the measures take them as the conductivity."""
+    F = qmesh.TensorField.from_expressions("1 + x**2", "0.3*x*y", "2 + y")
+    m = qmesh.Mesh(delaunay_mesh.points, delaunay_mesh.triangles, delaunay_mesh.fixed,
+                   conductivity=F.means(delaunay_mesh.points, delaunay_mesh.triangles))
+    path = tmp_path / f"m{ext}"
+    io.write(path, m)
+    back, Q = io.read(path), io.read_anisotropy(path)
+    assert Q.shape == (m.n_triangles, 2, 2)
+    np.testing.assert_array_equal(Q, back.conductivity)
+    np.testing.assert_allclose(Q, F.means(back.points, back.triangles), rtol=1e-12)  # each its own
+    assert qmesh.measure.report(back, Q) == qmesh.measure.report(back)
+
+
 def test_records_a_format_cannot_hold_are_refused(tmp_path, delaunay_mesh):
     with pytest.raises(QmeshError, match=".vtk keeps qmesh's metadata in its title line, at most 256"):
         io.write(tmp_path / "m.vtk", delaunay_mesh, anisotropy=_with_expression("x**2 + " * 50 + "y**2"))

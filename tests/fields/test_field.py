@@ -203,6 +203,45 @@ def test_raster_refusals():
         f.means([[0, 0], [1, 1], [2, 2]], [[0, 1, 2]])
 
 
+KS = np.ones((3, 4))
+
+
+@pytest.mark.parametrize("name, value, kind", [
+    ("k1", KS.astype("datetime64[s]"), "a datetime64 array"),
+    ("k1", KS > 0, "a boolean array"),
+    ("k2", KS.astype(str), "a string array"),
+    ("k2", KS.astype(bytes), "a bytes array"),
+    ("angle", KS + 1j, "a complex array"),
+    ("angle", np.zeros((3, 4), dtype=[("k", float)]), r"a structured array \(dtype \[\('k'"),
+    ("x", np.arange(5.0) + 0j, "a complex array"),
+    ("k1", [[10**400] * 4] * 3, "holds an integer beyond any float"),
+])
+def test_raster_arrays_a_cast_would_change_are_refused_by_name(name, value, kind):
+    """A cast to float would drop the imaginary part, turn dates into seconds and booleans into
+    0 and 1: refused, naming the array and what it holds (a structured array: not its shape)."""
+    args = {"x": np.arange(5.0), "y": np.arange(4.0), "k1": KS, "k2": KS, "angle": 0.0, name: value}
+    with pytest.raises(qmesh.QmeshError, match=rf"{name} .*{kind}"):
+        qmesh.TensorField.from_raster(**args)
+
+
+def test_a_callables_imaginary_part_is_refused_not_dropped():
+    def f(x, y, imag):
+        return np.broadcast_to(np.eye(2) * (1 + imag * (x > 0.5))[..., None, None], np.shape(x) + (2, 2))
+    assert qmesh.TensorField(lambda x, y: f(x, y, 0j))(P3).dtype == float       # exactly real: kept
+    with pytest.raises(qmesh.QmeshError, match=r"imaginary part at \(x, y\) = \(0.9, 0.1\)"):
+        qmesh.TensorField(lambda x, y: f(x, y, 1j))(P3)
+
+
+@pytest.mark.parametrize("make, name", [
+    (lambda: qmesh.TensorField.from_expressions(10**400, 0, 1), "q11"),
+    (lambda: qmesh.TensorField.principal(1, 1, -10**400), "angle"),
+    (lambda: qmesh.Polygon([(0, 0), (1, 0), (0, 1)], tags=2**63), "tags of the outline"),
+])
+def test_integers_beyond_any_float_or_tag_are_refused_naming_the_argument(make, name):
+    with pytest.raises(qmesh.QmeshError, match=name):
+        make()
+
+
 @pytest.mark.parametrize("points, triangles, message", [
     (np.zeros((3, 3)), [[0, 1, 2]], r"points must have shape \(n, 2\)"),
     ([[0, 0], [1, 0], [0, np.nan]], [[0, 1, 2]], r"points has non-finite entries at row 2"),

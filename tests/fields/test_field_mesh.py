@@ -276,3 +276,40 @@ def test_a_corner_sharp_in_its_cells_metric_is_certified():
     assert failing == 0
     ref = raster_reference_means(x, y, cell_tensors(k1, k2, ang), m.points, m.triangles)
     assert positive_off_diagonals(m.points, m.triangles, ref) == 0
+
+
+@pytest.mark.parametrize("field", [
+    qmesh.TensorField.from_expressions("1e200*(1 + x**2)", 0, "1e200"),       # det Q overflows
+    qmesh.TensorField.principal(1e300, 1e-300, 0),                           # was OverflowError
+    qmesh.TensorField.from_raster([0, 0.5, 1], [0, 0.5, 1], np.full((2, 2), 1e300), 1e-300),  # ValueError
+])
+def test_a_field_beyond_the_floats_is_refused_naming_the_field_not_an_s(field):
+    """A field has no s: the refusal names the field's metric and says what to change."""
+    with pytest.raises(qmesh.QmeshError) as e:
+        qmesh.mesh(qmesh.Polygon([(0, 0), (1, 0), (1, 1), (0, 1)]), field, target_vertices=200)
+    assert f"of the field ({field.label})" in str(e.value) and "rescale Q" in str(e.value)
+    assert "Hessian of s" not in str(e.value)
+
+
+def test_the_memory_refusal_of_a_field_says_field(monkeypatch):
+    from qmesh.mesher import budget
+    monkeypatch.setattr(budget, "available_bytes", lambda: 8 * 2**30)
+    monkeypatch.setattr(budget, "process_limits", lambda: [])
+    field = qmesh.TensorField.from_expressions("1 + x**2", 0, 1)
+    with pytest.raises(qmesh.QmeshError, match=r"^4e\+07 vertices with a field need about") as e:
+        qmesh.mesh(qmesh.Disk(16), field, target_vertices=40_000_000)
+    assert "varying s" not in str(e.value)
+
+
+@pytest.mark.parametrize("options, message", [
+    ({"size": float("inf")}, "size must be a finite number > 0, got inf"),
+    ({"size": 0.0}, "size must be a finite number > 0, got 0.0"),
+    ({"size": "a"}, "size must be a finite number > 0, got 'a'"),
+    ({"target_vertices": 10**400}, "target_vertices = 1e+300 asks for"),
+])
+def test_a_fields_options_are_checked_before_its_smoothing_reads_them(options, message):
+    """Not "half_width must be finite" (the smoothing's own argument, which no one gave), a
+    ValueError or an OverflowError: the option, named as for a constant Q."""
+    raster = qmesh.TensorField.from_raster([0, 1], [0, 1], [[2.0]], 1.0)
+    with pytest.raises(qmesh.QmeshError, match=re.escape(message)):
+        qmesh.mesh(qmesh.Polygon([(0, 0), (1, 0), (1, 1), (0, 1)]), raster, **options)
