@@ -167,7 +167,8 @@ def solution_items(mp: dict, field: bool = False, medium: bool = False) -> list[
              _item("", f"(beyond {mp['tolerance']:.0e})")]
     for key, what in (("mesh", "qmesh's mesh"), ("isotropic", "isotropic Delaunay mesh")):
         c = mp[key]
-        split = (f" ({c['n_below']} below 0, {c['n_above']} above 1)" if c["n_outside"] else "")
+        split = (f" ({c['n_below']} below 0, {c['n_above']} above 1; u_h from "
+                 f"{_number(c['u_min'])} to {_number(c['u_max'])})" if c["n_outside"] else "")
         shown = " — shown" if mp["shown"] == key else ""
         items.append(f"<span class='mp-{key}'><b>{escape(what)}, N = {c['n_vertices']}: "
                      f"{_outside(c['n_outside'])}</b>{escape(split + shown)}</span>")
