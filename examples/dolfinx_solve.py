@@ -3,10 +3,11 @@ scikit-fem solves them on, with the same element means, u and f.
 
 `qmesh.io.to_dolfinx(mesh, comm)` gives the mesh, its facet tags and Q̄_T as a DG0 tensor
 Function "Q"; u and f are the problem's SymPy expressions rebuilt in UFL
-(`solve_problems.translate`), integrated at quadrature degree 6 as scikit-fem's `intorder=6`;
-u is interpolated (P1: its nodal values) on the dofs of the tagged boundary facets. DOLFINx
-assembles K and b, SciPy solves (no PETSc needed), as in `fem_dolfinx.py`; one MPI process.
-Prints the L2 error and the positive off-diagonals of the stiffness matrix between free dofs.
+(`solve_problems.translate`), integrated at quadrature degree 6 (basix's 12-point rule, the one
+scikit-fem's `intorder=6` and NGSolve's degree 6 use); u is interpolated (P1: its nodal values)
+on the dofs of the tagged boundary facets. DOLFINx assembles K and b, SciPy solves (no PETSc
+needed), as in `fem_dolfinx.py`; one MPI process. Prints the L2 error and the positive
+off-diagonals of the stiffness matrix between free dofs.
 
 DOLFINx's wheels need Python >= 3.12: `python3.12 -m venv .venv-dolfinx &&
 . .venv-dolfinx/bin/activate && pip install -e ".[fem-dolfinx]"`.
@@ -33,7 +34,7 @@ import qmesh.io  # noqa: E402
 DEGREE = 6      # the quadrature's exact degree for f φ_i and (u_h − u)², as scikit-fem's intorder=6
 
 
-def solve(mesh: qmesh.Mesh, problem: solve_problems.Problem) -> dict:
+def solve(mesh: qmesh.Mesh, problem: solve_problems.Problem, degree: int = DEGREE) -> dict:
     """u_h at the dofs' points, ‖u_h − u‖_L2 and the positive off-diagonals between free dofs."""
     try:
         import dolfinx_solver  # noqa: F401 - PyPI's DOLFINx: loads MPI before dolfinx
@@ -47,7 +48,7 @@ def solve(mesh: qmesh.Mesh, problem: solve_problems.Problem) -> dict:
     msh, Q = adapted.mesh, adapted.conductivity
     V = fem.functionspace(msh, ("Lagrange", 1))
     x = ufl.SpatialCoordinate(msh)
-    dx = ufl.dx(metadata={"quadrature_degree": DEGREE})
+    dx = ufl.dx(metadata={"quadrature_degree": degree})
 
     def code(expr):
         source = solve_problems.translate(expr, x[0], x[1], {"sin": ufl.sin, "cos": ufl.cos},

@@ -4,8 +4,9 @@ scikit-fem solves them on, with the same element means, u and f.
 `qmesh.io.to_ngsolve(mesh, with_means=True)` gives the mesh (its vertex k, P1 dof k, is qmesh's
 vertex k) and Q̄_T as a piecewise-constant 2×2 CoefficientFunction; u and f are the problem's
 SymPy expressions rebuilt as CoefficientFunctions (`solve_problems.translate`), integrated by
-rules exact to degree 6 as scikit-fem's `intorder=6`; u is set at the boundary vertices. Prints
-the L2 error and the positive off-diagonals of the stiffness matrix between free dofs.
+the 12-point rule of degree 6 that scikit-fem's `intorder=6` and DOLFINx's degree 6 use too; u is
+set at the boundary vertices. Prints the L2 error and the positive off-diagonals of the
+stiffness matrix between free dofs.
 
 Run: python examples/ngsolve_solve.py [TARGET_VERTICES]      (needs qmesh[fem-ngsolve])
 """
@@ -34,13 +35,13 @@ class Result(NamedTuple):
     positive: int           # positive off-diagonals of K between free vertices
 
 
-def solve(mesh: qmesh.Mesh, problem: solve_problems.Problem) -> Result:
+def solve(mesh: qmesh.Mesh, problem: solve_problems.Problem, degree: int = DEGREE) -> Result:
     import ngsolve as ngs
 
     m, Q = qmesh.io.to_ngsolve(mesh, with_means=True)
     fes = ngs.H1(m, order=1, dirichlet=".*")                    # u given on every boundary
     u, v = fes.TnT()
-    dx = ngs.dx(intrules={ngs.TRIG: ngs.IntegrationRule(ngs.TRIG, DEGREE)})
+    dx = ngs.dx(intrules={ngs.TRIG: ngs.IntegrationRule(ngs.TRIG, degree)})
 
     def code(expr):
         return solve_problems.translate(expr, ngs.x, ngs.y, {"sin": ngs.sin, "cos": ngs.cos}, ngs.IfPos)
@@ -56,7 +57,7 @@ def solve(mesh: qmesh.Mesh, problem: solve_problems.Problem) -> Result:
     r = f.vec.CreateVector()
     r.data = f.vec - a.mat * gfu.vec
     gfu.vec.data += a.mat.Inverse(fes.FreeDofs(), inverse="sparsecholesky") * r
-    error = np.sqrt(ngs.Integrate((gfu - code(problem.u_expr)) ** 2, m, order=DEGREE))
+    error = np.sqrt(ngs.Integrate((gfu - code(problem.u_expr)) ** 2, m, order=degree))
     rows, cols, values = a.mat.COO()
     K = sp.coo_matrix((np.asarray(values), (np.asarray(rows), np.asarray(cols))), shape=(fes.ndof, fes.ndof))
     return Result(gfu.vec.FV().NumPy().copy(), float(error),

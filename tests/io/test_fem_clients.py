@@ -1,5 +1,7 @@
 """Each FEM client installed reads qmesh's files with its own reader, finds the names, and
-solves −div(Q∇u) = 1 (u = 0 on "wall") to scikit-fem's solution on the Mesh's own arrays.
+solves −div(Q∇u) = 1 (u = 0 on "wall") to scikit-fem's solution on the Mesh's own arrays; and
+solves the guide's two problems ("From conductivity to solution": examples/ngsolve_solve.py,
+dolfinx_solve.py) with the element means to scikit-fem's u_h and L2 error on the same mesh.
 
 scikit-fem, gmsh and NGSolve are installed by `.[all,peers]`; DOLFINx needs Python >= 3.12 and
 runs in a venv of its own (`dolfinx_env`: built once where such a Python exists, cached)."""
@@ -24,6 +26,32 @@ ROOT = Path(__file__).resolve().parents[2]
 EXAMPLES = ROOT / "examples"
 sys.path.insert(0, str(EXAMPLES))
 import fem_problem  # noqa: E402
+import solve_problems  # noqa: E402
+
+GUIDE_N = 400            # the guide's problems at a small N: both, in a few seconds
+
+
+@pytest.fixture(scope="module")
+def guide_problems():
+    """{name: (problem, mesh, scikit-fem's u_h, its L2 error, its positive off-diagonals)}."""
+    pytest.importorskip("skfem")
+    out = {}
+    for name in ("fvca5", "strata"):
+        problem = getattr(solve_problems, name)()
+        mesh = qmesh.mesh(solve_problems.SQUARE, problem.field, target_vertices=GUIDE_N)
+        sk = solve_problems.skfem_solve(mesh, problem)
+        out[name] = problem, mesh, sk.u, solve_problems.l2_error(mesh, problem, sk.u), sk.positive
+    return out
+
+
+def assert_as_skfem(name, guide_problems, u, error, positive, at=slice(None)):
+    """The same u_h (u at mesh vertices `at`) and L2 error as scikit-fem's, to rounding: all three
+    codes integrate f φ_i and (u_h − u)² by the same 12-point rule of degree 6; and no positive
+    off-diagonal (the mesh's certificate)."""
+    _, mesh, u_sk, error_sk, positive_sk = guide_problems[name]
+    np.testing.assert_allclose(u, u_sk[at], rtol=0, atol=1e-10 * np.ptp(u_sk))
+    assert error == pytest.approx(error_sk, rel=1e-10) and error_sk > 1e-4
+    assert positive == positive_sk == 0
 
 
 @pytest.fixture(scope="module")
@@ -107,6 +135,19 @@ def test_ngsolve_adapter_has_the_names_and_the_area(mesh):
     assert ngsolve.Integrate(1, m, definedon=m.Boundaries("hole")) == pytest.approx(1.6, rel=1e-12)
 
 
+def test_ngsolve_solves_the_guide_problems_as_skfem(guide_problems, capsys):
+    """examples/ngsolve_solve.py meshes the guide's problems itself: the same meshes, scikit-fem's
+    solution, and the lines it prints give scikit-fem's L2 errors."""
+    pytest.importorskip("ngsolve")
+    example = runpy.run_path(str(EXAMPLES / "ngsolve_solve.py"), run_name="ngsolve_solve")
+    results = example["main"](GUIDE_N)
+    printed = capsys.readouterr().out
+    for name, (_, mesh, _, error, _) in guide_problems.items():
+        result = results[name]
+        assert_as_skfem(name, guide_problems, result.u, result.error, result.positive)
+        assert f"NGSolve, {name}: N={mesh.n_vertices}, L2 error {error:.4g}, 0 positive off-diagonals" in printed
+
+
 @pytest.fixture(scope="module")
 def dolfinx_python():
     """The python of DOLFINx's venv (`dolfinx_env`: built once and cached), or a skip saying why there is none."""
@@ -159,3 +200,19 @@ def test_dolfinx_assembles_the_element_means(tmp_path, with_means, dolfinx_pytho
     expected = sorted(zip(map(tuple, np.sort(with_means.boundary_edges, axis=1).tolist()),
                           with_means.boundary_tags.tolist()))
     assert tagged == expected
+
+
+@pytest.mark.slow(10)
+def test_dolfinx_solves_the_guide_problems_as_skfem(tmp_path, guide_problems, dolfinx_python):
+    """examples/dolfinx_solve.py, run in DOLFINx's venv, meshes the guide's problems itself: the
+    same meshes (every dof on a vertex of the mesh meshed here) and scikit-fem's solution."""
+    out = tmp_path / "result.json"
+    done = _run(dolfinx_python, [EXAMPLES / "dolfinx_solve.py", GUIDE_N, "--json", out])
+    results = json.loads(out.read_text())
+    for name, (_, mesh, _, error, _) in guide_problems.items():
+        result = results[name]
+        assert result["n_vertices"] == mesh.n_vertices and len(result["u"]) == mesh.n_vertices
+        distance, at = cKDTree(mesh.points).query(np.array(result["points"]))
+        assert distance.max() <= 1e-14 and len(set(at.tolist())) == mesh.n_vertices
+        assert_as_skfem(name, guide_problems, result["u"], result["error"], result["positive"], at)
+        assert f"DOLFINx, {name}: N={mesh.n_vertices}, L2 error {error:.4g}, 0 positive off-diagonals" in done.stdout

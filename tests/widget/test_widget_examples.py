@@ -63,9 +63,11 @@ def test_cli_example_writes_and_measures_its_files(tmp_path):
 
 
 SMALL = {"heterogeneous_fem.py": ["300"], "holed_domain_fem.py": ["300"], "fem_ngsolve.py": ["300"],
-         "fem_dolfinx.py": ["300"], "cli_example.sh": ["out"]}
+         "fem_dolfinx.py": ["300"], "ngsolve_solve.py": ["300"], "dolfinx_solve.py": ["300"],
+         "cli_example.sh": ["out"]}
 """Arguments that keep each script's run short (its own checks still run)."""
-NEEDS = {"fem_dolfinx.py": "dolfinx", "fem_ngsolve.py": "ngsolve", "modflow6_solve.py": "flopy"}
+NEEDS = {"fem_dolfinx.py": "dolfinx", "fem_ngsolve.py": "ngsolve", "modflow6_solve.py": "flopy",
+         "dolfinx_solve.py": "dolfinx", "ngsolve_solve.py": "ngsolve"}
 """The optional FEM package a script solves with."""
 WRITES = {"cli_example.sh": {"out"}, "modflow6_solve.py": {"modflow6_solve"}}
 """What a script writes into the folder it runs in, as its docstring says."""
