@@ -56,7 +56,8 @@ def solve(mesh: qmesh.Mesh, problem: solve_problems.Problem, degree: int = DEGRE
         return fem.Constant(msh, default_scalar_type(source)) if isinstance(source, float) else source
 
     u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
-    K = fem.assemble_matrix(fem.form(ufl.inner(ufl.dot(Q, ufl.grad(u)), ufl.grad(v)) * ufl.dx))  # Σ_T |T| ∇φ_iᵀ Q̄_T ∇φ_j
+    a = ufl.inner(ufl.dot(Q, ufl.grad(u)), ufl.grad(v)) * ufl.dx           # Σ_T |T| ∇φ_iᵀ Q̄_T ∇φ_j
+    K = fem.assemble_matrix(fem.form(a))
     K.scatter_reverse()
     b = fem.assemble_vector(fem.form(code(problem.f_expr) * v * dx)).array
     n = V.dofmap.index_map.size_local
