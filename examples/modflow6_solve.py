@@ -43,9 +43,7 @@ def modflow_heads(mesh: qmesh.Mesh, problem: solve_problems.Problem, load: np.nd
 def main(target_vertices: int = 1500) -> list[dict]:
     results = []
     Path("modflow6_solve").mkdir(exist_ok=True)
-    for name in ("fvca5", "strata"):
-        problem = getattr(solve_problems, name)()
-        mesh = qmesh.mesh(solve_problems.SQUARE, problem.field, target_vertices=target_vertices)
+    for name, problem, mesh in solve_problems.meshed(target_vertices):
         fem = solve_problems.skfem_solve(mesh, problem)
         h = modflow_heads(mesh, problem, fem.load, Path("modflow6_solve") / name)
         result = {"problem": name, "n_vertices": mesh.n_vertices, "positive_off_diagonals": fem.positive,

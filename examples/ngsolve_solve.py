@@ -66,12 +66,9 @@ def solve(mesh: qmesh.Mesh, problem: solve_problems.Problem, degree: int = DEGRE
 
 def main(target_vertices: int = 1500) -> dict[str, Result]:
     results = {}
-    for name in ("fvca5", "strata"):
-        problem = getattr(solve_problems, name)()
-        mesh = qmesh.mesh(solve_problems.SQUARE, problem.field, target_vertices=target_vertices)
+    for name, problem, mesh in solve_problems.meshed(target_vertices):
         results[name] = result = solve(mesh, problem)
-        print(f"NGSolve, {name}: N={mesh.n_vertices}, L2 error {result.error:.4g}, "
-              f"{result.positive} positive off-diagonals")
+        print(solve_problems.summary("NGSolve", name, mesh.n_vertices, result.error, result.positive))
     return results
 
 

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import operator
 from functools import reduce
-from typing import Any, Callable, Mapping, NamedTuple
+from typing import Any, Callable, Iterator, Mapping, NamedTuple
 
 import numpy as np
 import sympy as sp
@@ -73,6 +73,18 @@ def strata(seed: int = 3) -> Problem:
     pieces = [1 - (resistance[k] + (X - edges[k]) / q11[k]) / resistance[-1] for k in range(8)]
     u = sp.Piecewise(*((p, X < b) for p, b in zip(pieces[:-1], edges[1:-1])), (pieces[-1], True))
     return _problem(field, u, sp.Integer(0))
+
+
+def meshed(target_vertices: int = 1500) -> Iterator[tuple[str, Problem, qmesh.Mesh]]:
+    """(name, problem, mesh) of both problems: the meshes every code of the guide solves them on."""
+    for name, make in (("fvca5", fvca5), ("strata", strata)):
+        problem = make()
+        yield name, problem, qmesh.mesh(SQUARE, problem.field, target_vertices=target_vertices)
+
+
+def summary(code: str, name: str, n_vertices: int, error: float, positive: int) -> str:
+    """The line each FEM example prints for a problem."""
+    return f"{code}, {name}: N={n_vertices}, L2 error {error:.4g}, {positive} positive off-diagonals"
 
 
 def translate(expr: sp.Expr, x: Any, y: Any, functions: Mapping[str, Callable[[Any], Any]],

@@ -36,9 +36,7 @@ def guide_problems():
     """{name: (problem, mesh, scikit-fem's u_h, its L2 error, its positive off-diagonals)}."""
     pytest.importorskip("skfem")
     out = {}
-    for name in ("fvca5", "strata"):
-        problem = getattr(solve_problems, name)()
-        mesh = qmesh.mesh(solve_problems.SQUARE, problem.field, target_vertices=GUIDE_N)
+    for name, problem, mesh in solve_problems.meshed(GUIDE_N):
         sk = solve_problems.skfem_solve(mesh, problem)
         out[name] = problem, mesh, sk.u, solve_problems.l2_error(mesh, problem, sk.u), sk.positive
     return out
