@@ -28,7 +28,7 @@ sys.path.insert(0, str(EXAMPLES))
 import fem_problem  # noqa: E402
 import solve_problems  # noqa: E402
 
-GUIDE_N = 400            # the guide's problems at a small N: both, in a few seconds
+GUIDE_N = 1500           # the guide's problems at the page's N (each meshed in about a second)
 
 
 @pytest.fixture(scope="module")
@@ -203,9 +203,13 @@ def test_dolfinx_assembles_the_element_means(tmp_path, with_means, dolfinx_pytho
 @pytest.mark.slow(10)
 def test_dolfinx_solves_the_guide_problems_as_skfem(tmp_path, guide_problems, dolfinx_python):
     """examples/dolfinx_solve.py, run in DOLFINx's venv, meshes the guide's problems itself: the
-    same meshes (every dof on a vertex of the mesh meshed here) and scikit-fem's solution."""
+    same meshes (every dof on a vertex of the mesh meshed here), scikit-fem's solution, and the
+    lines the guide shows it printing."""
     out = tmp_path / "result.json"
     done = _run(dolfinx_python, [EXAMPLES / "dolfinx_solve.py", GUIDE_N, "--json", out])
+    page = (ROOT / "docs" / "guide" / "solve.md").read_text()
+    shown = [line for line in page.splitlines() if line.startswith("DOLFINx, ")]
+    assert len(shown) == 2 and all(line in done.stdout.splitlines() for line in shown)   # the page's output
     results = json.loads(out.read_text())
     for name, (_, mesh, _, error, _) in guide_problems.items():
         result = results[name]
