@@ -112,8 +112,9 @@ def make_domain(p, uploads: dict) -> qmesh.Domain:
     else:
         raise QmeshError(f"domain must be one of {domain_names(uploads)}, got {p.domain!r}")
     seeds = len(domain.seeds)
-    if p.target_vertices <= seeds:
-        raise QmeshError(f"target_vertices ({p.target_vertices}) must exceed the "
+    target = default_target(p.domain) if p.target_vertices is None else p.target_vertices
+    if target <= seeds:
+        raise QmeshError(f"target_vertices ({target}) must exceed the "
                          f"{seeds} seed points of the domain {p.domain!r}")
     return domain
 
