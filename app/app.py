@@ -111,10 +111,11 @@ def slider(name: str, label: str | None, lo, hi, step, shown: str | None = None,
            aria: str | None = None, **kwargs) -> None:
     """A compact labelled VSlider bound to state `name`, its value always shown at the right,
     in a <div id="slider-NAME"> (the value in <span class="slider-value">) for tests; its
-    thumb named `aria` (default `label`) for screen readers and `get_by_label`."""
+    thumb (role "slider") named `aria` (default `label`: Vuetify gives it the slider's `name`
+    as aria-label) for screen readers and `get_by_role`."""
     with html.Div(id=f"slider-{name}"):
         with v3.VSlider(v_model=(name,), label=label, min=lo, max=hi, step=step,
-                        hide_details=True, density="compact", aria_label=aria or label,
+                        hide_details=True, density="compact", name=aria or label,
                         **kwargs):
             with v3.Template(v_slot_append=True):
                 html.Span(f"{{{{ {shown or f'+Number({name}).toPrecision(4)'} }}}}", classes="slider-value text-body-2",
@@ -784,7 +785,7 @@ class QmeshView(TrameApp):
             html.Div("{{ messages }}", id="messages", title=("messages",),
                      classes="text-body-2 px-2",
                      style="height: 3.9em; line-height: 1.3em; overflow-y: auto; "
-                           "white-space: pre-line; color: #b3261e")
+                           "white-space: pre-line; overflow-wrap: anywhere; color: #b3261e")
             with html.Div(classes="d-flex align-center px-2 mt-1", id="history-row"):
                 html.Span("stage", classes="text-body-2 mr-3")
                 with html.Div(style="flex: 1 1 auto"):
