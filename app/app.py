@@ -57,24 +57,23 @@ TITLE = "qmesh-view — triangle meshes shaped by a conductivity Q"
 TITLE_TIP = ("Q-adapted meshes: Algorithm 2.1 of the chapter, a mesh whose every stiffness "
              "coefficient q_ij ≥ 0")
 VIEW_MODES = ("remote", "local")
-CHART_SERIES = (("chart_energy", "energy E per iteration (log scale)", "#1f77b4"),
+CHART_SERIES = (("chart_energy", "energy E (log scale)", "#1f77b4"),
                 ("chart_kappa2", "κ2 per iteration", "#d62728"),
                 ("chart_n", "N per iteration", "#2ca02c"))
-CHART_TIPS = {"chart_energy": "E = ‖s_h − s‖_L1 (2.80): the volume between the lifted mesh and "
-                              "s(x), which each adjust stage lowers",
+CHART_TIPS = {"chart_energy": "E = ‖s_h − s‖_L1 (2.80) at the end of each iteration: the volume "
+                              "between the lifted mesh and s(x), which each adjust stage lowers",
               "chart_kappa2": "the condition number of the stiffness matrix with Dirichlet "
                               "boundary values",
               "chart_n": "the vertex count at the end of each iteration"}
 NO_ENERGY = "a field has no s: no energy"
 """The energy panel's body for a conductivity field, in place of an empty chart."""
-COLOUR_BY = ("[{title: 'metric quality', value: 'quality',"
-             " props: {title: 'metric quality (2.94): 1 = equilateral in the metric of Q'}},"
-             " {title: 'metric area', value: 'metric_area',"
-             " props: {title: 'each triangle area in the metric of Q'}},"
-             " {title: 'maximum principle: u_h', value: 'solution',"
-             " props: {title: 'u_h of −div(Q∇u) = 0: with every q_ij ≥ 0 it stays between its"
-             " boundary values'}}]")
-"""The colour-by items: words, with the equation number in each item's tooltip."""
+COLOUR_BY = ("[{title: 'metric quality', value: 'quality'},"
+             " {title: 'metric area', value: 'metric_area'},"
+             " {title: 'maximum principle: u_h', value: 'solution'}]")
+COLOUR_BY_TIP = ("metric quality (2.94): 1 for a triangle equilateral in the metric of Q · "
+                 "metric area: each triangle's area in that metric · maximum principle: u_h of "
+                 "−div(Q∇u) = 0, which stays between its boundary values when every q_ij ≥ 0")
+"""The colour-by items in words; the equation numbers are in the select's tooltip."""
 VIEW_HEIGHT = "calc(100vh - 347px)"   # the views fill the page below the status lines
 TEXT_PARAMS = ("target_vertices", "seed")   # typed: applied on Enter or blur, never per key
 SLIDER_PARAMS = tuple(n for n in PARAMS if n not in TEXT_PARAMS + ("s_text",))
@@ -769,7 +768,7 @@ class QmeshView(TrameApp):
             with html.Div(v_show=("!field_view",)):        # a field has no lifted surface
                 slider("z_scale", "z-scale", 0.1, 3, 0.1, shown="Number(z_scale).toFixed(1)",
                        aria="z-scale of the lifted surface")
-            with html.Div(id="select-colour-by"):
+            with html.Div(id="select-colour-by", title=COLOUR_BY_TIP):
                 v3.VSelect(v_model=("colour_by",), label="colour by", density="compact",
                            items=(COLOUR_BY,),
                            hide_details=True, classes="my-2")
@@ -833,7 +832,7 @@ class QmeshView(TrameApp):
                             "rgba(0, 0, 0, 0.25); border-radius: 4px; overflow: hidden"):
             with html.Div(classes="d-flex flex-column", style="min-height: 0"):
                 with html.Div(classes="d-flex align-center px-2"):
-                    html.Span(f"{{{{ title_{name} }}}}", classes="text-caption",
+                    html.Span(f"{{{{ title_{name} }}}}", classes="text-caption text-truncate",
                               id=f"title-{name}",       # a field's first view: ellipses
                               title=(f"tip_{name}",))   # the chapter's words and numbers
                     v3.VSpacer()

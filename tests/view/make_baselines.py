@@ -7,7 +7,8 @@
                                                  # app_layered.png (the layered medium),
                                                  # app_inclusion.png (the inclusion medium),
                                                  # app_maximum_principle.png (the rotating
-                                                 # field's u_h on an isotropic mesh)
+                                                 # field's u_h on an isotropic mesh),
+                                                 # field_rotating.png (the rotating field)
 
 Run it only when the drawing or the mesher changed on purpose, then LOOK at every image written.
 """
@@ -86,6 +87,7 @@ def main() -> None:
         write_app(cases.BASELINES / "app_layered.png", "layered")
         write_app(cases.BASELINES / "app_inclusion.png", "inclusion")
         write_app(cases.BASELINES / "app_maximum_principle.png", "rotating", maximum_principle)
+        write_app(cases.BASELINES / "field_rotating.png", "rotating")
 
 
 if __name__ == "__main__":

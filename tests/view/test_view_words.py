@@ -25,7 +25,7 @@ def test_titles_are_words_and_their_tooltips_carry_the_equation_numbers():
     assert not EQUATION.search(app.TITLE) and EQUATION.search(app.TITLE_TIP)
     titles = re.findall(r"\btitle: '([^']*)', value", app.COLOUR_BY)
     assert titles == ["metric quality", "metric area", "maximum principle: u_h"]
-    assert "(2.94)" in app.COLOUR_BY                    # in the item's tooltip
+    assert "(2.94)" in app.COLOUR_BY_TIP                # in the select's tooltip
     assert all(not EQUATION.search(label) for _, label, _ in app.CHART_SERIES)
     assert "(2.80)" in app.CHART_TIPS["chart_energy"]
     assert 'title="' in legend.title_html("quality", {})     # the widget's tooltip too
