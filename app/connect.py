@@ -11,13 +11,20 @@ from __future__ import annotations
 
 LAUNCHER_PATH = "/paraview/"
 """Where trame's client asks for a session (its default `sessionManagerURL`)."""
-SESSION = {"sessionURL": "ws://USE_HOST/ws"}
-"""The answer: the client puts the page's host for USE_HOST, and `wss:` on an https page."""
+
+
+def session_url(path: str, prefix: str = "") -> str:
+    """The websocket beside the page that asked at `path` (…/paraview/), behind a proxy's
+    `prefix` (X-Forwarded-Prefix): the client puts the page's host for USE_HOST, and `wss:` for
+    `ws:` on an https page."""
+    base = path[:len(path) - len("paraview/")] if path.endswith("paraview/") else "/"
+    return f"ws://USE_HOST{prefix.rstrip('/')}{base}ws"
 
 
 async def _launcher(request):
     from aiohttp import web
-    return web.json_response(SESSION)
+    return web.json_response({"sessionURL": session_url(
+        request.path, request.headers.get("X-Forwarded-Prefix", ""))})
 
 
 def answer_launcher(server) -> None:

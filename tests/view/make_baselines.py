@@ -56,7 +56,9 @@ def write_app(path: Path, domain: str | None = None, then=None) -> None:
             run.click()
         browser.until(lambda: "converged" in browser.status(page) or None, 180,
                       "the run to converge")
-        browser.wait_idle(page)
+        page.wait_for_function("() => !document.querySelector('#btn-run').textContent"
+                               ".includes('Stop')", timeout=180_000)   # the run has ended
+        browser.wait_idle(page, 180)                  # and its last stage is measured
         if then is not None:
             then(page)
         page.wait_for_timeout(1500)                   # the last images reach the browser

@@ -68,3 +68,10 @@ def test_a_field_whose_colour_is_one_value_gets_no_colour_bar(make, uniform):
     assert ("legend-colour-bar" in shown) != uniform
     if uniform:
         assert "one colour" in shown and "is 1 everywhere" in shown
+
+
+def test_the_launcher_answer_names_the_websocket_beside_the_page():
+    from qmesh_view.connect import session_url
+    assert session_url("/paraview/") == "ws://USE_HOST/ws"
+    assert session_url("/paraview/", "/viewer/") == "ws://USE_HOST/viewer/ws"
+    assert session_url("/app/paraview/") == "ws://USE_HOST/app/ws"
