@@ -130,7 +130,8 @@ def html(name: str, info: dict) -> str:
 
         def most(how):
             return f" (at most {scene.MAX_MARKERS} {how})" if capped else ""
-        items = [f"<span class='legend-change' style='flex-basis:100%'>"
+        items = [f"<span class='legend-change' style='flex-basis:100%;white-space:nowrap;"
+                 f"overflow:hidden;text-overflow:ellipsis'>"
                  f"{escape(info.get('change', ''))}</span>",
                  _item(_dot(draw.FIXED), "seed points (fixed)"
                        + few(info.get("n_fixed", 0), info.get("n_fixed_shown", 0))),
