@@ -47,17 +47,33 @@ from trame.widgets import vuetify3 as v3
 
 from qmesh.errors import QmeshError
 
-from . import delivery, legend
+from . import connect, delivery, legend
 from .controller import PARAMS, status_text
 from .draw import VIEWS, ViewSet, view_scene
 from .problem import DISK, S_PRESETS
 from .session import RUN_PAUSE, Outcome, Session, describe
 
-TITLE = "qmesh-view — Q-adapted meshes (Algorithm 2.1)"
+TITLE = "qmesh-view — triangle meshes shaped by a conductivity Q"
+TITLE_TIP = ("Q-adapted meshes: Algorithm 2.1 of the chapter, a mesh whose every stiffness "
+             "coefficient q_ij ≥ 0")
 VIEW_MODES = ("remote", "local")
-CHART_SERIES = (("chart_energy", "energy E per iteration (log scale)", "#1f77b4"),
+CHART_SERIES = (("chart_energy", "energy E (log scale)", "#1f77b4"),
                 ("chart_kappa2", "κ2 per iteration", "#d62728"),
                 ("chart_n", "N per iteration", "#2ca02c"))
+CHART_TIPS = {"chart_energy": "E = ‖s_h − s‖_L1 (2.80) at the end of each iteration: the volume "
+                              "between the lifted mesh and s(x), which each adjust stage lowers",
+              "chart_kappa2": "the condition number of the stiffness matrix with Dirichlet "
+                              "boundary values",
+              "chart_n": "the vertex count at the end of each iteration"}
+NO_ENERGY = "a field has no s: no energy"
+"""The energy panel's body for a conductivity field, in place of an empty chart."""
+COLOUR_BY = ("[{title: 'metric quality', value: 'quality'},"
+             " {title: 'metric area', value: 'metric_area'},"
+             " {title: 'maximum principle: u_h', value: 'solution'}]")
+COLOUR_BY_TIP = ("metric quality (2.94): 1 for a triangle equilateral in the metric of Q · "
+                 "metric area: each triangle's area in that metric · maximum principle: u_h of "
+                 "−div(Q∇u) = 0, which stays between its boundary values when every q_ij ≥ 0")
+"""The colour-by items in words; the equation numbers are in the select's tooltip."""
 VIEW_HEIGHT = "calc(100vh - 347px)"   # the views fill the page below the status lines
 TEXT_PARAMS = ("target_vertices", "seed")   # typed: applied on Enter or blur, never per key
 SLIDER_PARAMS = tuple(n for n in PARAMS if n not in TEXT_PARAMS + ("s_text",))
@@ -93,12 +109,16 @@ def convergence_chart(series: dict, field: bool = False) -> dict:
                              "chart_n": ends(series["n_vertices"], "d")}}
 
 
-def slider(name: str, label: str, lo, hi, step, shown: str | None = None, **kwargs) -> None:
+def slider(name: str, label: str | None, lo, hi, step, shown: str | None = None,
+           aria: str | None = None, **kwargs) -> None:
     """A compact labelled VSlider bound to state `name`, its value always shown at the right,
-    in a <div id="slider-NAME"> (the value in <span class="slider-value">) for tests."""
+    in a <div id="slider-NAME"> (the value in <span class="slider-value">) for tests; its
+    thumb (role "slider") named `aria` (default `label`: Vuetify gives it the slider's `name`
+    as aria-label) for screen readers and `get_by_role`."""
     with html.Div(id=f"slider-{name}"):
         with v3.VSlider(v_model=(name,), label=label, min=lo, max=hi, step=step,
-                        hide_details=True, density="compact", **kwargs):
+                        hide_details=True, density="compact", name=aria or label,
+                        **kwargs):
             with v3.Template(v_slot_append=True):
                 html.Span(f"{{{{ {shown or f'+Number({name}).toPrecision(4)'} }}}}", classes="slider-value text-body-2",
                           style="min-width: 3.2em; text-align: right; display: inline-block")
@@ -135,6 +155,7 @@ class QmeshView(TrameApp):
         self.views.draw(self.session.current, self.session.anisotropy, **self._view_options())
         self._build_ui()
         self.server.controller.on_server_ready.add(self._fast_image_delivery)
+        connect.answer_launcher(self.server)        # no 405 in the page's console
         self._link_cameras()
         for name in SLIDER_PARAMS:
             self.state.change(name)(functools.partial(self.on_control, name))
@@ -656,6 +677,7 @@ class QmeshView(TrameApp):
     def _build_ui(self) -> None:
         with SinglePageWithDrawerLayout(self.server, width=330, full_height=True) as layout:
             layout.title.set_text("qmesh-view")
+            layout.title.title = TITLE_TIP
             self.state.trame__title = TITLE
             self._toolbar(layout.toolbar)
             with layout.drawer:
@@ -695,9 +717,10 @@ class QmeshView(TrameApp):
             with html.Div(v_show=("q_mode === 'constant' && !regions_text",)):
                 html.Div("principal values and the angle of k1",
                          classes="text-caption text-medium-emphasis")
-                slider("k1", "k1", 0.05, 20, 0.05)
-                slider("k2", "k2", 0.05, 20, 0.05)
-                slider("angle", "angle", 0, 180, 5, shown="angle + '°'")
+                slider("k1", "k1", 0.05, 20, 0.05, aria="k1, the conductivity along the angle")
+                slider("k2", "k2", 0.05, 20, 0.05, aria="k2, the conductivity across it")
+                slider("angle", "angle", 0, 180, 5, shown="angle + '°'",
+                       aria="angle of k1 in degrees")
                 html.Div("Q11 = {{ q11.toPrecision(4) * 1 }} · Q12 = {{ q12.toPrecision(4) * 1 }}"
                          " · Q22 = {{ q22.toPrecision(4) * 1 }}", classes="my-2", id="q-readout")
             with html.Div(v_show=("q_mode === 'expression' && !regions_text",)):
@@ -728,7 +751,7 @@ class QmeshView(TrameApp):
                               hide_details=True, prepend_icon="", clearable=True,
                               classes="my-1")
             with html.Div(v_show=(f"domain === '{DISK}'",)):
-                slider("vb", "VB", 8, 512, 1)
+                slider("vb", "VB", 8, 512, 1, aria="VB, seed points on the disk")
                 html.Div("VB (seed points) stays below the target: moving one moves the other.",
                          classes="text-caption text-medium-emphasis")
             for name, label in (("target_vertices", "target vertices"), ("seed", "seed")):
@@ -743,12 +766,11 @@ class QmeshView(TrameApp):
             v3.VDivider(classes="my-2")
             html.Div("Views", classes="text-subtitle-2")
             with html.Div(v_show=("!field_view",)):        # a field has no lifted surface
-                slider("z_scale", "z-scale", 0.1, 3, 0.1, shown="Number(z_scale).toFixed(1)")
-            with html.Div(id="select-colour-by"):
+                slider("z_scale", "z-scale", 0.1, 3, 0.1, shown="Number(z_scale).toFixed(1)",
+                       aria="z-scale of the lifted surface")
+            with html.Div(id="select-colour-by", title=COLOUR_BY_TIP):
                 v3.VSelect(v_model=("colour_by",), label="colour by", density="compact",
-                           items=("[{title: 'metric quality (2.94)', value: 'quality'},"
-                                  " {title: 'metric area', value: 'metric_area'},"
-                                  " {title: 'maximum principle: u_h', value: 'solution'}]",),
+                           items=(COLOUR_BY,),
                            hide_details=True, classes="my-2")
             with html.Div(id="switch-q-sign", v_show=("colour_by !== 'solution'",)):
                 v3.VSwitch(v_model=("q_sign_edges",), label="edges by sign of q_ij",
@@ -778,12 +800,13 @@ class QmeshView(TrameApp):
             html.Div("{{ messages }}", id="messages", title=("messages",),
                      classes="text-body-2 px-2",
                      style="height: 3.9em; line-height: 1.3em; overflow-y: auto; "
-                           "white-space: pre-line; color: #b3261e")
+                           "white-space: pre-line; overflow-wrap: anywhere; color: #b3261e")
             with html.Div(classes="d-flex align-center px-2 mt-1", id="history-row"):
                 html.Span("stage", classes="text-body-2 mr-3")
                 with html.Div(style="flex: 1 1 auto"):
                     slider("history_index", None, 0, ("history_length - 1",), 1,
                            shown="history_index + ' / ' + (history_length - 1)",
+                           aria="stage shown, from the history of the run",
                            disabled=("busy || running",))
             self.html_views = {}
             with html.Div(id="views", classes="mt-1",
@@ -809,8 +832,9 @@ class QmeshView(TrameApp):
                             "rgba(0, 0, 0, 0.25); border-radius: 4px; overflow: hidden"):
             with html.Div(classes="d-flex flex-column", style="min-height: 0"):
                 with html.Div(classes="d-flex align-center px-2"):
-                    html.Span(f"{{{{ title_{name} }}}}", classes="text-caption",
-                              id=f"title-{name}")       # a field's first view: ellipses
+                    html.Span(f"{{{{ title_{name} }}}}", classes="text-caption text-truncate",
+                              id=f"title-{name}",       # a field's first view: ellipses
+                              title=(f"tip_{name}",))   # the chapter's words and numbers
                     v3.VSpacer()
                     v3.VBtn(icon=(f"maximised === '{name}' ? 'mdi-arrow-collapse' :"
                                   " 'mdi-arrow-expand'",),
@@ -836,13 +860,24 @@ class QmeshView(TrameApp):
             for key, label, colour in CHART_SERIES:
                 with v3.VCol(cols=4, classes="pa-1"):
                     with v3.VSheet(border=True, rounded=True, classes="pa-2"):
-                        with html.Div(classes="d-flex text-caption"):
-                            html.Span(label, classes="font-weight-medium")
+                        # one line at any width: a caption that wrapped as the page was
+                        # laid out grew the row, a ResizeObserver loop on every load
+                        with html.Div(classes="d-flex text-caption flex-nowrap",
+                                      title=CHART_TIPS[key]):
+                            html.Span(label, classes="font-weight-medium text-truncate")
                             v3.VSpacer()
-                            html.Span(f"{{{{ chart_labels.{key} }}}}")
+                            html.Span(f"{{{{ chart_labels.{key} }}}}",
+                                      classes="flex-shrink-0 ml-2 text-no-wrap")
+                        shown = {}
+                        if key == "chart_energy":          # a field has no s, so no energy
+                            html.Div(NO_ENERGY, v_if=("field_view",), id="no-energy",
+                                     classes="text-caption text-medium-emphasis d-flex "
+                                             "align-center justify-center",
+                                     style="height: 60px")
+                            shown = {"v_else": True}
                         v3.VSparkline(model_value=(key,), color=colour, height=60,
                                       line_width=1.5, padding=6, smooth=False,
-                                      auto_line_width=False)
+                                      auto_line_width=False, **shown)
 
     # ------------------------------------------------------------------ life cycle
     def close(self) -> None:

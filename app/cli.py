@@ -60,6 +60,14 @@ def domain_help() -> str:
             f"a conductivity field Q(x) on the unit square: {fields}")
 
 
+def target_help() -> str:
+    """--target-vertices' help: the chapter's default and the presets' own, from `problem`."""
+    from .problem import CHAPTER_TARGET, PRESET_TARGETS
+    own = ", ".join(f"{n} {t}" for n, t in PRESET_TARGETS.items())
+    return (f"target vertex count N (default {CHAPTER_TARGET}, the chapter's case; the presets "
+            f"that need more open with their own: {own})")
+
+
 def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="qmesh-view", description=__doc__.splitlines()[0])
     p.add_argument("--host", default="127.0.0.1",
@@ -71,8 +79,8 @@ def parser() -> argparse.ArgumentParser:
                    help="remote (default): the server renders and sends images; local: the "
                         "browser renders with vtk.js (measured slower: benchmarks/bench_view.py)")
     p.add_argument("--vb", type=int, default=64, help="seed points on the disk (default 64)")
-    p.add_argument("--target-vertices", type=vertex_count, default=212, metavar="N",
-                   help="target vertex count N (default 212, the chapter's case)")
+    p.add_argument("--target-vertices", type=vertex_count, default=None, metavar="N",
+                   help=target_help())
     p.add_argument("--domain", default="disk", metavar="NAME", help=domain_help())
     p.add_argument("--s", dest="s_text", default=None, metavar="TEXT",
                    help="start with s(x, y) given as text, e.g. 'exp(x) + y**2' "

@@ -19,8 +19,9 @@ import qmesh
 from qmesh import measure
 from qmesh.errors import QmeshError
 
-from .problem import (DISK, Q_MODES, S_PRESETS, element_means, field_text, is_field_conductivity,
-                      make_anisotropy, make_domain, q_matrix, regions, regions_text)
+from .problem import (DISK, Q_MODES, S_PRESETS, default_target, element_means, field_text,
+                      is_field_conductivity, make_anisotropy, make_domain, q_matrix, regions,
+                      regions_text)
 
 PARAMS = ("k1", "k2", "angle", "vb", "target_vertices", "alpha", "seed", "domain", "q_mode",
           "s_text")
@@ -32,14 +33,15 @@ class Params:
     """What defines one run. The chapter's case (2.95): Q = diag(0.1, 10), VB = 64, N ≈ 212.
 
     Q is given by its principal conductivities and the angle of k1's axis, so it is SPD by
-    construction: k1 = 0.1 along x (angle 0) and k2 = 10 along y.
+    construction: k1 = 0.1 along x (angle 0) and k2 = 10 along y. `target_vertices` None is
+    the domain's own default (`problem.default_target`: 212 but for the presets that need more).
     """
 
     k1: float = 0.1
     k2: float = 10.0
     angle: float = 0.0
     vb: int = 64
-    target_vertices: int = 212
+    target_vertices: int | None = None
     alpha: float = 0.5
     seed: int = 0
     domain: str = "disk"
@@ -90,7 +92,11 @@ def _real(name: str, value) -> float:
 
 def _checked(p: Params) -> Params:
     """Coerce the fields to their types and refuse bad values with QmeshError (nothing built)."""
+    if not isinstance(p.domain, str):
+        raise QmeshError(f"domain must be a name, got {type(p.domain).__name__}")
     k1, k2, angle, alpha = (_real(n, getattr(p, n)) for n in ("k1", "k2", "angle", "alpha"))
+    if p.target_vertices is None:
+        p = p.replace(target_vertices=default_target(p.domain))
     vb, target, seed = (_integer(n, getattr(p, n)) for n in ("vb", "target_vertices", "seed"))
     for name, k in (("k1", k1), ("k2", k2)):
         if k <= 0:
@@ -103,8 +109,6 @@ def _checked(p: Params) -> Params:
         raise QmeshError(f"alpha must be in (0, 1], got {alpha}")
     if p.domain == DISK and target <= vb:
         raise QmeshError(f"target_vertices ({target}) must exceed VB ({vb}), the seed points")
-    if not isinstance(p.domain, str):
-        raise QmeshError(f"domain must be a name, got {type(p.domain).__name__}")
     if p.q_mode not in Q_MODES:
         raise QmeshError(f"q_mode must be one of {Q_MODES}, got {p.q_mode!r}")
     if not isinstance(p.s_text, str):
@@ -118,8 +122,16 @@ def reconcile(params: Params, changes: dict) -> dict:
     The value the user just moved wins and the other follows: VB moved to ≥ N raises N to VB + 1;
     N moved to ≤ VB lowers VB to N − 1 (never below 3, the smallest polygon). Both given at once,
     or values that are not integers, are left for `_checked` to accept or reject.
+
+    A new domain brings its own default target (`problem.default_target`) when the target in
+    force is the old domain's default: a preset opens where it meshes without a warning, and a
+    target the user chose stays.
     """
     out = dict(changes)
+    new = changes.get("domain")
+    if (isinstance(new, str) and new != params.domain and "target_vertices" not in changes
+            and params.target_vertices == default_target(params.domain)):
+        out["target_vertices"] = default_target(new)
     if "vb" in changes and "target_vertices" in changes:
         return out
     if out.get("domain", params.domain) != DISK:
@@ -212,12 +224,8 @@ class Controller:
         self._figures.clear()
         self.done = False
         self.index = 0
-        self._pull()
-        if self.regions:            # a medium yields one Step per face: show the whole medium first
-            while self._pull():
-                pass
-            self.index = len(self.history) - 1
-        self._warm()
+        self._pull()                # a medium too: its first face's first triangulation, then
+        self._warm()                # Step and Run go through every face's run in turn
 
     def _pull(self) -> bool:
         """Ask the generator for one more Step; False once the run has ended. An exception from

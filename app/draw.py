@@ -13,6 +13,7 @@ from qmesh.errors import QmeshError
 
 from . import scene, system
 from .problem import means_source
+from .stage_change import what_changed
 
 BACKGROUND = "white"
 MESH_FACE = "#e9edf2"
@@ -485,11 +486,12 @@ class ViewSet:
                        "regions": list(regions) if scene.is_medium(anisotropy) else [],
                        "n_interface": 0 if solved else q.n_interface, "field": field,
                        "n_fixed": projected.n_fixed, "n_fixed_shown": projected.fixed.n_points,
-                       "n_vertices": step.mesh.n_vertices,
+                       "n_vertices": step.mesh.n_vertices, "change": what_changed(step),
                        "crowded": self._looks.get("mesh") != "dark",
                        "quality_edges": self._looks.get("quality"), "fine_facets": self._fine}
         if field:
             self.legend.update(field_clim=tuple(map(float, shown.clim)),
+                               field_uniform=shown.uniform,
                                n_ellipses=len(shown.centres), field_label=anisotropy.label,
                                means=means_source(step.mesh))
 

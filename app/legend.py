@@ -16,15 +16,27 @@ VIRIDIS = ("#440154", "#482878", "#3e4989", "#31688e", "#26828e", "#1f9e89", "#3
            "#6ece58", "#b5de2b", "#fde725")
 """matplotlib's viridis at ten even stops (draw.QUALITY_CMAP), for the CSS colour bar."""
 
-VIEW_TITLES = {"lifted": "lifted: s(x) and the facets of s_h",
+VIEW_TITLES = {"lifted": "lifted surface z = s(x): the mesh is its lower hull",
                "mesh": "mesh: seeds, inserted points, moves",
-               "quality": "quality (2.94)"}
-"""The views' titles, one wording for the trame app and the widget."""
+               "quality": "metric quality (1 = equilateral in Q's metric)"}
+"""The views' titles in words, one wording for the trame app and the widget."""
+VIEW_TIPS = {"lifted": "the lifting map: the vertices lifted onto z = s(x), where Q = adj ∇²s; "
+                       "the facets of their lower convex hull are the graph of s_h, and "
+                       "projected down they are the Q-Delaunay mesh",
+             "mesh": "the projected Q-Delaunay mesh at this stage of Algorithm 2.1: the "
+                     "points an insert added (2.94) and the moves of an adjust (2.91)–(2.93)",
+             "quality": "the metric quality (2.94) of each triangle in the metric of ∇²s: 1 for "
+                        "a triangle equilateral there, near 0 for a flat one"}
+"""Each title's tooltip: the chapter's terms and equation numbers the titles leave out."""
 SOLUTION_TITLES = {"mesh": "maximum principle: u_h of −div(Q∇u) = 0 on this mesh",
                    "isotropic": "maximum principle: u_h on an isotropic mesh of the same N"}
 """The quality view's title while it shows the maximum principle, by the mesh shown."""
+SOLUTION_TIP = ("the discrete maximum principle: with every q_ij ≥ 0 the stiffness matrix is an "
+                "M-matrix, and u_h stays between its boundary values")
 FIELD_TITLE = "Q(x) as ellipses over the mesh (no s to lift)"
 """The first view's title for a conductivity field (`title`)."""
+FIELD_TIP = ("a field Q(x) has no potential s, so nothing to lift: each ellipse is Q at a "
+             "point, its axes along Q's eigenvectors")
 PLASMA = ("#0d0887", "#5302a3", "#8b0aa5", "#b83289", "#db5c68", "#f48849", "#febd2a",
           "#f0f921")
 """matplotlib's plasma at eight even stops (draw.ELLIPSE_CMAP), for the ellipses' colour bar."""
@@ -38,6 +50,21 @@ def title(name: str, info: dict) -> str:
     if name == "quality" and info.get("solution"):
         return SOLUTION_TITLES[info["solution"]["shown"]]
     return VIEW_TITLES[name]
+
+
+def tip(name: str, info: dict) -> str:
+    """View `name`'s tooltip: what its title means, with the chapter's equation numbers."""
+    if name == "lifted" and info.get("field"):
+        return FIELD_TIP
+    if name == "quality" and info.get("solution"):
+        return SOLUTION_TIP
+    return VIEW_TIPS[name]
+
+
+def title_html(name: str, info: dict) -> str:
+    """View `name`'s title in bold with its tooltip, for the widget's `ipywidgets.HTML`."""
+    return f"<b title=\"{escape(tip(name, info))}\">{escape(title(name, info))}</b>"
+
 
 _ROW = "display:flex;flex-wrap:wrap;align-items:center;gap:4px 12px;font-size:12px;padding:2px 6px"
 
@@ -72,9 +99,15 @@ def html(name: str, info: dict) -> str:
         bar = ("<span style='display:inline-block;width:90px;height:10px;border:1px solid #888;"
                f"background:linear-gradient(to right,{','.join(PLASMA)})'></span>")
         items = [_item("", "ellipses: axes along Q's eigenvectors, ∝ √eigenvalues (each to "
-                           "its own scale), over the mesh"),
-                 f"<span class='legend-colour-bar'>colour: log10 of Q's larger eigenvalue "
-                 f"{_number(lo)} {bar} {_number(hi)}</span>"]
+                           "its own scale), over the mesh")]
+        uniform = info.get("field_uniform")
+        if uniform is None:
+            items.append(f"<span class='legend-colour-bar'>colour: log10 of Q's larger "
+                         f"eigenvalue {_number(lo)} {bar} {_number(hi)}</span>")
+        else:                       # one colour everywhere: a bar would say nothing
+            items.append(_item("", f"one colour: Q's larger eigenvalue is "
+                                   f"{_number(10.0 ** uniform)} everywhere (only its direction "
+                                   f"and shape vary)"))
     elif name == "lifted" and info.get("regions"):
         items = [_item(_swatch(draw.FACET), "a medium has one s per region, not one surface: "
                        "each region in its colour, its triangles lifted onto its own s_r less "
@@ -97,7 +130,10 @@ def html(name: str, info: dict) -> str:
 
         def most(how):
             return f" (at most {scene.MAX_MARKERS} {how})" if capped else ""
-        items = [_item(_dot(draw.FIXED), "seed points (fixed)"
+        items = [f"<span class='legend-change' style='flex-basis:100%;white-space:nowrap;"
+                 f"overflow:hidden;text-overflow:ellipsis'>"
+                 f"{escape(info.get('change', ''))}</span>",
+                 _item(_dot(draw.FIXED), "seed points (fixed)"
                        + few(info.get("n_fixed", 0), info.get("n_fixed_shown", 0))),
                  _item(_dot(draw.ADDED), "inserted by the last insert" + most("marked")),
                  _item(_line(draw.ARROW), "moves of the last adjust"
@@ -176,15 +212,17 @@ def solution_items(mp: dict, field: bool = False, medium: bool = False) -> list[
 
 
 def state(info: dict) -> dict:
-    """{"legend_lifted": …, "legend_mesh": …, "legend_quality": …} and the views' titles
-    {"title_lifted": …, …}, `field_view` (the first view shows a field's ellipses), and
-    `legend_height` (px, one for all three, so the views keep one height and one scale): two
-    lines, three for a field, or room for a medium's region list."""
+    """{"legend_lifted": …, "legend_mesh": …, "legend_quality": …}, the views' titles
+    {"title_lifted": …, …} and their tooltips {"tip_lifted": …, …}, `field_view` (the first
+    view shows a field's ellipses), and `legend_height` (px, one for all three, so the views
+    keep one height and one scale): three lines (the mesh legend's first says what the stage
+    changed), four for a field, or room for a medium's region list."""
     out = {f"legend_{name}": html(name, info) for name in draw.VIEWS}
     out.update({f"title_{name}": title(name, info) for name in draw.VIEWS})
+    out.update({f"tip_{name}": tip(name, info) for name in draw.VIEWS})
     out["field_view"] = bool(info.get("field"))
-    out["legend_height"] = (50 + 20 * len(info["regions"]) if info.get("regions")
-                            else 62 if info.get("field") else 44)
+    out["legend_height"] = (70 + 20 * len(info["regions"]) if info.get("regions")
+                            else 82 if info.get("field") else 64)
     return out
 
 

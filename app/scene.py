@@ -357,6 +357,7 @@ class FieldScene:
     tensors: np.ndarray       # (n, 2, 2) Q at the centres
     clim: tuple[float, float]  # the colour range of log10_k_max
     n_skipped: int = 0        # grid centres where the field refused to be evaluated
+    uniform: float | None = None  # log10_k_max when it is one value everywhere: no colour scale
 
 
 def glyph_centres(rings, cells: int = GLYPH_CELLS, contains=None) -> tuple[np.ndarray, float]:
@@ -440,14 +441,17 @@ def ellipses(step, field, *, domain=None, cells: int = GLYPH_CELLS) -> FieldScen
     C_ok = C[ok]
     width = float(np.ptp(np.concatenate(rings), axis=0).max()) or 1.0
     poly, lam = ellipse_polydata(C_ok, Q, GLYPH_FILL * h, z=2e-3 * width)
-    clim = (0.0, 1.0)
+    clim, uniform = (0.0, 1.0), None
     if len(lam):
         value = np.log10(np.maximum(lam[:, 1], 1e-300))
         poly.cell_data["log10_k_max"] = value
         lo, hi = float(value.min()), float(value.max())
-        clim = (lo, hi) if hi - lo > 1e-9 * max(1.0, abs(lo)) else (lo - 1.0, lo + 1.0)
+        if hi - lo > 1e-9 * max(1.0, abs(lo)):
+            clim = (lo, hi)
+        else:
+            clim, uniform = (lo - 1.0, lo + 1.0), lo
     return FieldScene(poly, outline_polydata(poly), triangles_polydata(P, T), C_ok, Q, clim,
-                      int((~ok).sum()))
+                      int((~ok).sum()), uniform)
 
 
 # --------------------------------------------------------------------------- projected view

@@ -212,6 +212,8 @@ class Session:
                 refusals.append(str(e))
                 continue
             for other in step:
+                if name == "domain":        # the domain's own default target: said by its field
+                    continue
                 if other != name and getattr(q, other) != getattr(p, other):
                     notes.append(f"{LABELS[other]} set to {getattr(q, other)} so that VB stays "
                                  f"below the target")

@@ -43,7 +43,6 @@ import numpy as np
 from qmesh.errors import QmeshError
 
 from . import delivery, legend
-from .legend import VIEW_TITLES
 from .controller import status_text
 from .draw import SOLUTION, VIEWS, ViewSet
 from .problem import DISK, S_PRESETS, domain_names
@@ -233,7 +232,7 @@ class QmeshWidget(w.VBox):
 
     def _layout(self) -> list:
         s, b = self.sliders, self.buttons
-        self.titles = {name: w.HTML(f"<b>{html_escape(VIEW_TITLES[name])}</b>") for name in VIEWS}
+        self.titles = {name: w.HTML(legend.title_html(name, {})) for name in VIEWS}
         # the three views share the output area's width (each at most its rendered size),
         # so the widget fits beside JupyterLab's side panels instead of being cut off
         views = w.HBox([w.VBox([self.titles[name], self.view_widgets[name],
@@ -368,7 +367,7 @@ class QmeshWidget(w.VBox):
         self.views.draw(c.current, c.anisotropy, **self._view_options())
         for name, html in self.legends.items():
             html.value = legend.html(name, self.views.legend)
-            self.titles[name].value = f"<b>{html_escape(legend.title(name, self.views.legend))}</b>"
+            self.titles[name].value = legend.title_html(name, self.views.legend)
         self._sync(quick=True)
         self._push()
         if not quick:

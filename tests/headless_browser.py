@@ -75,8 +75,9 @@ def close_shared_browser() -> None:
 
 
 @contextlib.contextmanager
-def chromium_page(url: str, viewport=(1280, 720)):
-    """A Playwright page in headless Debian Chromium, in a fresh browser context, opened at `url`.
+def chromium_page(url: str, viewport=(1280, 720), before=None):
+    """A Playwright page in headless Debian Chromium, in a fresh browser context, opened at `url`
+    (after `before(page)`, when given: listeners that must hear the whole load).
 
     The default 1280×720, a laptop's screen, renders the views' pixels in software about 10%
     faster than 1600×900 (the baselines and bench_view.py ask for 1600×900)."""
@@ -84,6 +85,8 @@ def chromium_page(url: str, viewport=(1280, 720)):
     try:
         page = ctx.new_page()
         page.set_default_timeout(30_000)
+        if before is not None:
+            before(page)
         page.goto(url)
         yield page
     finally:

@@ -7,7 +7,8 @@
                                                  # app_layered.png (the layered medium),
                                                  # app_inclusion.png (the inclusion medium),
                                                  # app_maximum_principle.png (the rotating
-                                                 # field's u_h on an isotropic mesh)
+                                                 # field's u_h on an isotropic mesh),
+                                                 # field_rotating.png (the rotating field)
 
 Run it only when the drawing or the mesher changed on purpose, then LOOK at every image written.
 """
@@ -55,7 +56,9 @@ def write_app(path: Path, domain: str | None = None, then=None) -> None:
             run.click()
         browser.until(lambda: "converged" in browser.status(page) or None, 180,
                       "the run to converge")
-        browser.wait_idle(page)
+        page.wait_for_function("() => !document.querySelector('#btn-run').textContent"
+                               ".includes('Stop')", timeout=180_000)   # the run has ended
+        browser.wait_idle(page, 180)                  # and its last stage is measured
         if then is not None:
             then(page)
         page.wait_for_timeout(1500)                   # the last images reach the browser
@@ -86,6 +89,7 @@ def main() -> None:
         write_app(cases.BASELINES / "app_layered.png", "layered")
         write_app(cases.BASELINES / "app_inclusion.png", "inclusion")
         write_app(cases.BASELINES / "app_maximum_principle.png", "rotating", maximum_principle)
+        write_app(cases.BASELINES / "field_rotating.png", "rotating")
 
 
 if __name__ == "__main__":

@@ -38,6 +38,10 @@ def test_picking_rotating_runs_and_shows_ellipses_and_the_mesh():
         assert not page.locator("#q-readout").is_visible()          # no Q sliders apply
         assert not page.locator("#slider-z_scale").is_visible()     # no surface to scale
         assert "ellipses" in b.page_text(page, "#legend-lifted")
+        # Q's larger eigenvalue is 1 everywhere: one colour said in words, no colour bar
+        assert "one colour" in b.page_text(page, "#legend-lifted")
+        assert not page.locator("#legend-lifted .legend-colour-bar").count()
+        assert page.locator("#field-target input").input_value() == "500"   # its own target
 
         page.get_by_role("button", name="Run", exact=True).click()
         b.until(lambda: "converged" in b.status(page) or None, 60, "the run to converge")
@@ -56,5 +60,7 @@ def test_picking_rotating_runs_and_shows_ellipses_and_the_mesh():
         assert grey.mean() > 0.005                                     # the mesh under them
         assert "certified" in b.page_text(page, "#legend-quality")
         assert "none: no s" in b.page_text(page, "#chart")              # no energy to chart
+        assert b.page_text(page, "#no-energy") == "a field has no s: no energy"
+        assert b.page_text(page, "#messages") == ""       # no warning at its default target
         ARTIFACTS.mkdir(exist_ok=True)
         page.screenshot(path=str(ARTIFACTS / "field_rotating.png"))

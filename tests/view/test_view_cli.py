@@ -39,7 +39,7 @@ def test_scene_draw_controller_and_session_do_not_import_trame():
 
 def test_views_default_to_remote_and_parameters_can_be_given():
     args = parser().parse_args([])
-    assert (args.views, args.vb, args.target_vertices) == ("remote", 64, 212)
+    assert (args.views, args.vb, args.target_vertices) == ("remote", 64, None)  # the domain's
     args = parser().parse_args(["--views", "local", "--vb", "128", "--target-vertices", "1000"])
     assert (args.views, args.vb, args.target_vertices) == ("local", 128, 1000)
 

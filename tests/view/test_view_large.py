@@ -3,6 +3,7 @@
 Off-screen scenes and the session without a browser; the page itself in test_view_browser_large.
 """
 
+import re
 import warnings
 
 import numpy as np
@@ -97,13 +98,16 @@ def test_the_mesh_legend_reads_the_same_at_every_stage(stages_1e4):
     Q = qmesh.Anisotropy.constant([[0.1, 0], [0, 10]])
     views = draw.ViewSet(scalar_bar=False)
     try:
-        texts = set()
+        texts, changes = set(), set()
         for step in stages_1e4.values():
             views.draw(step, Q)
-            texts.add(legend.html("mesh", views.legend))
+            text = legend.html("mesh", views.legend)
+            change = re.search(r"<span class='legend-change'[^>]*>([^<]*)</span>", text)
+            changes.add(change.group(1))     # what the stage changed: its own line, one line
+            texts.add(text.replace(change.group(0), ""))
     finally:
         views.close()
-    assert len(texts) == 1
+    assert len(texts) == 1 and len(changes) == len(stages_1e4)
     assert "(at most 2000 drawn: the longest in each cell of a grid)" in texts.pop()
 
 

@@ -18,6 +18,7 @@ SIZE = (260, 220)
 def layered():
     s = Session()
     assert s.change("domain", "layered").ok
+    s.controller.finish()               # a medium opens on its first face: the whole medium
     return s
 
 
@@ -96,6 +97,7 @@ def test_the_lifted_view_has_one_piece_per_region(layered):
 @pytest.mark.parametrize("name", list(MEDIA))
 def test_the_mesh_view_of_a_medium_has_the_region_colours(name):
     s = Session(domain=name)
+    s.controller.finish()
     views = ViewSet(SIZE)
     try:
         views.draw(s.current, s.anisotropy, domain=s.domain, regions=s.regions)

@@ -311,6 +311,8 @@ def test_a_media_preset_binds_regions_and_hides_the_single_q_controls(view):
     view.sliders["domain"].value = "layered"
     c = view.controller
     assert c.params.domain == "layered"
+    assert c.index == 0 and not c.at_end          # opens on its first face, steppable
+    c.controller.finish()
     assert len(np.unique(c.current.mesh.region_tags)) >= 2
     assert view._constant_box.layout.display == "none"
     assert view.sliders["q_mode"].layout.display == "none"
