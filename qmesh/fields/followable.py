@@ -12,7 +12,7 @@ two random perpendicular directions, on a ladder of scales δ = ℓ·2^(−j/2) 
 - unresolved: Q changes by more than UNRESOLVED (relative) across the smallest piece the means'
   quadrature reaches (ℓ·2^−MAX_DEPTH) over more than SHARE of Ω — no element mean can be
   computed to a bound (an oscillation far below the element scale, "2 + sin(1e6*x)");
-- not integrable: ‖Q‖ · d does not decay as d → 0 along the inward normal at points of ∂Ω
+- not integrable: ‖Q‖ · d (‖Q‖ = max |Q_ij|) does not decay as d → 0 along the inward normal at points of ∂Ω
   (‖Q‖ ~ d^−α with α ≥ 1): the means of the elements on that side do not exist ("1 + 1/x" on the
   unit square), for any N.
 
@@ -94,9 +94,12 @@ def _share(domain, field, X: Array, V: Array, delta: float, shape: bool, limit: 
         if not inside.any():
             continue
         Qa, Qb = _components(field, a[inside]), _components(field, b[inside])
-        if shape:                      # scaled to norm 1 first: det Q may underflow
-            Qa, Qb = (q / frobenius(q)[:, None] for q in (Qa, Qb))
+        if shape:                      # scaled to about 1 first: det Q may over- or underflow
+            Qa, Qb = (q / _size(q)[:, None] for q in (Qa, Qb))
             Qa, Qb = (q / np.sqrt(q[:, 0] * q[:, 2] - q[:, 1] ** 2)[:, None] for q in (Qa, Qb))
+        else:                          # both by the same number: their relative change kept
+            scale = np.maximum(_size(Qa), _size(Qb))[:, None]
+            Qa, Qb = Qa / scale, Qb / scale
         change = frobenius(Qa - Qb) / (0.5 * (frobenius(Qa) + frobenius(Qb)))
         worst[inside] = np.maximum(worst[inside], change)
     return float(np.mean(worst > limit))
@@ -143,7 +146,7 @@ def _check_integrable(domain, field, width: float) -> None:
     if not inside.any():
         return
     walk = ladder[inside]
-    size = frobenius(_components(field, walk.reshape(-1, 2))).reshape(len(walk), len(d))
+    size = _size(_components(field, walk.reshape(-1, 2))).reshape(len(walk), len(d))
     mass = size * d                                          # ‖Q‖·d at each step
     tail = mass[:, -10:]
     diverging = (np.all(tail[:, 1:] >= GROWTH * tail[:, :-1], axis=1)
@@ -152,7 +155,7 @@ def _check_integrable(domain, field, width: float) -> None:
         i = int(np.flatnonzero(diverging)[0])
         p = P[inside][i]
         raise QmeshError(f"the field {field.label} is not integrable on the domain: towards the "
-                         f"boundary at ({p[0]:.6g}, {p[1]:.6g}) ‖Q‖ grows like 1/distance or faster "
+                         f"boundary at ({p[0]:.6g}, {p[1]:.6g}) max |Q_ij| grows like 1/distance or faster "
                          f"({size[i, 0]:.3g} at {d[0]:.3g}, {size[i, -1]:.3g} at {d[-1]:.3g}), so "
                          "the element means beside it do not exist for any number of vertices")
 
@@ -162,3 +165,8 @@ def _components(field, P: Array) -> Array:
     Q = np.asarray(field(P), dtype=float)
     return np.column_stack([Q[:, 0, 0], Q[:, 0, 1], Q[:, 1, 1]])
 
+
+
+def _size(q: Array) -> Array:
+    """max |q_ij|: a norm that overflows for no finite Q (1e200 is a valid conductivity)."""
+    return np.abs(q).max(axis=1)
