@@ -251,8 +251,8 @@ class Raster:
             t = np.deg2rad(angle_deg[j0:j1])
             a, b = k1[j0:j1], k2[j0:j1]
             c, s = np.cos(t), np.sin(t)
-            tables.add(j0, np.stack([a * c * c + b * s * s, (a - b) * c * s, a * s * s + b * c * c],
-                                    axis=-1))
+            q = np.stack([a * c * c + b * s * s, (a - b) * c * s, a * s * s + b * c * c], axis=-1)
+            tables.add(j0, q)
         return tables.raster()
 
     @property

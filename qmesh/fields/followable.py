@@ -4,7 +4,8 @@ follow, whose element means cannot be resolved, or which is not integrable on Ω
 A field has no s whose Hessian could be checked (seeding_varying._check_followable does that for
 s), so the check reads samples of Q itself, at random points of Ω (uniform by area: a field's
 metric has det H = 1, so the vertices are spread by area) and pairs of points about δ apart in
-two random perpendicular directions, on a ladder of scales δ = ℓ·2^(−j/2) (ℓ the element's side at the target):
+two random perpendicular directions, on a ladder of scales δ = ℓ·2^(−j/2) (ℓ the element's side
+at the target):
 
 - turning: the shape S = Q / √det Q changes by more than TURN (relative, Frobenius: a rotation
   of about 45° of a strongly anisotropic Q) across one element over more than SHARE of Ω — the
@@ -12,9 +13,9 @@ two random perpendicular directions, on a ladder of scales δ = ℓ·2^(−j/2) 
 - unresolved: Q changes by more than UNRESOLVED (relative) across the smallest piece the means'
   quadrature reaches (ℓ·2^−MAX_DEPTH) over more than SHARE of Ω — no element mean can be
   computed to a bound (an oscillation far below the element scale, "2 + sin(1e6*x)");
-- not integrable: ‖Q‖ · d (‖Q‖ = max |Q_ij|) does not decay as d → 0 along the inward normal at points of ∂Ω
-  (‖Q‖ ~ d^−α with α ≥ 1): the means of the elements on that side do not exist ("1 + 1/x" on the
-  unit square), for any N.
+- not integrable: ‖Q‖·d (‖Q‖ = max |Q_ij|) does not decay as d → 0 along the inward normal at
+  points of ∂Ω (‖Q‖ ~ d^−α with α ≥ 1): the means of the elements on that side do not exist
+  ("1 + 1/x" on the unit square), for any N.
 
 The first scale of the ladder where each share falls to SHARE gives the vertices that would
 follow the field, named in the refusal. Rasters (exact means at any resolution) and constant
@@ -46,21 +47,22 @@ def check(domain, field, width: float, target: int | None) -> None:
     """QmeshError naming why and what N would follow, when `field` (a formula or callable
     TensorField) cannot be meshed at element side `width` (`metric.smoothing_width`) on
     `domain`; nothing for rasters and constant fields."""
-    if field.is_raster or getattr(field, "_constant", None) is not None:
+    if field.means_exact:              # a raster or a constant: exact means at any resolution
         return
     _check_integrable(domain, field, width)
     n = target if target is not None else max(int(2 * domain.area / (np.sqrt(3) * width ** 2)), 1)
     rng = np.random.default_rng(0)
     X = seeding.random_interior(domain, SAMPLES, rng)
     V = _offsets(rng, SAMPLES)
-    turn = _first_scale(lambda d: _share(domain, field, X, V, d, shape=True, limit=TURN), n, width)
+    turn = _first_scale(lambda d: _share(domain, field, X, V, d, shape=True, limit=TURN), n,
+                        width)
     if turn:
         _refuse(field, n, turn, target,
                 f"its directions turn (its shape Q/√det Q changes by more than {TURN:g}, relative) "
                 "across one element")
     finest = width * 0.5 ** MAX_DEPTH
-    unresolved = _first_scale(lambda d: _share(domain, field, X, V, d * finest / width, shape=False,
-                                               limit=UNRESOLVED), n, width)
+    unresolved = _first_scale(lambda d: _share(domain, field, X, V, d * finest / width,
+                                               shape=False, limit=UNRESOLVED), n, width)
     if unresolved:
         _refuse(field, n, unresolved, target,
                 f"it changes by more than {100 * UNRESOLVED:g}% across {finest:.2g}, the smallest "
@@ -117,7 +119,8 @@ def _offsets(rng, n: int) -> Array:
 
 def _refuse(field, n: int, found: tuple[float, int], target: int | None, why: str) -> None:
     share, follow = found
-    asked = f"a mesh of {n} vertices" if target is not None else f"a mesh of this size (about {n} vertices)"
+    asked = (f"a mesh of {n} vertices" if target is not None
+             else f"a mesh of this size (about {n} vertices)")
     advice = (f"about {follow:.2g} vertices would follow it" if follow
               else "no mesh of a usable size would follow it: check its units and scale")
     raise QmeshError(f"the field {field.label} varies faster than {asked} can follow: over "
@@ -155,8 +158,9 @@ def _check_integrable(domain, field, width: float) -> None:
         i = int(np.flatnonzero(diverging)[0])
         p = P[inside][i]
         raise QmeshError(f"the field {field.label} is not integrable on the domain: towards the "
-                         f"boundary at ({p[0]:.6g}, {p[1]:.6g}) max |Q_ij| grows like 1/distance or faster "
-                         f"({size[i, 0]:.3g} at {d[0]:.3g}, {size[i, -1]:.3g} at {d[-1]:.3g}), so "
+                         f"boundary at ({p[0]:.6g}, {p[1]:.6g}) max |Q_ij| grows like 1/distance "
+                         f"or faster ({size[i, 0]:.3g} at {d[0]:.3g}, {size[i, -1]:.3g} at "
+                         f"{d[-1]:.3g}), so "
                          "the element means beside it do not exist for any number of vertices")
 
 
@@ -164,7 +168,6 @@ def _components(field, P: Array) -> Array:
     """(q11, q12, q22) of the checked field at points P (n, 2)."""
     Q = np.asarray(field(P), dtype=float)
     return np.column_stack([Q[:, 0, 0], Q[:, 0, 1], Q[:, 1, 1]])
-
 
 
 def _size(q: Array) -> Array:

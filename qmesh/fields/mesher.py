@@ -47,7 +47,9 @@ def iterate(domain: Any, field: Any, *, target_vertices: int | None = None,
     if target_vertices is not None:            # refused before the metric's table is built
         budget.check(int(target_vertices), varying=True, field=True)
     width = smoothing_width(domain, target_vertices, size)
-    followable.check(domain, field, width, None if target_vertices is None else int(target_vertices))
+    # a formula no mesh of this size can follow, or not integrable: refused before it is tried
+    followable.check(domain, field, width,
+                     None if target_vertices is None else int(target_vertices))
     metric = field_metric(field, width, domain.bounds)
     steps = loop.iterate(domain, metric, target_vertices=target_vertices, size=size, **options)
     return _certified(steps, field, metric, target_vertices)
