@@ -30,6 +30,12 @@ def test_an_angle_in_the_wrong_unit_is_refused_as_turning():
 
 
 @pytest.mark.timeout(60)
+def test_a_size_asked_for_is_refused_as_a_size():
+    with pytest.raises(qmesh.QmeshError, match=r"than a mesh of this size \(about [0-9]+ vertices\)"):
+        qmesh.mesh(UNIT, qmesh.TensorField.principal(100, 1, "1e6*x"), size=0.05)
+
+
+@pytest.mark.timeout(60)
 def test_an_oscillation_below_the_means_quadrature_is_refused():
     """A period of 6e-6: the means' quadrature (pieces of 3e-4) cannot resolve it; 102 s before."""
     text = refusal(qmesh.TensorField.from_expressions("2 + sin(1e6*x)", 0, 2))
