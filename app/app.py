@@ -156,6 +156,7 @@ class QmeshView(TrameApp):
         self._write_params(PARAMS)
         self.state.update(dict(history_index=0, history_length=1, busy=False, running=False,
                                z_scale=1.0, colour_by="quality", q_sign_edges=False,
+                               isotropic=False,
                                edges="auto", maximised="",
                                status_line="", messages="", at_end=False, regions_text="",
                                chart_energy=[], chart_kappa2=[], chart_n=[], chart_labels={}))
@@ -197,7 +198,8 @@ class QmeshView(TrameApp):
     def _view_options(self) -> dict:
         return dict(z_scale=float(self.state.z_scale), colour_by=self.state.colour_by,
                     q_sign_edges=bool(self.state.q_sign_edges), domain=self.session.domain,
-                    edges=self.state.edges, regions=self.session.regions)
+                    edges=self.state.edges, regions=self.session.regions,
+                    isotropic=bool(self.state.isotropic))
 
     def _chart(self) -> dict:
         """Worker thread: the convergence series as sparkline data (E on a log10 scale)."""
@@ -310,9 +312,13 @@ class QmeshView(TrameApp):
         finally:
             with self.state:
                 self.state.busy = False
-            if self._options_changed:                # a view option changed while busy
-                self._options_changed = False
-                self._redraw()
+            self._redraw_changed_options()
+
+    def _redraw_changed_options(self) -> None:
+        """Once the work in hand is done: redraw for a view option changed meanwhile."""
+        if self._options_changed:
+            self._options_changed = False
+            self._redraw()
 
     async def _after_stage(self, outcome, before=None) -> None:
         """Show the stage on screen, then measure it (κ2, q_ij signs, warnings) and chart."""
@@ -351,7 +357,7 @@ class QmeshView(TrameApp):
         built = {name: loop.run_in_executor(self._scene_worker, functools.partial(
             view_scene, name, step, anisotropy, z_scale=options["z_scale"],
             colour_by=options["colour_by"], q_sign_edges=options["q_sign_edges"],
-            domain=options["domain"])) for name in order}
+            domain=options["domain"], isotropic=options["isotropic"])) for name in order}
         self.views.begin(step, options["edges"])
         scenes: dict = {}
         for name in order:
@@ -489,6 +495,7 @@ class QmeshView(TrameApp):
             finally:
                 with self.state:
                     self.state.busy = False
+                self._redraw_changed_options()       # a view option changed while measuring
 
     # ------------------------------------------------------------------ reactions
     @change("history_index")
@@ -497,7 +504,7 @@ class QmeshView(TrameApp):
             return
         asynchronous.create_task(self._act(lambda: self.session.scrub(history_index)))
 
-    @change("z_scale", "colour_by", "q_sign_edges", "edges")
+    @change("z_scale", "colour_by", "q_sign_edges", "edges", "isotropic")
     def on_view_option(self, **_):
         """Redraw the stage shown with the new option, now or when the work in hand is done."""
         if self.state.busy:
@@ -740,11 +747,18 @@ class QmeshView(TrameApp):
             with html.Div(id="select-colour-by"):
                 v3.VSelect(v_model=("colour_by",), label="colour by", density="compact",
                            items=("[{title: 'metric quality (2.94)', value: 'quality'},"
-                                  " {title: 'metric area', value: 'metric_area'}]",),
+                                  " {title: 'metric area', value: 'metric_area'},"
+                                  " {title: 'maximum principle: u_h', value: 'solution'}]",),
                            hide_details=True, classes="my-2")
-            with html.Div(id="switch-q-sign"):
+            with html.Div(id="switch-q-sign", v_show=("colour_by !== 'solution'",)):
                 v3.VSwitch(v_model=("q_sign_edges",), label="edges by sign of q_ij",
                            density="compact", hide_details=True, color="primary")
+            with html.Div(id="switch-isotropic", v_show=("colour_by === 'solution'",)):
+                v3.VSwitch(v_model=("isotropic",), label="compare: isotropic mesh of the same N",
+                           density="compact", hide_details=True, color="primary")
+                html.Div("u_h of −div(Q∇u) = 0, u = 1 on the left of the boundary, 0 on the "
+                         "rest; the legend counts the vertices outside [0, 1] on both meshes",
+                         classes="text-caption text-medium-emphasis")
             with html.Div(classes="d-flex align-center", id="edges-toggle"):
                 html.Span("edges", classes="mr-3")
                 with v3.VBtnToggle(v_model=("edges",), mandatory=True, density="compact",

@@ -33,7 +33,10 @@ Q_SIGN_LINES = (("q_boundary", 0, "#7f7f7f", 1), ("q_positive", 1, "#000000", 1)
 INTERFACE = "#e7298a"      # the region boundaries in the mesh view of a medium
 SIZE_CMAP = "Blues_r"      # mesh view when edges are too dense: triangles by area (log)
 QUALITY_CMAP = "viridis"
-SCALAR_TITLES = {"quality": "quality", "metric_area": "metric area"}
+SCALAR_TITLES = {"quality": "quality", "metric_area": "metric area", "solution": "u_h"}
+SOLUTION = "solution"      # the quality view's `colour_by` that shows the maximum principle
+ABOVE = ("#e31a1c", "#fb9a99")   # vertices with u_h > 1, and the faces there: red on the
+BELOW = ("#17becf", "#b6e8ee")   # colour map's yellow end; u_h < 0 cyan on its dark purple
 VIEWS = ("lifted", "mesh", "quality")
 EDGE_MODES = ("auto", "on", "off")
 EDGE_FULL_PX = 6.0         # auto: edges drawn dark while a typical edge spans this many pixels,
@@ -162,6 +165,8 @@ def draw_quality(plotter: pv.Plotter, view: scene.QualityScene,
     `scalar_bar=False` leaves the legend to the page (the app and the widget draw it beside
     the view, where it never covers the mesh); still images keep VTK's bar at the right edge.
     """
+    for name in ("below", "above"):                     # the maximum principle's markers
+        _put(plotter, name, None)
     title = SCALAR_TITLES[view.scalars]
     keep = {title} if scalar_bar and plotter.__dict__.get("_qmesh_clim") == view.clim else set()
     for other in set(plotter.scalar_bars.keys()) - keep:     # a bar keeps its first range
@@ -183,6 +188,29 @@ def draw_quality(plotter: pv.Plotter, view: scene.QualityScene,
     for name, value, colour, width in Q_SIGN_LINES:
         part = None if edges is None else edges.extract_cells(np.flatnonzero(sign == value))
         _put(plotter, name, part, color=colour, line_width=width, show_scalar_bar=False)
+
+
+def draw_solution(plotter: pv.Plotter, view: scene.SolutionScene,
+                  scalar_bar: bool = True) -> None:
+    """u_h on the mesh shown (viridis on [0, 1], beyond it a light `ABOVE` or `BELOW`) and the
+    vertices outside [0, 1] as dots in their darker colour."""
+    title = SCALAR_TITLES[SOLUTION]
+    for other in set(plotter.scalar_bars.keys()) - ({title} if scalar_bar else set()):
+        plotter.remove_scalar_bar(other, render=False)
+    plotter.__dict__["_qmesh_clim"] = (0.0, 1.0)
+    for name, *_ in Q_SIGN_LINES:
+        _put(plotter, name, None)
+    _put(plotter, "triangles", view.triangles, scalars="u_h", preference="point",
+         cmap=QUALITY_CMAP, clim=(0.0, 1.0), above_color=ABOVE[1], below_color=BELOW[1],
+         show_edges=True, edge_color=EDGE, lighting=False, show_scalar_bar=scalar_bar,
+         scalar_bar_args={"title": title, "vertical": True,
+                          "position_x": 0.86, "position_y": 0.2,
+                          "width": 0.05, "height": 0.6, "color": "black",
+                          "n_labels": 3, "fmt": "%.2g",
+                          "title_font_size": 12, "label_font_size": 11})
+    for name, points, colour in (("below", view.below, BELOW), ("above", view.above, ABOVE)):
+        _put(plotter, name, points, color=colour[0], point_size=marker_size(points.n_points, 9),
+             render_points_as_spheres=True, show_scalar_bar=False)
 
 
 Q_SIGN_CROWDED = ("q_positive", "q_boundary")
@@ -285,15 +313,20 @@ def new_plotter(window_size=WINDOW_SIZE) -> pv.Plotter:
 
 def view_scene(name: str, step, anisotropy, *, z_scale: float = 1.0,
                colour_by: str = "quality", q_sign_edges: bool = False, domain=None,
-               arrow_scale: float = 1.0):
+               arrow_scale: float = 1.0, isotropic: bool = False):
     """The scene of view `name` ("lifted", "mesh" or "quality") of `step`: arrays and PyVista
-    meshes only, no plotter, so it may be built in another thread while a plotter renders."""
+    meshes only, no plotter, so it may be built in another thread while a plotter renders.
+    The quality view with `colour_by` "solution" shows the maximum principle
+    (`scene.solution`; on the isotropic mesh of the same N with `isotropic`): only then is
+    anything solved."""
     if name == "lifted":
         if scene.is_field(anisotropy):
             return scene.ellipses(step, anisotropy, domain=domain)
         return scene.lifted(step, anisotropy, z_scale, domain=domain)
     if name == "mesh":
         return scene.projected(step, arrow_scale=arrow_scale)
+    if name == "quality" and colour_by == SOLUTION:
+        return scene.solution(step, anisotropy, isotropic)
     if name == "quality":
         return scene.quality(step, anisotropy, colour_by, q_sign_edges)
     raise QmeshError(f"no view {name!r}; the views are {VIEWS}")
@@ -349,17 +382,20 @@ class ViewSet:
 
     def draw(self, step, anisotropy, *, z_scale: float = 1.0, colour_by: str = "quality",
              q_sign_edges: bool = False, domain=None, arrow_scale: float = 1.0,
-             edges: str = "auto", regions=(), scenes: dict | None = None) -> None:
+             edges: str = "auto", regions=(), scenes: dict | None = None,
+             isotropic: bool = False) -> None:
         """Redraw the three views from `step`; `edges` is "auto" (by density), "on" or "off";
         `regions` a medium's rows (tag, name, q11, q12, q22) for the legend; `scenes` the
-        views' scenes already built (`view_scene`), the others are built here."""
+        views' scenes already built (`view_scene`), the others are built here; `colour_by`
+        "solution" and `isotropic` as `view_scene`."""
         edge_look(edges, 0.0)                           # QmeshError for an unknown mode
         scenes = dict(scenes or {})
         for name in self.order(anisotropy):
             if name not in scenes:
                 scenes[name] = view_scene(name, step, anisotropy, z_scale=z_scale,
                                           colour_by=colour_by, q_sign_edges=q_sign_edges,
-                                          domain=domain, arrow_scale=arrow_scale)
+                                          domain=domain, arrow_scale=arrow_scale,
+                                          isotropic=isotropic)
             self.draw_view(name, anisotropy, scenes)
         self.finish(step, anisotropy, scenes, regions)
         key = self._key(anisotropy, domain)
@@ -427,19 +463,27 @@ class ViewSet:
             draw_projected(p["mesh"], scenes["mesh"])
         else:
             q = scenes["quality"]
-            draw_quality(p["quality"], q, scalar_bar=self.scalar_bar)
-            _put(p["quality"], "sample", scenes["mesh"].sample, color=EDGE, line_width=1,
-                 show_scalar_bar=False)                 # shown when edges crowd
-            self._q_sign = q.edges is not None
+            solved = isinstance(q, scene.SolutionScene)
+            if solved:                                  # the maximum principle
+                draw_solution(p["quality"], q, scalar_bar=self.scalar_bar)
+            else:
+                draw_quality(p["quality"], q, scalar_bar=self.scalar_bar)
+            _put(p["quality"], "sample", q.sample if solved else scenes["mesh"].sample,
+                 color=EDGE, line_width=1, show_scalar_bar=False)   # shown when edges crowd
+            self._q_sign = not solved and q.edges is not None
 
     def finish(self, step, anisotropy, scenes: dict, regions=()) -> None:
         """After the views of `step` are drawn: their legend."""
         q, projected, shown = scenes["quality"], scenes["mesh"], scenes["lifted"]
         field = scene.is_field(anisotropy)
-        self.legend = {"title": SCALAR_TITLES[q.scalars], "clim": tuple(map(float, q.clim)),
-                       "q_sign_edges": q.edges is not None, "n_negative": q.n_negative,
+        solved = isinstance(q, scene.SolutionScene)
+        self.legend = {"title": SCALAR_TITLES[SOLUTION if solved else q.scalars],
+                       "clim": (0.0, 1.0) if solved else tuple(map(float, q.clim)),
+                       "q_sign_edges": not solved and q.edges is not None,
+                       "n_negative": 0 if solved else q.n_negative,
+                       "solution": scene.solution_info(q) if solved else None,
                        "regions": list(regions) if scene.is_medium(anisotropy) else [],
-                       "n_interface": q.n_interface, "field": field,
+                       "n_interface": 0 if solved else q.n_interface, "field": field,
                        "n_fixed": projected.n_fixed, "n_fixed_shown": projected.fixed.n_points,
                        "n_vertices": step.mesh.n_vertices,
                        "crowded": self._looks.get("mesh") != "dark",

@@ -20,6 +20,9 @@ VIEW_TITLES = {"lifted": "lifted: s(x) and the facets of s_h",
                "mesh": "mesh: seeds, inserted points, moves",
                "quality": "quality (2.94)"}
 """The views' titles, one wording for the trame app and the widget."""
+SOLUTION_TITLES = {"mesh": "maximum principle: u_h of −div(Q∇u) = 0 on this mesh",
+                   "isotropic": "maximum principle: u_h on an isotropic mesh of the same N"}
+"""The quality view's title while it shows the maximum principle, by the mesh shown."""
 FIELD_TITLE = "Q(x) as ellipses over the mesh (no s to lift)"
 """The first view's title for a conductivity field (`title`)."""
 PLASMA = ("#0d0887", "#5302a3", "#8b0aa5", "#b83289", "#db5c68", "#f48849", "#febd2a",
@@ -32,6 +35,8 @@ def title(name: str, info: dict) -> str:
     field shows ellipses, not a lifted surface."""
     if name == "lifted" and info.get("field"):
         return FIELD_TITLE
+    if name == "quality" and info.get("solution"):
+        return SOLUTION_TITLES[info["solution"]["shown"]]
     return VIEW_TITLES[name]
 
 _ROW = "display:flex;flex-wrap:wrap;align-items:center;gap:4px 12px;font-size:12px;padding:2px 6px"
@@ -107,6 +112,8 @@ def html(name: str, info: dict) -> str:
                    "#888;background:linear-gradient(to right,#08306b,#4292c6,#deebf7)'></span>")
             items.append(f"<span class='legend-size'>edges too dense: a sample of "
                          f"triangles outlined; area small {bar} large</span>")
+    elif name == "quality" and info.get("solution"):
+        items = solution_items(info["solution"], info.get("field"), bool(info.get("regions")))
     elif name == "quality":
         lo, hi = info.get("clim", (0.0, 1.0))
         bar = ("<span style='display:inline-block;width:140px;height:10px;border:1px solid #888;"
@@ -140,6 +147,32 @@ def html(name: str, info: dict) -> str:
     else:
         raise ValueError(f"no legend for view {name!r}")
     return f"<div class='legend' style='{_ROW}'>{''.join(items)}</div>"
+
+
+def _outside(n: int) -> str:
+    return f"{n} vert{'ex' if n == 1 else 'ices'} outside [0, 1]"
+
+
+def solution_items(mp: dict, field: bool = False, medium: bool = False) -> list[str]:
+    """The maximum-principle legend (`scene.solution_info`): the colours, the data, and the
+    two counts in words, the mesh on screen first."""
+    bar = ("<span style='display:inline-block;width:110px;height:10px;border:1px solid #888;"
+           f"background:linear-gradient(to right,{','.join(VIRIDIS)})'></span>")
+    q = ("each triangle's element mean" if field else "each region's Q" if medium else "Q")
+    items = [f"<span class='legend-colour-bar'>u_h: 0 {bar} 1</span>",
+             _item("", f"−div(Q∇u) = 0 with {q}; u = 1 on the boundary vertices with "
+                       f"x < {_number(mp['centre'])}, 0 on the others (a jump)"),
+             _item(_dot(draw.ABOVE[0]) + _swatch(draw.ABOVE[1]), "u_h > 1"),
+             _item(_dot(draw.BELOW[0]) + _swatch(draw.BELOW[1]), "u_h < 0"),
+             _item("", f"(beyond {mp['tolerance']:.0e})")]
+    for key, what in (("mesh", "qmesh's mesh"), ("isotropic", "isotropic Delaunay mesh")):
+        c = mp[key]
+        split = (f" ({c['n_below']} below 0, {c['n_above']} above 1; u_h from "
+                 f"{_number(c['u_min'])} to {_number(c['u_max'])})" if c["n_outside"] else "")
+        shown = " — shown" if mp["shown"] == key else ""
+        items.append(f"<span class='mp-{key}'><b>{escape(what)}, N = {c['n_vertices']}: "
+                     f"{_outside(c['n_outside'])}</b>{escape(split + shown)}</span>")
+    return items
 
 
 def state(info: dict) -> dict:

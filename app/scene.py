@@ -11,6 +11,9 @@ by the trame app and the Jupyter widget (ARCHITECTURE.md "qmesh_view.scene").
   added and the displacements of the last adjust stage ((2.90)–(2.91)).
 - `quality`: triangles coloured by the metric quality (2.94) or the metric area, and optionally
   every edge coloured by the sign of q_ij = −K_ij (Glickenstein 2007).
+- `solution`: the quality view's other content, the discrete maximum principle: u_h of
+  −div(Q∇u) = 0 with steep Dirichlet data on the Step's mesh or on an isotropic mesh of the same
+  N (`qmesh_view.maximum_principle`), its vertices outside [0, 1] marked.
 
 A medium (a `{region tag: Anisotropy}` mapping) has one s per region, not one surface: the
 lifted view then shows each region's own piece (its triangles lifted onto its s_r less its
@@ -43,6 +46,7 @@ from qmesh.errors import QmeshError
 from qmesh.geometry.rings import inside
 from qmesh.geometry.triangles import metric_areas, metric_hessians, metric_quality
 
+from . import maximum_principle
 from .problem import element_means, is_field_conductivity as is_field
 
 COLOUR_BY = ("quality", "metric_area")
@@ -647,3 +651,57 @@ def quality(step, anisotropy, colour_by: str = "quality",
         n_negative = int(np.sum(sign < 0))
     return QualityScene(tri, colour_by, clim, edges, n_negative,
                         0 if edges is None else int(np.sum(sign == 2)))
+
+
+# --------------------------------------------------------------------------- maximum principle
+
+@dataclass(frozen=True)
+class SolutionScene:
+    """The maximum-principle view: u_h (point array "u_h"; a value within the tolerance of
+    [0, 1] put on its end, so round-off never colours a face as outside) on the mesh shown, the
+    Step's or the isotropic one of the same N (`isotropic`), and its vertices with u_h < 0
+    (`below`) and u_h > 1 (`above`) beyond `maximum_principle.TOLERANCE`; `comparison` holds
+    both solutions."""
+
+    triangles: pv.PolyData
+    below: pv.PolyData
+    above: pv.PolyData
+    sample: pv.PolyData       # one triangle per cell of a grid outlined (crowded edges)
+    comparison: maximum_principle.Comparison
+    isotropic: bool
+
+    @property
+    def shown(self) -> maximum_principle.Solution:
+        return self.comparison.isotropic if self.isotropic else self.comparison.mesh
+
+
+def solution(step, anisotropy, isotropic: bool = False) -> SolutionScene:
+    """u_h of −div(Q∇u) = 0 (u = 1 on the boundary left of the middle of the x-range, 0 on the
+    rest) on `step`'s mesh, or with `isotropic` on the isotropic mesh of the same N; both are
+    solved (and kept for the next redraw of this Step) so the legend can give both counts."""
+    comparison = maximum_principle.cached(step.mesh, anisotropy)
+    shown = comparison.isotropic if isotropic else comparison.mesh
+    P, T, u = shown.mesh.points, shown.mesh.triangles, shown.u
+    tri = triangles_polydata(P, T)
+    inside = np.ones(len(u), bool)
+    inside[shown.outside] = False
+    tri.point_data["u_h"] = np.where(inside, np.clip(u, 0.0, 1.0), u)
+    lift = 2e-3 * max(float(np.ptp(P, axis=0).max()), 1e-300)    # over the sampled outlines
+    low = shown.outside[u[shown.outside] < 0.0]
+    high = shown.outside[u[shown.outside] > 1.0]
+    return SolutionScene(tri, points_polydata(P[markers(low)], lift),
+                         points_polydata(P[markers(high)], lift), sample_outlines(P, T),
+                         comparison, bool(isotropic))
+
+
+def solution_info(view: SolutionScene) -> dict:
+    """What the legend says of a `SolutionScene`: for the mesh and the isotropic mesh their N and
+    the vertices below 0 and above 1; where u = 1 was imposed; which mesh is shown."""
+    def counts(s):
+        return {"n_vertices": s.mesh.n_vertices, "n_outside": s.n_outside,
+                "n_below": s.n_below, "n_above": s.n_above,
+                "u_min": float(s.u.min()), "u_max": float(s.u.max())}
+    c = view.comparison
+    return {"mesh": counts(c.mesh), "isotropic": counts(c.isotropic), "centre": c.centre,
+            "tolerance": maximum_principle.TOLERANCE, "shown": "isotropic" if view.isotropic
+            else "mesh"}

@@ -45,7 +45,7 @@ from qmesh.errors import QmeshError
 from . import delivery, legend
 from .legend import VIEW_TITLES
 from .controller import status_text
-from .draw import VIEWS, ViewSet
+from .draw import SOLUTION, VIEWS, ViewSet
 from .problem import DISK, S_PRESETS, domain_names
 from .session import RUN_PAUSE, Session, describe
 
@@ -128,8 +128,10 @@ class QmeshWidget(w.VBox):
     """Controls, status line and the three views of one `Controller` run.
 
     `sliders` ("k1", "k2", "angle", "vb", "target_vertices"), `buttons` ("step", "iterate",
-    "run", "reset"), `history` (the stage slider), `status`, `error` and `view_widgets`
-    (name → Image or trame iframe) are the parts; `session` and `views` the model and plotters.
+    "run", "reset"), `history` (the stage slider), `status`, `error`, `quality_view` (the
+    quality or the maximum principle), `isotropic` (the latter on an isotropic mesh of the same
+    N) and `view_widgets` (name → Image or trame iframe) are the parts; `session` and `views`
+    the model and plotters.
     """
 
     def __init__(self, *, backend: str = "auto", view_size=VIEW_SIZE,
@@ -196,6 +198,13 @@ class QmeshWidget(w.VBox):
                                      description="edges", style={"button_width": "4em"},
                                      tooltips=["drawn while they can be told apart",
                                                "always drawn", "never drawn"])
+        self.quality_view = w.ToggleButtons(
+            options=[("quality", "quality"), ("maximum principle", SOLUTION)], value="quality",
+            description="quality view", style={"button_width": "9em", **SLIDER_STYLE},
+            tooltips=["the metric quality (2.94)",
+                      "u_h of −div(Q∇u) = 0, u = 1 on the left of the boundary, 0 on the rest"])
+        self.isotropic = w.Checkbox(value=False, description="compare: isotropic mesh of the "
+                                    "same N", indent=False)
         self.legends = {name: w.HTML() for name in VIEWS}
 
     def _static_views(self) -> dict:
@@ -236,7 +245,8 @@ class QmeshWidget(w.VBox):
         return [w.HBox([w.VBox([s["q_mode"], self._constant_box, self._s_box,
                                 self.media_readout]),
                         w.VBox([s["domain"], self.upload, s["vb"], s["target_vertices"],
-                                self.edges])], layout=w.Layout(flex_flow="row wrap")),
+                                self.edges, self.quality_view, self.isotropic])],
+                       layout=w.Layout(flex_flow="row wrap")),
                 w.HBox([*b.values(), self.history], layout=w.Layout(flex_flow="row wrap")),
                 self.status, self.error, views]
 
@@ -245,7 +255,8 @@ class QmeshWidget(w.VBox):
         for name, slider in self.sliders.items():
             slider.observe(on(functools.partial(self._on_param, name)), names="value")
         self.history.observe(on(self._on_history), names="value")
-        self.edges.observe(on(lambda _change: self._show()), names="value")
+        for option in (self.edges, self.quality_view, self.isotropic):
+            option.observe(on(lambda _change: self._show()), names="value")
         self.upload.observe(on(self._on_upload), names="value")
         self.s_text.observe(on(self._on_s_text), names="value")
         self.buttons["step"].on_click(on(lambda _: self._move(self.session.step)))
@@ -365,7 +376,8 @@ class QmeshWidget(w.VBox):
 
     def _view_options(self) -> dict:
         return dict(domain=self.session.domain, edges=self.edges.value,
-                    regions=self.session.regions)
+                    regions=self.session.regions, colour_by=self.quality_view.value,
+                    isotropic=bool(self.isotropic.value))
 
     def _sync(self, quick: bool = True) -> None:
         """Controls ← model, without their observers reacting."""
@@ -402,6 +414,7 @@ class QmeshWidget(w.VBox):
                 self.buttons[name].disabled = self.running or c.at_end
             self.buttons["run"].description = "Stop" if self.running else "Run"
             self.buttons["run"].disabled = c.at_end and not self.running
+            self.isotropic.layout.display = None if self.quality_view.value == SOLUTION else "none"
         finally:
             self._syncing = False
 
@@ -426,7 +439,8 @@ class QmeshWidget(w.VBox):
         self.views.close()
         for child in (*self.sliders.values(), *self.buttons.values(), self.history, self.upload,
                       self.s_text, self.s_error, self._constant_box, self._s_box,
-                      self.readout, self.status, self.error, self.edges,
+                      self.readout, self.status, self.error, self.edges, self.quality_view,
+                      self.isotropic,
                       *self.legends.values(), *self.view_widgets.values()):
             child.close()
         super().close()

@@ -257,10 +257,17 @@ def polish(P, T, twin, Qbar, s, b, field, movers, tangent=None, refused=None, re
     D = np.concatenate([np.asarray(STEPS)[:, None, None] * step[None], back])   # (K, k, 2)
     if tangent is not None:                    # a boundary vertex: the move's share along it
         D = _along(D, tangent[v])
-    ok, q1 = _judged(P, T, twin, Qbar, s, b, field, v, D, True, reg)
+    # every try judged on rough means (the degree-5 rule against its children), the one each
+    # mover would take judged again on the means it is kept with: the field's adaptive means
+    # for one try a mover, not for all of them
+    ok, q1 = _judged(P, T, twin, Qbar, s, b, field, v, D, True, reg, how="rough")
     q1 = np.where(ok, q1, -np.inf)
     best = np.argmax(q1, axis=0)
     take = np.isfinite(q1[best, np.arange(len(v))])
+    if take.any():
+        chosen = np.flatnonzero(take)
+        take[chosen] = _judged(P, T, twin, Qbar, s, b, field, v[chosen], D[best[chosen], chosen][None],
+                               True, reg)[0][0]
     if refused is not None:
         refused[v] = ~take
     if not take.any():
@@ -293,10 +300,11 @@ def _accepted(P, T, twin, Qbar, s, b, field, d, moving, shape, reg=None):
     return out
 
 
-def _judged(P, T, twin, Qbar, s, b, field, v, D, shape, reg=None):
+def _judged(P, T, twin, Qbar, s, b, field, v, D, shape, reg=None, how="means_with_error"):
     """K tries D (K, k, 2) at moving the vertices v (k,), two triangles apart, judged at once
-    (one call for the means of all their stars): which each takes ((K, k): `_accepted`'s rule)
-    and the worst quality of its star after the move, each triangle in its own means."""
+    (one call for the means of all their stars, `how`: see `shares.means_of`): which each takes
+    ((K, k): `_accepted`'s rule) and the worst quality of its star after the move, each
+    triangle in its own means."""
     n, (K, k) = len(P), D.shape[:2]
     mask = np.zeros(n, bool)
     mask[v] = True
@@ -320,7 +328,7 @@ def _judged(P, T, twin, Qbar, s, b, field, v, D, shape, reg=None):
     X = np.where(flat[:, mover, None, None], X, moved)
     pts = X.reshape(-1, 2)
     tags = None if reg is None else np.tile(reg[star], K)
-    Qn, en = means_of(field, "means_with_error", pts, tri, tags)
+    Qn, en = means_of(field, how, pts, tri, tags)
     Qn, en = np.asarray(Qn, dtype=float), np.asarray(en, dtype=float)
     sn, bn = (x.reshape(K, 3 * m) for x in shares(pts, tri, Qn, en))
     he = (3 * star[:, None] + np.arange(3)).ravel()

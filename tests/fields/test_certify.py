@@ -384,3 +384,46 @@ def test_the_worst_slack_the_warning_prints_stays_within_one_in_size():
     assert list(h) == [0] and q[0] == -0.5
     assert np.all(np.abs(slack) <= 1) and slack.min() == pytest.approx(-1.0, rel=1e-8)
     assert slack.max() == 1.0                   # the boundary edge: 2 / 2
+
+
+@settings(max_examples=8, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), n=st.integers(30, 150))
+def test_the_polish_asks_adaptive_means_for_one_try_a_mover(seed, n):
+    """The polish judges its tries on rough means and asks the field's adaptive means only for
+    the try each mover would take (not for every try, which was most of a callable field's run);
+    what it keeps still breaks no edge and raises its star's worst quality on the adaptive
+    means."""
+    from qmesh.fields.cache import ElementMeans
+
+    class Counted(ElementMeans):
+        asked = {"means_with_error": 0, "rough": 0}
+
+        def means_with_error(self, P, T):
+            self.asked["means_with_error"] += len(T)
+            return super().means_with_error(P, T)
+
+        def rough(self, P, T):
+            self.asked["rough"] += len(T)
+            return super().rough(P, T)
+
+    rng = np.random.default_rng(seed)
+    P, T = square_mesh(seed, n)
+    field = qmesh.TensorField.from_expressions(*FORMULA)
+    before, s, b, twin = total_deficit(P, T, field)
+    h0, _, _ = shares.failing(s, b, twin)
+    Qbar = np.asarray(field.means(P, T))
+    fixed = np.zeros(len(P), bool)
+    fixed[:4] = True
+    tan = moves.tangents(P, T, twin, fixed)
+    movers = moves.movers(T, twin, moves.free(T, twin, fixed, np.arange(len(P)), tan), rng)
+    counted = Counted(field)
+    P2, _ = moves.polish(P, T, twin, Qbar, s, b, counted, movers, tangent=tan)
+    stars = int(topology.touching(T, np.isin(np.arange(len(P)), movers)).sum())
+    tries = len(moves.STEPS) + moves.PATTERN * len(moves.REACH)
+    assert counted.asked["rough"] == tries * stars
+    assert counted.asked["means_with_error"] <= stars
+    after, s2, b2, _ = total_deficit(P2, T, field)
+    assert len(shares.failing(s2, b2, twin)[0]) <= len(h0)
+    assert after <= before * (1 + 1e-9) + 1e-15
+    moved = np.flatnonzero(np.any(P2 != P, axis=1))
+    assert np.all(star_worst(P2, T, field, moved) > star_worst(P, T, field, moved))

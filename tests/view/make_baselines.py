@@ -5,7 +5,9 @@
                                                  # app.png (the chapter's case) and
                                                  # app_holes.png (a plate with three holes),
                                                  # app_layered.png (the layered medium),
-                                                 # app_inclusion.png (the inclusion medium)
+                                                 # app_inclusion.png (the inclusion medium),
+                                                 # app_maximum_principle.png (the rotating
+                                                 # field's u_h on an isotropic mesh)
 
 Run it only when the drawing or the mesher changed on purpose, then LOOK at every image written.
 """
@@ -36,9 +38,9 @@ def write_views() -> None:
         print("wrote", path)
 
 
-def write_app(path: Path, domain: str | None = None) -> None:
+def write_app(path: Path, domain: str | None = None, then=None) -> None:
     """The whole app in Chromium after Run has taken the chapter's case (or the chapter's Q on
-    the named `domain`) to convergence."""
+    the named `domain`) to convergence; `then(page)` clicks on before the screenshot."""
     import view_browser as browser
     with browser.qmesh_view_server() as url, browser.chromium_page(url, (1600, 900)) as page:
         browser.wait_drawn(page)
@@ -54,9 +56,23 @@ def write_app(path: Path, domain: str | None = None) -> None:
         browser.until(lambda: "converged" in browser.status(page) or None, 180,
                       "the run to converge")
         browser.wait_idle(page)
+        if then is not None:
+            then(page)
         page.wait_for_timeout(1500)                   # the last images reach the browser
         page.screenshot(path=str(path))
     print("wrote", path)
+
+
+def maximum_principle(page) -> None:
+    """The quality view shows u_h on the isotropic mesh of the same N (both counts below it)."""
+    import view_browser as browser
+    page.locator("#select-colour-by .v-field").click()
+    page.get_by_role("option", name="maximum principle: u_h").click()
+    browser.until(lambda: "outside [0, 1]" in browser.page_text(page, "#legend-quality"), 30,
+                  "the maximum principle's legend")
+    page.locator("#switch-isotropic input").check()
+    browser.until(lambda: "isotropic mesh" in browser.page_text(page, "#title-quality"), 30,
+                  "the isotropic mesh's title")
 
 
 def main() -> None:
@@ -69,6 +85,7 @@ def main() -> None:
         write_app(cases.BASELINES / "app_holes.png", "plate with holes")
         write_app(cases.BASELINES / "app_layered.png", "layered")
         write_app(cases.BASELINES / "app_inclusion.png", "inclusion")
+        write_app(cases.BASELINES / "app_maximum_principle.png", "rotating", maximum_principle)
 
 
 if __name__ == "__main__":

@@ -4,6 +4,9 @@ their on-screen density, every colouring has a legend."""
 import numpy as np
 import pytest
 
+import pyvista as pv
+from headless_browser import drawn
+
 from qmesh.errors import QmeshError
 from qmesh_view import draw, legend
 
@@ -108,5 +111,37 @@ def test_a_crowded_mesh_is_coloured_by_area_with_a_sample_of_outlines():
         views.apply_edges()
         assert not views.plotters["mesh"].actors["sample"].GetVisibility()
         assert not views.plotters["mesh"].actors["mesh"].mapper.GetScalarVisibility()
+    finally:
+        views.close()
+
+
+def _near(image, colour, tol=25):
+    """Pixels of `image` near `colour`, left of VTK's scalar bar (which shows them all)."""
+    rgb = np.asarray(image)[:, : int(0.8 * image.shape[1]), :3].astype(int)
+    return int(np.sum(np.abs(rgb - np.array(pv.Color(colour).int_rgb)).max(axis=-1) < tol))
+
+
+def test_the_maximum_principle_view_draws_the_markers_and_goes_back(steps, chapter_run):
+    """On the chapter's case qmesh's mesh shows no vertex outside [0, 1], the isotropic mesh of
+    the same N shows its markers; back to the quality, the markers are gone."""
+    step, A = steps["final"], chapter_run.anisotropy
+    views = draw.ViewSet(SIZE)
+    try:
+        views.draw(step, A, colour_by="solution", domain=chapter_run.domain)
+        own = views.images()["quality"]
+        assert drawn(own)
+        assert all(_near(own, c) == 0 for c in (*draw.ABOVE, *draw.BELOW))
+        assert views.legend["solution"]["mesh"]["n_outside"] == 0
+        assert "0 vertices outside [0, 1]" in legend.html("quality", views.legend)
+        views.draw(step, A, colour_by="solution", isotropic=True, domain=chapter_run.domain)
+        iso = views.images()["quality"]
+        n = views.legend["solution"]["isotropic"]["n_outside"]
+        assert n > 0 and f"{n} vertices outside [0, 1]" in legend.html("quality", views.legend)
+        assert _near(iso, draw.ABOVE[0]) + _near(iso, draw.BELOW[0]) > 0
+        assert legend.title("quality", views.legend).endswith("isotropic mesh of the same N")
+        views.draw(step, A, colour_by="quality", domain=chapter_run.domain)
+        assert "below" not in views.plotters["quality"].actors
+        assert "above" not in views.plotters["quality"].actors
+        assert legend.title("quality", views.legend) == legend.VIEW_TITLES["quality"]
     finally:
         views.close()

@@ -216,3 +216,35 @@ def test_longest_per_cell_keeps_the_longest_of_every_occupied_cell(n, most, seed
     assert set(key[kept]) == set(key)                    # every occupied cell, once
     best = {k: length[key == k].max() for k in set(key.tolist())}
     assert all(length[i] == best[key[i]] for i in kept)  # its longest move
+
+
+def _solved_outside(mesh, anisotropy):
+    """The vertices outside [0, 1] of u_h with u = 1 on the boundary left of the middle, solved
+    here with the solver directly (not through the view)."""
+    from qmesh.compare.solve import dirichlet
+    fixed = np.flatnonzero(mesh.boundary)
+    x = mesh.points[:, 0]
+    u = dirichlet(mesh, anisotropy, fixed, (x[fixed] < (x.min() + x.max()) / 2).astype(float))
+    return np.flatnonzero((u < -1e-9) | (u > 1 + 1e-9)), u
+
+
+def test_solution_marks_the_vertices_outside_0_1(steps, chapter_run):
+    step, A = steps["final"], chapter_run.anisotropy
+    own = scene.solution(step, A)
+    assert own.triangles.n_cells == step.mesh.n_triangles
+    np.testing.assert_allclose(own.triangles.points[:, :2], step.mesh.points)
+    outside, u = _solved_outside(step.mesh, A)
+    assert len(outside) == 0 and own.below.n_points == own.above.n_points == 0
+    np.testing.assert_allclose(own.triangles.point_data["u_h"], np.clip(u, 0, 1), atol=1e-12)
+    iso = scene.solution(step, A, isotropic=True)
+    mesh = iso.shown.mesh
+    assert mesh.n_vertices == step.mesh.n_vertices and iso.triangles.n_cells == mesh.n_triangles
+    outside, u = _solved_outside(mesh, A)
+    assert len(outside) > 0
+    marked = np.concatenate([iso.below.points, iso.above.points])[:, :2] if len(outside) else []
+    assert {tuple(p) for p in np.asarray(marked).tolist()} == \
+        {tuple(p) for p in mesh.points[outside].tolist()}
+    assert iso.below.n_points == np.sum(u[outside] < 0)
+    info = scene.solution_info(iso)
+    assert info["shown"] == "isotropic" and info["mesh"]["n_outside"] == 0
+    assert info["isotropic"]["n_outside"] == len(outside)

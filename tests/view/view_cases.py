@@ -27,6 +27,9 @@ CASES = {
     "chapter_insert1_mesh": ("insert1", "mesh", {}),
     "chapter_adjust1_area_qsign": ("adjust1", "quality",
                                    {"colour_by": "metric_area", "q_sign_edges": True}),
+    "chapter_final_solution": ("final", "quality", {"colour_by": "solution"}),
+    "chapter_final_solution_isotropic": ("final", "quality",
+                                         {"colour_by": "solution", "isotropic": True}),
 }
 
 MAX_ERROR = 500.0

@@ -55,3 +55,34 @@ def test_the_rotating_field_in_the_widget(view):
     view.sliders["domain"].value = "disk"
     assert legend.VIEW_TITLES["lifted"] in view.titles["lifted"].value
     assert "ellipses" not in view.legends["lifted"].value
+
+
+def counts(html: str) -> dict:
+    """The legend's two counts, read from its words: {"mesh": n, "isotropic": n}."""
+    import re
+    return {key: int(re.search(rf"class='mp-{key}'><b>[^<]*: (\d+) vertices? outside \[0, 1\]",
+                               html).group(1)) for key in ("mesh", "isotropic")}
+
+
+def test_the_maximum_principle_toggle_in_the_widget(view):
+    """On the rotating preset's certified mesh the quality view shows u_h with no vertex outside
+    [0, 1]; the isotropic mesh of the same N has some, and the picture changes to show it."""
+    view.sliders["domain"].value = "rotating"
+    view.buttons["run"].click()
+    assert view.isotropic.layout.display == "none"              # hidden with the quality
+    quality = pictures(view)["quality"]
+    view.quality_view.value = "solution"
+    assert view.isotropic.layout.display is None
+    assert view.titles["quality"].value == f"<b>{legend.SOLUTION_TITLES['mesh']}</b>"
+    own = pictures(view)["quality"]
+    assert drawn(own) and np.abs(own.astype(int) - quality.astype(int)).mean() > 0.5
+    n = counts(view.legends["quality"].value)
+    assert n["mesh"] == 0 and n["isotropic"] > 0
+    view.isotropic.value = True
+    assert view.titles["quality"].value == f"<b>{legend.SOLUTION_TITLES['isotropic']}</b>"
+    iso = pictures(view)["quality"]
+    assert drawn(iso) and np.abs(iso.astype(int) - own.astype(int)).mean() > 0.5
+    assert counts(view.legends["quality"].value) == n
+    view.quality_view.value = "quality"
+    assert view.titles["quality"].value == f"<b>{legend.VIEW_TITLES['quality']}</b>"
+    assert "outside [0, 1]" not in view.legends["quality"].value
