@@ -177,7 +177,7 @@ def real_values(value: ArrayLike, name: str) -> NDArray[np.float64]:
         except (TypeError, ValueError):
             pass                                      # not numbers: refused by their kind below
     real_dtype(raw.dtype, name)
-    return raw.astype(float)
+    return raw.astype(float, copy=False)       # floats as given: a raster is not held twice
 
 
 def real_array(value: ArrayLike, name: str, shape: tuple[int | None, ...]) -> NDArray[np.float64]:

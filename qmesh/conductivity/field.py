@@ -260,10 +260,8 @@ class TensorField:
         shape = (len(Y) - 1, len(X) - 1)
         a = _raster_array(k1, shape, "k1", X, Y, positive=True)
         b = _raster_array(k2, shape, "k2", X, Y, positive=True)
-        t = np.deg2rad(_raster_array(angle, shape, "angle", X, Y, positive=False))
-        c, s = np.cos(t), np.sin(t)
-        q = np.stack([a * c * c + b * s * s, (a - b) * c * s, a * s * s + b * c * c], axis=-1)
-        R = _m.Raster.build(X, Y, q)
+        t = _raster_array(angle, shape, "angle", X, Y, positive=False)
+        R = _m.Raster.from_principal(X, Y, a, b, t)
         field = cls.__new__(cls)
         field._f = field._raster_call
         field.label = f"raster {shape[0]} × {shape[1]}"

@@ -232,20 +232,28 @@ class Raster:
     sat: Array
 
     @classmethod
-    def build(cls, x: Array, y: Array, q: Array) -> "Raster":
-        """The tables of cells q (ny, nx, 3) on edges x, y (user coordinates)."""
-        origin = np.array([x[0], y[0]])
-        x, y = x - x[0], y - y[0]
-        w, h = np.diff(x), np.diff(y)
-        ny, nx = q.shape[:2]
-        row = np.zeros((ny, nx + 1, 3))
-        np.cumsum(q * w[None, :, None], axis=1, out=row[:, 1:])
-        row_abs = frobenius(np.sum(np.abs(q) * w[None, :, None], axis=1))
-        col = np.zeros((ny + 1, nx, 3))
-        np.cumsum(q * h[:, None, None], axis=0, out=col[1:])
-        sat = np.zeros((ny + 1, nx + 1, 3))
-        np.cumsum(row[:, 1:] * h[:, None, None], axis=0, out=sat[1:, 1:])
-        return cls(origin, x, y, q, row, row_abs, col, sat)
+    def build(cls, x: Array, y: Array, q: Array, rows: int | None = None) -> "Raster":
+        """The tables of cells q (ny, nx, 3) on edges x, y (user coordinates), built `rows` rows
+        at a time (default: about TABLE_CELLS cells; `_Tables`)."""
+        tables = _Tables(x, y, q.shape[:2])
+        for j0, j1 in tables.bands(rows):
+            tables.add(j0, q[j0:j1])
+        return tables.raster()
+
+    @classmethod
+    def from_principal(cls, x: Array, y: Array, k1: Array, k2: Array, angle_deg: Array,
+                       rows: int | None = None) -> "Raster":
+        """Cells of principal values k1, k2 (ny, nx) along and across `angle_deg` degrees
+        counter-clockwise, Q = R diag(k1, k2) Rᵀ: each band of rows' tensors made and entered into
+        the tables in turn, so only the tables and one band's temporaries are ever held."""
+        tables = _Tables(x, y, np.shape(k1))
+        for j0, j1 in tables.bands(rows):
+            t = np.deg2rad(angle_deg[j0:j1])
+            a, b = k1[j0:j1], k2[j0:j1]
+            c, s = np.cos(t), np.sin(t)
+            q = np.stack([a * c * c + b * s * s, (a - b) * c * s, a * s * s + b * c * c], axis=-1)
+            tables.add(j0, q)
+        return tables.raster()
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -269,6 +277,53 @@ class Raster:
         return self.sat[j, i] + v * self.row[j, i] + u * self.col[j, i] + u * v * self.q[j, i]
 
 
+class _Tables:
+    """The Raster's tables filled one band of rows at a time, each band with the formulas of the
+    whole (cumulative sums along a row stay in the row; down the columns each band's sums start
+    from the last row of the band before, added first: the same additions in the same order),
+    so the result does not depend on the bands by a bit."""
+
+    def __init__(self, x: Array, y: Array, shape: tuple[int, int]):
+        self.origin = np.array([x[0], y[0]])
+        self.x, self.y = x - x[0], y - y[0]
+        self.w, self.h = np.diff(self.x), np.diff(self.y)
+        ny, nx = shape
+        self.q = np.empty((ny, nx, 3))
+        self.row = np.zeros((ny, nx + 1, 3))
+        self.row_abs = np.empty(ny)
+        self.col = np.zeros((ny + 1, nx, 3))
+        self.sat = np.zeros((ny + 1, nx + 1, 3))
+
+    def bands(self, rows: int | None) -> list[tuple[int, int]]:
+        ny, nx = self.q.shape[:2]
+        step = max(1, rows if rows is not None else TABLE_CELLS // max(nx, 1))
+        return [(j, min(j + step, ny)) for j in range(0, ny, step)]
+
+    def add(self, j0: int, q: Array) -> None:
+        """Rows j0 … j0 + len(q) of cells q (k, nx, 3) into the tables."""
+        j1 = j0 + len(q)
+        w, h = self.w[None, :, None], self.h[j0:j1, None, None]
+        self.q[j0:j1] = q
+        np.cumsum(q * w, axis=1, out=self.row[j0:j1, 1:])
+        self.row_abs[j0:j1] = frobenius(np.sum(np.abs(q) * w, axis=1))
+        for table, terms in ((self.col, q * h), (self.sat[:, 1:], self.row[j0:j1, 1:] * h)):
+            run = np.concatenate([table[j0][None], terms])       # the sum so far, then the band
+            np.cumsum(run, axis=0, out=run)
+            table[j0 + 1:j1 + 1] = run[1:]
+
+    def raster(self) -> Raster:
+        return Raster(self.origin, self.x, self.y, self.q, self.row, self.row_abs, self.col,
+                      self.sat)
+
+
+TABLE_CELLS = 1 << 16
+"""Cells per band of rows while the tables are built: a band's temporaries are a few MB."""
+EDGE_PIECES = 1 << 16
+"""Pieces (a segment's parts inside one cell) cut at once by `raster_edge_integrals`: whole
+segments are taken while their pieces fit, so the memory is that of EDGE_PIECES pieces or of one
+segment's (at most nx + ny + 1), not of all the edges' crossings at once."""
+
+
 def _cut(s0: Array, s1: Array, lines: Array) -> tuple[NDArray[np.intp], NDArray[np.intp],
                                                         NDArray[np.intp], NDArray[np.intp]]:
     """Segments running from coordinate s0 to s1 (k,), cut at the grid `lines` strictly between
@@ -287,9 +342,31 @@ def _cut(s0: Array, s1: Array, lines: Array) -> tuple[NDArray[np.intp], NDArray[
     return seg, start, end, np.clip(cell, 0, len(lines) - 2)
 
 
-def raster_edge_integrals(R: Raster, P0: Array, P1: Array) -> tuple[Array, Array]:
-    """∫_e G dy along each segment e = P0 → P1 (E, 2) inside the raster → (E, 3), with
-    a bound of its round-off (E,).
+def raster_edge_integrals(R: Raster, P0: Array, P1: Array,
+                          pieces: int = EDGE_PIECES) -> tuple[Array, Array]:
+    """∫_e G dy along each segment e = P0 → P1 (E, 2) inside the raster → (E, 3), with a bound of
+    its round-off (E,): runs of whole segments of about `pieces` pieces at a time (each segment's
+    result its own: the same bits whatever the runs, `_edge_integrals`)."""
+    E = len(P0)
+    out, bound = np.zeros((E, 3)), np.zeros(E)
+    if E == 0:
+        return out, bound
+    crossed = 1
+    for c, lines in ((0, R.x + R.origin[0]), (1, R.y + R.origin[1])):
+        lo, hi = np.minimum(P0[:, c], P1[:, c]), np.maximum(P0[:, c], P1[:, c])
+        crossed = crossed + np.maximum(np.searchsorted(lines, hi) - np.searchsorted(lines, lo), 0)
+    total = np.cumsum(crossed)
+    start = 0
+    while start < E:
+        before = total[start - 1] if start else 0
+        stop = max(int(np.searchsorted(total, before + pieces, side="right")), start + 1)
+        out[start:stop], bound[start:stop] = _edge_integrals(R, P0[start:stop], P1[start:stop])
+        start = stop
+    return out, bound
+
+
+def _edge_integrals(R: Raster, P0: Array, P1: Array) -> tuple[Array, Array]:
+    """`raster_edge_integrals` of segments cut all at once.
 
     The segment is cut at the grid lines x = x_i it crosses (pieces in one column each), then
     each of those at the lines y = y_j (pieces in one cell each, the cell known from the

@@ -20,6 +20,7 @@ import numpy as np
 from qmesh.conductivity.anisotropy import shape_metric
 from qmesh.domain.domain import as_domain
 from qmesh.errors import QmeshWarning
+from qmesh.fields import followable
 from qmesh.fields.certify import Certificate, certify
 from qmesh.fields.metric import field_metric, smoothing_width
 from qmesh.geometry.triangles import metric_quality
@@ -45,7 +46,11 @@ def iterate(domain: Any, field: Any, *, target_vertices: int | None = None,
                     **{k: v for k, v in options.items() if k in OPTION_NAMES})
     if target_vertices is not None:            # refused before the metric's table is built
         budget.check(int(target_vertices), varying=True, field=True)
-    metric = field_metric(field, smoothing_width(domain, target_vertices, size), domain.bounds)
+    width = smoothing_width(domain, target_vertices, size)
+    # a formula no mesh of this size can follow, or not integrable: refused before it is tried
+    followable.check(domain, field, width,
+                     None if target_vertices is None else int(target_vertices))
+    metric = field_metric(field, width, domain.bounds)
     steps = loop.iterate(domain, metric, target_vertices=target_vertices, size=size, **options)
     return _certified(steps, field, metric, target_vertices)
 
