@@ -61,6 +61,10 @@ def test_the_maximum_principle_on_the_rotating_preset():
         b.until(lambda: "isotropic mesh" in b.page_text(page, "#title-quality"), 30,
                 "the isotropic mesh's title")
         assert counts(b.page_text(page, "#legend-quality")) == n
+        # the view may arrive in two renders (the mesh, then its marks): wait for the marks
+        b.until(lambda: near(b.view_image(page, "quality"), draw.ABOVE[0])
+                + near(b.view_image(page, "quality"), draw.BELOW[0]) > 0, 30, "the isotropic mesh's marks")
+        iso = b.view_image(page, "quality")
         assert drawn(iso) and near(iso, draw.ABOVE[0]) + near(iso, draw.BELOW[0]) > 0
         assert "converged" in b.status(page)                # nothing re-meshed
         b.save(page, "maximum-principle-isotropic")
