@@ -11,6 +11,16 @@ Cases (each Q checked symmetric positive definite where it is evaluated):
 - layers: layers whose dip varies smoothly, 1 : 1000: `TensorField.principal(1, 1e-3,
   "30*sin(pi*x)")` (k1 = 1 along the layer, dipping 0° at x = 0, 1 and 30° at x = ½) on the unit
   square, u = sin πx sin πy;
+- spiral: a text formula, 1 : 1000, on the unit square minus a 32-gon of radius 0.15 around
+  (½, ½): `TensorField.principal(1, 1e-3, angle)`, k1 along the direction at 4π·r radians from
+  the radial one (r the distance to (½, ½): two turns across the square), the angle text
+  180/π·(atan((y − ½)/(x − ½)) + 4π·r) (the polar angle mod π is a direction); SymPy gets the same
+  Q written through cos 2θ and sin 2θ; u = sin πx sin πy;
+- islands: magnetic islands as a CALLABLE f(x, y) (NumPy), Q = εI + (1 − ε) b bᵀ/|b|², ε = 1e-4,
+  b = (ψ_y, −ψ_x) = (y − ½, 0.1π cos 2πx) along the level lines of ψ = (y − ½)²/2 − 0.05 sin 2πx,
+  on the unit square: an O-point (¼, ½) and an X-point (¾, ½) inside it, where b = 0 and Q has
+  no limit; u = sin 8πψ, constant along the field lines; every
+  call, point and second spent in the callable is counted;
 - raster64, raster512: a 64² / 512² raster on the unit square, every cell different (NumPy
   default_rng(20240 + cells), cells independent): k1 lognormal (ln k1 ~ N(0, 1)), k2 = k1 / r with
   log10 r ~ U(0, 2), angle ~ U(0°, 180°) (`TensorField.from_raster`, MODFLOW's convention);
@@ -43,20 +53,34 @@ Every measurement uses element means Q̄_T computed HERE, not the mesh's: formul
   at the boundary vertices, scipy.sparse spsolve;
 - κ2 of the Dirichlet matrix (`qmesh.measure.conditioning` with the means computed here);
 - min metric quality (2.94) in each triangle's own H_T = adj Q̄_T / √det Q̄_T (`measure.quality`);
-- seconds: qmesh, the whole run (`qmesh.iterate` to its last Step, which is `qmesh.mesh`); peers,
-  their final calibrated run (wall clock; qmesh's CPU seconds, and their ratio to the constant
-  Q's, are in the notes). qmesh and the constant Q run 7 times in their process up to N = 2000,
-  3 times up to 20 000, the same mesh each time, and the run of least CPU seconds is reported
-  (the first run also pays one-time set-ups such as compiling the field's formula; other
-  processes sharing the cores slow some runs, most of all the short ones);
+- seconds: qmesh, the whole run (`qmesh.iterate` to its last Step, which is `qmesh.mesh`), a
+  new TensorField each run (what qmesh kept of one run's field never serves the next); peers,
+  their final calibrated run (wall clock). qmesh and the constant Q run 5 times in their process
+  up to N = 2000, twice up to 20 000 and once above, the same mesh each time, and the run of
+  least CPU seconds is reported (the first run also pays one-time set-ups such as compiling the
+  field's formula; other processes sharing the cores slow some runs, most of all the short
+  ones);
 - peak memory: every mesher runs in a fresh subprocess (this script with --worker); its peak RSS
   (VmHWM of /proc/self/status) and, in brackets, the growth over the RSS it had after its imports and
   building the field (the peers' over all their calibration runs);
-- for qmesh, the seconds of a constant Q on the same domain at the same N, Q the area mean of the
-  field over Ω: as `qmesh.Anisotropy.constant(Q)` and as a constant `TensorField`.
+- for qmesh, the seconds of a constant Q on the same domain at the same N, Q̄ the area mean of
+  the field over Ω (by the means computed here): as `qmesh.Anisotropy.constant(Q̄)`, the
+  baseline a user would pick, and as a constant `TensorField`; a table gives the field's
+  seconds over the constant Anisotropy's (wall and CPU) against the targets, 5× at N = 2000
+  and 3× at N ≥ 20 000;
+- qmesh's seconds per stage, from the Steps of `qmesh.iterate` (`STAGES`): set-up (the field's
+  metric and checks: the first Step's wall time less its Stats.seconds), the first
+  triangulation, the loop's adjust, insert and triangulate stages, certify and repair (the
+  last Step); for the callable, its calls, points and seconds in that run.
 
-    python benchmarks/bench_fields.py [--cases fvca5 ...] [--n 2000 20000] [--big 200000]
-                                      [--no-mmg] [--no-page]
+raster512 also runs at 2e5 and 1e6 vertices (--big; seconds and peak RSS against MMG2D at 2e5,
+against 60 s and 2 GB at 1e6). MMG2D, Triangle and the constant TensorField run up to
+N = 200 000 only (MMG2D calibrates N by whole runs), and above it κ2 and the maximum principle
+are not computed (each factorises the whole matrix; left out to keep the run short):
+positive off-diagonals, quality and N are.
+
+    python benchmarks/bench_fields.py [--cases fvca5 ...] [--n 2000 20000]
+                                      [--big 200000 1000000] [--no-mmg] [--no-page]
 """
 
 from __future__ import annotations
@@ -225,16 +249,12 @@ class Counted:
 
 def islands(x, y):
     """Magnetic islands, as a user would write them: Q = εI + (1 − ε) b bᵀ/|b|², b = (ψ_y, −ψ_x)
-    = (y − ½, 0.1π cos 2πx) along the level lines of ψ = (y − ½)²/2 − 0.05 sin 2πx; at b = 0
-    (the O- and X-points themselves) Q = (1 + ε)/2 I, the mean over the directions."""
+    = (y − ½, 0.1π cos 2πx) along the level lines of ψ = (y − ½)²/2 − 0.05 sin 2πx. At the O-
+    and X-points b is round-off (cos 2πx is never 0 in floating point), not 0."""
     bx, by = y - 0.5, 0.1 * np.pi * np.cos(2 * np.pi * x)
     b2 = bx * bx + by * by
-    zero = b2 == 0
-    b2 = np.where(zero, 1.0, b2)
     e = EPSILON
-    q11 = np.where(zero, (1 + e) / 2, e + (1 - e) * bx * bx / b2)
-    q12 = np.where(zero, 0.0, (1 - e) * bx * by / b2)
-    q22 = np.where(zero, (1 + e) / 2, e + (1 - e) * by * by / b2)
+    q11, q12, q22 = e + (1 - e) * bx * bx / b2, (1 - e) * bx * by / b2, e + (1 - e) * by * by / b2
     return np.stack([np.stack([q11, q12], -1), np.stack([q12, q22], -1)], -2)
 
 
@@ -700,41 +720,46 @@ def measure_mesh(case: Case, P, T, fixed, problem=None) -> dict:
 
 
 def run(case_names, ns, big, mmg=True, figure_case="fvca5") -> tuple[list[dict], dict]:
-    rows, kept = [], {}
+    """Every mesher on every case at every N in ns, then raster512 at each N of `big` (the
+    largest last)."""
+    rows, kept, problems = [], {}, {}
     meshers = ["qmesh"] + (["MMG2D"] if mmg else []) + ["Triangle"]
-    for name in case_names:
+    plan = [(name, n) for name in case_names for n in ns]
+    plan += [("raster512", n) for n in big if "raster512" in case_names]
+    for name, n in plan:
         case = CASES[name]
-        problem = sympy_problem(case) if case.kind != "raster" else None
-        for n in list(ns) + (list(big) if name == "raster512" else []):
-            peers = meshers if n <= PEERS_UP_TO else ["qmesh"]
-            for mesher in (peers if case.kind != "media" else ["qmesh"]):
-                r = in_subprocess(case, mesher, n)
-                P, T = r["points"], r["triangles"]
-                row = {"case": name, "mesher": mesher, "target": n, "seconds": r["seconds"],
-                       "total_seconds": r["total_seconds"], "runs": r["runs"],
-                       "peak_mb": r["peak_kb"] / 1024, "grow_mb": (r["peak_kb"] - r["base_kb"]) / 1024,
-                       "warnings": r["warnings"], "certify_s": r.get("certify_seconds"),
-                       "stages": r.get("stages"), "callable": r.get("callable")}
-                row.update(measure_mesh(case, P, T, r["fixed"], problem))
-                if mesher == "qmesh":
-                    Qm = r["conductivity"]
-                    row["means_diff"] = float(np.max(np.linalg.norm(Qm - row["Qbar"], axis=(1, 2))
-                                                     / np.linalg.norm(row["Qbar"], axis=(1, 2))))
-                    _, area = element_matrices(P, T, row["Qbar"])
-                    Qmean = np.einsum("m,mij->ij", area, row["Qbar"]) / area.sum()
-                    row["cpu_s"] = r["cpu_seconds"]
-                    c = in_subprocess(case, "constQ", n, Qmean)
-                    row["const_s"], row["const_cpu"] = c["seconds"], c["cpu_seconds"]
-                    if n <= PEERS_UP_TO:
-                        c = in_subprocess(case, "constfield", n, Qmean)
-                        row["constfield_s"], row["constfield_cpu"] = c["seconds"], c["cpu_seconds"]
-                if name == figure_case and n == min(ns):
-                    kept[mesher] = (P, T, row["rel"])
-                del row["Qbar"], row["rel"]
-                rows.append(row)
-                print(_line(row), flush=True)
-                for w in row["warnings"]:
-                    print(f"    {mesher} warned: {w}", flush=True)
+        if name not in problems:
+            problems[name] = sympy_problem(case) if case.kind != "raster" else None
+        problem = problems[name]
+        peers = meshers if n <= PEERS_UP_TO else ["qmesh"]
+        for mesher in (peers if case.kind != "media" else ["qmesh"]):
+            r = in_subprocess(case, mesher, n)
+            P, T = r["points"], r["triangles"]
+            row = {"case": name, "mesher": mesher, "target": n, "seconds": r["seconds"],
+                   "total_seconds": r["total_seconds"], "runs": r["runs"],
+                   "peak_mb": r["peak_kb"] / 1024, "grow_mb": (r["peak_kb"] - r["base_kb"]) / 1024,
+                   "warnings": r["warnings"], "certify_s": r.get("certify_seconds"),
+                   "stages": r.get("stages"), "callable": r.get("callable")}
+            row.update(measure_mesh(case, P, T, r["fixed"], problem))
+            if mesher == "qmesh":
+                Qm = r["conductivity"]
+                row["means_diff"] = float(np.max(np.linalg.norm(Qm - row["Qbar"], axis=(1, 2))
+                                                 / np.linalg.norm(row["Qbar"], axis=(1, 2))))
+                _, area = element_matrices(P, T, row["Qbar"])
+                Qmean = np.einsum("m,mij->ij", area, row["Qbar"]) / area.sum()
+                row["cpu_s"] = r["cpu_seconds"]
+                c = in_subprocess(case, "constQ", n, Qmean)
+                row["const_s"], row["const_cpu"] = c["seconds"], c["cpu_seconds"]
+                if n <= PEERS_UP_TO:
+                    c = in_subprocess(case, "constfield", n, Qmean)
+                    row["constfield_s"], row["constfield_cpu"] = c["seconds"], c["cpu_seconds"]
+            if name == figure_case and n == min(ns):
+                kept[mesher] = (P, T, row["rel"])
+            del row["Qbar"], row["rel"]
+            rows.append(row)
+            print(_line(row), flush=True)
+            for w in row["warnings"]:
+                print(f"    {mesher} warned: {w}", flush=True)
     return rows, kept
 
 
