@@ -75,8 +75,8 @@ Every measurement uses element means Q̄_T computed HERE, not the mesh's: formul
 
 raster512 also runs at 2e5 and 1e6 vertices (--big; seconds and peak RSS against MMG2D at 2e5,
 against 60 s and 2 GB at 1e6). MMG2D, Triangle and the constant TensorField run up to
-N = 200 000 only (MMG2D calibrates N by whole runs), and above it κ2 and the maximum principle
-are not computed (each factorises the whole matrix; left out to keep the run short):
+a target of 200 000 only (MMG2D calibrates N by whole runs), and above it κ2 and the maximum
+principle are not computed (each factorises the whole matrix; left out to keep the run short):
 positive off-diagonals, quality and N are.
 
     python benchmarks/bench_fields.py [--cases fvca5 ...] [--n 2000 20000]
@@ -583,7 +583,7 @@ REPEATS = ((2_000, 5), (20_000, 2))   # qmesh's and the constant Q's runs, each 
                         # takes 0.15 s)
 PEERS_UP_TO = 200_000   # MMG2D, Triangle and the constant TensorField run up to this N (MMG2D
                         # calibrates N by whole runs: at 1e6 they would take most of the page's time)
-LIGHT_ABOVE = 200_000   # above this N, no κ2 and no maximum-principle solve (minutes at 1e6)
+LIGHT_ABOVE = 200_000   # above this target N, no κ2 and no maximum-principle solve (minutes at 1e6)
 
 STAGES = ("set-up", "first triangulation", "adjust", "insert", "triangulate", "certify")
 """The parts of a qmesh run: set-up (the field's metric, checks: the first Step's wall time less
@@ -699,14 +699,14 @@ def in_subprocess(case: Case, mesher: str, n: int, Q=None) -> dict:
 
 # ---------------------------------------------------------------------------- measurements
 
-def measure_mesh(case: Case, P, T, fixed, problem=None) -> dict:
-    """Every column of one mesh, with the means computed here."""
+def measure_mesh(case: Case, P, T, fixed, problem=None, light=False) -> dict:
+    """Every column of one mesh, with the means computed here (`light`: no κ2, no maximum
+    principle)."""
     Qbar = independent_means(case, P, T, problem)
     mesh = qmesh.Mesh(P, T, fixed)
     tags = in_star(P[T].mean(axis=1)) if case.kind == "media" else None
     n_in, n_b, rel = positive_off_diagonals(P, T, Qbar, tags)
     quality = measure.quality(mesh, Qbar)
-    light = len(P) > LIGHT_ABOVE
     v, worst = (None, None) if light else maximum_principle(P, T, Qbar)
     out = {"N": int(len(P)), "pos_in": n_in, "pos_b": n_b, "mp": v, "mp_worst": worst,
            "kappa2": "not computed" if light else measure.conditioning(mesh, Qbar).kappa2,
@@ -740,7 +740,7 @@ def run(case_names, ns, big, mmg=True, figure_case="fvca5") -> tuple[list[dict],
                    "peak_mb": r["peak_kb"] / 1024, "grow_mb": (r["peak_kb"] - r["base_kb"]) / 1024,
                    "warnings": r["warnings"], "certify_s": r.get("certify_seconds"),
                    "stages": r.get("stages"), "callable": r.get("callable")}
-            row.update(measure_mesh(case, P, T, r["fixed"], problem))
+            row.update(measure_mesh(case, P, T, r["fixed"], problem, light=n > LIGHT_ABOVE))
             if mesher == "qmesh":
                 Qm = r["conductivity"]
                 row["means_diff"] = float(np.max(np.linalg.norm(Qm - row["Qbar"], axis=(1, 2))
@@ -864,7 +864,7 @@ def summary(rows) -> list[str]:
     by = {(r["case"], r["target"], r["mesher"]): r for r in rows}
     notes.append(f"qmesh: {sum(r['pos_in'] + r['pos_b'] for r in q)} positive off-diagonals in "
                  f"{len(q)} meshes (means computed here); {sum(r['mp'] for r in q if r['mp'] is not None)} "
-                 f"maximum-principle violations (N ≤ {LIGHT_ABOVE}); min quality {min(r['min_q'] for r in q):.3f}; "
+                 f"maximum-principle violations (target N ≤ {LIGHT_ABOVE}); min quality {min(r['min_q'] for r in q):.3f}; "
                  f"N off the target by up to {max(abs(r['N'] - r['target']) / r['target'] for r in q):.1%}; "
                  f"the mesh's own means differ from those computed here by at most "
                  f"{max(r['means_diff'] for r in q):.1e} (relative, Frobenius)")
