@@ -257,6 +257,19 @@ def test_isosceles_slides_keep_to_their_side_and_mend(seed, n, m, cells):
     assert after <= before * (1 + 1e-9) + 1e-15
 
 
+def polish_inputs(P, T, field, rng):
+    """What the polish is called with on a mesh whose four first points (the square's corners)
+    are fixed: the deficit before, the shares, twins, failing edges, means, tangents, movers."""
+    before, s, b, twin = total_deficit(P, T, field)
+    h0, _, _ = shares.failing(s, b, twin)
+    Qbar = np.asarray(field.means(P, T))
+    fixed = np.zeros(len(P), bool)
+    fixed[:4] = True
+    tan = moves.tangents(P, T, twin, fixed)
+    movers = moves.movers(T, twin, moves.free(T, twin, fixed, np.arange(len(P)), tan), rng)
+    return before, s, b, twin, h0, Qbar, tan, movers
+
+
 @settings(max_examples=10, deadline=None)
 @given(seed=st.integers(0, 2**31 - 1), n=st.integers(30, 200), cells=st.integers(2, 10))
 def test_the_polish_raises_the_worst_quality_of_every_star_it_moves(seed, n, cells):
@@ -275,13 +288,7 @@ def test_the_polish_raises_the_worst_quality_of_every_star_it_moves(seed, n, cel
     T = T.astype(np.int64)
     edges, k1, k2, angle = random_raster(seed, cells, 2.0)
     field = qmesh.TensorField.from_raster(edges, edges, k1, k2, angle)
-    before, s, b, twin = total_deficit(P, T, field)
-    h0, _, _ = shares.failing(s, b, twin)
-    Qbar = np.asarray(field.means(P, T))
-    fixed = np.zeros(len(P), bool)
-    fixed[:4] = True
-    tan = moves.tangents(P, T, twin, fixed)
-    movers = moves.movers(T, twin, moves.free(T, twin, fixed, np.arange(len(P)), tan), rng)
+    before, s, b, twin, h0, Qbar, tan, movers = polish_inputs(P, T, field, rng)
     refused = np.zeros(len(P), bool)
     P2, _ = moves.polish(P, T, twin, Qbar, s, b, field, movers, tangent=tan, refused=refused)
     assert np.all(signed_areas(P2, T) > 0)
@@ -409,13 +416,7 @@ def test_the_polish_asks_adaptive_means_for_one_try_a_mover(seed, n):
     rng = np.random.default_rng(seed)
     P, T = square_mesh(seed, n)
     field = qmesh.TensorField.from_expressions(*FORMULA)
-    before, s, b, twin = total_deficit(P, T, field)
-    h0, _, _ = shares.failing(s, b, twin)
-    Qbar = np.asarray(field.means(P, T))
-    fixed = np.zeros(len(P), bool)
-    fixed[:4] = True
-    tan = moves.tangents(P, T, twin, fixed)
-    movers = moves.movers(T, twin, moves.free(T, twin, fixed, np.arange(len(P)), tan), rng)
+    before, s, b, twin, h0, Qbar, tan, movers = polish_inputs(P, T, field, rng)
     counted = Counted(field)
     P2, _ = moves.polish(P, T, twin, Qbar, s, b, counted, movers, tangent=tan)
     stars = int(topology.touching(T, np.isin(np.arange(len(P)), movers)).sum())
