@@ -15,8 +15,8 @@ from typing import Any, Literal, TypeVar, overload
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from qmesh.geometry.portable import eigvalsh2
 from qmesh.errors import QmeshError
+from qmesh.geometry.portable import eigvalsh2
 
 _F = TypeVar("_F")
 

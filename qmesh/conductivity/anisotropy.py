@@ -14,10 +14,10 @@ from typing import Union
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from qmesh.geometry.portable import eigvalsh2, matmul2, times2
 from qmesh import checks
 from qmesh.conductivity.expression import parse_s
 from qmesh.errors import QmeshError
+from qmesh.geometry.portable import eigvalsh2, matmul2, times2
 
 Field = Callable[[NDArray[np.float64]], NDArray[np.float64]]
 """s, ∇s or ∇²s as the mesher calls it: points (n, 2) → values (n,), (n, 2) or (n, 2, 2)."""

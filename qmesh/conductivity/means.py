@@ -30,8 +30,8 @@ from typing import Callable
 import numpy as np
 from numpy.typing import NDArray
 
-from qmesh.geometry.portable import gauss_legendre
 from qmesh.errors import QmeshError
+from qmesh.geometry.portable import gauss_legendre
 
 Array = NDArray[np.float64]
 Evaluate = Callable[[Array], Array]

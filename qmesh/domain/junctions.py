@@ -13,8 +13,8 @@ from typing import Any
 
 import numpy as np
 
-from qmesh.geometry.portable import arctan2, dot2, log, times2
 from qmesh.errors import QmeshError
+from qmesh.geometry.portable import arctan2, dot2, log, times2
 
 CROWD = 1e-10    # a split point this near an end of its edge (× the face's extent) is refused
 

@@ -48,9 +48,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from qmesh.geometry.portable import arctan
 from qmesh.conductivity.anisotropy import Anisotropy
 from qmesh.domain.domain import Domain
+from qmesh.geometry.portable import arctan
 
 UNIT = [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)]
 

@@ -23,9 +23,9 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from qmesh.geometry.portable import arctan2
 from qmesh.errors import QmeshError
 from qmesh.geometry import rings as _rings
+from qmesh.geometry.portable import arctan2
 
 TOUCH = 1e-9        # points this close (× the domain's size) are one vertex / lie on a segment
 OUTSIDE = -2        # left label: outside Ω

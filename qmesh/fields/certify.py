@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from qmesh.conductivity.anisotropy import shape_metric
+from qmesh.errors import QmeshError
 from qmesh.fields.cache import ElementMeans
 from qmesh.fields.flips import mending_flips, quality_flips
 from qmesh.fields.moves import (Judged, corners, free, isosceles, movers, polish, relax, slides,
@@ -30,11 +31,10 @@ from qmesh.fields.moves import (Judged, corners, free, isosceles, movers, polish
 from qmesh.fields.piecewise import RegionMeans
 from qmesh.fields.shares import FLOOR, by_bound, cut_interfaces, failing, means_of, shares
 from qmesh.fields.splits import longer, split_failing, split_failing_medium
-from qmesh.errors import QmeshError
 from qmesh.geometry import topology
 from qmesh.geometry.portable import eigvalsh2
-from qmesh.mesher import budget
 from qmesh.geometry.triangles import metric_quality
+from qmesh.mesher import budget
 from qmesh.triangle_mesh import Mesh
 
 MAX_ROUNDS = 400    # rounds of flips and splits before the remaining edges are reported
@@ -56,7 +56,8 @@ class Certificate:
     flips: int
     added: int
     remaining: int
-    worst: float        # the smallest (q_ij − bound) / (Σ|q_ij^T| + bound): in [−1, 1]; ≥ −ROUND certified
+    worst: float        # the smallest (q_ij − bound) / (Σ|q_ij^T| + bound), in [−1, 1]
+                        # (≥ −ROUND when certified)
 
 
 def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
@@ -194,7 +195,8 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
 def growth_limit(n: int) -> int:
     """The most vertices the repair may reach from n: GROWTH·n (at least n + SPARE), and no more
     than the memory budget holds (`budget.max_vertices` with a field's bytes per vertex)."""
-    return min(max(GROWTH * n, n + SPARE), max(n, budget.max_vertices(budget.default_budget(), varying=True)))
+    memory = budget.max_vertices(budget.default_budget(), varying=True)
+    return min(max(GROWTH * n, n + SPARE), max(n, memory))
 
 
 def _refuse_growth(field, P, T, Qbar, h, start: int, limit: int, reg) -> None:
@@ -209,7 +211,8 @@ def _refuse_growth(field, P, T, Qbar, h, start: int, limit: int, reg) -> None:
     A, B, C = P[T[k]]
     X = A + u[inside][:, None] * (B - A) + v[inside][:, None] * (C - A)
     src = field if reg is None else field[int(reg[k])]
-    Q = np.asarray(src(X) if callable(src) else np.broadcast_to(src.Q(X[:1])[0], (len(X), 2, 2)), float)
+    Q = np.asarray(src(X) if callable(src) else np.broadcast_to(src.Q(X[:1])[0], (len(X), 2, 2)),
+                   float)
     w = eigvalsh2(Q)
     ratio = w[:, 1] / np.maximum(w[:, 0], np.finfo(float).tiny)
     worst = int(np.argmax(ratio))

@@ -11,10 +11,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from qmesh.geometry.portable import cholesky2, solve2
 from qmesh.conductivity.anisotropy import Anisotropy, shape_metric
 from qmesh.fields.shares import FLOOR, GAIN, KEEP, ROUND, deficit, means_of, shares
 from qmesh.geometry import topology
+from qmesh.geometry.portable import cholesky2, solve2
 from qmesh.geometry.topology import touching
 from qmesh.geometry.triangles import metric_quality, proper
 from qmesh.mesher.adjust import limit_moves, shape_step

@@ -28,7 +28,8 @@ LN2_LO = 1.90821492927058770002e-10
 INV_LN2 = 1.44269504088896338700e+00
 SQRT_HALF = 0.70710678118654752440
 HALF_PI = 1.57079632679489661923
-_ROOTS = [1.0, math.sqrt(math.sqrt(2.0)), math.sqrt(2.0), math.sqrt(2.0) * math.sqrt(math.sqrt(2.0))]  # 2^(j/4)
+_ROOTS = [1.0, math.sqrt(math.sqrt(2.0)), math.sqrt(2.0),           # 2^(j/4), from square roots
+          math.sqrt(2.0) * math.sqrt(math.sqrt(2.0))]
 # Taylor coefficients, each a correctly rounded quotient of integers
 _EXP = [1.0 / math.factorial(n) for n in range(14)]                 # |r| ≤ ln2/2: error < 1e-17
 _ATANH = [1.0 / (2 * n + 1) for n in range(12)]                    # |f| ≤ 0.172

@@ -12,8 +12,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from qmesh.geometry.portable import arctan2, ceil_log2
 from qmesh.geometry.orientation import orient
+from qmesh.geometry.portable import arctan2, ceil_log2
 from qmesh.geometry.topology import sorted_unique
 
 MAX_PAIRS = 262_144     # candidate pairs handled at once (~150 bytes each: bounds the temporary memory)
@@ -25,7 +25,8 @@ def signed_area(ring: np.ndarray) -> float:
     x, y = d[:, 0], d[:, 1]
     # np.roll(·, -1) written out: the same arrays, without its overhead (a call per ring of a
     # medium); NumPy's pairwise sums, not BLAS's dot, whose last bits depend on the CPU
-    return 0.5 * float((x * np.concatenate([y[1:], y[:1]])).sum() - (y * np.concatenate([x[1:], x[:1]])).sum())
+    xy = (x * np.concatenate([y[1:], y[:1]])).sum()
+    return 0.5 * float(xy - (y * np.concatenate([x[1:], x[:1]])).sum())
 
 
 def _pairs(py: np.ndarray, ylo: np.ndarray, yhi: np.ndarray, order: np.ndarray | None = None):

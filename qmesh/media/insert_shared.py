@@ -12,10 +12,10 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from qmesh.geometry.portable import dot2
 from qmesh.domain.junctions import crowded_junction
 from qmesh.errors import QmeshError
 from qmesh.geometry import topology
+from qmesh.geometry.portable import dot2
 from qmesh.mesher.conform import beside_corners, encroached, marked, split_points
 from qmesh.mesher.triangulate import restore
 from qmesh.triangle_mesh import Mesh

@@ -22,9 +22,9 @@ from typing import Any
 
 import numpy as np
 
-from qmesh.geometry.portable import dot2
 from qmesh.domain.domain import as_domain
 from qmesh.errors import QmeshError, QmeshWarning
+from qmesh.geometry.portable import dot2
 from qmesh.geometry.triangles import worst_metric_quality
 from qmesh.domain.partition import points_on_edges
 from qmesh.domain.faces import face_domain

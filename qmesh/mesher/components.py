@@ -22,9 +22,9 @@ from numpy.typing import NDArray
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from qmesh.geometry.portable import cholesky2, det2, eigh2, inv2, matmul2, moments2, times2
 from qmesh.domain.domain import Domain
 from qmesh.errors import QmeshError
+from qmesh.geometry.portable import cholesky2, det2, eigh2, inv2, matmul2, moments2, times2
 from qmesh.geometry.rings import signed_area
 from qmesh.geometry.rings import point_segment_distance
 from qmesh.geometry.triangles import rounded

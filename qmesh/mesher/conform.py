@@ -26,9 +26,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from qmesh.geometry.portable import cholesky2, round_log2, times2
 from qmesh.geometry import topology
 from qmesh.errors import QmeshError
+from qmesh.geometry.portable import cholesky2, round_log2, times2
 from qmesh.geometry.triangles import signed_areas
 from qmesh.mesher import lattice_delaunay
 from qmesh.mesher.triangulate import Crowded, first_triangulation, restore

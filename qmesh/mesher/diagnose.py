@@ -17,9 +17,9 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import ConvexHull, QhullError
 
-from qmesh.geometry.portable import cholesky2, times2
 from qmesh.conductivity.anisotropy import Anisotropy
 from qmesh.errors import QmeshWarning
+from qmesh.geometry.portable import cholesky2, times2
 from qmesh.geometry.rings import convex_width
 from qmesh.geometry.triangles import metric_areas, metric_hessians, metric_quality, worst_metric_quality
 from qmesh.mesher.sizing import equilateral_area, vertices_from_counts

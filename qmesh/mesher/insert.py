@@ -28,8 +28,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from qmesh.geometry.portable import eigvalsh2
 from qmesh.geometry import topology
+from qmesh.geometry.portable import eigvalsh2
 from qmesh.geometry.triangles import metric_hessians, metric_measures, rounded
 
 GROSS = 4.0             # above this multiple of the threshold, neighbours may be refined together

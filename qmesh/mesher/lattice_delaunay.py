@@ -29,9 +29,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from qmesh.geometry.portable import det2, times2
 from qmesh.errors import QmeshError
 from qmesh.geometry import rings, topology
+from qmesh.geometry.portable import det2, times2
 
 DEEP = 3.0     # metric edge lengths between a vertex of D and the boundary (≥ 1.5 + 2/√3)
 TABLE_FILL = 8     # the deep points are looked up in a table of their places up to this many per point
@@ -41,7 +41,8 @@ def deep_points(domain, lattice) -> np.ndarray:
     """Mask of the lattice's points farther than DEEP·h (metric) from every boundary segment."""
     A, B = domain.segment_ends
     M = lattice.frame
-    return ~np.isfinite(rings.distance(times2(lattice.points, M), times2(A, M), times2(B, M), DEEP * lattice.h))
+    return ~np.isfinite(rings.distance(times2(lattice.points, M), times2(A, M), times2(B, M),
+                                       DEEP * lattice.h))
 
 
 def closed_form(lattice, place: np.ndarray, deep: np.ndarray):

@@ -11,9 +11,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from qmesh.geometry.portable import dot2, gauss_legendre
 from qmesh.conductivity.anisotropy import Anisotropy
 from qmesh.errors import QmeshError
+from qmesh.geometry.portable import dot2, gauss_legendre
 
 CANCELLATION = 1e6   # |s(c)| + d|∇s(c)| over d²·|∇²s| beyond which s − its tangent plane
                      # is taken by quadrature (the difference would lose 6 of 16 digits)

@@ -19,8 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from qmesh.geometry.portable import cholesky2, det2, eigh2, inv2, matmul2, moments2, times2
 from qmesh.geometry import rings
+from qmesh.geometry.portable import cholesky2, det2, eigh2, inv2, matmul2, moments2, times2
 from qmesh.geometry.triangles import rounded
 from qmesh.mesher.sizing import domain_triangulation, metric_edge_lengths
 

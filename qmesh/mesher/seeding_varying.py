@@ -23,10 +23,11 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from qmesh.geometry.portable import arctan2, ceil_pow2_steps, cholesky2, eigh2, floor_log2, floor_log2_steps, inv2, log, round_log2, times2
 from qmesh.errors import QmeshError
 
 from qmesh.geometry import rings
+from qmesh.geometry.portable import (arctan2, ceil_pow2_steps, cholesky2, eigh2, floor_log2,
+                                     floor_log2_steps, inv2, log, round_log2, times2)
 from qmesh.mesher import seeding
 from qmesh.mesher import sizing
 

@@ -10,9 +10,9 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
-from qmesh.geometry.portable import cholesky2, det2, gauss_legendre, times2
 from qmesh.conductivity.anisotropy import Anisotropy
 from qmesh.errors import QmeshError
+from qmesh.geometry.portable import cholesky2, det2, gauss_legendre, times2
 from qmesh.geometry.rings import convex_width
 from qmesh.mesher import budget
 from qmesh.mesher.conform import conforming_delaunay

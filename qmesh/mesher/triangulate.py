@@ -23,10 +23,10 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import ConvexHull, Delaunay, QhullError
 
-from qmesh.geometry.portable import cholesky2, cov2, eigvalsh2, matmul2, times2
 from qmesh.conductivity.anisotropy import Anisotropy, adj2
 from qmesh.geometry import topology
 from qmesh.errors import QmeshError
+from qmesh.geometry.portable import cholesky2, cov2, eigvalsh2, matmul2, times2
 from qmesh.geometry.triangles import columns, signed_areas
 
 class Crowded(QmeshError):
