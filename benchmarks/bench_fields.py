@@ -833,7 +833,8 @@ def stage_rows(rows) -> list[list[str]]:
         c = r.get("callable")
         out.append([r["case"], str(r["target"]), *(f"{r['stages'][s]:.2f}" for s in STAGES),
                     f"{r['total_seconds']:.2f}",
-                    "" if not c else f"{c['calls']} / {c['points']} ({c['asked']}) / {c['seconds']:.2f}"])
+                    "" if not c else
+                    f"{c['calls']} / {c['points']} ({c['asked']}) / {c['seconds']:.2f}"])
     return out
 
 

@@ -466,8 +466,8 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument(flag, type=kind, default=default, metavar=meta, help=f"{text} (default: {default})")
     p.add_argument("-o", "--output", required=True, metavar="OUT", help="output mesh file")
     p.add_argument("--progress", action="store_true", help="print a line per stage on stderr, also when it is not "
-                   "a terminal (without it, a terminal shows a progress bar once a run takes over a second); "
-                   "a field's last line counts its evaluations")
+                   "a terminal (without it, a terminal shows a progress bar once a run takes over a "
+                   "second); a field's last line counts its evaluations")
     p.add_argument("--quiet", action="store_true", help="no progress bar or lines and no warning")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     p.set_defaults(handler=cmd_mesh)

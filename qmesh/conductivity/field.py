@@ -147,12 +147,13 @@ def _axis(v: ArrayLike, name: str) -> Array:
 class TensorField:
     """Q(x): a symmetric positive definite 2×2 conductivity at every point.
 
-    Build it from a vectorised callable `TensorField(f)` (f(x, y) with x, y arrays of one shape
-    → (..., 2, 2), a function of each point alone; with `cache` (the default) f is asked for each
-    point once, its values kept, `point_cache.PointCache`), from texts or numbers (`from_expressions`, `principal`) or from a raster of
-    cells (`from_raster`). The field is checked where it is evaluated: `field(P)`, `means` and
-    `box_means` raise QmeshError naming the first point (in the caller's coordinates) where Q is
-    not finite, not symmetric or not positive definite, or — for a raster — lies outside it.
+    Build it from a vectorised callable `TensorField(f)` (f(x, y) with x, y arrays of one shape →
+    (..., 2, 2), a function of each point alone; with `cache` (the default) f is asked for each
+    point once, its values kept, `point_cache.PointCache`), from texts or numbers
+    (`from_expressions`, `principal`) or from a raster of cells (`from_raster`). The field is
+    checked where it is evaluated: `field(P)`, `means` and `box_means` raise QmeshError naming the
+    first point (in the caller's coordinates) where Q is not finite, not symmetric or not positive
+    definite, or — for a raster — lies outside it.
 
     `means(points, triangles)` gives the element means Q̄_T = (1/|T|) ∫_T Q, the only thing of Q
     the P1 stiffness matrix sees (FIELDS.md §2): adaptive quadrature for formulas and callables,
@@ -172,7 +173,8 @@ class TensorField:
     """A raster's (lo, hi) corners; None for formulas and callables (defined everywhere they
     evaluate)."""
 
-    def __init__(self, f: Callable[..., ArrayLike], label: str | None = None, *, cache: bool = True):
+    def __init__(self, f: Callable[..., ArrayLike], label: str | None = None, *,
+                 cache: bool = True):
         if not callable(f):
             raise QmeshError(f"TensorField takes a callable f(x, y) → (..., 2, 2), got {f!r:.80}")
         if label is not None and not isinstance(label, str):
@@ -185,7 +187,8 @@ class TensorField:
         self.bounds = None
         # each point evaluated once (`cache`): the mesher asks for some points more than once
         self._cache: PointCache | None = PointCache(
-            functools.partial(self._callable_components, f, self.label), capacity=None if cache else 0)
+            functools.partial(self._callable_components, f, self.label),
+            capacity=None if cache else 0)
         self._components: Callable[[Array, Array], Array] = self._cache
         self._constant: Array | None = None
         self._raster: _m.Raster | None = None

@@ -141,7 +141,8 @@ class _Table:
 class PointCache:
     """`f(X, Y)` (1-D points → values (n, width)) with each point's values kept: `__call__`
     evaluates `f` only at the points not kept, each once; at most `capacity` points a generation
-    (None: CAPACITY; 0 keeps nothing and only counts). `evaluations` counts the calls of `f`, the points it was given and those asked for."""
+    (None: CAPACITY; 0 keeps nothing and only counts). `evaluations` counts the calls of `f`,
+    the points it was given and those asked for."""
 
     def __init__(self, f: Callable[[Array, Array], Array], width: int = 3,
                  capacity: int | None = None):

@@ -26,7 +26,7 @@ class Recorder:
 
     def bits(self):
         """Every point given, as one (n, 2) array of bits."""
-        return np.concatenate(self.given).view(np.uint64) if self.given else np.empty((0, 2), np.uint64)
+        return np.concatenate(self.given).view(np.uint64)
 
 
 def repeats(bits):
@@ -55,7 +55,8 @@ def test_each_point_once_while_kept_and_the_values_bit_for_bit(seed, pool, capac
         assert cache._new.n <= capacity and cache._old.n <= capacity
     given_bits = f.bits()
     asked_bits = np.concatenate(asked).view(np.uint64)
-    assert cache.evaluations == point_cache.Evaluations(len(f.given), len(given_bits), len(asked_bits))
+    counted = point_cache.Evaluations(len(f.given), len(given_bits), len(asked_bits))
+    assert cache.evaluations == counted
     for call in f.given:                              # never one point twice in a call
         assert repeats(call.view(np.uint64)) == 0
     if capacity >= pool:                              # all kept: each distinct point once
@@ -82,7 +83,7 @@ def islands(x, y):
 
 
 @pytest.mark.filterwarnings("ignore::qmesh.QmeshWarning")      # the repair's added vertices
-def test_a_mesh_asks_a_user_callable_for_each_point_once_and_is_the_same_without_the_cache(monkeypatch):
+def test_a_mesh_asks_a_callable_for_each_point_once_and_is_the_same_without_the_cache(monkeypatch):
     monkeypatch.setattr(point_cache, "CAPACITY", 1 << 22)     # the whole run's points kept
     runs = {}
     for cache in (True, False):
