@@ -95,18 +95,16 @@ def _right_angles(P, u, v, a, H):
 
 def split_points(st, h):
     """For each edge u→v of the half-edges h of the state `st` (all interior or all on the
-    boundary), the first
-    of a few candidate points whose split keeps the shapes (KEEP, FLOOR) and leaves the fewest
-    failing edges among those it makes and the sides of the triangles it splits, their means
-    recomputed (a split that mends one more edge with a sliver costs the minimum quality more
-    than the vertex a later split takes): the midpoint, the
-    quarter points, then for each opposite corner a (in its own triangle's metric adj Q̄_T)
-    the foot of its altitude and the middles of the spans where (u, p, a) or (p, v, a) has no
-    obtuse angle at p or a. A midpoint leaves an obtuse angle at a obtuse in one of the halves,
-    whose edges then fail in turn; a point in such a span mends it in one step.
-    A medium's (`st.reg`, the tags; `st.cut`, the twins less the interfaces): the shares from
-    beyond the sides as `st.cut` has them, and the halves of an interface edge judged side by
-    side."""
+    boundary), the first of a few candidate points whose split keeps the shapes (KEEP, FLOOR) and
+    leaves the fewest failing edges among those it makes and the sides of the triangles it splits,
+    their means recomputed (a split that mends one more edge with a sliver costs the minimum
+    quality more than the vertex a later split takes): the midpoint, the quarter points, then for
+    each opposite corner a (in its own triangle's metric adj Q̄_T) the foot of its altitude and the
+    middles of the spans where (u, p, a) or (p, v, a) has no obtuse angle at p or a. A midpoint
+    leaves an obtuse angle at a obtuse in one of the halves, whose edges then fail in turn; a point
+    in such a span mends it in one step. A medium's (`st.reg`, the tags; `st.cut`, the twins less
+    the interfaces): the shares from beyond the sides as `st.cut` has them, and the halves of an
+    interface edge judged side by side."""
     P, T, twin, cut, s, b, Qbar, reg = st.P, st.T, st.twin, st.cut, st.s, st.b, st.Qbar, st.reg
     k = len(h)
     t1, e1 = np.divmod(h, 3)
