@@ -148,8 +148,10 @@ class TensorField:
     """Q(x): a symmetric positive definite 2×2 conductivity at every point.
 
     Build it from a vectorised callable `TensorField(f)` (f(x, y) with x, y arrays of one shape →
-    (..., 2, 2), a function of each point alone; with `cache` (the default) f is asked for each
-    point once, its values kept, `point_cache.PointCache`), from texts or numbers
+    (..., 2, 2), a function of each point alone; with `cache=True` f is asked for each point once,
+    its values kept, `point_cache.PointCache`: worth it for a callable that costs well over a
+    microsecond a point, since the mesher asks for under a tenth of its points again and a
+    look-up costs more than a cheap formula), from texts or numbers
     (`from_expressions`, `principal`) or from a raster of cells (`from_raster`). The field is
     checked where it is evaluated: `field(P)`, `means` and `box_means` raise QmeshError naming the
     first point (in the caller's coordinates) where Q is not finite, not symmetric or not positive
@@ -174,7 +176,7 @@ class TensorField:
     evaluate)."""
 
     def __init__(self, f: Callable[..., ArrayLike], label: str | None = None, *,
-                 cache: bool = True):
+                 cache: bool = False):
         if not callable(f):
             raise QmeshError(f"TensorField takes a callable f(x, y) → (..., 2, 2), got {f!r:.80}")
         if label is not None and not isinstance(label, str):
@@ -185,7 +187,7 @@ class TensorField:
         self.label = label if label is not None else f"Q = {getattr(f, '__name__', type(f).__name__)}(x, y)"
         self.is_raster = False
         self.bounds = None
-        # each point evaluated once (`cache`): the mesher asks for some points more than once
+        # with `cache`, each point evaluated once; without, every point asked is still counted
         self._cache: PointCache | None = PointCache(
             functools.partial(self._callable_components, f, self.label),
             capacity=None if cache else 0)
@@ -310,8 +312,8 @@ class TensorField:
     @property
     def evaluations(self) -> Evaluations:
         """How often Q was evaluated at points since the field was made: the calls of its
-        callable or formula, the points they were given, and the points asked for (a callable's
-        points are kept, `point_cache.PointCache`: each is evaluated once). A raster's means
+        callable or formula, the points they were given, and the points asked for (the same
+        unless a callable's points are kept, `cache=True`). A raster's means
         and box means read its cells: zeros."""
         return Evaluations() if self._cache is None else self._cache.evaluations
 
