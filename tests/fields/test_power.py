@@ -13,7 +13,7 @@ P = np.array([[0.1, 0.2], [0.7, 0.4], [0.3, 0.9], [0.95, 0.05]])
 
 
 def fields(k1, ratio, angle):
-    """The same Q(x) four ways: a formula, a callable, a constant (at P[0]) and a raster."""
+    """Q(x) of each kind: a formula, the same formula as a callable, a constant and a raster."""
     formula = qmesh.TensorField.principal(f"{k1} * (1 + x)", f"{k1 / ratio} * (1 + y)",
                                           f"{angle} + 40 * x * y")
     return {"formula": formula,
