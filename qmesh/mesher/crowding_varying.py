@@ -6,7 +6,10 @@ an edge; a tensor field paid four such builds at 2e4 vertices (plasma: 139, 104 
 encroached subsegments in its first three rounds). This pass reaches, without a triangulation,
 the fixed point those rounds head for: interior points inside the diametral ellipse (the metric
 at its midpoint, as `conform.encroached` tests it) of a short subsegment are dropped; a subsegment
-whose ellipse holds another boundary point, or (longer than LONG·h) any point, is split at
+whose ellipse holds another boundary point (in the metrics of both: the rounds test the apex of
+a triangulation flipped in the local metric, and a boundary point far along a needle of the
+midpoint's metric, where it has turned, is not that apex; testing it alone split 7% more
+boundary points on plasma at 3e3), or (longer than LONG·h) any point, is split at
 `conform.split_points`' place and its new point pinned. On the side of Ω only (the side whose
 apex the rounds test), until no ellipse holds a point. The rounds that follow then usually build
 once and split in place (conform._split_in_place) what the local flips still leave encroached.
@@ -20,19 +23,16 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from qmesh.geometry.portable import eigvalsh2
 from qmesh.mesher import conform
 
 
-def _eig_min(H: np.ndarray) -> np.ndarray:
-    """Smallest eigenvalue of symmetric 2×2 matrices (n, 2, 2)."""
-    a, b, c = H[:, 0, 0], H[:, 0, 1], H[:, 1, 1]
-    return 0.5 * (a + c) - np.hypot(0.5 * (a - c), b)
-
-
-def _in_ellipses(P, a, b, ids, anisotropy, tree=None):
+def _in_ellipses(P, a, b, ids, anisotropy, tree=None, mutual=False):
     """Pairs (k, j): the point j (one of `ids`) on the left of a[k]→b[k] lies in its diametral
     ellipse, by `conform.encroached`'s test (the metric H at the midpoint, evaluated once per
-    subsegment) on the candidates of a k-d tree of P[ids] (`tree`, when given)."""
+    subsegment) on the candidates of a k-d tree of P[ids] (`tree`, when given). `mutual`: and
+    in the ellipse measured in the metric at j, which a point far along a needle of the
+    midpoint's metric, where the metric has turned, is not."""
     none = np.zeros(0, np.int64), np.zeros(0, np.int64)
     if not len(a) or not len(ids):
         return none
@@ -40,7 +40,7 @@ def _in_ellipses(P, a, b, ids, anisotropy, tree=None):
     E = P[b] - P[a]
     H = conform._metric_at(anisotropy, M)
     L2 = np.einsum("ki,kij,kj->k", E, H, E)
-    r = 0.5 * np.sqrt(L2 / np.clip(_eig_min(H), 1e-300, None)) * (1 + 1e-9)
+    r = 0.5 * np.sqrt(L2 / np.clip(eigvalsh2(H)[:, 0], 1e-300, None)) * (1 + 1e-9)
     r = np.where(np.isfinite(r), r, 0.0)
     tree = cKDTree(P[ids]) if tree is None else tree
     count = tree.query_ball_point(M, r, return_length=True)
@@ -56,6 +56,10 @@ def _in_ellipses(P, a, b, ids, anisotropy, tree=None):
     D = P[j] - M[k]
     depth = 0.5 * np.einsum("ki,kij,kj->k", D, H[k], D) - 0.125 * L2[k]      # as `encroached`
     enc = depth < -conform.ENCROACH_TOL * L2[k]
+    if mutual:
+        k, j, D = k[enc], j[enc], D[enc]
+        Hj = conform._metric_at(anisotropy, P[j])
+        enc = np.einsum("ki,kij,kj->k", D, Hj, D) < 0.25 * np.einsum("ki,kij,kj->k", E[k], Hj, E[k])
     return k[enc], j[enc]
 
 
@@ -84,8 +88,8 @@ def split_crowded(domain, P, edge_id, anisotropy, size, max_points):
         # stood last round were tested against every point then, and need only the new ones
         fresh = (a >= n_old) | (b >= n_old)
         new, old = np.flatnonzero(fresh), np.flatnonzero(~fresh)
-        k1, _ = _in_ellipses(P, a[new], b[new], bnd, anisotropy)
-        k2, _ = _in_ellipses(P, a[old], b[old], bnd[bnd >= n_old], anisotropy)
+        k1, _ = _in_ellipses(P, a[new], b[new], bnd, anisotropy, mutual=True)
+        k2, _ = _in_ellipses(P, a[old], b[old], bnd[bnd >= n_old], anisotropy, mutual=True)
         kb = np.concatenate([new[k1], old[k2]])
         ki, ji = _in_ellipses(P, a[new], b[new], inner, anisotropy, itree)
         live = alive[ji]
