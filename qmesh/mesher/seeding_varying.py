@@ -40,10 +40,10 @@ KEPT = 0.87           # a tensor field's first draw expects the merge to keep th
                       # lattices' count (0.66-0.89 on the fields benchmark at 2e4, above 1 for
                       # some at 2e3: a draw too many is drawn again)
 AIM = 0.985           # a field's later draw aims this far below n: its share kept drifts with h
-SHORT = 0.25          # a draw short of n by at most this share is kept: the insertions make up
-                      # the rest where the seams left room (another draw costs as much as this
-                      # one: most of the first triangulation of a field)
-OVER = 0.015          # a draw over n by at most this share is kept (thinned at random to n)
+SHORT = 0.04          # a field's draw short of n by at most this share is kept (one 22% short,
+                      # left for the insertions to fill, doubled the repair's vertices on fvca5
+                      # at 2e3 and lowered its mean quality)
+OVER = 0.015          # a field's draw over n by at most this share is kept (thinned at random)
 MAX_LATTICE = 2e7     # at most about this many lattice points before filtering
 LATTICE_CHUNK = 500_000   # lattice points made at once (bounds the memory)
 PAIR_CHUNK = 1_000_000    # candidate pairs tested at once (bounds the memory)
@@ -399,10 +399,10 @@ def initial_points(domain, anisotropy, n: int, rng) -> np.ndarray:
     """About n (never more) interior points: patch lattices in the local metric, merged by a
     maximal independent set that prefers each patch's core.
 
-    For a varying s the draws land within 3% of n. A tensor field (no s) keeps its first draw
-    when it is at most SHORT below n (the run's insertions fill the seams' room: a second draw
-    would double the cost of its first triangulation); its draws expect the merge to keep KEPT
-    of the lattices' count, then the share the last draw kept."""
+    For a varying s the draws land within 3% of n. A tensor field's draws (no s) land between
+    SHORT below and OVER above n: the first expects the merge to keep KEPT of the lattices'
+    count, a later one the share the last draw kept (each draw is most of the cost of a field's
+    first triangulation: one where KEPT holds, two for most fields, instead of two or three)."""
     n = int(n)
     if n < 1:
         return np.empty((0, 2))

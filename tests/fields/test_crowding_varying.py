@@ -46,13 +46,11 @@ def _start(domain, pieces, n_inner, rng):
 
 
 def _subsegments(domain, P, edge_id):
+    """Consecutive boundary points along each segment, ordered by their distance from its start."""
     A, B = domain.segment_ends
-    on = edge_id >= 0
-    t = np.zeros(len(P))
-    E = B - A
-    t[on] = np.einsum("ki,ki->k", P[on] - A[edge_id[on]], E[edge_id[on]]) / \
-        np.einsum("ki,ki->k", E, E)[edge_id[on]]
-    return conform._subsegments(domain, len(domain.seeds), edge_id, t)
+    s = np.maximum(edge_id, 0)
+    t = np.hypot(*(P - A[s]).T) / np.hypot(*(B - A)[s].T)
+    return conform._subsegments(domain, len(domain.seeds), edge_id, np.where(edge_id >= 0, t, 0.0))
 
 
 @settings(max_examples=25, deadline=None)
