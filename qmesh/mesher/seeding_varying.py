@@ -14,7 +14,8 @@ edges, so a lattice per patch is nearly optimal inside the patch:
    y-coordinates, binned by search reach);
 3. a maximal independent set of the conflict graph (Luby's rounds, vectorised) keeps every
    patch's core and fills the seams from whichever lattice fits;
-4. h comes from the metric area ∫√det ∇²s (Monte Carlo) and is rescaled from the count.
+4. h comes from the metric area ∫√det ∇²s (Monte Carlo) and is rescaled from the count; a
+   tensor field's first draw expects the seams to cost a share of it (`initial_points`).
 It uses only `domain.contains`, `domain.seeds` and the seeds' bounds.
 """
 
