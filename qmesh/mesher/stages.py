@@ -18,7 +18,7 @@ import numpy as np
 
 from qmesh.errors import QmeshError
 from qmesh.geometry.triangles import quadratic_form
-from qmesh.mesher import conform, seeding, seeding_varying, sizing
+from qmesh.mesher import conform, crowding_varying, seeding, seeding_varying, sizing
 from qmesh.mesher.adjust import boundary_layer, limit_moves, newton_step, shape_step
 from qmesh.mesher.boundary import hold_off_boundary, hold_out_of_ellipses, snap_to_boundary
 from qmesh.mesher.insert import insert, relocate_degree3
@@ -71,7 +71,12 @@ def _build(plan: Plan, rng):
         inner = lattice.points
     P = np.concatenate([seeds, bpts, inner])
     edge_id = np.concatenate([np.full(len(seeds), -1), bseg, np.full(len(inner), -1)]).astype(np.int64)
-    return conform.conforming_delaunay(domain, P, edge_id, anisotropy, h, plan.cap,
+    pinned = None
+    if not anisotropy.is_constant and not anisotropy.potential:   # settled before Qhull's build
+        settled = crowding_varying.split_crowded(domain, P, edge_id, anisotropy, h, plan.cap)
+        if settled is not None:
+            P, edge_id, pinned = settled
+    return conform.conforming_delaunay(domain, P, edge_id, anisotropy, h, plan.cap, pinned=pinned,
                                        target=target, rng=rng, lattice=lattice)
 
 
