@@ -15,6 +15,7 @@ from qmesh import checks
 from qmesh.conductivity.field import TensorField, _check_components
 from qmesh.conductivity.means import full_tensors
 from qmesh.errors import QmeshError
+from qmesh.geometry import portable
 
 Array = NDArray[np.float64]
 
@@ -34,7 +35,7 @@ def power(field: TensorField, p: float) -> TensorField:
     if raster is not None:
         k1, k2, angle = principal(raster.q)
         return TensorField.from_raster(raster.x + raster.origin[0], raster.y + raster.origin[1],
-                                       k1 ** p, k2 ** p, angle)
+                                       portable.power(k1, p), portable.power(k2, p), angle)
     source, constant = field._components, field._constant
 
     def components(X: Array, Y: Array) -> Array:
@@ -50,13 +51,14 @@ def principal(q: Array) -> tuple[Array, Array, Array]:
     values, k1 along the direction at `angle` counter-clockwise from the x axis."""
     mean, half = 0.5 * (q[..., 0] + q[..., 2]), 0.5 * (q[..., 0] - q[..., 2])
     radius = np.hypot(half, q[..., 1])
-    angle = 0.5 * np.degrees(np.arctan2(q[..., 1], half))
+    angle = 0.5 * np.degrees(portable.arctan2(q[..., 1], half))
     return mean + radius, mean - radius, angle
 
 
 def powered_components(q: Array, p: float) -> Array:
-    """Components (n, 3) of SPD tensors Q → those of Q^p (eigen-decomposed all at once)."""
-    k, V = np.linalg.eigh(full_tensors(q))                     # ascending k, columns of V
+    """Components (n, 3) of SPD tensors Q → those of Q^p (eigen-decomposed all at once, in
+    closed form: the same bits on every CPU)."""
+    k, V = portable.eigh2(full_tensors(q))                     # ascending k, columns of V
     with np.errstate(over="ignore", invalid="ignore"):           # the caller refuses inf
-        M = (V * k[:, None, :] ** p) @ np.swapaxes(V, 1, 2)
+        M = portable.matmul2(V * portable.power(k, p)[:, None, :], np.swapaxes(V, 1, 2))
     return np.column_stack([M[:, 0, 0], 0.5 * (M[:, 0, 1] + M[:, 1, 0]), M[:, 1, 1]])

@@ -101,6 +101,8 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
         if len(st.h) < fewest:
             fewest, since = len(st.h), 0
         since += 1
+        if len(st.h) and since > STALL and 2 * (len(st.P) - mesh.n_vertices) > limit - mesh.n_vertices:
+            _refuse_growth(given, st, mesh.n_vertices, limit, stalled=True)
         if not len(st.h) or rounds == max_rounds or since > STALL:
             break
         done = mending_flips(st, st.h[~st.seen.edges[st.h]], refused=st.seen.edges)
@@ -169,8 +171,9 @@ def growth_limit(n: int) -> int:
     return min(max(GROWTH * n, n + SPARE), max(n, memory))
 
 
-def _refuse_growth(field, st: RepairState, start: int, limit: int) -> None:
-    """QmeshError naming what drove the repair past `limit`: of the triangles beside failing
+def _refuse_growth(field, st: RepairState, start: int, limit: int, stalled: bool = False) -> None:
+    """QmeshError naming what drove the repair past `limit` (or, `stalled`, past half the way to
+    it without progress for STALL rounds): of the triangles beside failing
     edges, the one whose mean has the largest eigenvalue (a mean's small eigenvalue is lost to
     round-off at such ratios, its large one is not), and in it the point of a barycentric grid
     where Q itself is the most anisotropic (its raster cell, for a raster)."""
@@ -189,9 +192,11 @@ def _refuse_growth(field, st: RepairState, start: int, limit: int) -> None:
     worst = int(np.argmax(ratio))
     place = getattr(src, "place", None)
     where = place(X[worst]) if callable(place) else f"({X[worst][0]:.6g}, {X[worst][1]:.6g})"
+    how = (f"stopped making progress at {len(P)} vertices (from {start}; the limit is {limit})"
+           if stalled else f"took the mesh past {limit} vertices (from {start})")
     raise QmeshError(
-        f"keeping every q_ij >= 0 with the element means took the mesh past {limit} vertices "
-        f"(from {start}) with {len(h)} edges still failing, the worst beside {where}, where Q is "
+        f"keeping every q_ij >= 0 with the element means {how} with {len(h)} edges still "
+        f"failing, the worst beside {where}, where Q is "
         f"{float(ratio[worst]):.3g} : 1. A jump to an anisotropy that strong needs ever smaller "
         "triangles along it: bound or smooth Q there")
 

@@ -44,6 +44,7 @@ AIM = 0.985           # a field's later draw aims this far below n: its share ke
 SHORT = 0.04          # a field's draw short of n by at most this share is kept (one 22% short,
                       # left for the insertions to fill, doubled the repair's vertices on fvca5
                       # at 2e3 and lowered its mean quality)
+RESCALE = 2.0         # a field's later draw changes h by at most this factor
 OVER = 0.015          # a field's draw over n by at most this share is kept (thinned at random)
 MAX_LATTICE = 2e7     # at most about this many lattice points before filtering
 LATTICE_CHUNK = 500_000   # lattice points made at once (bounds the memory)
@@ -428,8 +429,11 @@ def initial_points(domain, anisotropy, n: int, rng) -> np.ndarray:
         if low <= len(P) <= high:
             break
         if field:    # the seams lose a share of the count that changes slowly with h (the
-            # patches are PATCH·h wide): the next h keeps this draw's share, aimed AIM low
-            h *= np.sqrt(max(len(P), 1) / (AIM * n))
+            # patches are PATCH·h wide): the next h keeps this draw's share, aimed AIM low, by
+            # at most a factor RESCALE (a raster cell of 1e14 : 1 holds nearly all the metric
+            # area and the merge kept 4 of 182 points: h / 6.7 made 50 000 lattice points
+            # whose conflicts took 19 s, for a field the repair then refuses)
+            h *= np.clip(np.sqrt(max(len(P), 1) / (AIM * n)), 1.0 / RESCALE, RESCALE)
             continue
         # the count is (area_m − band·h) / (cell·h²): the margin and the seams lose a band whose
         # metric length this pass measures; solve cell·n·h² + band·h = area_m for the next h
