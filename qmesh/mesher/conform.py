@@ -303,20 +303,35 @@ def _in_ellipses_since(X, a, b, first, n_old, anisotropy, P):
     recent = added[added >= n_old]
     fresh = (a >= n_old) | (b >= n_old)
     old, new = np.flatnonzero(~fresh), np.flatnonzero(fresh)
-    k_old, j_old = _in_ellipses(X, a[old], b[old], cKDTree(X[recent]) if len(recent) else None,
-                                recent, anisotropy, P)
-    k_new, j_new = _in_ellipses(X, a[new], b[new], tree0, bnd0, anisotropy, P)
-    k_add, j_add = _in_ellipses(X, a[new], b[new], cKDTree(X[added]) if len(added) else None,
-                                added, anisotropy, P)
-    return (np.concatenate([old[k_old], new[k_new], new[k_add]]),
-            np.concatenate([j_old, j_new, j_add]))
+    k_old, _ = _in_ellipses(X, a[old], b[old], cKDTree(X[recent]) if len(recent) else None,
+                            recent, anisotropy, P)
+    k_new, _ = _in_ellipses(X, a[new], b[new], tree0, bnd0, anisotropy, P)
+    k_add, _ = _in_ellipses(X, a[new], b[new], cKDTree(X[added]) if len(added) else None,
+                            added, anisotropy, P)
+    return np.concatenate([old[k_old], new[k_new], new[k_add]])
 
 
-def _one_encroacher(n: int, k: np.ndarray, j: np.ndarray) -> np.ndarray:
-    """For each of n subsegments, the smallest j among the pairs (k, j) that name it, or -1."""
-    out = np.full(n, np.iinfo(np.int64).max, np.int64)
-    np.minimum.at(out, k, j)
-    return np.where(out == np.iinfo(np.int64).max, -1, out)
+def _mirrors_of_boundary_points(domain, P, X, a, b, edge_id, sharp, anisotropy, new):
+    """`new`, the split points of the subsegments a→b, with the mirror (corners.mirrored) of the
+    first boundary point (lowest index) in the ellipse of each subsegment on a side of a sharp
+    corner: all boundary points are tested for those, so the choice does not depend on which
+    of them a round's test looked at (X = P L, metric coordinates)."""
+    from scipy.spatial import cKDTree
+    n_seeds = len(domain.seeds)
+    seg = domain.segments[np.where(a < n_seeds, a, edge_id[a])]
+    near = np.flatnonzero(sharp[seg[:, 0]] | sharp[seg[:, 1]])
+    if not len(near):
+        return new
+    bnd = np.flatnonzero((np.arange(len(P)) < n_seeds) | (edge_id >= 0))
+    k, j = _in_ellipses(X, a[near], b[near], cKDTree(X[bnd]), bnd, anisotropy, P)
+    first = np.full(len(near), len(P), np.int64)
+    np.minimum.at(first, k, j)
+    hit = first < len(P)
+    k = near[hit]
+    out = np.array(new)
+    out[k] = corners.mirrored(P, a[k], b[k], first[hit], edge_id, np.arange(len(P)) < n_seeds,
+                              new[k], domain, sharp, anisotropy)
+    return out
 
 
 def _split_crowded(domain, P, edge_id, pinned, place, anisotropy, size, max_points):
@@ -355,9 +370,9 @@ def _split_crowded(domain, P, edge_id, pinned, place, anisotropy, size, max_poin
         if first is None:
             bnd = np.flatnonzero((np.arange(len(P)) < n_seeds) | on)
             first = (bnd, cKDTree(X[bnd]), len(P))
-            kb, jb = _in_ellipses(X, a, b, first[1], bnd, anisotropy, P)
+            kb, _ = _in_ellipses(X, a, b, first[1], bnd, anisotropy, P)
         else:
-            kb, jb = _in_ellipses_since(X, a, b, first, n_old, anisotropy, P)
+            kb = _in_ellipses_since(X, a, b, first, n_old, anisotropy, P)
         # interior points: every long subsegment, and the new ones (short ones were cleared)
         look = np.flatnonzero(~short | (a >= n_old) | (b >= n_old))
         ki, ji = _in_ellipses(X, a[look], b[look], itree, inner, anisotropy, P)
@@ -371,16 +386,13 @@ def _split_crowded(domain, P, edge_id, pinned, place, anisotropy, size, max_poin
         if not len(drop) and not split.any():
             break
         alive[drop] = False
-        by = _one_encroacher(len(a), kb, jb)          # a boundary point in each ellipse, or -1
-        a, b, by = a[split], b[split], by[split]
+        a, b = a[split], b[split]
         n = int(alive.sum())
         if max_points is not None and n + len(a) > max_points:
             return None
         new = split_points(P[a], P[b], a < n_seeds, b < n_seeds, anisotropy)
-        if sharp.any() and (by >= 0).any():
-            s = np.flatnonzero(by >= 0)
-            new[s] = corners.mirrored(P, a[s], b[s], by[s], edge_id, np.arange(len(P)) < n_seeds,
-                                      new[s], domain, sharp, anisotropy)
+        if sharp.any():
+            new = _mirrors_of_boundary_points(domain, P, X, a, b, edge_id, sharp, anisotropy, new)
         n_old = len(P)
         P = np.concatenate([P, new])
         X = np.concatenate([X, times2(new, L)])
