@@ -330,7 +330,7 @@ def _mirrors_of_boundary_points(domain, P, X, a, b, edge_id, sharp, anisotropy, 
     k = near[hit]
     out = np.array(new)
     out[k] = corners.mirrored(P, a[k], b[k], first[hit], edge_id, np.arange(len(P)) < n_seeds,
-                              new[k], domain, sharp, anisotropy)
+                              new[k], domain, sharp, anisotropy)[0]
     return out
 
 
@@ -509,7 +509,7 @@ def _conforming(domain, P, edge_id, anisotropy, size, max_points, pinned, place,
         if sharp.any() and mirror.any():
             new[mirror] = corners.mirrored(P, a[mirror], b[mirror], by[mirror], edge_id,
                                            np.arange(n) < n_seeds, new[mirror], domain, sharp,
-                                           anisotropy)
+                                           anisotropy)[0]
         new_seg = np.where(a < n_seeds, a, edge_id[a])        # seed k starts segment k
         keep = np.ones(n, bool)
         keep[drop] = False
@@ -669,11 +669,11 @@ def restore_conformity(P, T, twin, edge_id, fixed, pinned, anisotropy,
             raise _too_many(n + len(hb), max_points)
         new = split_points(P[a], P[b], fixed[a], fixed[b], anisotropy)
         if sharp is not None and sharp.any():
-            by = fixed[c] | (edge_id[c] >= 0)            # split for a boundary point: mirrored
-            new[by] = corners.mirrored(P, a[by], b[by], c[by], edge_id, fixed, new[by], domain,
-                                       sharp, anisotropy)
+            by = np.flatnonzero(fixed[c] | (edge_id[c] >= 0))     # split for a boundary point
+            new[by], made = corners.mirrored(P, a[by], b[by], c[by], edge_id, fixed, new[by],
+                                             domain, sharp, anisotropy)
             pinned = pinned.copy()
-            pinned[c[by]] = True                          # the point mirrored stays matched
+            pinned[c[by[made]]] = True                    # the point mirrored stays matched
         T, twin = topology.split_boundary_edges(T, twin, hb, n + np.arange(len(hb)))
         seg = corner[a]
         P = np.concatenate([P, new])

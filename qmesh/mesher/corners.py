@@ -59,7 +59,8 @@ def corner_cosines(domain, anisotropy) -> np.ndarray:
 
 def corner_angles(domain, anisotropy) -> np.ndarray:
     """The metric angle (degrees) of the domain at every seed (corner_cosines)."""
-    return np.degrees(np.arccos(np.clip(corner_cosines(domain, anisotropy), -1.0, 1.0)))   # measures only
+    cos = np.clip(corner_cosines(domain, anisotropy), -1.0, 1.0)
+    return np.degrees(np.arccos(cos))                    # measures only
 
 
 def sharp_seeds(domain, anisotropy) -> np.ndarray:
@@ -74,14 +75,16 @@ def sharp_seeds(domain, anisotropy) -> np.ndarray:
     return convex & (corner_cosines(domain, anisotropy) > COS_SHARP)
 
 
-def mirrored(P, a, b, c, edge_id, is_seed, new, domain, sharp, anisotropy) -> np.ndarray:
+def mirrored(P, a, b, c, edge_id, is_seed, new, domain, sharp, anisotropy):
     """`new` (the split points of the subsegments a[k]→b[k], encroached by the points c[k]) with
     the mirror of c in place of the ordinary point where c is a boundary point on the other side
     of a sharp corner (`sharp`: sharp_seeds) that a→b's segment shares: the point of a→b at c's
-    metric distance from the apex, measured with the metric at the apex. `edge_id[i]`: the
-    segment of a boundary point i that is not a seed (`is_seed[i]`: seed i starts segment i)."""
+    metric distance from the apex, measured with the metric at the apex; and the mask of the
+    mirrors made. `edge_id[i]`: the segment of a boundary point i that is not a seed
+    (`is_seed[i]`: seed i starts segment i)."""
+    made = np.zeros(len(a), bool)
     if not len(a) or not sharp.any():
-        return new
+        return new, made
     seg = domain.segments
     into = _into(domain)
     seg_ab = np.where(is_seed[a], a, edge_id[a])                 # a→b runs along its segment
@@ -100,7 +103,7 @@ def mirrored(P, a, b, c, edge_id, is_seed, new, domain, sharp, anisotropy) -> np
         apex = np.where(shares, o, apex)
     k = np.flatnonzero(apex >= 0)
     if not len(k):
-        return new
+        return new, made
     O = domain.seeds[apex[k]]
     far = np.where(seg[seg_ab[k], 0] == apex[k], seg[seg_ab[k], 1], seg[seg_ab[k], 0])
     U = domain.seeds[far] - O
@@ -112,7 +115,8 @@ def mirrored(P, a, b, c, edge_id, is_seed, new, domain, sharp, anisotropy) -> np
     out = np.array(new, dtype=float)
     k = k[inside]
     out[k] = O[inside] + (rc[inside] / norm(U)[inside])[:, None] * U[inside]
-    return out
+    made[k] = True
+    return out, made
 
 
 def matched_boundary_points(domain, anisotropy, points: np.ndarray, seg: np.ndarray):

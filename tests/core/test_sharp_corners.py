@@ -115,7 +115,8 @@ def test_matched_boundary_points_give_both_sides_the_same_metric_distances():
     # the sides split uniformly at two different spacings, as seeding.boundary_points does
     near = d.seeds[(apex - 1) % 4]
     t1, t2 = np.linspace(0, 1, 31)[1:-1], np.linspace(0, 1, 9)[1:-1]
-    points = np.concatenate([P[0] + t1[:, None] * (P[1] - P[0]), near + t2[:, None] * (P[0] - near)])
+    points = np.concatenate([P[0] + t1[:, None] * (P[1] - P[0]),
+                             near + t2[:, None] * (P[0] - near)])
     seg = np.concatenate([np.full(len(t1), apex), np.full(len(t2), (apex - 1) % 4)])
     out, out_seg = matched_boundary_points(d, A, points, seg)
     H = np.asarray(A.H, float)
@@ -137,14 +138,16 @@ def test_a_subsegment_encroached_across_a_sharp_corner_is_split_at_the_encroache
     edge_id = np.array([-1, -1, -1, -1, other])
     is_seed = np.arange(5) < 4
     mid = 0.5 * (X[apex] + X[(apex + 1) % 4])
-    new = mirrored(X, np.array([apex]), np.array([(apex + 1) % 4]), np.array([4]), edge_id, is_seed,
-                   mid[None], d, sharp_seeds(d, A), A)
+    new, made = mirrored(X, np.array([apex]), np.array([(apex + 1) % 4]), np.array([4]), edge_id,
+                         is_seed, mid[None], d, sharp_seeds(d, A), A)
+    assert made.tolist() == [True]
     H = np.asarray(A.H, float)
     dist = lambda v: np.sqrt(v @ H @ v)                                    # noqa: E731
     assert np.isclose(dist(new[0] - X[apex]), dist(c - X[apex]), rtol=1e-12)
     u, v = new[0] - X[apex], X[(apex + 1) % 4] - X[apex]
     assert abs(u[0] * v[1] - u[1] * v[0]) <= 1e-12 * (u @ u + v @ v)      # on the long side
     # a point that is not across a sharp corner leaves the ordinary split
-    same = mirrored(X, np.array([apex]), np.array([(apex + 1) % 4]), np.array([(apex + 2) % 4]),
-                    edge_id, is_seed, mid[None], d, sharp_seeds(d, A), A)
-    assert np.array_equal(same, mid[None])
+    same, made = mirrored(X, np.array([apex]), np.array([(apex + 1) % 4]),
+                          np.array([(apex + 2) % 4]), edge_id, is_seed, mid[None], d,
+                          sharp_seeds(d, A), A)
+    assert np.array_equal(same, mid[None]) and made.tolist() == [False]
