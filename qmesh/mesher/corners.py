@@ -11,10 +11,14 @@ each neighbouring subsegment under at most 90° + θ/2 − α with α ≥ θ/2);
 chain of isosceles trapezoids, each cyclic (q_ij = 0 on its diagonal, ≥ 0 on its other edges)
 — the concentric shells of Ruppert-style refinement, laid across the corner.
 
-So a subsegment encroached by a boundary point c on the other side of a sharp corner is split
-at c's own metric distance from the apex (its *mirror*), not at its midpoint: the one split
-matches c and ends the exchange. Corners of SHARP degrees or more in the metric keep the
-ordinary splits (the meshes of domains without such corners are unchanged).
+So the run starts from boundary points laid at the same distances on both sides of every sharp
+corner (matched_boundary_points), and a subsegment encroached by a boundary point c on the other
+side of a sharp corner is split at c's own metric distance from the apex (its *mirror*), not at
+its midpoint: the one split matches c and ends the exchange. A mirror within MARGIN of an end of
+its subsegment is not made (the trapezoid it leaves would be short against its width, and
+round-off could tip its q_ij = 0 diagonal below zero): the ordinary split halves towards it.
+Only for a constant Q, where the metric is affine and a mirror exact; corners of SHARP degrees
+or more keep the ordinary splits (the meshes of domains without such corners are unchanged).
 """
 
 from __future__ import annotations
