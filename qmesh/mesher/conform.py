@@ -209,7 +209,8 @@ def _canonical_order(T: np.ndarray, twin: np.ndarray, rows: np.ndarray):
     del Tr
     n = int(max(c.max() for c in cols)) + 1 if m else 0
     if n * n * n < 2 ** 63:        # one int64 key per triangle: a third of lexsort's time, same order
-        order = np.argsort((cols[0] * n + cols[1]) * n + cols[2], kind="stable")
+        # (distinct triangles, distinct keys: NumPy's default sort gives the stable order, faster)
+        order = np.argsort((cols[0] * n + cols[1]) * n + cols[2])
     else:
         order = np.lexsort((cols[2], cols[1], cols[0]))
     out = np.empty((m, 3), np.int64)
@@ -324,7 +325,7 @@ def _in_ellipses_since(X, a, b, first, n_old, anisotropy, P):
     return np.concatenate([old[k_old], new[k_new], new[k_add]])
 
 
-def _split_crowded(domain, P, edge_id, pinned, place, anisotropy, size, max_points):
+def _split_crowded(domain, P, edge_id, pinned, place, anisotropy, size, max_points, deep=None):
     """Constant Q, before a Qhull build: subsegments whose diametral ellipse holds another
     boundary point (or, longer than LONG·h, any point) on the side of Ω split, and the free
     interior points in the ellipse of a shorter one dropped, until no ellipse holds a point.
@@ -336,7 +337,10 @@ def _split_crowded(domain, P, edge_id, pinned, place, anisotropy, size, max_poin
     the opposite side's subsegments in turn, one Qhull build per step before. The points split
     in for another boundary point are pinned, as the rounds pin them. None when the splits
     would pass `max_points` (a corner too sharp for the run): the rounds then find the cause
-    (round-off crowding at the corner, or too many points) as they did."""
+    (round-off crowding at the corner, or too many points) as they did.
+    `deep` (mask, reach): points farther than `reach` (metric) from every segment; when every
+    subsegment's disc is narrower, they are left out of the interior points' k-d tree (its
+    build was most of this function's time at 1e6 vertices), which cannot change a result."""
     from scipy.spatial import cKDTree
     n_seeds = len(domain.seeds)
     A, Bend = domain.segment_ends
@@ -344,7 +348,7 @@ def _split_crowded(domain, P, edge_id, pinned, place, anisotropy, size, max_poin
     L = cholesky2(anisotropy.H)
     X = times2(P, L)
     inner = np.flatnonzero((np.arange(len(P)) >= n_seeds) & (edge_id < 0))
-    itree = cKDTree(X[inner]) if len(inner) else None
+    itree = None
     alive = np.ones(len(P), bool)
     n_old = len(P)           # subsegments with an end at or past n_old are new
     first = None             # the boundary points of the first round and their k-d tree
@@ -356,7 +360,10 @@ def _split_crowded(domain, P, edge_id, pinned, place, anisotropy, size, max_poin
         a, b = _subsegments(domain, n_seeds, edge_id, t)
         L2 = metric_lengths2(P[a], P[b], anisotropy)
         short = L2 <= (LONG * size) ** 2
-        if first is None:
+        if first is None:          # subsegments only get shorter: the first round's are the longest
+            if deep is not None and len(L2) and 0.5 * np.sqrt(L2.max()) < (1 - 1e-6) * deep[1]:
+                inner = inner[~deep[0][inner]]
+            itree = cKDTree(X[inner]) if len(inner) else None
             bnd = np.flatnonzero((np.arange(len(P)) < n_seeds) | on)
             first = (bnd, cKDTree(X[bnd]), len(P))
             kb, _ = _in_ellipses(X, a, b, first[1], bnd, anisotropy, P)
@@ -440,8 +447,10 @@ def _conforming(domain, P, edge_id, anisotropy, size, max_points, pinned, place,
     presplit = anisotropy.is_constant
     kept = None          # a metric without s: the last round's triangulation, its splits made
     for _ in range(MAX_ROUNDS):
+        deep = None if lattice is None else ((place >= 0) & lattice[1][np.maximum(place, 0)],
+                                             lattice_delaunay.DEEP * lattice[0].h)
         crowded = _split_crowded(domain, P, edge_id, pinned, place, anisotropy, size,
-                                 max_points) if presplit else None
+                                 max_points, deep) if presplit else None
         if crowded is None:
             presplit = False          # past the run's points: the rounds name the cause
         else:
