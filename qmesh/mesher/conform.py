@@ -209,8 +209,7 @@ def _canonical_order(T: np.ndarray, twin: np.ndarray, rows: np.ndarray):
     del Tr
     n = int(max(c.max() for c in cols)) + 1 if m else 0
     if n * n * n < 2 ** 63:        # one int64 key per triangle: a third of lexsort's time, same order
-        # (distinct triangles, distinct keys: NumPy's default sort gives the stable order, faster)
-        order = np.argsort((cols[0] * n + cols[1]) * n + cols[2])
+        order = np.argsort((cols[0] * n + cols[1]) * n + cols[2], kind="stable")
     else:
         order = np.lexsort((cols[2], cols[1], cols[0]))
     out = np.empty((m, 3), np.int64)
