@@ -17,7 +17,6 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from qmesh import __version__
 from qmesh.io.metadata import ATTRIBUTE
 
 VTK_TRIANGLE, VTK_LINE = 5, 3
@@ -43,7 +42,7 @@ def write(path: Path, points: np.ndarray, triangles: np.ndarray, edges: np.ndarr
         f.write(b'<?xml version="1.0"?>\n')
         f.write(f'<VTKFile type="UnstructuredGrid" version="0.1" byte_order="{order}" '
                 f'{ATTRIBUTE}={quoteattr(meta)}>\n'.encode("ascii"))
-        f.write(f"<!--This file was created by qmesh v{__version__}-->\n".encode("ascii"))
+        f.write(b"<!--This file was created by qmesh-->\n")
         f.write(f"<UnstructuredGrid>{field_data}\n".encode("utf-8"))
         f.write(f'<Piece NumberOfPoints="{len(points)}" NumberOfCells="{M + k}">\n'.encode("ascii"))
         _section(f, "Points", {"Points": points})
