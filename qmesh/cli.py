@@ -256,7 +256,7 @@ def cmd_mesh(args) -> int:
 
 
 def _summary_measures(mesh, given):
-    """The metric quality of every triangle and the shares of q_ij ≥ 0, for `qmesh mesh`'s line."""
+    """Every triangle's metric quality and the shares of q_ij ≥ 0: `qmesh mesh`'s summary."""
     from qmesh import measure
     return measure.quality(mesh, given), measure.q_nonnegative_fractions(mesh, given)
 

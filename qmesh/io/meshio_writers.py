@@ -1,12 +1,13 @@
-"""Writers that lay a Payload out as meshio cells and let meshio write the file.
+"""Writers that lay a Payload out as meshio cells and let meshio write the file (a large .vtu: vtu_raw).
 
 - `.vtu`, `.vtk`: triangles then one line block (int32 indices; a `.vtu` zlib-compressed up
   to ZLIB_MAX vertices, uncompressed beyond, and then in meshio's layout by `vtu_raw`); integer
   cell data "boundary_tag" (lines: the tag, triangles 0), "region" (triangles: the region tag,
-  lines 0) and "gmsh:physical" (both in gmsh numbering, `Payload.cell_tags`); `.vtu` also gets a `<FieldData>` block {identifier:
-  [tag, dim]}, which meshio reads as `field_data`, so that scikit-fem's `MeshTri.load` names
-  `boundaries` and `subdomains` by it; the element means (`Mesh.conductivity`), when the mesh has
-  them, as float cell data "Q11" "Q12" "Q22" (triangles: Q̄_T; lines 0);
+  lines 0) and "gmsh:physical" (both in gmsh numbering, `Payload.cell_tags`); `.vtu` also gets
+  a `<FieldData>` block {identifier: [tag, dim]}, which meshio reads as `field_data`, so that
+  scikit-fem's `MeshTri.load` names `boundaries` and `subdomains` by it; the element means
+  (`Mesh.conductivity`), when the mesh has them, as float cell data "Q11" "Q12" "Q22"
+  (triangles: Q̄_T; lines 0);
 - medit `.mesh`: 2-D points; references: vertices the fixed flag, edges the boundary tag,
   triangles the region tag;
 - `.obj`: triangles only;
@@ -32,8 +33,8 @@ from qmesh.io.boundary import filler
 
 VERTEX_DATA = "qmesh:vertex"
 ZLIB_MAX = 200_000      # .vtu of more vertices are written uncompressed: beyond, zlib's time is a
-                        # large share of a `qmesh mesh` run (at 1e6 vertices: 49 MB compressed, 155 MB not),
-                        # by qmesh itself (vtu_raw.py: meshio's text-mode writes took as long again)
+                        # large share of a `qmesh mesh` run (at 1e6 vertices: 49 MB compressed, 155 MB not)
+                        # and by qmesh itself (vtu_raw.py: about half meshio's time, in one pass)
 RAW_MAX = 2**32 // 24   # vtu_raw's byte counts are UInt32, as meshio's: points (N, 3) float64 fit
 
 

@@ -208,7 +208,8 @@ def _canonical_order(T: np.ndarray, twin: np.ndarray, rows: np.ndarray):
     # pairs took several times as long at 1e6 vertices)
     c = [Tr[:, j] for j in range(3)]
     first, second = r == 0, r == 1
-    cols = [np.where(first, c[j], np.where(second, c[(j + 1) % 3], c[(j + 2) % 3])) for j in range(3)]
+    cols = [np.where(first, c[j], np.where(second, c[(j + 1) % 3], c[(j + 2) % 3]))
+            for j in range(3)]
     del Tr, c
     n = int(max(c.max() for c in cols)) + 1 if m else 0
     if n * n * n < 2 ** 63:        # one int64 key per triangle: a third of lexsort's time, same order

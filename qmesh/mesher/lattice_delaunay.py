@@ -119,7 +119,7 @@ def _deep_triangles(lattice, place: np.ndarray, deep: np.ndarray) -> tuple[np.nd
                          half(up_id, 1)])[is_down]]).ravel()
     if det2(lattice.frame) < 0:       # the frame maps the domain reversed: (a, c, b)
         T = T[:, [0, 2, 1]]
-        swap = np.array([2, 1, 0])                 # edge e of (a, b, c) is edge 2 − e of (a, c, b)
+        swap = np.array([2, 1, 0])          # edge e of (a, b, c) is edge 2 − e of (a, c, b)
         twin = twin.reshape(-1, 3)[:, ::-1].ravel()
         twin = np.where(twin >= 0, twin - twin % 3 + swap[twin % 3], -1)
     return T, twin

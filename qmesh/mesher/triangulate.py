@@ -176,7 +176,8 @@ def first_triangulation(P: np.ndarray, anisotropy, boundary: np.ndarray | None =
     if T is None:
         perturbed = np.ones(len(P), bool) if boundary is None else np.asarray(boundary, bool)
         L = _mean_factor(P, anisotropy)
-        built = None if closed_form is None else closed_form(lambda among: _perturbed_hull(P, L, perturbed, among))
+        built = None if closed_form is None else closed_form(
+            lambda among: _perturbed_hull(P, L, perturbed, among))
         if built is None:
             T = _perturbed_hull(P, L, perturbed)
         else:

@@ -165,7 +165,8 @@ def test_large_vtu_is_meshio_uncompressed_layout_byte_for_byte(tmp_path, delauna
     data = dict(point_data={"u": np.arange(n, dtype=np.float32), "grad": np.ones((n, 2))},
                 cell_data={"k": np.arange(m), "flag": np.ones(m, bool)})
     real = meshio.vtu.write
-    monkeypatch.setattr(meshio.vtu, "write", lambda f, mesh, compression: real(f, mesh, compression=None))
+    monkeypatch.setattr(meshio.vtu, "write",
+                        lambda f, mesh, compression: real(f, mesh, compression=None))
     monkeypatch.setattr(meshio_writers, "ZLIB_MAX", 10 * n)          # meshio, uncompressed
     io.write(tmp_path / "meshio.vtu", delaunay_mesh, anisotropy=chapter_anisotropy, **data)
     monkeypatch.setattr(meshio.vtu, "write", None)                   # not called any more
