@@ -1,4 +1,5 @@
-"""Writers that lay a Payload out as meshio cells and let meshio write the file (a large .vtu: vtu_raw).
+"""Writers that lay a Payload out as meshio cells and let meshio write the file (a large
+.vtu: vtu_raw.py).
 
 - `.vtu`, `.vtk`: triangles then one line block (int32 indices; a `.vtu` zlib-compressed up
   to ZLIB_MAX vertices, uncompressed beyond, and then in meshio's layout by `vtu_raw`); integer
