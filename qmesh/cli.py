@@ -161,9 +161,7 @@ def _advance(bar, step) -> None:
 
 
 def cmd_mesh(args) -> int:
-    from concurrent.futures import ThreadPoolExecutor
-
-    from qmesh import io
+    from qmesh import io, measure
     from qmesh.conductivity.anisotropy import Anisotropy
     from qmesh.conductivity.field import TensorField
     from qmesh.domain.domain import Disk
@@ -214,16 +212,13 @@ def cmd_mesh(args) -> int:
         # one Q, or one per region, as JSON; with a field anywhere, the element means alone (a
         # field has no stored form; the file keeps the means, which the mesh carries)
         stored = None if any(isinstance(a, TensorField) for a in held) else anisotropy
-        field = isinstance(anisotropy, TensorField)      # measured and stored by its element means
-        given = None if field else anisotropy
-        # the summary's measures on a second thread while the file is written (NumPy lets go
-        # of the GIL in both; at 1e6 vertices each takes about a second)
-        with ThreadPoolExecutor(max_workers=1) as beside:
-            measured = beside.submit(_summary_measures, mesh, given)
-            io.write(out, mesh, anisotropy=stored)
+        io.write(out, mesh, anisotropy=stored)
     last = steps[-1]
+    field = isinstance(anisotropy, TensorField)      # measured and stored by its element means
+    given = None if field else anisotropy
+    q = measure.quality(mesh, given)
     # with no interior vertex there is no Dirichlet matrix whose signs q_ij would matter: n/a
-    q, shares = measured.result()
+    shares = measure.q_nonnegative_fractions(mesh, given)
     summary = {
         "output": str(out),
         "n_vertices": mesh.n_vertices,
@@ -253,12 +248,6 @@ def cmd_mesh(args) -> int:
         elif not args.quiet:           # a thin domain, a medium's or a field's added vertices
             print(f"qmesh: warning: {w.message}", file=sys.stderr)
     return 0
-
-
-def _summary_measures(mesh, given):
-    """Every triangle's metric quality and the shares of q_ij ≥ 0: `qmesh mesh`'s summary."""
-    from qmesh import measure
-    return measure.quality(mesh, given), measure.q_nonnegative_fractions(mesh, given)
 
 
 def _percent(share: float | None) -> str:

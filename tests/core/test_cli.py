@@ -4,7 +4,6 @@ import json
 import shutil
 import subprocess
 import sys
-import threading
 import types
 from pathlib import Path
 
@@ -31,32 +30,6 @@ def test_mesh_writes_a_readable_file_and_a_summary(tmp_path, capsys):
     assert f"N={m.n_vertices} " in line and f"triangles={m.n_triangles} " in line
     assert "q_ij>=0: " in line and "iterations=" in line and "time=" in line
     assert err == ""  # stderr is not a terminal and --progress was not given
-
-
-def test_mesh_measures_its_summary_while_the_file_is_written(tmp_path, capsys, monkeypatch):
-    """The writer waits for the summary's measures to start: they run beside it (on the old,
-    sequential order this writer would wait in vain and the command fail)."""
-    from qmesh import measure
-    started = threading.Event()
-    real_quality, real_write = measure.quality, io.write
-
-    def quality(*args, **kwargs):
-        started.set()
-        return real_quality(*args, **kwargs)
-
-    def write(*args, **kwargs):
-        if not started.wait(timeout=20):
-            raise qmesh.QmeshError("the summary's measures did not start beside the writer")
-        return real_write(*args, **kwargs)
-    monkeypatch.setattr(measure, "quality", quality)
-    monkeypatch.setattr(io, "write", write)
-    code, out, err = run(capsys, "mesh", "--disk", 32, "--target-vertices", 101, "-o",
-                         tmp_path / "m.vtu", "--json")
-    assert code == 0, err
-    summary = json.loads(out)
-    m = io.read(tmp_path / "m.vtu")
-    A = qmesh.Anisotropy.constant(qmesh.CHAPTER_Q)
-    assert summary["min_quality"] == float(real_quality(m, A).min())
 
 
 def test_mesh_json_summary_matches_the_file(tmp_path, capsys):
