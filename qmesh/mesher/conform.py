@@ -191,9 +191,13 @@ def _canonical_order(T: np.ndarray, twin: np.ndarray, rows: np.ndarray):
     Tr = T[rows]
     m = len(Tr)
     r = np.argmin(Tr, axis=1) if m else np.zeros(0, np.int64)
-    at = np.arange(m)
-    cols = [Tr[at, (r + j) % 3] for j in range(3)]          # corner j: the old corner r + j
-    del Tr
+    # corner j: the old corner r + j, chosen column by column (a fancy index of (row, corner)
+    # pairs took several times as long at 1e6 vertices)
+    c = [Tr[:, j] for j in range(3)]
+    first, second = r == 0, r == 1
+    cols = [np.where(first, c[j], np.where(second, c[(j + 1) % 3], c[(j + 2) % 3]))
+            for j in range(3)]
+    del Tr, c
     n = int(max(c.max() for c in cols)) + 1 if m else 0
     if n * n * n < 2 ** 63:        # one int64 key per triangle: a third of lexsort's time, same order
         order = np.argsort((cols[0] * n + cols[1]) * n + cols[2], kind="stable")
@@ -208,11 +212,13 @@ def _canonical_order(T: np.ndarray, twin: np.ndarray, rows: np.ndarray):
     del order
     index = np.int32 if len(twin) < 2 ** 31 else np.int64
     new_id = np.full(len(twin), -1, index)
+    old = [base + ((np.arange(3) + j) % 3)[r] for j in range(3)]   # (no % over the whole mesh)
+    del base, r
     for j in range(3):
-        new_id[base + (r + j) % 3] = np.arange(j, 3 * m, 3, dtype=index)
+        new_id[old[j]] = np.arange(j, 3 * m, 3, dtype=index)
     new_twin = np.empty(3 * m, np.int64)
     for j in range(3):
-        tw = twin[base + (r + j) % 3]
+        tw = twin[old[j]]
         new_twin[j::3] = np.where(tw >= 0, new_id[np.maximum(tw, 0)], -1)
     return out, new_twin
 
@@ -334,7 +340,7 @@ def _mirrors_of_boundary_points(domain, P, X, a, b, edge_id, sharp, anisotropy, 
     return out
 
 
-def _split_crowded(domain, P, edge_id, pinned, place, anisotropy, size, max_points):
+def _split_crowded(domain, P, edge_id, pinned, place, anisotropy, size, max_points, deep=None):
     """Constant Q, before a Qhull build: subsegments whose diametral ellipse holds another
     boundary point (or, longer than LONG·h, any point) on the side of Ω split, and the free
     interior points in the ellipse of a shorter one dropped, until no ellipse holds a point.
@@ -346,7 +352,10 @@ def _split_crowded(domain, P, edge_id, pinned, place, anisotropy, size, max_poin
     the opposite side's subsegments in turn, one Qhull build per step before. The points split
     in for another boundary point are pinned, as the rounds pin them. None when the splits
     would pass `max_points` (a corner too sharp for the run): the rounds then find the cause
-    (round-off crowding at the corner, or too many points) as they did."""
+    (round-off crowding at the corner, or too many points) as they did.
+    `deep` (mask, reach): points farther than `reach` (metric) from every segment; when every
+    subsegment's disc is narrower, they are left out of the interior points' k-d tree (its
+    build was most of this function's time at 1e6 vertices), which cannot change a result."""
     from scipy.spatial import cKDTree
     n_seeds = len(domain.seeds)
     A, Bend = domain.segment_ends
@@ -355,7 +364,7 @@ def _split_crowded(domain, P, edge_id, pinned, place, anisotropy, size, max_poin
     L = cholesky2(anisotropy.H)
     X = times2(P, L)
     inner = np.flatnonzero((np.arange(len(P)) >= n_seeds) & (edge_id < 0))
-    itree = cKDTree(X[inner]) if len(inner) else None
+    itree = None
     alive = np.ones(len(P), bool)
     n_old = len(P)           # subsegments with an end at or past n_old are new
     first = None             # the boundary points of the first round and their k-d tree
@@ -367,7 +376,10 @@ def _split_crowded(domain, P, edge_id, pinned, place, anisotropy, size, max_poin
         a, b = _subsegments(domain, n_seeds, edge_id, t)
         L2 = metric_lengths2(P[a], P[b], anisotropy)
         short = L2 <= (LONG * size) ** 2
-        if first is None:
+        if first is None:          # subsegments only get shorter: the first round's are the longest
+            if deep is not None and len(L2) and 0.5 * np.sqrt(L2.max()) < (1 - 1e-6) * deep[1]:
+                inner = inner[~deep[0][inner]]
+            itree = cKDTree(X[inner]) if len(inner) else None
             bnd = np.flatnonzero((np.arange(len(P)) < n_seeds) | on)
             first = (bnd, cKDTree(X[bnd]), len(P))
             kb, _ = _in_ellipses(X, a, b, first[1], bnd, anisotropy, P)
@@ -454,8 +466,10 @@ def _conforming(domain, P, edge_id, anisotropy, size, max_points, pinned, place,
     presplit = anisotropy.is_constant
     kept = None          # a metric without s: the last round's triangulation, its splits made
     for _ in range(MAX_ROUNDS):
+        deep = None if lattice is None else ((place >= 0) & lattice[1][np.maximum(place, 0)],
+                                             lattice_delaunay.DEEP * lattice[0].h)
         crowded = _split_crowded(domain, P, edge_id, pinned, place, anisotropy, size,
-                                 max_points) if presplit else None
+                                 max_points, deep) if presplit else None
         if crowded is None:
             presplit = False          # past the run's points: the rounds name the cause
         else:

@@ -162,7 +162,8 @@ def first_triangulation(P: np.ndarray, anisotropy, boundary: np.ndarray | None =
     beyond any global lifting).
 
     `closed_form(hull_of)`, beyond EXACT_MAX points, may give the perturbed hull's triangles
-    without building all of it (lattice_delaunay.py: the lattice's interior in closed form);
+    and their twins without building all of it (lattice_delaunay.py: the lattice's interior
+    in closed form);
     `hull_of(among)` is the perturbed hull of the points in the mask `among`, lifted exactly as
     in the whole set's. It returns None where it cannot; the whole hull is built then.
     """
@@ -171,20 +172,23 @@ def first_triangulation(P: np.ndarray, anisotropy, boundary: np.ndarray | None =
         T = orient_ccw(P, np.array([[0, 1, 2]]))
         return T, topology.twins(T)
     T = _exact_lower_hull(P, anisotropy) if len(P) <= EXACT_MAX else None
-    candidates = None
+    candidates = twin = None
     if T is None:
         perturbed = np.ones(len(P), bool) if boundary is None else np.asarray(boundary, bool)
         L = _mean_factor(P, anisotropy)
-        T = None if closed_form is None else closed_form(lambda among: _perturbed_hull(P, L, perturbed, among))
-        if T is None:
+        built = None if closed_form is None else closed_form(
+            lambda among: _perturbed_hull(P, L, perturbed, among))
+        if built is None:
             T = _perturbed_hull(P, L, perturbed)
+        else:
+            T, twin = built
         if anisotropy.is_constant:      # the rest is exact: only the perturbed points' stars
             near = topology.touching(T, perturbed)
             candidates = (3 * np.flatnonzero(near)[:, None] + np.arange(3)).ravel()
     # from a start this far off, the flips may run along a needle of the metric for many rounds
     # (660 for exp(20x) + exp(20y)); later rounds touch only the last round's triangles
     try:
-        twin = topology.twins(T)
+        twin = topology.twins(T) if twin is None else twin
     except ValueError:      # round-off decided the orientation of a flat triangle: exact 2-D
         (T, twin), candidates = _fallback(P, anisotropy), None
     T, twin, _ = restore(P, T, twin, anisotropy, candidates=candidates)
