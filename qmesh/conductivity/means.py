@@ -145,6 +145,12 @@ it adds the rule's estimate instead, the only part of a text's bound that rests 
 4^-12 share of its triangle."""
 
 
+NEGLIGIBLE = 1e-3
+"""An unresolved piece whose proven share 4^-L e_p is below this share of its triangle's bound
+tolerance ends there, adding it (the pieces around a point where Q has no limit, which look the
+same at every level, end at level ~9 instead of BOUND_DEPTH)."""
+
+
 def enclosure_bound(forms: list[tuple]) -> Bound:
     """The rigorous error bound of the 7-point rule and its 4 children on a piece, from interval
     enclosures (`intervals.evaluate`) of the components' checked forms, their gradients and
@@ -260,7 +266,7 @@ def adaptive_means(evaluate: Evaluate, A: Array, B: Array, C: Array, rtol: float
                 e = np.where(np.isfinite(e), e, d)
             btol = bound_rtol * size + atol
             resolved = known | (e <= btol[owner])
-            end &= resolved | (level >= BOUND_DEPTH)
+            end &= resolved | (share * e <= NEGLIGIBLE * btol[owner]) | (level >= BOUND_DEPTH)
         if resolution is not None:
             forced = (0.5 * longest_edges(A, B, C) > resolution) & (level < BOUND_DEPTH)
             end &= ~forced
