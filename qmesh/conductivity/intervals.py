@@ -32,7 +32,7 @@ Array = NDArray[np.float64]
 Interval = tuple[Array, Array]
 Node = tuple[Interval, ...]     # value, ∂x, ∂y, ∂xx, ∂xy, ∂yy
 
-ULPS = 4e-16          # relative widening after a function (≈ 2 ulps of 1.0 each side)
+ULPS = 1e-15          # relative widening after a function (4–9 ulps each side)
 TINY = 1e-300         # absolute widening after a function
 INF = math.inf
 

@@ -136,19 +136,18 @@ slower than the rule's own error for a smooth field (the sixth power): proving e
 FVCA5 test 5 at 2 000 vertices to 1e-2 of ‖Q̄_T‖ costs 1 s, to 1e-4 15 s (the rule alone 0.03 s),
 and its 1000 : 1 anisotropy needs ~1e-5 — hence proof to this tolerance, the rule's estimate
 below it."""
-BOUND_DEPTH = 12
-"""At most this many levels of subdivision for the bound: a jump line crossing a triangle keeps
-about 2^L of its 4^L pieces at level L, so what the line's pieces leave unbounded falls 2× a
-level (1/4096 of the triangle at 12). A piece still unbounded there touches a point where the
-text divides by zero (FVCA5 test 5's rotation centre, where Q has no limit but stays bounded):
-it adds the rule's estimate instead, the only part of a text's bound that rests on samples, a
-4^-12 share of its triangle."""
-
-
+BOUND_DEPTH = 8
+"""At most this many levels of subdivision for the bound (those of the rule, `MAX_DEPTH`): a jump
+line crossing a triangle keeps about 2^L of its 4^L pieces at level L, so what the line's pieces
+leave unresolved falls 2× a level (1/256 of the triangle at 8; each level more doubles the work
+along the line, which the repair pays on every triangle it tries there). A piece still unbounded
+there touches a point where the text divides by zero (FVCA5 test 5's rotation centre, where Q has
+no limit but stays bounded): it adds the rule's estimate instead, the only part of a text's bound
+that rests on samples, a 4^-8 share of its triangle."""
 NEGLIGIBLE = 1e-3
 """An unresolved piece whose proven share 4^-L e_p is below this share of its triangle's bound
-tolerance ends there, adding it (the pieces around a point where Q has no limit, which look the
-same at every level, end at level ~9 instead of BOUND_DEPTH)."""
+tolerance ends there, adding it (the pieces around a point where Q has no limit look the same at
+every level: they would otherwise all go to BOUND_DEPTH)."""
 
 
 def enclosure_bound(forms: list[tuple]) -> Bound:
@@ -224,9 +223,11 @@ def adaptive_means(evaluate: Evaluate, A: Array, B: Array, C: Array, rtol: float
     unresolved at BOUND_DEPTH (a jump crosses it) its proven e_p; so every mean is proven within
     btol_T plus what the unresolved pieces add, and a jump or a bump no sample sees is in the bound.
     The pieces of a resolved piece are resolved without a look: one polynomial of degree 2 serves
-    them all, and the error of their rules adds up to at most its range over the parent. With `resolution` h (a callable,
-    whose values between samples nothing bounds), a piece is split while its children's longest
-    edge exceeds h, up to BOUND_DEPTH and outside the work cap.
+    them all, and the error of their rules adds up to at most its range over the parent.
+
+    With `resolution` h (a callable, whose values between samples nothing bounds), a piece is
+    split while its children's longest edge exceeds h, up to BOUND_DEPTH and outside the work
+    cap.
 
     The field is evaluated in as few calls as CHUNK allows: the triangles and their children
     together, then all the children of a level's split pieces at once (each piece's rule sums

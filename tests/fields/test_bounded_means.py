@@ -155,11 +155,13 @@ def test_a_triangle_across_the_jump_has_its_exact_mean_within_the_bound(seed, si
 
 @pytest.mark.slow
 def test_the_jump_meshed_passes_on_every_interior_edge_with_the_exact_means():
+    """At 2 000 vertices means blind to the jump certified an edge whose exact q_ij / Σ|q_ij^T|
+    is −0.65."""
     m = qmesh.mesh(qmesh.Polygon([(0, 0), (1, 0), (1, 1), (0, 1)]), _jump_field(),
-                   target_vertices=1500)
+                   target_vertices=2000)
     P, T = np.asarray(m.points), np.asarray(m.triangles)
     r = _relative_q(P, T, _exact_jump_means(P, T))
-    assert len(r) > 1000
+    assert len(r) > 4000
     assert r.min() >= -1e-9, r.min()
 
 
