@@ -833,10 +833,11 @@ def _sampled_at(mesh: Mesh, given: Given) -> float | None:
     mean is exact or its error bound proven."""
     if given is None:
         return mesh.means_sampled_at
-    fields = [given] if _is_field(given) else list(given.values()) if isinstance(given, Mapping) else []
+    fields: list[Any] = ([given] if _is_field(given) else
+                         list(given.values()) if isinstance(given, Mapping) else [])
     h = [f.sampled_at(mesh.points, mesh.triangles) for f in fields if _is_field(f)]
-    h = [v for v in h if v is not None]
-    return max(h) if h else None
+    found = [float(v) for v in h if v is not None]
+    return max(found) if found else None
 
 
 def report(mesh: Mesh, anisotropy: Given = None, *, laplacian: bool = True) -> Report:

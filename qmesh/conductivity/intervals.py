@@ -22,6 +22,7 @@ across u = 0.
 from __future__ import annotations
 
 import math
+from typing import Callable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -126,7 +127,7 @@ def real_power(a: Interval, p: float) -> Interval:
     return np.where(bad, -INF, np.maximum(r[0], 0.0)), np.where(bad, INF, r[1])
 
 
-def _monotone(f, a: Interval, lo_ok: Array | float = -INF) -> Interval:
+def _monotone(f: Callable[[Array], Array], a: Interval, lo_ok: Array | float = -INF) -> Interval:
     """An increasing function defined above `lo_ok` (the whole line where a reaches below)."""
     bad = a[0] < lo_ok
     with np.errstate(all="ignore"):
@@ -312,7 +313,7 @@ def evaluate(form: tuple, X: Interval, Y: Interval) -> Node:
         if kind == "var":
             return ((X, one, zero) if f[1] == "x" else (Y, zero, one)) + (zero, zero, zero)
         if kind == "neg":
-            return tuple(neg(a) for a in walk(f[1]))            # type: ignore[return-value]
+            return tuple(neg(a) for a in walk(f[1]))
         sign = _sign_of(f)
         if sign is not None:
             v = walk(sign[0])[0]
@@ -345,9 +346,9 @@ def evaluate(form: tuple, X: Interval, Y: Interval) -> Node:
             return walk(("call", "exp", ("*", f[2], ("call", "log", f[1]))))
         a, b = walk(f[1]), walk(f[2])
         if kind == "+":
-            return tuple(add(p, q) for p, q in zip(a, b))        # type: ignore[return-value]
+            return tuple(add(p, q) for p, q in zip(a, b))
         if kind == "-":
-            return tuple(sub(p, q) for p, q in zip(a, b))        # type: ignore[return-value]
+            return tuple(sub(p, q) for p, q in zip(a, b))
         if kind == "*":
             return _times(a, b)
         if kind == "/":
