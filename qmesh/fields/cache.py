@@ -82,9 +82,9 @@ class ElementMeans:
         self._err = np.empty(1024)
         self.computed = 0                            # triangles whose means were computed
 
-    def _compute(self, P, T, rtol, depth=_m.MAX_DEPTH):
+    def _compute(self, P, T, rtol, depth=_m.MAX_DEPTH, bound_rtol=_m.BOUND_RTOL):
         self.computed += len(T)
-        Q, e = self.field.means_with_error(P, T, rtol=rtol, max_depth=depth)
+        Q, e = self.field.means_with_error(P, T, rtol=rtol, max_depth=depth, bound_rtol=bound_rtol)
         return np.asarray(Q, dtype=float), np.asarray(e, dtype=float)
 
     def _find(self, keys, C):
@@ -160,4 +160,4 @@ class ElementMeans:
         P, T = np.asarray(P, dtype=float), np.asarray(T, dtype=np.int64).reshape(-1, 3)
         if self.field.means_exact:
             return self.means_with_error(P, T)
-        return self._compute(P, T, np.inf, depth=0)
+        return self._compute(P, T, np.inf, depth=0, bound_rtol=np.inf)

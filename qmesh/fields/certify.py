@@ -188,8 +188,19 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
     tb, kb = np.divmod(hb, 3)
     E = np.column_stack([T[tb, kb], T[tb, topology.NXT[kb]]])
     regions = {} if reg is None else {"region_tags": reg, "region_names": mesh.region_names}
-    done_mesh = Mesh(P, T, fixed, E, out[E[:, 0]], mesh.tag_names, conductivity=Qbar, **regions)
+    done_mesh = Mesh(P, T, fixed, E, out[E[:, 0]], mesh.tag_names, conductivity=Qbar,
+                     means_sampled_at=sampled_at(given, P, T, reg), **regions)
     return done_mesh, Certificate(rounds, flips, added, len(h), worst)
+
+
+def sampled_at(field, P, T, reg) -> float | None:
+    """The spacing the means of a callable field (or of a medium's callable regions) sampled Q
+    at (`TensorField.sampled_at`), None where every mean is exact or bounded."""
+    parts = [(field, np.arange(len(T)))] if reg is None else \
+        [(f, np.flatnonzero(reg == tag)) for tag, f in field.items()]
+    h = [f.sampled_at(P, T[at]) for f, at in parts if len(at) and hasattr(f, "sampled_at")]
+    h = [v for v in h if v is not None]
+    return max(h) if h else None
 
 
 def growth_limit(n: int) -> int:
