@@ -395,11 +395,13 @@ class TensorField:
         return self.means_with_error(points, triangles)[0]
 
     def means_with_error(self, points: ArrayLike, triangles: ArrayLike, *, rtol: float = _m.RTOL,
-                         max_depth: int = _m.MAX_DEPTH, bound_rtol: float = _m.BOUND_RTOL
+                         max_depth: int = _m.MAX_DEPTH,
+                         bound_rtol: float | ArrayLike | None = _m.BOUND_RTOL
                          ) -> tuple[Array, Array]:
         """Element means (M, 2, 2) and a bound of their error per triangle (M,) in the Frobenius
         norm; `rtol` and `max_depth` are the adaptive quadrature's (formulas and callables only),
-        `bound_rtol` the proven bound's (texts only).
+        `bound_rtol` the proven bound's (texts only: a number or one per triangle; None leaves
+        a text's bound the rule's estimate, as a callable's, for `enclosure_errors` to prove).
 
         - constant fields: Q itself, error 0;
         - formulas and callables: adaptive quadrature (`means.adaptive_means`: Dunavant's degree-5
@@ -428,13 +430,42 @@ class TensorField:
             assert self.bounds is not None
             q, err = _m.raster_means(self._raster, np.clip(P, *self.bounds), T)
             return _m.full_tensors(q), err
-        if self._forms is not None and self._bound is None:
-            self._bound = _m.enclosure_bound(self._forms)
+        bound = None if bound_rtol is None else self._enclosure()
+        if bound is not None and np.ndim(bound_rtol):
+            bound_rtol = np.asarray(bound_rtol, dtype=float).reshape(M)
         q, err = _m.adaptive_means(self._evaluate, P[T[:, 0]], P[T[:, 1]], P[T[:, 2]],
-                                   rtol=rtol, max_depth=max_depth, bound=self._bound,
-                                   bound_rtol=bound_rtol,
+                                   rtol=rtol, max_depth=max_depth, bound=bound,
+                                   bound_rtol=1.0 if bound_rtol is None else bound_rtol,
                                    resolution=self.resolution)
         return _m.full_tensors(q), err
+
+    def _enclosure(self) -> _m.Bound | None:
+        """A text's `means.enclosure_bound`, built once; None for other fields."""
+        if self._forms is not None and self._bound is None:
+            self._bound = _m.enclosure_bound(self._forms)
+        return self._bound
+
+    def enclosure_errors(self, points: ArrayLike, triangles: ArrayLike) -> Array | None:
+        """A text's proven bound (M,) of the error of its element means as `means_with_error`
+        takes them, whatever their tolerances: None for other fields.
+
+        Those means apply the degree-5 rule on each of the triangle's 4 midpoint children at
+        least (`means.adaptive_means`), so on each child they are a rule with positive weights,
+        exact for degree 2, whose points lie in it, however far the child was refined: the
+        error is at most the mean of the children's `means.enclosure_bound` (∞ where the text is
+        unbounded on one). Four enclosures a triangle; the field is not evaluated."""
+        bound = None if self._constant is not None else self._enclosure()
+        if bound is None:
+            return None
+        P = _points(points)
+        T = _triangles(triangles, len(P))
+        out = np.empty(len(T))
+        step = _m.CHUNK // 4
+        for s in range(0, len(T), step):
+            t = T[s:s + step]
+            kids = bound(*_m._children(P[t[:, 0]], P[t[:, 1]], P[t[:, 2]]))
+            out[s:s + step] = 0.25 * kids.reshape(4, -1).sum(axis=0)
+        return out
 
     @property
     def means_bounded(self) -> bool:

@@ -32,6 +32,7 @@ from qmesh.geometry import portable
 Array = NDArray[np.float64]
 Interval = tuple[Array, Array]
 Node = tuple[Interval, ...]     # value, ∂x, ∂y, ∂xx, ∂xy, ∂yy
+Zeroable = Interval | None      # None: an exact 0 (a derivative of a number, ∂x/∂y, ...)
 
 ULPS = 1e-15          # relative widening after a function (4–9 ulps each side)
 TINY = 1e-300         # absolute widening after a function
@@ -40,14 +41,23 @@ INF = math.inf
 
 def _clean(lo: Array, hi: Array) -> Interval:
     """NaN anywhere (∞ − ∞, 0 · ∞ of an unbounded operand): the whole line."""
-    bad = np.isnan(lo) | np.isnan(hi)
+    with np.errstate(all="ignore"):
+        bad = np.isnan(lo + hi)             # also where lo = −∞, hi = ∞ (the whole line anyway)
+    if not bad.any():
+        return lo, hi
     return np.where(bad, -INF, lo), np.where(bad, INF, hi)
 
 
+HALF_ULP = 2.0 ** -52      # twice a normal float's half-ulp (relative)
+DENORMAL = 5e-324          # the smallest subnormal
+
+
 def _round(lo: Array, hi: Array) -> Interval:
-    """One ulp outward: after a correctly rounded + − × ÷."""
-    lo, hi = _clean(lo, hi)
-    return np.nextafter(lo, -INF), np.nextafter(hi, INF)
+    """Outward past the rounding of a correctly rounded + − × ÷ (at most half an ulp): each end
+    moved by |v|·2^-52 plus the smallest subnormal, a move of at least one ulp that rounding to
+    nearest cannot undo (four times cheaper than `np.nextafter`)."""
+    with np.errstate(all="ignore"):
+        return _clean(lo - (np.abs(lo) * HALF_ULP + DENORMAL), hi + (np.abs(hi) * HALF_ULP + DENORMAL))
 
 
 def _widen(lo: Array, hi: Array) -> Interval:
@@ -61,31 +71,43 @@ def _const(c: float, shape: tuple) -> Interval:
     return np.full(shape, c), np.full(shape, c)
 
 
-def add(a: Interval, b: Interval) -> Interval:
+def add(a: Zeroable, b: Zeroable) -> Zeroable:
+    if a is None or b is None:
+        return b if a is None else a
     with np.errstate(all="ignore"):
         return _round(a[0] + b[0], a[1] + b[1])
 
 
-def sub(a: Interval, b: Interval) -> Interval:
+def sub(a: Zeroable, b: Zeroable) -> Zeroable:
+    if a is None or b is None:
+        return a if b is None else neg(b)
     with np.errstate(all="ignore"):
         return _round(a[0] - b[1], a[1] - b[0])
 
 
-def neg(a: Interval) -> Interval:
-    return -a[1], -a[0]
+def neg(a: Zeroable) -> Zeroable:
+    return None if a is None else (-a[1], -a[0])
 
 
-def mul(a: Interval, b: Interval) -> Interval:
-    """The four corner products; 0 · ∞ counts as 0 (the convention of interval arithmetic)."""
+def mul(a: Zeroable, b: Zeroable) -> Zeroable:
+    """The four corner products, an exact 0 (None) times anything an exact 0. A 0 · ∞ (NaN) is
+    left out of the least and the largest (`np.fmin`, `np.fmax`): a corner 0 · ∞ has a neighbour
+    corner 0 · (a finite end) = 0 unless both ends are infinite, where the others give ±∞ or NaN
+    too, and all NaN is the whole line (`_clean`): never narrower than 0 · ∞ = 0 would give."""
+    if a is None or b is None:
+        return None
     with np.errstate(all="ignore"):
-        p = np.stack([a[0] * b[0], a[0] * b[1], a[1] * b[0], a[1] * b[1]])
-        p[np.isnan(p)] = 0.0
-        return _round(p.min(axis=0), p.max(axis=0))
+        p = [a[0] * b[0], a[0] * b[1], a[1] * b[0], a[1] * b[1]]
+        lo = np.fmin(np.fmin(p[0], p[1]), np.fmin(p[2], p[3]))
+        hi = np.fmax(np.fmax(p[0], p[1]), np.fmax(p[2], p[3]))
+        return _round(lo, hi)
 
 
-def div(a: Interval, b: Interval) -> Interval:
-    """a / b; the whole line where b holds 0."""
+def div(a: Zeroable, b: Interval) -> Zeroable:
+    """a / b; the whole line where b holds 0 (an exact 0 over b elsewhere: an exact 0)."""
     zero = (b[0] <= 0) & (b[1] >= 0)
+    if a is None:
+        return None if not zero.any() else (np.where(zero, -INF, 0.0), np.where(zero, INF, 0.0))
     with np.errstate(all="ignore"):
         inv = (np.where(zero, 1.0, 1.0 / b[1]), np.where(zero, 1.0, 1.0 / b[0]))
     inv = _round(*inv)
@@ -97,8 +119,10 @@ def _contains_zero(a: Interval) -> NDArray[np.bool_]:
     return (a[0] <= 0) & (a[1] >= 0)
 
 
-def whole_power(a: Interval, n: int) -> Interval:
+def whole_power(a: Zeroable, n: int) -> Zeroable:
     """aⁿ for a whole n: even powers through |a|, odd ones monotone, negative ones as 1/a^|n|."""
+    if a is None:                     # an exact 0 to a power n > 0 (derivatives only)
+        return None
     if n == 0:
         return _const(1.0, a[0].shape)
     if n < 0:
@@ -302,11 +326,23 @@ def _over(a: Node, b: Node) -> Node:
 def evaluate(form: tuple, X: Interval, Y: Interval) -> Node:
     """Enclosures of the value, the gradient (∂x, ∂y) and the Hessian (∂xx, ∂xy, ∂yy) of the
     checked `form` over the boxes X × Y (each an interval of arrays of one shape)."""
+    return evaluate_all([form], X, Y)[0]
+
+
+def evaluate_all(forms: list[tuple], X: Interval, Y: Interval) -> list[Node]:
+    """`evaluate` of each form, a subexpression they share (x² + y² in three components, the
+    angle's cos and sin in a principal field's) enclosed once."""
     shape = X[0].shape
-    zero = _const(0.0, shape)
+    zero = None                       # an exact 0: the derivatives of numbers and of x, y
     one = _const(1.0, shape)
+    seen: dict[tuple, Node] = {}
 
     def walk(f: tuple) -> Node:
+        if f not in seen:
+            seen[f] = _walk(f)
+        return seen[f]
+
+    def _walk(f: tuple) -> Node:
         kind = f[0]
         if kind == "num":
             return _const(f[1], shape), zero, zero, zero, zero, zero
@@ -355,7 +391,8 @@ def evaluate(form: tuple, X: Interval, Y: Interval) -> Node:
             return _over(a, b)
         raise ValueError(f"not a checked form: {kind!r}")
 
-    return walk(form)
+    filled = _const(0.0, shape)
+    return [tuple(filled if v is None else v for v in walk(f)) for f in forms]
 
 
 def principal_forms(k1: tuple, k2: tuple, angle_deg: tuple) -> list[tuple]:

@@ -177,8 +177,8 @@ def enclosure_bound(forms: list[tuple]) -> Bound:
         X, Y = (lo[:, 0], hi[:, 0]), (lo[:, 1], hi[:, 1])
         e = np.zeros((len(A), 3))
         with np.errstate(all="ignore"):
-            for i, form in enumerate(forms):
-                (vl, vh), gx, gy, hxx, hxy, hyy = intervals.evaluate(form, X, Y)
+            for i, node in enumerate(intervals.evaluate_all(forms, X, Y)):
+                (vl, vh), gx, gy, hxx, hxy, hyy = node
                 zeroth = vh - vl
                 first = (gx[1] - gx[0]) * rx + (gy[1] - gy[0]) * ry
                 second = 0.5 * ((hxx[1] - hxx[0]) * rx * rx + 2.0 * (hxy[1] - hxy[0]) * rx * ry
@@ -200,7 +200,7 @@ def longest_edges(A: Array, B: Array, C: Array) -> Array:
 
 def adaptive_means(evaluate: Evaluate, A: Array, B: Array, C: Array, rtol: float = RTOL,
                    atol: float = ATOL, max_depth: int = MAX_DEPTH, bound: Bound | None = None,
-                   bound_rtol: float = BOUND_RTOL, resolution: float | None = None
+                   bound_rtol: float | Array = BOUND_RTOL, resolution: float | None = None
                    ) -> tuple[Array, Array]:
     """Element means of a field over triangles (A, B, C) (each (M, 2)): components (M, 3) and an
     error bound (M,) in the Frobenius norm.
@@ -217,13 +217,14 @@ def adaptive_means(evaluate: Evaluate, A: Array, B: Array, C: Array, rtol: float
     carries what is left.
 
     With `bound` (a text formula: `enclosure_bound`), each piece's e_p = bound(p) is a proven
-    bound of its fine average's error: a piece ends only when, beside the rule's test, it is
-    resolved, e_p ≤ btol_T = bound_rtol ‖Q̄_T‖_F + atol, or at BOUND_DEPTH. A resolved piece adds
-    min(e_p, d_p) (Q is within btol of a quadratic over it: the samples see it), one left
-    unresolved at BOUND_DEPTH (a jump crosses it) its proven e_p; so every mean is proven within
-    btol_T plus what the unresolved pieces add, and a jump or a bump no sample sees is in the bound.
-    The pieces of a resolved piece are resolved without a look: one polynomial of degree 2 serves
-    them all, and the error of their rules adds up to at most its range over the parent.
+    bound of the error of any rule with positive weights, exact for degree 2, on it: a piece
+    ends only when, beside the rule's test, it is resolved, e_p ≤ btol_T = bound_rtol ‖Q̄_T‖_F +
+    atol (`bound_rtol` a number or one per triangle), or at BOUND_DEPTH. A piece adds its 4^-L e_p
+    to the bound once: when it is resolved (its pieces are then resolved without a look: whatever
+    rules the quadrature ends with on them make one such rule on it, within its e_p), or when it
+    ends unresolved (a jump crosses it); so the bound is proven, and a jump or a bump no sample
+    sees is in it. The one exception: a piece still unbounded at BOUND_DEPTH (the text divides by
+    zero at a point of it) adds the rule's estimate d_p.
 
     With `resolution` h (a callable, whose values between samples nothing bounds), a piece is
     split while its children's longest edge exceeds h, up to BOUND_DEPTH and outside the work
@@ -283,9 +284,9 @@ def adaptive_means(evaluate: Evaluate, A: Array, B: Array, C: Array, rtol: float
         split = np.flatnonzero(~end)
         total += _sum_by(owner[end], share * fine[end], M)
         rule_err += _sum_by(owner[end], share * d[end], M)
-        if bound is not None:             # proven where unresolved, else the least of both
-            said = np.where(known, d, np.where(resolved, np.minimum(e, d), e))
-            err += _sum_by(owner[end], share * said[end], M)
+        if bound is not None:             # proven once a piece: where resolved, or where it ends
+            said = ~known & (resolved | end)
+            err += _sum_by(owner[said], share * e[said], M)
         if len(split) == 0:
             break
         rows = (np.arange(4)[:, None] * k + split).ravel()   # the split pieces' children

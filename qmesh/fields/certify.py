@@ -43,6 +43,9 @@ RELAX = 3           # rounds of shape steps mending edges before the next split
 SMOOTH = 4          # shape steps of the vertices the splits added, once every edge passes
 POLISH = 12         # then rounds of polish (moves.polish), in each triangle's own means, of
                     # the corners of triangles below FLOOR
+PROOF_ROUNDS = 8    # times the repair runs again on edges its proven bounds fail (texts)
+REFINE = 3          # refinements of the proven bounds beside such edges before they go back
+MARGIN = 0.9        # ... each asking for bounds within this share of the edge's q_ij
 SHORTEST = 1e-9     # edges shorter than this share of the domain's extent are not split
 GROWTH = 10         # the repair may take the mesh to this many times its vertices (at least
 SPARE = 2000        # this many more), and never past the memory budget: refused beyond
@@ -96,91 +99,104 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
     s, b = shares(P, T, Qbar, err)
     tight = np.zeros(len(T), bool)             # means at the field's own tolerance
     seen = Judged(len(P), len(T))             # flips and moves refused, nothing changed since
-    for rounds in range(max_rounds + 1):
-        h, q, slack = failing(s, b, tc)
-        t = by_bound(s, b, tc, h, tight)
-        if len(t):                             # failing by the bound only: tighter means
-            Qbar, err, s, b = _refresh(field, P, T, Qbar, err, s, b, t, tighten=True, reg=reg)
-            tight[t] = True
-            seen.forget(T, twin, t)
+    total = 0
+    for attempt in range(PROOF_ROUNDS + 1):    # the repair, then the proof of what it passed
+        for rounds in range(max_rounds + 1):
             h, q, slack = failing(s, b, tc)
-        if len(h) and len(P) > limit:
-            _refuse_growth(given, P, T, Qbar, h, mesh.n_vertices, limit, reg)
-        if len(h) < fewest:
-            fewest, since = len(h), 0
-        since += 1
-        if not len(h) or rounds == max_rounds or since > STALL:
-            break
-        done = mending_flips(P, T, tc, h[~seen.edges[h]], s, b, field, refused=seen.edges, reg=reg)
-        t = done[:0]
-        if len(done):
-            t = np.concatenate([done // 3, twin[done] // 3])
-            T, twin = topology.flip(T, twin, done)
-            tc = cut_interfaces(twin, reg)
-            flips += len(done)
-        elif shaping and tries < RELAX:
-            tries += 1
-            tan = tangents(P, T, twin, fixed) if reg is None else slides(P, T, tc, fixed)
-            P, t = isosceles(P, T, tc, Qbar, s, b, field, h, tan, rng, refused=seen.vertices,
-                             reg=reg)
-            ends = free(T, tc, fixed, corners(T, tc, h), tan) if not len(t) else t[:0]
-            if len(ends):
-                who = movers(T, twin, ends, rng)
-                P, t = relax(P, T, tc, Qbar, err, s, b, field, moves,
-                              who[~seen.vertices[who]], shape=False, tangent=tan,
-                              refused=seen.vertices, reg=reg)
-        if not len(t):
-            keep = longer(P, T, h, shortest)
-            if not keep.any():
+            t = by_bound(s, b, tc, h, tight)
+            if len(t):                             # failing by the bound only: tighter means
+                Qbar, err, s, b = _refresh(field, P, T, Qbar, err, s, b, t, tighten=True, reg=reg)
+                tight[t] = True
+                seen.forget(T, twin, t)
+                h, q, slack = failing(s, b, tc)
+            if len(h) and len(P) > limit:
+                _refuse_growth(given, P, T, Qbar, h, mesh.n_vertices, limit, reg)
+            if len(h) < fewest:
+                fewest, since = len(h), 0
+            since += 1
+            if not len(h) or rounds == max_rounds or since > STALL:
                 break
-            if reg is None:
-                P, T, twin, fixed, out, t = split_failing(P, T, twin, fixed, out, h[keep], q[keep],
-                                                    s, b, Qbar, field)
-                tc = twin
-            else:
-                P, T, twin, fixed, out, reg, t = split_failing_medium(
-                    P, T, twin, tc, reg, fixed, out, h[keep], q[keep], s, b, Qbar, field)
-                tc = cut_interfaces(twin, reg)
-            added = len(P) - mesh.n_vertices
-            tries = 0
-        Qbar, err, s, b = _refresh(field, P, T, Qbar, err, s, b, t, reg=reg)
-        tight = np.concatenate([tight, np.zeros(len(T) - len(tight), bool)])
-        tight[t] = False
-        seen.forget(T, twin, t)
-    if shaping and not len(h) and added:
-        tan = tangents(P, T, twin, fixed) if reg is None else slides(P, T, tc, fixed)
-        seen.vertices[:] = False               # judged otherwise than the repair's moves
-        new = free(T, tc, fixed, np.arange(mesh.n_vertices, len(P)), tan)
-        for _ in range(SMOOTH):
-            who = movers(T, twin, new, rng)
-            P, t = relax(P, T, tc, Qbar, err, s, b, field, moves,
-                          who[~seen.vertices[who]], shape=True, tangent=tan,
-                          refused=seen.vertices, reg=reg)
-            Qbar, err, s, b = _refresh(field, P, T, Qbar, err, s, b, t, reg=reg)
-            seen.forget(T, twin, t)
-    if shaping and not len(h):
-        tan = tangents(P, T, twin, fixed) if reg is None else slides(P, T, tc, fixed)
-        seen = Judged(len(P), len(T))         # judged afresh: the moves are judged otherwise
-        for _ in range(POLISH):                # the worst shapes, each in its own means
-            low = metric_quality(P, T, shape_metric(Qbar)) < FLOOR
-            poor = free(T, tc, fixed, T[low].ravel(), tan)
-            poor = poor[~seen.vertices[poor]]  # none left: all refused, nothing changed since
-            if not len(poor):
-                break
-            P, t = polish(P, T, tc, Qbar, s, b, field, movers(T, twin, poor, rng), tangent=tan,
-                          refused=seen.vertices, reg=reg)
-            Qbar, err, s, b = _refresh(field, P, T, Qbar, err, s, b, t, reg=reg)
-            seen.forget(T, twin, t)
-            low = np.flatnonzero(metric_quality(P, T, shape_metric(Qbar)) < FLOOR)
-            done = quality_flips(P, T, tc, (3 * low[:, None] + np.arange(3)).ravel(), s, b,
-                                  Qbar, field, reg=reg)
+            done = mending_flips(P, T, tc, h[~seen.edges[h]], s, b, field, refused=seen.edges, reg=reg)
+            t = done[:0]
             if len(done):
                 t = np.concatenate([done // 3, twin[done] // 3])
                 T, twin = topology.flip(T, twin, done)
                 tc = cut_interfaces(twin, reg)
                 flips += len(done)
+            elif shaping and tries < RELAX:
+                tries += 1
+                tan = tangents(P, T, twin, fixed) if reg is None else slides(P, T, tc, fixed)
+                P, t = isosceles(P, T, tc, Qbar, s, b, field, h, tan, rng, refused=seen.vertices,
+                                 reg=reg)
+                ends = free(T, tc, fixed, corners(T, tc, h), tan) if not len(t) else t[:0]
+                if len(ends):
+                    who = movers(T, twin, ends, rng)
+                    P, t = relax(P, T, tc, Qbar, err, s, b, field, moves,
+                                  who[~seen.vertices[who]], shape=False, tangent=tan,
+                                  refused=seen.vertices, reg=reg)
+            if not len(t):
+                keep = longer(P, T, h, shortest)
+                if not keep.any():
+                    break
+                if reg is None:
+                    P, T, twin, fixed, out, t = split_failing(P, T, twin, fixed, out, h[keep], q[keep],
+                                                        s, b, Qbar, field)
+                    tc = twin
+                else:
+                    P, T, twin, fixed, out, reg, t = split_failing_medium(
+                        P, T, twin, tc, reg, fixed, out, h[keep], q[keep], s, b, Qbar, field)
+                    tc = cut_interfaces(twin, reg)
+                added = len(P) - mesh.n_vertices
+                tries = 0
+            Qbar, err, s, b = _refresh(field, P, T, Qbar, err, s, b, t, reg=reg)
+            tight = np.concatenate([tight, np.zeros(len(T) - len(tight), bool)])
+            tight[t] = False
+            seen.forget(T, twin, t)
+        if shaping and not len(h) and added and not attempt:
+            tan = tangents(P, T, twin, fixed) if reg is None else slides(P, T, tc, fixed)
+            seen.vertices[:] = False               # judged otherwise than the repair's moves
+            new = free(T, tc, fixed, np.arange(mesh.n_vertices, len(P)), tan)
+            for _ in range(SMOOTH):
+                who = movers(T, twin, new, rng)
+                P, t = relax(P, T, tc, Qbar, err, s, b, field, moves,
+                              who[~seen.vertices[who]], shape=True, tangent=tan,
+                              refused=seen.vertices, reg=reg)
                 Qbar, err, s, b = _refresh(field, P, T, Qbar, err, s, b, t, reg=reg)
                 seen.forget(T, twin, t)
+        if shaping and not len(h) and not attempt:
+            tan = tangents(P, T, twin, fixed) if reg is None else slides(P, T, tc, fixed)
+            seen = Judged(len(P), len(T))         # judged afresh: the moves are judged otherwise
+            for _ in range(POLISH):                # the worst shapes, each in its own means
+                low = metric_quality(P, T, shape_metric(Qbar)) < FLOOR
+                poor = free(T, tc, fixed, T[low].ravel(), tan)
+                poor = poor[~seen.vertices[poor]]  # none left: all refused, nothing changed since
+                if not len(poor):
+                    break
+                P, t = polish(P, T, tc, Qbar, s, b, field, movers(T, twin, poor, rng), tangent=tan,
+                              refused=seen.vertices, reg=reg)
+                Qbar, err, s, b = _refresh(field, P, T, Qbar, err, s, b, t, reg=reg)
+                seen.forget(T, twin, t)
+                low = np.flatnonzero(metric_quality(P, T, shape_metric(Qbar)) < FLOOR)
+                done = quality_flips(P, T, tc, (3 * low[:, None] + np.arange(3)).ravel(), s, b,
+                                      Qbar, field, reg=reg)
+                if len(done):
+                    t = np.concatenate([done // 3, twin[done] // 3])
+                    T, twin = topology.flip(T, twin, done)
+                    tc = cut_interfaces(twin, reg)
+                    flips += len(done)
+                    Qbar, err, s, b = _refresh(field, P, T, Qbar, err, s, b, t, reg=reg)
+                    seen.forget(T, twin, t)
+        total += rounds
+        if not field.provable:
+            break
+        gave_up = len(h) > 0
+        Qbar, err, s, b = _prove(field, P, T, Qbar, s, tc, reg)
+        h, q, slack = failing(s, b, tc)
+        if not len(h) or gave_up or attempt == PROOF_ROUNDS:
+            break
+        tight[:] = True                        # every bound proven: nothing to tighten
+        seen = Judged(len(P), len(T))          # judged again on the proven bounds
+        fewest, since = np.inf, 0
     s, b = shares(P, T, Qbar, err)             # what is said is assembled afresh
     h, q, slack = failing(s, b, tc, slack=True)
     worst = float(slack.min()) if len(slack) else 0.0
@@ -190,7 +206,7 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
     regions = {} if reg is None else {"region_tags": reg, "region_names": mesh.region_names}
     done_mesh = Mesh(P, T, fixed, E, out[E[:, 0]], mesh.tag_names, conductivity=Qbar,
                      means_sampled_at=sampled_at(given, P, T, reg), **regions)
-    return done_mesh, Certificate(rounds, flips, added, len(h), worst)
+    return done_mesh, Certificate(total, flips, added, len(h), worst)
 
 
 def sampled_at(field, P, T, reg) -> float | None:
@@ -234,6 +250,39 @@ def _refuse_growth(field, P, T, Qbar, h, start: int, limit: int, reg) -> None:
         f"(from {start}) with {len(h)} edges still failing, the worst beside {where}, where Q is "
         f"{float(ratio[worst]):.3g} : 1. A jump to an anisotropy that strong needs ever smaller "
         "triangles along it: bound or smooth Q there")
+
+
+def _prove(field, P, T, Qbar, s, tc, reg):
+    """The means' bounds proven (a text's: FIELDS.md §3), lazily: one enclosure of each triangle
+    not proven yet (`ElementMeans.prove`), then, for the edges with q_ij ≥ 0 that fail only by
+    those bounds, their triangles' bounds refined (`ElementMeans.refine`) to within MARGIN of
+    q_ij, split between the two by their shares' weights, up to REFINE times while that asks for
+    a tighter bound than the last. Edges that still fail are the repair's."""
+    Qbar, err = means_of(field, "prove", P, T, reg)
+    s, b = shares(P, T, Qbar, err)
+    asked = np.full(len(T), np.inf)
+    for _ in range(REFINE):
+        h, q, _ = failing(s, b, tc)
+        g = tc[h]
+        inner = g >= 0
+        gg = np.where(inner, g, h)
+        weight = shares(P, T, Qbar, np.ones(len(T)))[1]    # a bound per unit of the mean's error
+        ok = q > 0                                          # else no bound can pass it
+        t = np.concatenate([h[ok] // 3, gg[ok & inner] // 3])
+        w = weight[h[ok]] + np.where(inner[ok], weight[gg[ok]], 0.0)
+        room = np.concatenate([q[ok], q[ok & inner]]) * MARGIN / np.concatenate([w, w[inner[ok]]])
+        want = np.full(len(T), np.inf)
+        np.minimum.at(want, t, room)
+        size = np.sqrt(np.sum(Qbar.reshape(-1, 4) ** 2, axis=1))     # ‖Q̄_T‖_F
+        rtol = np.where(size > 0, want / np.where(size > 0, size, 1.0), 0.0)
+        t = np.flatnonzero((rtol < 0.5 * asked) & (want < err))
+        if not len(t):
+            break
+        asked[t] = rtol[t]
+        tags = () if reg is None else (reg[t],)
+        Qbar[t], err[t] = field.refine(P, T[t], *tags, rtol[t])
+        s, b = shares(P, T, Qbar, err)
+    return Qbar, err, s, b
 
 
 def _refresh(field, P, T, Qbar, err, s, b, t, tighten=False, reg=None):

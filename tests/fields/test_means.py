@@ -94,14 +94,21 @@ SMOOTH = {
 @given(seed=seeds, cx=st.floats(0.4, 0.9), cy=st.floats(0.4, 0.9), scale=st.sampled_from([0.3, 0.05, 0.005]))
 def test_means_of_smooth_fields_within_their_bound(name, seed, cx, cy, scale):
     """Away from FVCA5 test 5's rotation centre the field is smooth: the adaptive mean agrees with
-    a fine reference of another rule (collapsed Gauss on 4⁴ pieces) within the returned bound."""
+    a fine reference of another rule (collapsed Gauss on 4⁴ pieces) within the returned bound —
+    the rule's estimate for a callable, within RTOL; for a text the proven one, within its
+    `bound_rtol` (`means.BOUND_RTOL`), the mean itself as close as the callable's."""
+    from qmesh.conductivity import means as _m
     make, f = SMOOTH[name]
     tri = _triangle(np.random.default_rng(seed), np.array([cx, cy]), scale)
     m, err = make().means_with_error(tri, [[0, 1, 2]])
     expected = ref.fine_mean(f, tri, levels=3 if name == "principal_texts" else 4)
     gap = np.linalg.norm(m[0] - expected)
     assert gap <= err[0] + 1e-13 * np.linalg.norm(expected), (gap, err[0])
-    assert err[0] <= 1e-9 * np.linalg.norm(expected)
+    if name == "principal_texts":
+        assert err[0] <= _m.BOUND_RTOL * 1.01 * np.linalg.norm(m[0])
+        assert gap <= 1e-9 * np.linalg.norm(expected)
+    else:
+        assert err[0] <= 1e-9 * np.linalg.norm(expected)
 
 
 @pytest.mark.parametrize("name", ["fvca5_texts", "plasma_texts", "principal_texts"])
