@@ -5,11 +5,13 @@ straddles, a bump narrower than their spacing), so the error bound of a text for
 means comes from here (`means.adaptive_means`'s `bound`). The checked form of a text
 (`expression.check`: numbers, x, y, + − * / **, unary −, the whitelisted functions) is evaluated
 on intervals [lo, hi], vectorised over boxes, in forward mode to second order: every node gives
-an enclosure of its value, its gradient and its Hessian over the box. Every result is widened outward —
-by one ulp (`np.nextafter`) after + − × ÷, by a few ulps plus the smallest normal after a
-function (NumPy's and `geometry.portable`'s functions agree with the true one to a few ulps) —
-so the enclosure holds whatever the CPU's last bits; the functions are `portable`'s, so the
-enclosure itself is the same on every CPU.
+an enclosure of its value, its gradient and its Hessian over the box (an exact zero, the
+derivatives of a number or of x and y, is carried as None and costs nothing; a subexpression the
+forms share is enclosed once). Every result is widened outward — by at least one ulp after
++ − × ÷, by a few ulps plus the smallest normal after a function (NumPy's and
+`geometry.portable`'s functions agree with the true one to a few ulps) — so the enclosure holds
+whatever the CPU's last bits; the functions are `portable`'s, so the enclosure itself is the same
+on every CPU.
 
 What cannot be bounded is said so: a division by an interval holding 0, a logarithm or a root
 reaching 0, `tan` across a pole give [−∞, ∞]. Where a function is not differentiable its

@@ -130,12 +130,11 @@ norm, ∞ where nothing bounds it (`enclosure_bound`)."""
 
 BOUND_RTOL = 1e-2
 """With a rigorous bound (text formulas): pieces are also split until their proven bound is
-within this share of ‖Q̄_T‖ (the default of `bound_rtol`: the piece is resolved), or
-`BOUND_DEPTH` is reached. What the enclosures prove shrinks as the cube of a piece's size, far
-slower than the rule's own error for a smooth field (the sixth power): proving every mean of
-FVCA5 test 5 at 2 000 vertices to 1e-2 of ‖Q̄_T‖ costs 1 s, to 1e-4 15 s (the rule alone 0.03 s),
-and its 1000 : 1 anisotropy needs ~1e-5 — hence proof to this tolerance, the rule's estimate
-below it."""
+within this share of ‖Q̄_T‖ (the default of `bound_rtol` for a caller of
+`TensorField.means_with_error`), or `BOUND_DEPTH` is reached. What the enclosures prove shrinks
+as the cube of a piece's size, far slower than the rule's own error for a smooth field (the
+sixth power), so the repair does not prove every mean to one tolerance: it proves each to what
+its edges need (`fields.certify`), most with the enclosures of its 4 children alone."""
 BOUND_DEPTH = 8
 """At most this many levels of subdivision for the bound (those of the rule, `MAX_DEPTH`): a jump
 line crossing a triangle keeps about 2^L of its 4^L pieces at level L, so what the line's pieces
@@ -218,8 +217,9 @@ def adaptive_means(evaluate: Evaluate, A: Array, B: Array, C: Array, rtol: float
 
     With `bound` (a text formula: `enclosure_bound`), each piece's e_p = bound(p) is a proven
     bound of the error of any rule with positive weights, exact for degree 2, on it: a piece
-    ends only when, beside the rule's test, it is resolved, e_p ≤ btol_T = bound_rtol ‖Q̄_T‖_F +
-    atol (`bound_rtol` a number or one per triangle), or at BOUND_DEPTH. A piece adds its 4^-L e_p
+    ends only when, beside the rule's test, it is resolved — e_p ≤ btol_T = bound_rtol ‖Q̄_T‖_F +
+    atol (`bound_rtol` a number or one per triangle), or its triangle's bound so far with every
+    live piece's 4^-L e_p is ≤ btol_T (then all of them are) — or at BOUND_DEPTH. A piece adds its 4^-L e_p
     to the bound once: when it is resolved (its pieces are then resolved without a look: whatever
     rules the quadrature ends with on them make one such rule on it, within its e_p), or when it
     ends unresolved (a jump crosses it); so the bound is proven, and a jump or a bump no sample
@@ -267,7 +267,8 @@ def adaptive_means(evaluate: Evaluate, A: Array, B: Array, C: Array, rtol: float
             if level >= BOUND_DEPTH:          # unbounded this deep: a point the text divides by 0
                 e = np.where(np.isfinite(e), e, d)
             btol = bound_rtol * size + atol
-            resolved = known | (e <= btol[owner])
+            settled = err + _sum_by(owner, np.where(known, 0.0, share * e), M) <= btol
+            resolved = known | (e <= btol[owner]) | settled[owner]
             end &= resolved | (share * e <= NEGLIGIBLE * btol[owner]) | (level >= BOUND_DEPTH)
         if resolution is not None:
             forced = (0.5 * longest_edges(A, B, C) > resolution) & (level < BOUND_DEPTH)

@@ -192,7 +192,7 @@ class ElementMeans:
         if not self.provable or not len(T):
             return self._q[row], self._err[row]
         self.computed += len(T)
-        Q, e = self.field.means_with_error(P, T, rtol=_m.RTOL, bound_rtol=bound_rtol)
+        Q, e = self.field.means_with_error(P, T, rtol=self.rtol, bound_rtol=bound_rtol)
         better = ~self._proven[row] | (e < self._err[row])
         self._q[row[better]], self._err[row[better]] = Q[better], e[better]
         self._proven[row] = True

@@ -13,6 +13,12 @@ adj Q̄_T / √det Q̄_T (the metric quality 2.94 is measured in) to the best of
 and a pattern of places around them (moves.polish), and their edges flip where that raises the
 worse of the two and raises no deficit. The means come from `cache.ElementMeans`: each
 triangle's computed once.
+
+A text formula's means are proven lazily (`_prove`): all of the above runs on the rule's cheap
+means and estimates; once every edge passes, each triangle's bound is replaced by a proven one
+(the enclosures of its 4 children), the triangles beside edges that fail by it have their bounds
+refined to what the edge needs, and edges that still fail (a jump crosses them, a bump lies in
+them) go back to the repair, up to PROOF_ROUNDS times. The mesh is certified on proven bounds.
 """
 
 from __future__ import annotations
