@@ -431,11 +431,12 @@ class TensorField:
             q, err = _m.raster_means(self._raster, np.clip(P, *self.bounds), T)
             return _m.full_tensors(q), err
         bound = None if bound_rtol is None else self._enclosure()
-        if bound is not None and np.ndim(bound_rtol):
-            bound_rtol = np.asarray(bound_rtol, dtype=float).reshape(M)
+        btol: float | Array = 1.0          # unused without a bound
+        if bound is not None and bound_rtol is not None:
+            btol = np.asarray(bound_rtol, dtype=float)
+            btol = btol.reshape(M) if btol.ndim else float(btol)
         q, err = _m.adaptive_means(self._evaluate, P[T[:, 0]], P[T[:, 1]], P[T[:, 2]],
-                                   rtol=rtol, max_depth=max_depth, bound=bound,
-                                   bound_rtol=1.0 if bound_rtol is None else bound_rtol,
+                                   rtol=rtol, max_depth=max_depth, bound=bound, bound_rtol=btol,
                                    resolution=self.resolution)
         return _m.full_tensors(q), err
 
