@@ -25,9 +25,10 @@ The mesher and the measurements run in one worker thread so the page never freez
 greys the buttons and shows a still bar under them: nothing on the page animates, since every
 animation has the browser redraw the page for as long as it runs, `delivery.QUIET_PAGE`); VTK
 renders only on the event loop's thread. The pictures of a stage go out first, its measurements
-(κ2, q_ij signs, chart) follow; a Run measures only the stage it stops at, and above
-`RUN_EVERY_STAGE` vertices it meshes on while the views draw, showing the newest stage each time
-they are free.
+(κ2, q_ij signs, chart) follow; a Run measures only the stage it stops at, and it meshes on
+while the views draw, showing the newest stage each time they are free (drawing a stage takes
+longer than meshing the next below about 20,000 vertices: a Run that waited for every picture
+spent most of its time drawing stages replaced a moment later).
 """
 
 from __future__ import annotations
@@ -51,7 +52,7 @@ from . import connect, delivery, legend
 from .controller import PARAMS, status_text
 from .draw import VIEWS, ViewSet, view_scene
 from .problem import DISK, S_PRESETS
-from .session import RUN_PAUSE, Outcome, Session, describe
+from .session import Outcome, Session, describe
 
 TITLE = "qmesh-view — triangle meshes shaped by a conductivity Q"
 TITLE_TIP = ("Q-adapted meshes: Algorithm 2.1 of the chapter, a mesh whose every stiffness "
@@ -77,7 +78,8 @@ COLOUR_BY_TIP = ("metric quality (2.94): 1 for a triangle equilateral in the met
 VIEW_HEIGHT = "calc(100vh - 347px)"   # the views fill the page below the status lines
 TEXT_PARAMS = ("target_vertices", "seed")   # typed: applied on Enter or blur, never per key
 SLIDER_PARAMS = tuple(n for n in PARAMS if n not in TEXT_PARAMS + ("s_text",))
-RUN_EVERY_STAGE = 20_000   # vertices up to which a run draws every stage before the next
+QUICK_FIRST = 20_000       # vertices up to which Step computes a stage's quick numbers before its
+#                            pictures (a pass over the triangles; above, the pictures go first)
 MEASURE_AFTER = 0.1        # seconds from the pictures sent to the measurements started: the
 #                            browser shows them first (the status and chart updates that follow
 #                            the measurements made it decode the last picture later)
@@ -292,20 +294,19 @@ class QmeshView(TrameApp):
         """`_work(action)`, and then, still in the worker, the shown stage's own numbers (a
         Step computes its energy and quality statistics when first asked, a pass over the
         triangles the event loop would otherwise make before drawing). Without `figures`,
-        above `RUN_EVERY_STAGE` vertices, they are left for after the pictures (`_measure`).
+        above `QUICK_FIRST` vertices, they are left for after the pictures (`_measure`).
 
-        In a run above `RUN_EVERY_STAGE` vertices the worker goes on to the next stage while
-        the views are still drawing an earlier one (`_drawing`), so the mesher never waits
-        for the pictures; the run then gets the newest stage."""
+        In a run the worker goes on to the next stage while the views are still drawing an
+        earlier one (`_drawing`), so the mesher never waits for the pictures; the run then
+        gets the newest stage."""
         c = self.session
 
         def act():
             outcome = action()
             while (outcome.kind == "applied" and self._drawing.is_set() and c.running
-                   and not c.stopping and not c.at_end
-                   and c.current.mesh.n_vertices > RUN_EVERY_STAGE):
+                   and not c.stopping and not c.at_end):
                 outcome = action()
-            if outcome.ok and (figures or c.current.mesh.n_vertices <= RUN_EVERY_STAGE):
+            if outcome.ok and (figures or c.current.mesh.n_vertices <= QUICK_FIRST):
                 c.status(quick=True)
             return outcome
         return await self._work(act)
@@ -393,18 +394,11 @@ class QmeshView(TrameApp):
             self.state.update(legend.state(self.views.legend))
 
     async def _run_stage(self, outcome) -> None:
-        """After each stage of a run: draw it and wait for its pictures, up to
-        `RUN_EVERY_STAGE` vertices; above, draw it while the mesher goes on (in the worker),
-        and when the views are free again draw the newest stage, leaving out those meshed
-        meanwhile (drawing one takes longer than meshing the next). The run asks for the next
-        stage as soon as this returns (no pause of its own), before the drawing starts."""
+        """After each stage of a run: draw it while the mesher goes on (in the worker), and
+        when the views are free again draw the newest stage, leaving out those meshed meanwhile
+        (they stay in the history). The run asks for the next stage as soon as this returns (no
+        pause of its own), before the drawing starts."""
         c = self.session
-        if c.current.mesh.n_vertices <= RUN_EVERY_STAGE:
-            if self._drawer is not None:
-                await self._drawer
-            await self._show_stage()
-            await asyncio.sleep(RUN_PAUSE)
-            return
         self._wanted = c.index
         if self._drawer is None or self._drawer.done():
             self._drawing.set()

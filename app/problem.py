@@ -207,6 +207,11 @@ def is_field_conductivity(conductivity) -> bool:
     return isinstance(conductivity, qmesh.TensorField)
 
 
+SHOWN_RTOL = 1e-6
+"""The quadrature tolerance of the means shown for a stage before the last (the repair's own,
+`qmesh.fields.cache.RTOL`): they colour the pictures and count the q_ij signs of a mesh that is
+replaced a moment later; at the field's own 1e-10 they took four fifths of a Run on the rotating
+preset."""
 _MEANS: dict = {}
 _MEANS_KEPT = 8
 _MEANS_LOCK = threading.Lock()      # the app draws on its loop and measures in a worker
@@ -215,7 +220,7 @@ _MEANS_LOCK = threading.Lock()      # the app draws on its loop and measures in 
 def element_means(mesh, field) -> np.ndarray:
     """Each triangle's own mean Q̄_T (M, 2, 2) of a field on `mesh`: the means the mesh carries
     (`mesh.conductivity`: a field's last Step, the means it was certified with), else the field's
-    `means(points, triangles)` (a stage before it). Kept for the last few meshes: the quality
+    means at `SHOWN_RTOL` (a stage before it). Kept for the last few meshes: the quality
     view, the q_ij signs and the status line all ask for the same ones."""
     if mesh.conductivity is not None:
         return np.asarray(mesh.conductivity, dtype=float)
@@ -223,7 +228,8 @@ def element_means(mesh, field) -> np.ndarray:
     with _MEANS_LOCK:
         hit = _MEANS.get(key)
     if hit is None or hit[0] is not mesh or hit[1] is not field:
-        hit = (mesh, field, np.asarray(field.means(mesh.points, mesh.triangles), dtype=float))
+        Q = field.means_with_error(mesh.points, mesh.triangles, rtol=SHOWN_RTOL)[0]
+        hit = (mesh, field, np.asarray(Q, dtype=float))
         with _MEANS_LOCK:
             while len(_MEANS) >= _MEANS_KEPT:
                 _MEANS.pop(next(iter(_MEANS)))

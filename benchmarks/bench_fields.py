@@ -71,7 +71,9 @@ Every measurement uses element means Q̄_T computed HERE, not the mesh's: formul
 - qmesh's seconds per stage, from the Steps of `qmesh.iterate` (`STAGES`): set-up (the field's
   metric and checks: the first Step's wall time less its Stats.seconds), the first
   triangulation, the loop's adjust, insert and triangulate stages, certify and repair (the
-  last Step); for the callable, its calls, points and seconds in that run.
+  last Step); for the callable, the user evaluations in that run: its calls, the points it was
+  given (each once: the TensorField keeps their values), in brackets the points qmesh asked
+  for, and its seconds.
 
 raster512 also runs at 2e5 and 1e6 vertices (--big; seconds and peak RSS against MMG2D at 2e5,
 against 60 s and 2 GB at 1e6). MMG2D, Triangle and the constant TensorField run up to
@@ -645,7 +647,7 @@ def run_mesher(case: Case, mesher: str, n: int, Q=None, repeats: int | None = No
                 extra["stages"] = stages
                 if case.kind == "callable":
                     extra["callable"] = {"calls": ISLANDS.calls, "points": ISLANDS.points,
-                                         "seconds": ISLANDS.seconds}
+                                         "asked": fld.evaluations.asked, "seconds": ISLANDS.seconds}
             elif mesher == "constQ":
                 m = qmesh.mesh(domain, qmesh.Anisotropy.constant(np.asarray(Q)), target_vertices=n)
             elif mesher == "constfield":
@@ -818,12 +820,12 @@ def ratio_rows(rows) -> list[list[str]]:
 
 
 STAGE_HEADERS = (["case", "target N", *(f"{s} s" for s in STAGES), "whole run s",
-                  "callable: calls / points / s"])
+                  "user evaluations: calls / points (asked) / s"])
 
 
 def stage_rows(rows) -> list[list[str]]:
     """qmesh's seconds per stage (STAGES) in the run the page reports, and a callable's
-    evaluations in that run."""
+    evaluations in that run (calls, points given, points asked, seconds)."""
     out = []
     for r in rows:
         if r["mesher"] != "qmesh" or not r.get("stages"):
@@ -831,7 +833,8 @@ def stage_rows(rows) -> list[list[str]]:
         c = r.get("callable")
         out.append([r["case"], str(r["target"]), *(f"{r['stages'][s]:.2f}" for s in STAGES),
                     f"{r['total_seconds']:.2f}",
-                    "" if not c else f"{c['calls']} / {c['points']} / {c['seconds']:.2f}"])
+                    "" if not c else
+                    f"{c['calls']} / {c['points']} ({c['asked']}) / {c['seconds']:.2f}"])
     return out
 
 

@@ -210,6 +210,46 @@ def browser(modes, sizes, repeat: int) -> list:
         "triangulation) to the converged picture and status line, and to its κ2")]
 
 
+PRESETS = ("disk", "rotating", "raster", "layered", "inclusion")
+PRESET_RUN_RATIO = 1.5
+"""A preset's Run may take at most this multiple of the default case's (the disk at 212)."""
+
+
+def preset_runs(repeat: int) -> report_page.Table:
+    """Run on each preset from its first triangulation, at the preset's own target, in Chromium:
+    seconds to the converged picture and status line, and the ratio to the default case's."""
+    tests = Path(__file__).resolve().parents[1] / "tests"
+    sys.path[:0] = [str(tests), str(tests / "view")]
+    import view_browser as b
+    print("5. in Chromium: Run on each preset, from its first triangulation to the converged "
+          "picture and status line, seconds")
+    seconds = {}
+    for name in PRESETS:
+        runs = []
+        for _ in range(max(1, repeat // 3)):
+            with b.qmesh_view_server("--views", "remote", "--domain", name) as url, \
+                    b.chromium_page(url, (1600, 900)) as page:
+                b.wait_drawn(page, timeout=300)
+                b.wait_idle(page, timeout=300)
+                page.evaluate(b.LATENCY_PROBE)
+                page.wait_for_timeout(500)
+                lat = b.run_latency(page, page.get_by_role("button", name="Run", exact=True).click)
+                shown = b.status(page).split(" · ")[2]
+            runs.append(lat["converged"])
+            print(f"   {name:<10} Run ({shown}): converged picture and status after "
+                  f"{lat['converged']:.3f} s", flush=True)
+        seconds[name] = (statistics.median(runs), shown, len(runs))
+    base = seconds["disk"][0]
+    rows = [[name, shown, f"{t:.3f}", f"{t / base:.2f}", n,
+             "" if name == "disk" else PRESET_RUN_RATIO] for name, (t, shown, n) in seconds.items()]
+    for row in rows:
+        print(f"   {row[0]:<10} median {row[2]} s, {row[3]}× the default case's")
+    return report_page.Table(["preset", "N at the end", "median s", "× the disk's", "runs",
+                              "target ×"], rows,
+                             "5. In Chromium: Run on each preset at its own target, from its "
+                             "first triangulation to the converged picture and status line")
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--vertices", type=int, default=10_000)
@@ -219,7 +259,9 @@ def main() -> None:
     part.add_argument("--browser", action="store_true", help="only the in-browser latencies (3., 4.)")
     part.add_argument("--no-browser", action="store_true", help="only the server side (1., 2.)")
     p.add_argument("--modes", nargs="+", default=["remote"], choices=["remote", "local"])
-    p.add_argument("--sizes", nargs="+", type=int, default=[212, 100_000])
+    p.add_argument("--sizes", nargs="*", type=int, default=[212, 100_000])
+    p.add_argument("--presets", action="store_true",
+                   help="also Run on each preset in Chromium (5.)")
     report_page.add_option(p)
     a = p.parse_args()
     with report_page.capture() as printed:
@@ -230,6 +272,8 @@ def main() -> None:
                        q_change(tuple(a.window), a.repeat)]
         if not a.no_browser:
             tables += browser(a.modes, a.sizes, a.repeat)
+        if a.presets:
+            tables.append(preset_runs(a.repeat))
         print(f"load average after: {os.getloadavg()[0]:.2f}")
     if a.no_page:
         return

@@ -136,11 +136,17 @@ def _stage(step) -> str:
     return "certified" if step.converged and step.mesh.conductivity is not None else step.stage
 
 
-def _progress(step, out) -> None:
+def _progress(step, out, fields=()) -> None:
+    """A line per Step; the certified mesh's also says how often the `fields` were evaluated."""
     s = step.stats
     energy = f"{s.energy:.4e}" if math.isfinite(s.energy) else "n/a"       # a field has no s
+    said = ""
+    if fields and _stage(step) == "certified":
+        e = [f.evaluations for f in fields]
+        said = (f"  Q(x) at {sum(v.points for v in e)} points in {sum(v.calls for v in e)} calls "
+                f"({sum(v.asked for v in e)} asked)")
     print(f"iteration {step.iteration:3d}  {_stage(step):<11s}  N={s.n_vertices:<8d}  E={energy:<10s}  "
-          f"min q={s.min_quality:.3f}", file=out, flush=True)
+          f"min q={s.min_quality:.3f}{said}", file=out, flush=True)
 
 
 BAR = {"delay": 1.0, "disable": None}
@@ -190,11 +196,13 @@ def cmd_mesh(args) -> int:
 
     start = time.perf_counter()
     steps = []
+    held = list(anisotropy.values()) if isinstance(anisotropy, dict) else [anisotropy]
+    fields = [a for a in held if isinstance(a, TensorField)]
 
     def on_step(step):
         steps[:] = [step]
         if lines:
-            _progress(step, sys.stderr)
+            _progress(step, sys.stderr, fields)
         elif bar is not None:
             _advance(bar, step)
 
@@ -208,10 +216,9 @@ def cmd_mesh(args) -> int:
                               size=args.size, alpha=args.alpha, max_iterations=args.max_iterations,
                               seed=args.seed, progress=on_step)
         seconds = time.perf_counter() - start
-        held = anisotropy.values() if isinstance(anisotropy, dict) else [anisotropy]
         # one Q, or one per region, as JSON; with a field anywhere, the element means alone (a
         # field has no stored form; the file keeps the means, which the mesh carries)
-        stored = None if any(isinstance(a, TensorField) for a in held) else anisotropy
+        stored = None if fields else anisotropy
         io.write(out, mesh, anisotropy=stored)
     last = steps[-1]
     field = isinstance(anisotropy, TensorField)      # measured and stored by its element means
@@ -459,7 +466,8 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument(flag, type=kind, default=default, metavar=meta, help=f"{text} (default: {default})")
     p.add_argument("-o", "--output", required=True, metavar="OUT", help="output mesh file")
     p.add_argument("--progress", action="store_true", help="print a line per stage on stderr, also when it is not "
-                   "a terminal (without it, a terminal shows a progress bar once a run takes over a second)")
+                   "a terminal (without it, a terminal shows a progress bar once a run takes over a "
+                   "second); a field's last line counts its evaluations")
     p.add_argument("--quiet", action="store_true", help="no progress bar or lines and no warning")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     p.set_defaults(handler=cmd_mesh)

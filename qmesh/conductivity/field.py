@@ -12,6 +12,7 @@ Texts go through the safe parser of s(x, y) (`expression.function_of_xy`): never
 
 from __future__ import annotations
 
+import functools
 import numbers
 from typing import Any, Callable
 
@@ -21,6 +22,7 @@ from numpy.typing import ArrayLike, NDArray
 from qmesh.conductivity import means as _m
 from qmesh.conductivity.expression import check, function_of_xy
 from qmesh.conductivity.intervals import principal_forms
+from qmesh.conductivity.point_cache import Evaluations, PointCache
 from qmesh import checks
 from qmesh.errors import QmeshError
 
@@ -147,11 +149,15 @@ def _axis(v: ArrayLike, name: str) -> Array:
 class TensorField:
     """Q(x): a symmetric positive definite 2×2 conductivity at every point.
 
-    Build it from a vectorised callable `TensorField(f)` (f(x, y) with x, y arrays of one shape
-    → (..., 2, 2)), from texts or numbers (`from_expressions`, `principal`) or from a raster of
-    cells (`from_raster`). The field is checked where it is evaluated: `field(P)`, `means` and
-    `box_means` raise QmeshError naming the first point (in the caller's coordinates) where Q is
-    not finite, not symmetric or not positive definite, or — for a raster — lies outside it.
+    Build it from a vectorised callable `TensorField(f)` (f(x, y) with x, y arrays of one shape →
+    (..., 2, 2), a function of each point alone; with `cache=True` f is asked for each point once,
+    its values kept, `point_cache.PointCache`: worth it for a callable that costs well over a
+    microsecond a point, since the mesher asks for under a tenth of its points again and a
+    look-up costs more than a cheap formula), from texts or numbers
+    (`from_expressions`, `principal`) or from a raster of cells (`from_raster`). The field is
+    checked where it is evaluated: `field(P)`, `means` and `box_means` raise QmeshError naming the
+    first point (in the caller's coordinates) where Q is not finite, not symmetric or not positive
+    definite, or — for a raster — lies outside it.
 
     `means(points, triangles)` gives the element means Q̄_T = (1/|T|) ∫_T Q, the only thing of Q
     the P1 stiffness matrix sees (FIELDS.md §2): adaptive quadrature for formulas and callables,
@@ -176,11 +182,13 @@ class TensorField:
     to it). None for texts and rasters, whose means are bounded or exact."""
 
     def __init__(self, f: Callable[..., ArrayLike], label: str | None = None, *,
-                 resolution: float | None = None):
+                 cache: bool = False, resolution: float | None = None):
         if not callable(f):
             raise QmeshError(f"TensorField takes a callable f(x, y) → (..., 2, 2), got {f!r:.80}")
         if label is not None and not isinstance(label, str):
             raise QmeshError(f"label must be text, got {label!r:.80}")
+        if not isinstance(cache, (bool, np.bool_)):
+            raise QmeshError(f"cache must be True or False, got {cache!r:.80}")
         if resolution is not None:
             ok = isinstance(resolution, numbers.Real) and not isinstance(resolution, bool)
             if not ok or not (np.isfinite(float(resolution)) and float(resolution) > 0):
@@ -193,7 +201,11 @@ class TensorField:
         self.label = label if label is not None else f"Q = {getattr(f, '__name__', type(f).__name__)}(x, y)"
         self.is_raster = False
         self.bounds = None
-        self._components: Callable[[Array, Array], Array] = self._callable_components
+        # with `cache`, each point evaluated once; without, every point asked is still counted
+        self._cache: PointCache | None = PointCache(
+            functools.partial(self._callable_components, f, self.label),
+            capacity=None if cache else 0)
+        self._components: Callable[[Array, Array], Array] = self._cache
         self._constant: Array | None = None
         self._raster: _m.Raster | None = None
 
@@ -286,6 +298,7 @@ class TensorField:
         field.bounds = (np.array([X[0], Y[0]]), np.array([X[-1], Y[-1]]))
         field.resolution = None
         field._forms, field._bound = None, None
+        field._cache = None
         field._components = field._raster_components
         field._constant = None
         field._raster = R
@@ -307,7 +320,8 @@ class TensorField:
             return _m.full_tensors(components(X.ravel(), Y.ravel())).reshape(X.shape + (2, 2))
 
         field = cls(f, label)
-        field._components = components
+        field._cache = PointCache(components, capacity=0)       # counted, not kept
+        field._components = field._cache
         field._forms = forms
         if constant is not None:
             field._constant = np.array(constant, dtype=float)
@@ -315,30 +329,40 @@ class TensorField:
 
     # ---------------------------------------------------------------- evaluation
 
-    def _callable_components(self, X: Array, Y: Array) -> Array:
-        """A user's f(x, y) at 1-D points → checked components (n, 3)."""
+    @property
+    def evaluations(self) -> Evaluations:
+        """How often Q was evaluated at points since the field was made: the calls of its
+        callable or formula, the points they were given, and the points asked for (the same
+        unless a callable's points are kept, `cache=True`). A raster's means
+        and box means read its cells: zeros."""
+        return Evaluations() if self._cache is None else self._cache.evaluations
+
+    @staticmethod
+    def _callable_components(f: Callable[..., ArrayLike], label: str, X: Array, Y: Array) -> Array:
+        """A user's f(x, y) at 1-D points → checked components (n, 3) (no reference to the
+        field: the field's cache holds it)."""
         try:
             with np.errstate(all="ignore"):
-                raw = np.asarray(self._f(X, Y))
+                raw = np.asarray(f(X, Y))
             if raw.dtype.kind == "c" and np.any(raw.imag != 0):   # a cast would drop it silently
                 where = ""
                 if raw.ndim == 3 and len(raw) == len(X):
                     k = int(np.flatnonzero(np.any(raw.imag != 0, axis=(1, 2)))[0])
                     where = f" at {_point(X, Y, k)}"
-                raise QmeshError(f"{self.label} returned a complex Q with an imaginary part{where}: "
+                raise QmeshError(f"{label} returned a complex Q with an imaginary part{where}: "
                                  "a conductivity is real")
             Q = np.asarray(raw.real if raw.dtype.kind == "c" else raw, dtype=float)
         except QmeshError:
             raise
         except Exception as e:
-            raise QmeshError(f"{self.label} raised {type(e).__name__} at {len(X)} points "
+            raise QmeshError(f"{label} raised {type(e).__name__} at {len(X)} points "
                              f"(the first {_point(X, Y, 0) if len(X) else 'none'}): {e}") from e
         try:
             Q = np.broadcast_to(Q, (len(X), 2, 2))
         except ValueError:
-            raise QmeshError(f"{self.label} must return shape (n, 2, 2) for x, y of shape (n,), "
+            raise QmeshError(f"{label} must return shape (n, 2, 2) for x, y of shape (n,), "
                              f"got {Q.shape} for n = {len(X)}") from None
-        return _check_components(X, Y, Q[:, 0, 0], Q[:, 0, 1], Q[:, 1, 0], Q[:, 1, 1], self.label)
+        return _check_components(X, Y, Q[:, 0, 0], Q[:, 0, 1], Q[:, 1, 0], Q[:, 1, 1], label)
 
     def place(self, point: ArrayLike) -> str:
         """Where a point is, for messages: its raster cell (row, column) and coordinates."""

@@ -12,7 +12,8 @@ edge; then the corners of the triangles below FLOOR move in each triangle's own 
 adj Q̄_T / √det Q̄_T (the metric quality 2.94 is measured in) to the best of their shape step
 and a pattern of places around them (moves.polish), and their edges flip where that raises the
 worse of the two and raises no deficit. The means come from `cache.ElementMeans`: each
-triangle's computed once.
+triangle's computed once. Certify and its steps read and update one state, the mesh under
+repair with its means and shares (`repair_state.RepairState`).
 
 A text formula's means are proven lazily (`_prove`): all of the above runs on the rule's cheap
 means and estimates; once every edge passes, each triangle's bound is replaced by a proven one
@@ -35,7 +36,8 @@ from qmesh.fields.flips import mending_flips, quality_flips
 from qmesh.fields.moves import (Judged, corners, free, isosceles, movers, polish, relax, slides,
                                 tangents)
 from qmesh.fields.piecewise import RegionMeans
-from qmesh.fields.shares import FLOOR, by_bound, cut_interfaces, failing, means_of, shares
+from qmesh.fields.repair_state import RepairState
+from qmesh.fields.shares import FLOOR, by_bound, failing, shares
 from qmesh.fields.splits import longer, split_failing, split_failing_medium
 from qmesh.geometry import topology
 from qmesh.geometry.portable import eigvalsh2
@@ -83,126 +85,93 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
     a medium guarantees, stricter than their sum), split on both sides at once (each child
     keeps its parent's tag), its vertices fixed or sliding along it; shapes are judged in each
     triangle's own means, and the mesh keeps its region tags."""
-    P, T = np.array(mesh.points), np.array(mesh.triangles)
     limit = growth_limit(mesh.n_vertices)
     given = field
-    twin = topology.twins(T)
     reg = np.array(mesh.region_tags) if isinstance(field, Mapping) else None
-    tc = cut_interfaces(twin, reg)         # twin less the interfaces (= twin without regions)
     shaping = metric is not None or reg is not None
     moves = None if reg is not None else metric   # a medium's shapes: each triangle's own means
-    fixed = np.array(mesh.fixed)
-    out = np.full(len(P), -1, np.int64)        # the tag of the boundary edge leaving each vertex
-    out[mesh.boundary_edges[:, 0]] = mesh.boundary_tags
-    field = ElementMeans(field) if reg is None else RegionMeans(field)   # each computed once
-    Qbar, err = means_of(field, "means_with_error", P, T, reg)
-    Qbar, err = np.array(Qbar, dtype=float), np.array(err, dtype=float)
-    flips = added = 0
-    shortest = SHORTEST * float(np.ptp(P, axis=0).max())
+    out = np.full(mesh.n_vertices, -1, np.int64)   # the tag of the boundary edge leaving each
+    out[mesh.boundary_edges[:, 0]] = mesh.boundary_tags                          # vertex
+    means = ElementMeans(field) if reg is None else RegionMeans(field)   # each computed once
+    st = RepairState.of(mesh.points, mesh.triangles, means, fixed=mesh.fixed, out=out, reg=reg)
+    added = 0
+    shortest = SHORTEST * float(np.ptp(st.P, axis=0).max())
     fewest, since = np.inf, 0
     rng = np.random.default_rng(0)
     tries = 0                                  # shape steps since the last split
-    s, b = shares(P, T, Qbar, err)
-    tight = np.zeros(len(T), bool)             # means at the field's own tolerance
-    seen = Judged(len(P), len(T))             # flips and moves refused, nothing changed since
     total = 0
     for attempt in range(PROOF_ROUNDS + 1):    # the repair, then the proof of what it passed
         for rounds in range(max_rounds + 1):
-            h, q, slack = failing(s, b, tc)
-            t = by_bound(s, b, tc, h, tight)
+            st.fail()
+            t = by_bound(st.s, st.b, st.cut, st.h, st.tight)
             if len(t):                             # failing by the bound only: tighter means
-                Qbar, err, s, b = _refresh(field, P, T, Qbar, err, s, b, t, tighten=True, reg=reg)
-                tight[t] = True
-                seen.forget(T, twin, t)
-                h, q, slack = failing(s, b, tc)
-            if len(h) and len(P) > limit:
-                _refuse_growth(given, P, T, Qbar, h, mesh.n_vertices, limit, reg)
-            if len(h) < fewest:
-                fewest, since = len(h), 0
+                st.refresh(t, tighten=True)
+                st.fail()
+            if len(st.h) and len(st.P) > limit:
+                _refuse_growth(given, st, mesh.n_vertices, limit)
+            if len(st.h) < fewest:
+                fewest, since = len(st.h), 0
             since += 1
-            if not len(h) or rounds == max_rounds or since > STALL:
+            if not len(st.h) or rounds == max_rounds or since > STALL:
                 break
-            done = mending_flips(P, T, tc, h[~seen.edges[h]], s, b, field, refused=seen.edges, reg=reg)
-            t = done[:0]
-            if len(done):
-                t = np.concatenate([done // 3, twin[done] // 3])
-                T, twin = topology.flip(T, twin, done)
-                tc = cut_interfaces(twin, reg)
-                flips += len(done)
-            elif shaping and tries < RELAX:
+            done = mending_flips(st, st.h[~st.seen.edges[st.h]], refused=st.seen.edges)
+            t = st.flip(done)
+            if not len(done) and shaping and tries < RELAX:
                 tries += 1
-                tan = tangents(P, T, twin, fixed) if reg is None else slides(P, T, tc, fixed)
-                P, t = isosceles(P, T, tc, Qbar, s, b, field, h, tan, rng, refused=seen.vertices,
-                                 reg=reg)
-                ends = free(T, tc, fixed, corners(T, tc, h), tan) if not len(t) else t[:0]
+                tan = _tangents(st)
+                t = isosceles(st, st.h, tan, rng, refused=st.seen.vertices)
+                ends = (free(st.T, st.cut, st.fixed, corners(st.T, st.cut, st.h), tan) if not len(t)
+                        else t[:0])
                 if len(ends):
-                    who = movers(T, twin, ends, rng)
-                    P, t = relax(P, T, tc, Qbar, err, s, b, field, moves,
-                                  who[~seen.vertices[who]], shape=False, tangent=tan,
-                                  refused=seen.vertices, reg=reg)
+                    who = movers(st.T, st.twin, ends, rng)
+                    t = relax(st, moves, who[~st.seen.vertices[who]], shape=False, tangent=tan,
+                              refused=st.seen.vertices)
             if not len(t):
-                keep = longer(P, T, h, shortest)
+                keep = longer(st.P, st.T, st.h, shortest)
                 if not keep.any():
                     break
-                if reg is None:
-                    P, T, twin, fixed, out, t = split_failing(P, T, twin, fixed, out, h[keep], q[keep],
-                                                        s, b, Qbar, field)
-                    tc = twin
-                else:
-                    P, T, twin, fixed, out, reg, t = split_failing_medium(
-                        P, T, twin, tc, reg, fixed, out, h[keep], q[keep], s, b, Qbar, field)
-                    tc = cut_interfaces(twin, reg)
-                added = len(P) - mesh.n_vertices
+                split = split_failing if reg is None else split_failing_medium
+                t = split(st, st.h[keep], st.q[keep])
+                added = len(st.P) - mesh.n_vertices
                 tries = 0
-            Qbar, err, s, b = _refresh(field, P, T, Qbar, err, s, b, t, reg=reg)
-            tight = np.concatenate([tight, np.zeros(len(T) - len(tight), bool)])
-            tight[t] = False
-            seen.forget(T, twin, t)
-        if shaping and not len(h) and added and not attempt:
-            tan = tangents(P, T, twin, fixed) if reg is None else slides(P, T, tc, fixed)
-            seen.vertices[:] = False               # judged otherwise than the repair's moves
-            new = free(T, tc, fixed, np.arange(mesh.n_vertices, len(P)), tan)
+            st.refresh(t)
+        if shaping and not len(st.h) and added and not attempt:
+            tan = _tangents(st)
+            st.seen.vertices[:] = False            # judged otherwise than the repair's moves
+            new = free(st.T, st.cut, st.fixed, np.arange(mesh.n_vertices, len(st.P)), tan)
             for _ in range(SMOOTH):
-                who = movers(T, twin, new, rng)
-                P, t = relax(P, T, tc, Qbar, err, s, b, field, moves,
-                              who[~seen.vertices[who]], shape=True, tangent=tan,
-                              refused=seen.vertices, reg=reg)
-                Qbar, err, s, b = _refresh(field, P, T, Qbar, err, s, b, t, reg=reg)
-                seen.forget(T, twin, t)
-        if shaping and not len(h) and not attempt:
-            tan = tangents(P, T, twin, fixed) if reg is None else slides(P, T, tc, fixed)
-            seen = Judged(len(P), len(T))         # judged afresh: the moves are judged otherwise
+                who = movers(st.T, st.twin, new, rng)
+                t = relax(st, moves, who[~st.seen.vertices[who]], shape=True, tangent=tan,
+                          refused=st.seen.vertices)
+                st.refresh(t)
+        if shaping and not len(st.h) and not attempt:
+            tan = _tangents(st)
+            st.seen = Judged(len(st.P), len(st.T))  # judged afresh: the moves are judged otherwise
             for _ in range(POLISH):                # the worst shapes, each in its own means
-                low = metric_quality(P, T, shape_metric(Qbar)) < FLOOR
-                poor = free(T, tc, fixed, T[low].ravel(), tan)
-                poor = poor[~seen.vertices[poor]]  # none left: all refused, nothing changed since
+                low = metric_quality(st.P, st.T, shape_metric(st.Qbar)) < FLOOR
+                poor = free(st.T, st.cut, st.fixed, st.T[low].ravel(), tan)
+                poor = poor[~st.seen.vertices[poor]]   # none left: all refused, nothing changed since
                 if not len(poor):
                     break
-                P, t = polish(P, T, tc, Qbar, s, b, field, movers(T, twin, poor, rng), tangent=tan,
-                              refused=seen.vertices, reg=reg)
-                Qbar, err, s, b = _refresh(field, P, T, Qbar, err, s, b, t, reg=reg)
-                seen.forget(T, twin, t)
-                low = np.flatnonzero(metric_quality(P, T, shape_metric(Qbar)) < FLOOR)
-                done = quality_flips(P, T, tc, (3 * low[:, None] + np.arange(3)).ravel(), s, b,
-                                      Qbar, field, reg=reg)
+                t = polish(st, movers(st.T, st.twin, poor, rng), tangent=tan,
+                           refused=st.seen.vertices)
+                st.refresh(t)
+                low = np.flatnonzero(metric_quality(st.P, st.T, shape_metric(st.Qbar)) < FLOOR)
+                done = quality_flips(st, (3 * low[:, None] + np.arange(3)).ravel())
                 if len(done):
-                    t = np.concatenate([done // 3, twin[done] // 3])
-                    T, twin = topology.flip(T, twin, done)
-                    tc = cut_interfaces(twin, reg)
-                    flips += len(done)
-                    Qbar, err, s, b = _refresh(field, P, T, Qbar, err, s, b, t, reg=reg)
-                    seen.forget(T, twin, t)
+                    st.refresh(st.flip(done))
         total += rounds
-        if not field.provable:
+        if not means.provable:
             break
-        gave_up = len(h) > 0
-        Qbar, err, s, b = _prove(field, P, T, Qbar, s, tc, reg)
-        h, q, slack = failing(s, b, tc)
-        if not len(h) or gave_up or attempt == PROOF_ROUNDS:
+        gave_up = len(st.h) > 0
+        _prove(st)
+        if not len(st.h) or gave_up or attempt == PROOF_ROUNDS:
             break
-        tight[:] = True                        # every bound proven: nothing to tighten
-        seen = Judged(len(P), len(T))          # judged again on the proven bounds
+        st.tight[:] = True                     # every bound proven: nothing to tighten
+        st.seen = Judged(len(st.P), len(st.T))  # judged again on the proven bounds
         fewest, since = np.inf, 0
+    P, T, twin, tc, fixed, out = st.P, st.T, st.twin, st.cut, st.fixed, st.out
+    Qbar, err, flips, reg = st.Qbar, st.err, st.flips, st.reg
     s, b = shares(P, T, Qbar, err)             # what is said is assembled afresh
     h, q, slack = failing(s, b, tc, slack=True)
     worst = float(slack.min()) if len(slack) else 0.0
@@ -232,11 +201,12 @@ def growth_limit(n: int) -> int:
     return min(max(GROWTH * n, n + SPARE), max(n, memory))
 
 
-def _refuse_growth(field, P, T, Qbar, h, start: int, limit: int, reg) -> None:
+def _refuse_growth(field, st: RepairState, start: int, limit: int) -> None:
     """QmeshError naming what drove the repair past `limit`: of the triangles beside failing
     edges, the one whose mean has the largest eigenvalue (a mean's small eigenvalue is lost to
     round-off at such ratios, its large one is not), and in it the point of a barycentric grid
     where Q itself is the most anisotropic (its raster cell, for a raster)."""
+    P, T, Qbar, h, reg = st.P, st.T, st.Qbar, st.h, st.reg
     k = np.unique(h // 3)
     k = int(k[np.argmax(eigvalsh2(Qbar[k])[:, 1])])
     u, v = np.meshgrid(np.linspace(0, 1, 11), np.linspace(0, 1, 11))
@@ -258,54 +228,43 @@ def _refuse_growth(field, P, T, Qbar, h, start: int, limit: int, reg) -> None:
         "triangles along it: bound or smooth Q there")
 
 
-def _prove(field, P, T, Qbar, s, tc, reg):
-    """The means' bounds proven (a text's: FIELDS.md §3), lazily: one enclosure of each triangle
-    not proven yet (`ElementMeans.prove`), then, for the edges with q_ij ≥ 0 that fail only by
-    those bounds, their triangles' bounds refined (`ElementMeans.refine`) to within MARGIN of
-    q_ij, split between the two by their shares' weights, up to REFINE times while that asks for
-    a tighter bound than the last. Edges that still fail are the repair's."""
-    Qbar, err = means_of(field, "prove", P, T, reg)
-    s, b = shares(P, T, Qbar, err)
+def _prove(st: RepairState) -> None:
+    """The means' bounds proven (a text's: FIELDS.md §3), lazily: one enclosure of each child of
+    each triangle not proven yet (`ElementMeans.prove`), then, for the edges with q_ij > 0 that
+    fail only by those bounds, their triangles' bounds refined (`ElementMeans.refine`) to within
+    MARGIN of q_ij, split between the two by their shares' weights, up to REFINE times while
+    that asks for a tighter bound than the last. The edges that still fail are left in `st.h`
+    for the repair."""
+    P, T, tags = st.P, st.T, () if st.reg is None else (st.reg,)
+    st.Qbar, st.err = st.field.prove(P, T, *tags)
+    st.s, st.b = shares(P, T, st.Qbar, st.err)
     asked = np.full(len(T), np.inf)
     for _ in range(REFINE):
-        h, q, _ = failing(s, b, tc)
-        g = tc[h]
+        st.fail()
+        h, q = st.h, st.q
+        g = st.cut[h]
         inner = g >= 0
         gg = np.where(inner, g, h)
-        weight = shares(P, T, Qbar, np.ones(len(T)))[1]    # a bound per unit of the mean's error
-        ok = q > 0                                          # else no bound can pass it
+        weight = shares(P, T, st.Qbar, np.ones(len(T)))[1]    # a bound per unit of error
+        ok = q > 0                                             # else no bound can pass it
         t = np.concatenate([h[ok] // 3, gg[ok & inner] // 3])
         w = weight[h[ok]] + np.where(inner[ok], weight[gg[ok]], 0.0)
         room = np.concatenate([q[ok], q[ok & inner]]) * MARGIN / np.concatenate([w, w[inner[ok]]])
         want = np.full(len(T), np.inf)
         np.minimum.at(want, t, room)
-        size = np.sqrt(np.sum(Qbar.reshape(-1, 4) ** 2, axis=1))     # ‖Q̄_T‖_F
+        size = np.sqrt(np.sum(st.Qbar.reshape(-1, 4) ** 2, axis=1))     # ‖Q̄_T‖_F
         rtol = np.where(size > 0, want / np.where(size > 0, size, 1.0), 0.0)
-        t = np.flatnonzero((rtol < 0.5 * asked) & (want < err))
+        t = np.flatnonzero((rtol < 0.5 * asked) & (want < st.err))
         if not len(t):
             break
         asked[t] = rtol[t]
-        tags = () if reg is None else (reg[t],)
-        Qbar[t], err[t] = field.refine(P, T[t], *tags, rtol[t])
-        s, b = shares(P, T, Qbar, err)
-    return Qbar, err, s, b
+        st.Qbar[t], st.err[t] = st.field.refine(P, T[t], *(v[t] for v in tags), rtol[t])
+        st.s, st.b = shares(P, T, st.Qbar, st.err)
+    st.fail()
 
 
-def _refresh(field, P, T, Qbar, err, s, b, t, tighten=False, reg=None):
-    """The means of the triangles `t` (changed rows, and rows past the old end) recomputed
-    (`tighten`: at the field's own tolerance, `ElementMeans.tighten`), and their shares (each
-    round assembles only what changed)."""
-    M = len(T)
-    if len(Qbar) < M:
-        Qbar = np.concatenate([Qbar, np.zeros((M - len(Qbar), 2, 2))])
-        err = np.concatenate([err, np.zeros(M - len(err))])
-        s = np.concatenate([s, np.zeros(3 * M - len(s))])
-        b = np.concatenate([b, np.zeros(3 * M - len(b))])
-    t = np.unique(t)
-    Qn, en = means_of(field, "tighten" if tighten else "means_with_error", P, T[t],
-                    None if reg is None else reg[t])
-    Qbar[t], err[t] = Qn, en
-    st, bt = shares(P, T[t], Qbar[t], err[t])
-    rows = (3 * t[:, None] + np.arange(3)).ravel()
-    s[rows], b[rows] = st, bt
-    return Qbar, err, s, b
+def _tangents(st: RepairState):
+    """The unit tangent each vertex may slide along (moves.tangents; a medium's, moves.slides)."""
+    if st.reg is None:
+        return tangents(st.P, st.T, st.twin, st.fixed)
+    return slides(st.P, st.T, st.cut, st.fixed)

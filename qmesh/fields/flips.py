@@ -12,21 +12,21 @@ from __future__ import annotations
 import numpy as np
 
 from qmesh.conductivity.anisotropy import shape_metric
-from qmesh.fields.shares import GAIN, deficit, independent, means_of, shares
+from qmesh.fields.shares import GAIN, deficit, independent, shares
 from qmesh.geometry import topology
 from qmesh.geometry.triangles import metric_quality, proper
 
 
-def mending_flips(P, T, twin, h, s, b, field, refused=None, reg=None):
-    """Flips of failing interior edges that lower the deficit Σ max(0, bound − q_ij) over the
-    five edges of their quadrilateral (its diagonal and its four sides, whose shares from
-    outside it stay): a flip that mends its own edge by breaking a side is not taken, so the
-    total deficit only falls and the flips end. No two chosen flips touch one edge.
-    `refused` (a mask over the half-edges, when given) is set on the h whose flip is not
-    better (`Judged`)."""
+def mending_flips(st, h, refused=None):
+    """Flips of failing interior half-edges h of the state `st` (repair_state.RepairState) that
+    lower the deficit Σ max(0, bound − q_ij) over the five edges of their quadrilateral (its
+    diagonal and its four sides, whose shares from outside it stay): a flip that mends its own edge
+    by breaking a side is not taken, so the total deficit only falls and the flips end. No two
+    chosen flips touch one edge. `refused` (a mask over the half-edges, when given) is set on the h
+    whose flip is not better (`Judged`)."""
     if refused is not None:
         refused[h] = True
-    c = _flip_candidates(P, T, twin, h, s, b, field, reg)
+    c = _flip_candidates(st, h)
     if c is None:
         return h[:0]
     inner, before, after, _, _, tris = c
@@ -37,14 +37,15 @@ def mending_flips(P, T, twin, h, s, b, field, refused=None, reg=None):
     return _chosen(inner, gain, better, tris)
 
 
-def quality_flips(P, T, twin, h, s, b, Qbar, field, reg=None):
-    """Flips of the interior edges h that raise the worst metric quality (2.94) of their two
-    triangles, each in its own means, and raise no deficit of their quadrilateral's five edges
-    (an edge that passes keeps passing)."""
-    c = _flip_candidates(P, T, twin, h, s, b, field, reg)
+def quality_flips(st, h):
+    """Flips of the interior edges h of the state `st` that raise the worst metric quality
+    (2.94) of their two triangles, each in its own means, and raise no deficit of their
+    quadrilateral's five edges (an edge that passes keeps passing)."""
+    c = _flip_candidates(st, h)
     if c is None:
         return h[:0]
     inner, before, after, new, Qn, tris = c
+    P, T, twin, Qbar = st.P, st.T, st.cut, st.Qbar
     k = len(inner)
     t1, t2 = inner // 3, twin[inner] // 3
     was = np.minimum(metric_quality(P, T[t1], shape_metric(Qbar[t1])),
@@ -64,10 +65,11 @@ def _chosen(inner, gain, better, tris):
     return cand[pick]
 
 
-def _flip_candidates(P, T, twin, h, s, b, field, reg=None):
-    """For the interior half-edges h whose quadrilateral is convex: the half-edges, the deficit
-    of the five edges before and after the flip, the new triangles (2k, 3) and their means, and
-    the triangles each flip touches (None when there are none)."""
+def _flip_candidates(st, h):
+    """For the interior half-edges h (interfaces cut: `st.cut`) whose quadrilateral is convex:
+    the half-edges, the deficit of the five edges before and after the flip, the new triangles
+    (2k, 3) and their means, and the triangles each flip touches (None when there are none)."""
+    P, T, twin, s, b, reg = st.P, st.T, st.cut, st.s, st.b, st.reg
     inner = h[twin[h] >= 0]
     if not len(inner):
         return None
@@ -91,7 +93,7 @@ def _flip_candidates(P, T, twin, h, s, b, field, reg=None):
     out_b = np.where(across >= 0, b[np.maximum(across, 0)], 0.0)
     before = (deficit(s[inner] + s[g], b[inner] + b[g])
               + deficit(s[sides] + out_s, b[sides] + out_b).sum(axis=1))
-    Qn, en = means_of(field, "means_with_error", P, new, None if reg is None else np.tile(reg[t1], 2))
+    Qn, en = st.means("means_with_error", P, new, None if reg is None else np.tile(reg[t1], 2))
     Qn = np.asarray(Qn, dtype=float)
     sn, bn = shares(P, new, Qn, np.asarray(en, dtype=float))
     sn, bn = sn.reshape(2, k, 3), bn.reshape(2, k, 3)

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from qmesh.conductivity.anisotropy import Anisotropy, shape_metric
-from qmesh.fields.shares import FLOOR, GAIN, KEEP, ROUND, deficit, means_of, shares
+from qmesh.fields.shares import FLOOR, GAIN, KEEP, ROUND, deficit, shares
 from qmesh.geometry import topology
 from qmesh.geometry.portable import cholesky2, solve2
 from qmesh.geometry.topology import touching
@@ -137,21 +137,20 @@ def _max3(x):
     return np.maximum(np.maximum(x[:, 0], x[:, 1]), x[:, 2])
 
 
-def relax(P, T, twin, Qbar, err, s, b, field, metric, movers, shape, tangent=None,
-           refused=None, reg=None):
-    """Move the vertices `movers` (`movers`) by the mesher's shape step in `metric`
-    (`adjust.shape_step`, capped by `adjust.limit_moves`) where their star is better for it:
-    no more failing edges and no higher deficit, and fewer or a lower deficit, and a worst
-    quality kept above min(its worst before, KEEP · FLOOR) (shape=False: a repair that adds no
-    vertex; a star already worse than that, such as a sharp corner's, gets no worse); no more
-    failing edges, no higher deficit and a better worst metric quality of the star in its own
-    means (shape=True). Returns the new P and the
-    triangles that changed. Vertices with a `tangent` (`tangents`) move along it only.
-    `refused` (a mask over the vertices, when given) is set on the movers not moved
-    (`Judged`)."""
+def relax(st, metric, movers, shape, tangent=None, refused=None):
+    """Move the vertices `movers` (`movers`) of the state `st` (repair_state.RepairState) by the
+    mesher's shape step in `metric` (`adjust.shape_step`, capped by `adjust.limit_moves`) where
+    their star is better for it: no more failing edges and no higher deficit, and fewer or a lower
+    deficit, and a worst quality kept above min(its worst before, KEEP · FLOOR) (shape=False: a
+    repair that adds no vertex; a star already worse than that, such as a sharp corner's, gets no
+    worse); no more failing edges, no higher deficit and a better worst metric quality of the star
+    in its own means (shape=True). Moves `st.P` and returns the triangles that changed. Vertices
+    with a `tangent` (`tangents`) move along it only. `refused` (a mask over the vertices, when
+    given) is set on the movers not moved (`Judged`)."""
+    P, T, Qbar = st.P, st.T, st.Qbar
     n = len(P)
     if not len(movers):
-        return P, np.empty(0, np.int64)
+        return np.empty(0, np.int64)
     mask = np.zeros(n, bool)
     mask[movers] = True
     star0 = touching(T, mask)
@@ -167,28 +166,29 @@ def relax(P, T, twin, Qbar, err, s, b, field, metric, movers, shape, tangent=Non
     for frac in (STEPS if shape else STEPS[:1]):   # a shape move refused is tried shorter
         if not moving.any():
             break
-        ok = _accepted(P, T, twin, Qbar, s, b, field, frac * d, moving, shape, reg)
+        ok = _accepted(st, frac * d, moving, shape)
         d[ok] *= frac
         take |= ok
         moving &= ~ok
     if refused is not None:
         refused[movers] = ~take[movers]
     if not take.any():
-        return P, np.empty(0, np.int64)
-    P = P.copy()
-    P[take] += d[take]
-    return P, np.flatnonzero(touching(T, take))
+        return np.empty(0, np.int64)
+    st.P = P.copy()
+    st.P[take] += d[take]
+    return np.flatnonzero(touching(T, take))
 
 
-def isosceles(P, T, twin, Qbar, s, b, field, h, tangent, rng, refused=None, reg=None):
-    """Mend failing boundary edges h from a corner by sliding the other end along its side:
-    u→v with apex x fails where x's angle is obtuse in the triangle's metric; with v placed as
-    far from u as x is (|uv'| = |ux|), the triangle is isosceles, both its base angles
-    90° − ½∠u. Only where one end cannot slide (a corner, a seed, a junction) and the other
-    can (`tangent`). At a corner sharp in the metric (a raster cell at 1000 : 1) nothing else
-    passes on both sides: a split there leaves the corner's two edges failing in turn, each
-    split nearer the corner. Judged as `relax` judges a mending move (`refused` as there);
-    returns the new P and the triangles that changed."""
+def isosceles(st, h, tangent, rng, refused=None):
+    """Mend failing boundary edges h of the state `st` from a corner by sliding the other end along
+    its side: u→v with apex x fails where x's angle is obtuse in the triangle's metric; with v
+    placed as far from u as x is (|uv'| = |ux|), the triangle is isosceles, both its base angles
+    90° − ½∠u. Only where one end cannot slide (a corner, a seed, a junction) and the other can
+    (`tangent`). At a corner sharp in the metric (a raster cell at 1000 : 1) nothing else passes on
+    both sides: a split there leaves the corner's two edges failing in turn, each split nearer the
+    corner. Judged as `relax` judges a mending move (`refused` as there); moves `st.P` and returns
+    the triangles that changed."""
+    P, T, twin, Qbar = st.P, st.T, st.cut, st.Qbar
     h = h[twin[h] < 0]
     t, k = np.divmod(h, 3)
     u, v, x = T[t, k], T[t, topology.NXT[k]], T[t, topology.PRV[k]]
@@ -207,29 +207,30 @@ def isosceles(P, T, twin, Qbar, s, b, field, h, tangent, rng, refused=None, reg=
     w, first = np.unique(w, return_index=True)                 # one slide per vertex
     d = d[first]
     if not len(w):
-        return P, np.empty(0, np.int64)
+        return np.empty(0, np.int64)
     chosen = movers(T, twin, w, rng)
     d = d[np.searchsorted(w, chosen)]
-    ok = _judged(P, T, twin, Qbar, s, b, field, chosen, d[None], False, reg)[0][0]
+    ok = _judged(st, chosen, d[None], False)[0][0]
     if refused is not None:
         refused[chosen] = ~ok
     if not ok.any():
-        return P, np.empty(0, np.int64)
-    return _moved(P, T, chosen[ok], d[ok])
+        return np.empty(0, np.int64)
+    return _moved(st, chosen[ok], d[ok])
 
 
-def polish(P, T, twin, Qbar, s, b, field, movers, tangent=None, refused=None, reg=None):
-    """The polish's moves: each of the `movers` (`movers`) tries its shape step in its star's own
-    means (at STEPS of it) and PATTERN places around it at REACH shares of its height over the
-    far edge of its star's worst triangle, in that triangle's metric (a vertex with a `tangent`:
-    their share along it), and takes the one that raises its star's worst quality (each triangle
-    in its own means) most, with no more failing edges and no higher deficit. The shape step
-    alone, which serves the star's mean shape, is often refused beside a triangle that needs
-    one corner moved another way. All the tries are judged at once (`_judged`). Returns the new
-    P and the triangles that changed."""
+def polish(st, movers, tangent=None, refused=None):
+    """The polish's moves: each of the `movers` (`movers`) of the state `st` tries its shape step
+    in its star's own means (at STEPS of it) and PATTERN places around it at REACH shares of its
+    height over the far edge of its star's worst triangle, in that triangle's metric (a vertex with
+    a `tangent`: their share along it), and takes the one that raises its star's worst quality
+    (each triangle in its own means) most, with no more failing edges and no higher deficit. The
+    shape step alone, which serves the star's mean shape, is often refused beside a triangle that
+    needs one corner moved another way. All the tries are judged at once (`_judged`). Moves `st.P`
+    and returns the triangles that changed."""
+    P, T, Qbar = st.P, st.T, st.Qbar
     v = np.asarray(movers, np.int64)
     if not len(v):
-        return P, np.empty(0, np.int64)
+        return np.empty(0, np.int64)
     n = len(P)
     mask = np.zeros(n, bool)
     mask[v] = True
@@ -260,28 +261,28 @@ def polish(P, T, twin, Qbar, s, b, field, movers, tangent=None, refused=None, re
     # every try judged on rough means (the degree-5 rule against its children), the one each
     # mover would take judged again on the means it is kept with: the field's adaptive means
     # for one try a mover, not for all of them
-    ok, q1 = _judged(P, T, twin, Qbar, s, b, field, v, D, True, reg, how="rough")
+    ok, q1 = _judged(st, v, D, True, how="rough")
     q1 = np.where(ok, q1, -np.inf)
     best = np.argmax(q1, axis=0)
     take = np.isfinite(q1[best, np.arange(len(v))])
     if take.any():
         chosen = np.flatnonzero(take)
-        take[chosen] = _judged(P, T, twin, Qbar, s, b, field, v[chosen], D[best[chosen], chosen][None],
-                               True, reg)[0][0]
+        take[chosen] = _judged(st, v[chosen], D[best[chosen], chosen][None], True)[0][0]
     if refused is not None:
         refused[v] = ~take
     if not take.any():
-        return P, np.empty(0, np.int64)
-    return _moved(P, T, v[take], D[best[take], np.flatnonzero(take)])
+        return np.empty(0, np.int64)
+    return _moved(st, v[take], D[best[take], np.flatnonzero(take)])
 
 
-def _moved(P, T, v, d):
-    """P with the vertices v moved by d, and the triangles that changed (their stars)."""
-    P = P.copy()
+def _moved(st, v, d):
+    """Move the vertices v of `st.P` by d; the triangles that changed (their stars)."""
+    P = st.P.copy()
     P[v] += d
+    st.P = P
     moved = np.zeros(len(P), bool)
     moved[v] = True
-    return P, np.flatnonzero(touching(T, moved))
+    return np.flatnonzero(touching(st.T, moved))
 
 
 def _along(d, t):
@@ -291,20 +292,22 @@ def _along(d, t):
     return t * np.einsum("...i,...i->...", d, t)[..., None] + np.where(slide, 0.0, d)
 
 
-def _accepted(P, T, twin, Qbar, s, b, field, d, moving, shape, reg=None):
+def _accepted(st, d, moving, shape):
     """Which `moving` vertices (two triangles apart) `relax` takes moved by d: their stars'
     edges and shapes judged on the means at the new places."""
     v = np.flatnonzero(moving)
-    out = np.zeros(len(P), bool)
-    out[v] = _judged(P, T, twin, Qbar, s, b, field, v, d[v][None], shape, reg)[0][0]
+    out = np.zeros(len(st.P), bool)
+    out[v] = _judged(st, v, d[v][None], shape)[0][0]
     return out
 
 
-def _judged(P, T, twin, Qbar, s, b, field, v, D, shape, reg=None, how="means_with_error"):
-    """K tries D (K, k, 2) at moving the vertices v (k,), two triangles apart, judged at once
-    (one call for the means of all their stars, `how`: see `shares.means_of`): which each takes
-    ((K, k): `_accepted`'s rule) and the worst quality of its star after the move, each
-    triangle in its own means."""
+def _judged(st, v, D, shape, how="means_with_error"):
+    """K tries D (K, k, 2) at moving the vertices v (k,) of the state `st`, two triangles apart,
+    judged at once (one call for the means of all their stars, `how`: see `shares.means_of`;
+    the shares from beyond the stars as `st.cut` has them): which each takes ((K, k):
+    `_accepted`'s rule) and the worst quality of its star after the move, each triangle in its
+    own means."""
+    P, T, twin, Qbar, s, b, reg = st.P, st.T, st.cut, st.Qbar, st.s, st.b, st.reg
     n, (K, k) = len(P), D.shape[:2]
     mask = np.zeros(n, bool)
     mask[v] = True
@@ -328,7 +331,7 @@ def _judged(P, T, twin, Qbar, s, b, field, v, D, shape, reg=None, how="means_wit
     X = np.where(flat[:, mover, None, None], X, moved)
     pts = X.reshape(-1, 2)
     tags = None if reg is None else np.tile(reg[star], K)
-    Qn, en = means_of(field, how, pts, tri, tags)
+    Qn, en = st.means(how, pts, tri, tags)
     Qn, en = np.asarray(Qn, dtype=float), np.asarray(en, dtype=float)
     sn, bn = (x.reshape(K, 3 * m) for x in shares(pts, tri, Qn, en))
     he = (3 * star[:, None] + np.arange(3)).ravel()

@@ -12,45 +12,49 @@ from __future__ import annotations
 import numpy as np
 
 from qmesh.conductivity.anisotropy import shape_metric
-from qmesh.fields.shares import FLOOR, KEEP, ROUND, independent, means_of, shares
+from qmesh.fields.shares import FLOOR, KEEP, ROUND, cut_interfaces, independent, shares
 from qmesh.geometry import topology
 from qmesh.geometry.triangles import metric_quality
 
 SPLIT_AT = 0.1      # an edge is split no nearer its ends than this share of it
 
 
-def split_failing(P, T, twin, fixed, out, h, q, s, b, Qbar, field):
-    """Split failing edges, boundary ones first (one per triangle), each at the best of a few
-    points along it (`split_points`)."""
+def split_failing(st, h, q):
+    """Split failing edges h (their q_ij q) of the state `st` (repair_state.RepairState),
+    boundary ones first (one per triangle), each at the best of a few points along it
+    (`split_points`). Returns the triangles that changed."""
+    P, T, twin = st.P, st.T, st.twin
     boundary = twin[h] < 0
     if boundary.any():
         hb, qb = h[boundary], q[boundary]
         hb = hb[independent(hb, qb, (hb // 3,))]
         n = len(P)
         u = T[hb // 3, hb % 3]
-        X = split_points(P, T, twin, hb, s, b, Qbar, field)
+        X = split_points(st, hb)
         T, twin = topology.split_boundary_edges(T, twin, hb, n + np.arange(len(hb)))
         t = np.concatenate([hb // 3, len(T) - len(hb) + np.arange(len(hb))])
-        new_out = out[u]
+        new_out = st.out[u]
     else:
         hi = h[independent(h, q, (h // 3, twin[h] // 3))]
         n = len(P)
-        X = split_points(P, T, twin, hi, s, b, Qbar, field)
+        X = split_points(st, hi)
         t = np.concatenate([hi // 3, twin[hi] // 3, len(T) + np.arange(2 * len(hi))])
         T, twin = topology.split_edges(T, twin, hi, n + np.arange(len(hi)))
         new_out = np.full(len(hi), -1, np.int64)
-    P = np.concatenate([P, X])
-    fixed = np.concatenate([fixed, np.zeros(len(X), bool)])
-    out = np.concatenate([out, new_out])
-    return P, T, twin, fixed, out, t
+    st.P, st.T, st.twin = np.concatenate([P, X]), T, twin
+    st.cut = cut_interfaces(twin, st.reg)
+    st.fixed = np.concatenate([st.fixed, np.zeros(len(X), bool)])
+    st.out = np.concatenate([st.out, new_out])
+    return t
 
 
-def split_failing_medium(P, T, twin, cut, reg, fixed, out, h, q, s, b, Qbar, field):
+def split_failing_medium(st, h, q):
     """`split_failing` of a medium: the failing sides on the boundary or an interface first,
     else the interior edges, no two in one triangle (an interface edge touches both of its). A
     boundary edge splits its triangle; an interface or interior edge both
-    (`topology.split_edges`), each child keeping its parent's region tag. Returns P, T, twin, fixed, out, the tags and the
-    triangles that changed."""
+    (`topology.split_edges`), each child keeping its parent's region tag (`st.reg`). Returns
+    the triangles that changed."""
+    P, T, twin, cut, reg, out = st.P, st.T, st.twin, st.cut, st.reg, st.out
     side = cut[h] < 0
     if side.any():
         h, q = h[side], q[side]
@@ -58,8 +62,8 @@ def split_failing_medium(P, T, twin, cut, reg, fixed, out, h, q, s, b, Qbar, fie
     h = h[independent(h, q, (h // 3, other))]
     hb, hi = h[twin[h] < 0], h[twin[h] >= 0]          # one triangle; two (interior or interface)
     none = np.zeros((0, 2))
-    Xb = split_points(P, T, cut, hb, s, b, Qbar, field, reg) if len(hb) else none
-    Xi = split_points(P, T, twin, hi, s, b, Qbar, field, reg, cut) if len(hi) else none
+    Xb = split_points(st, hb) if len(hb) else none
+    Xi = split_points(st, hi) if len(hi) else none
     n, M = len(P), len(T)
     u = T[hb // 3, hb % 3]
     T, twin = topology.split_boundary_edges(T, twin, hb, n + np.arange(len(hb)))
@@ -68,10 +72,11 @@ def split_failing_medium(P, T, twin, cut, reg, fixed, out, h, q, s, b, Qbar, fie
     T, twin = topology.split_edges(T, twin, hi, n + len(hb) + np.arange(len(hi)))
     reg = np.concatenate([reg, reg[t1], reg[t2]])
     t = np.concatenate([hb // 3, M + np.arange(len(hb)), t1, t2, M2 + np.arange(2 * len(hi))])
-    P = np.concatenate([P, Xb, Xi])
-    fixed = np.concatenate([fixed, np.zeros(len(Xb) + len(Xi), bool)])
-    out = np.concatenate([out, out[u], np.full(len(hi), -1, np.int64)])
-    return P, T, twin, fixed, out, reg, t
+    st.P, st.T, st.twin, st.reg = np.concatenate([P, Xb, Xi]), T, twin, reg
+    st.cut = cut_interfaces(twin, reg)
+    st.fixed = np.concatenate([st.fixed, np.zeros(len(Xb) + len(Xi), bool)])
+    st.out = np.concatenate([out, out[u], np.full(len(hi), -1, np.int64)])
+    return t
 
 
 def _right_angles(P, u, v, a, H):
@@ -88,19 +93,19 @@ def _right_angles(P, u, v, a, H):
     return foot, at_a_first, at_a_second
 
 
-def split_points(P, T, twin, h, s, b, Qbar, field, reg=None, cut=None):
-    """For each edge u→v of the half-edges h (all interior or all on the boundary), the first
-    of a few candidate points whose split keeps the shapes (KEEP, FLOOR) and leaves the fewest
-    failing edges among those it makes and the sides of the triangles it splits, their means
-    recomputed (a split that mends one more edge with a sliver costs the minimum quality more
-    than the vertex a later split takes): the midpoint, the
-    quarter points, then for each opposite corner a (in its own triangle's metric adj Q̄_T)
-    the foot of its altitude and the middles of the spans where (u, p, a) or (p, v, a) has no
-    obtuse angle at p or a. A midpoint leaves an obtuse angle at a obtuse in one of the halves,
-    whose edges then fail in turn; a point in such a span mends it in one step.
-    A medium's (`reg`, the tags; `cut`, the twins less the interfaces): the shares from
-    beyond the sides as `cut` has them, and the halves of an interface edge judged side by
-    side."""
+def split_points(st, h):
+    """For each edge u→v of the half-edges h of the state `st` (all interior or all on the
+    boundary), the first of a few candidate points whose split keeps the shapes (KEEP, FLOOR) and
+    leaves the fewest failing edges among those it makes and the sides of the triangles it splits,
+    their means recomputed (a split that mends one more edge with a sliver costs the minimum
+    quality more than the vertex a later split takes): the midpoint, the quarter points, then for
+    each opposite corner a (in its own triangle's metric adj Q̄_T) the foot of its altitude and the
+    middles of the spans where (u, p, a) or (p, v, a) has no obtuse angle at p or a. A midpoint
+    leaves an obtuse angle at a obtuse in one of the halves, whose edges then fail in turn; a point
+    in such a span mends it in one step. A medium's (`st.reg`, the tags; `st.cut`, the twins less
+    the interfaces): the shares from beyond the sides as `st.cut` has them, and the halves of an
+    interface edge judged side by side."""
+    P, T, twin, cut, s, b, Qbar, reg = st.P, st.T, st.twin, st.cut, st.s, st.b, st.Qbar, st.reg
     k = len(h)
     t1, e1 = np.divmod(h, 3)
     u, v, a = T[t1, e1], T[t1, topology.NXT[e1]], T[t1, topology.PRV[e1]]
@@ -132,15 +137,15 @@ def split_points(P, T, twin, h, s, b, Qbar, field, reg=None, cut=None):
     else:
         new = np.concatenate([np.column_stack(z) for z in ((U, p, A), (p, V, A))])
     tags = None if reg is None else np.concatenate([np.tile(np.repeat(reg[t], c), 2) for _, t in apexes])
-    Qn, en = means_of(field, "rough", Pc, new, tags)                       # compared, not kept
+    Qn, en = st.means("rough", Pc, new, tags)                              # compared, not kept
     sn, bn = shares(Pc, new, np.asarray(Qn, dtype=float), np.asarray(en, dtype=float))
     sn, bn = sn.reshape(-1, k * c, 3), bn.reshape(-1, k * c, 3)
-    across = (twin if cut is None else cut)[np.stack(sides, axis=1)]
+    across = cut[np.stack(sides, axis=1)]
     out_s = np.repeat(np.where(across >= 0, s[np.maximum(across, 0)], 0.0), c, axis=0)
     out_b = np.repeat(np.where(across >= 0, b[np.maximum(across, 0)], 0.0), c, axis=0)
     # (u, p, a): u→p, p→a, a→u; (p, v, a): p→v, v→a, a→p; (v, p, b): v→p, p→b, b→v;
     # (p, u, b): p→u, u→b, b→p (triangle, corner) of each made edge and each side
-    if inner and cut is not None and cut[h[0]] < 0:          # an interface: side by side
+    if inner and cut[h[0]] < 0:                              # an interface: side by side
         made = [((0, 0),), ((3, 0),), ((1, 0),), ((2, 0),), ((0, 1), (1, 2)), ((2, 1), (3, 2))]
         kept = [(1, 1), (0, 2), (3, 1), (2, 2)]
     elif inner:

@@ -1,6 +1,7 @@
 """`qmesh mesh`'s progress bar (tqdm) on stderr: shown on a terminal once a run has taken a
 second (qmesh.cli.BAR: delay=1, disable=None), one count per Step with its stage and N; silent
-when stderr is not a terminal or with --quiet; --progress prints lines instead."""
+when stderr is not a terminal or with --quiet; --progress prints lines instead, a field's last
+one counting its evaluations."""
 
 import fcntl
 import io
@@ -86,3 +87,19 @@ def test_the_installed_command_draws_the_bar_on_a_pty(tmp_path):
     assert done.wait() == 0 and out.startswith(str(tmp_path / "m.vtu"))
     drawn = stages(err.decode())
     assert drawn and drawn[0].startswith("qmesh mesh: 0 stages") and " N=" in drawn[-1]
+
+
+def test_progress_says_how_often_a_field_was_evaluated(tmp_path, capsys):
+    """The certified line counts the field's evaluations: the points, the calls and the points
+    asked for, those of the same run through the API."""
+    field = ("--field-Q", "1 + x*x", "0.2*x*y", "1")
+    code, _, err = run(capsys, "mesh", *field, "--disk", 24, "--target-vertices", 200,
+                       "--progress", "-o", tmp_path / "m.vtu")
+    assert code == 0
+    last = err.splitlines()[-1]
+    assert last.split()[2] == "certified"
+    F = qmesh.TensorField.from_expressions(*field[1:])
+    qmesh.mesh(qmesh.Disk(24), F, target_vertices=200)
+    e = F.evaluations
+    assert e.points > 0 and e.calls > 0
+    assert last.endswith(f"Q(x) at {e.points} points in {e.calls} calls ({e.asked} asked)")

@@ -13,6 +13,7 @@ from scipy.spatial import Delaunay
 import qmesh
 from qmesh.fields import flips, moves, shares, splits
 from qmesh.fields.metric import field_metric
+from qmesh.fields.repair_state import RepairState
 from qmesh.geometry import topology
 from qmesh.conductivity.anisotropy import shape_metric
 from qmesh.geometry.triangles import metric_quality, signed_areas
@@ -63,7 +64,7 @@ def test_a_round_of_flips_lowers_the_total_deficit(seed, n, cells):
     field = qmesh.TensorField.from_raster(edges, edges, k1, k2, angle)
     before, s, b, twin = total_deficit(P, T, field)
     h, _, _ = shares.failing(s, b, twin)
-    done = flips.mending_flips(P, T, twin, h, s, b, field)
+    done = flips.mending_flips(RepairState.of(P, T, field), h)
     if not len(done):
         return
     T2, _ = topology.flip(T, twin, done)
@@ -78,14 +79,12 @@ def test_split_points_lie_inside_the_edges_they_split(seed, n):
     rng = np.random.default_rng(seed)
     edges, k1, k2, angle = random_raster(seed, 6, 2.0)
     field = qmesh.TensorField.from_raster(edges, edges, k1, k2, angle)
-    Qbar, err = field.means_with_error(P, T)
-    Qbar, err = np.asarray(Qbar), np.asarray(err)
-    s, b = shares.shares(P, T, Qbar, err)
-    twin = topology.twins(T)
+    state = RepairState.of(P, T, field)
+    twin = state.twin
     for inner in (True, False):
         h = np.flatnonzero((twin >= 0) == inner)
         h = h[shares.independent(h, rng.random(len(h)), (h // 3, np.where(twin[h] >= 0, twin[h], h) // 3))]
-        X = splits.split_points(P, T, twin, h, s, b, Qbar, field)
+        X = splits.split_points(state, h)
         u, v = P[T[h // 3, h % 3]], P[T[h // 3, topology.NXT[h % 3]]]
         t = np.einsum("ki,ki->k", X - u, v - u) / np.einsum("ki,ki->k", v - u, v - u)
         assert np.all((t >= splits.SPLIT_AT - 1e-12) & (t <= 1 - splits.SPLIT_AT + 1e-12))
@@ -118,12 +117,13 @@ def test_shape_steps_never_add_failing_edges_nor_deficit(seed, n, cells, shape):
     metric = field_metric(field, 0.1, (np.zeros(2), np.ones(2)))
     before, s, b, twin = total_deficit(P, T, field)
     h0, _, _ = shares.failing(s, b, twin)
-    Qbar, err = (np.asarray(x) for x in field.means_with_error(P, T))
     fixed = np.zeros(len(P), bool)
     fixed[:4] = True
     movers = moves.movers(T, twin, moves.free(T, twin, fixed, np.arange(len(P))),
                        np.random.default_rng(seed))
-    P2, _ = moves.relax(P, T, twin, Qbar, err, s, b, field, metric, movers, shape=shape)
+    state = RepairState.of(P, T, field, fixed=fixed)
+    moves.relax(state, metric, movers, shape=shape)
+    P2 = state.P
     assert np.all(signed_areas(P2, T) > 0)
     after, s2, b2, _ = total_deficit(P2, T, field)
     h1, _, _ = shares.failing(s2, b2, twin)
@@ -186,11 +186,11 @@ def test_sliding_vertices_keep_to_their_side(seed, n, cells):
     assert np.allclose(np.abs(tan[sliding]), np.abs(np.round(tan[sliding])))
     edges, k1, k2, angle = random_raster(seed, cells, 2.0)
     field = qmesh.TensorField.from_raster(edges, edges, k1, k2, angle)
-    Qbar, err = (np.asarray(x) for x in field.means_with_error(P, T))
-    s, b = shares.shares(P, T, Qbar, err)
-    h0, _, _ = shares.failing(s, b, twin)
+    state = RepairState.of(P, T, field, fixed=fixed)
+    h0 = state.h
     movers = moves.movers(T, twin, moves.free(T, twin, fixed, np.arange(len(P)), tan), rng)
-    P2, _ = moves.relax(P, T, twin, Qbar, err, s, b, field, None, movers, shape=True, tangent=tan)
+    moves.relax(state, None, movers, shape=True, tangent=tan)
+    P2 = state.P
     on_x = np.isin(P[sliding, 1], (0.0, 1.0))            # sides y = 0, 1 keep their y, else x
     assert np.array_equal(P2[sliding[on_x], 1], P[sliding[on_x], 1])
     assert np.array_equal(P2[sliding[~on_x], 0], P[sliding[~on_x], 0])
@@ -233,12 +233,12 @@ def test_isosceles_slides_keep_to_their_side_and_mend(seed, n, m, cells):
     field = qmesh.TensorField.from_raster(edges, edges, k1, k2, angle)
     before, s, b, twin = total_deficit(P, T, field)
     h0, _, _ = shares.failing(s, b, twin)
-    Qbar = np.asarray(field.means_with_error(P, T)[0])
     fixed = np.zeros(len(P), bool)
     fixed[:4] = True
     tangent = moves.tangents(P, T, twin, fixed)
-    P2, changed = moves.isosceles(P, T, twin, Qbar, s, b, field, h0, tangent,
-                                  np.random.default_rng(seed))
+    state = RepairState.of(P, T, field, fixed=fixed)
+    changed = moves.isosceles(state, h0, tangent, np.random.default_rng(seed))
+    P2 = state.P
     assert np.all(signed_areas(P2, T) > 0)
     moved = np.flatnonzero(np.any(P2 != P, axis=1))
     assert np.all(np.any(tangent[moved] != 0, axis=1))           # sliding side vertices only
@@ -259,15 +259,15 @@ def test_isosceles_slides_keep_to_their_side_and_mend(seed, n, m, cells):
 
 def polish_inputs(P, T, field, rng):
     """What the polish is called with on a mesh whose four first points (the square's corners)
-    are fixed: the deficit before, the shares, twins, failing edges, means, tangents, movers."""
+    are fixed: the deficit before, the repair's state (a function making it afresh), the twins,
+    failing edges, tangents, movers."""
     before, s, b, twin = total_deficit(P, T, field)
     h0, _, _ = shares.failing(s, b, twin)
-    Qbar = np.asarray(field.means(P, T))
     fixed = np.zeros(len(P), bool)
     fixed[:4] = True
     tan = moves.tangents(P, T, twin, fixed)
     movers = moves.movers(T, twin, moves.free(T, twin, fixed, np.arange(len(P)), tan), rng)
-    return before, s, b, twin, h0, Qbar, tan, movers
+    return before, lambda: RepairState.of(P, T, field, fixed=fixed), twin, h0, tan, movers
 
 
 @settings(max_examples=10, deadline=None)
@@ -288,9 +288,11 @@ def test_the_polish_raises_the_worst_quality_of_every_star_it_moves(seed, n, cel
     T = T.astype(np.int64)
     edges, k1, k2, angle = random_raster(seed, cells, 2.0)
     field = qmesh.TensorField.from_raster(edges, edges, k1, k2, angle)
-    before, s, b, twin, h0, Qbar, tan, movers = polish_inputs(P, T, field, rng)
+    before, state, twin, h0, tan, movers = polish_inputs(P, T, field, rng)
     refused = np.zeros(len(P), bool)
-    P2, _ = moves.polish(P, T, twin, Qbar, s, b, field, movers, tangent=tan, refused=refused)
+    polished = state()
+    moves.polish(polished, movers, tangent=tan, refused=refused)
+    P2 = polished.P
     assert np.all(signed_areas(P2, T) > 0)
     after, s2, b2, _ = total_deficit(P2, T, field)
     assert len(shares.failing(s2, b2, twin)[0]) <= len(h0)
@@ -303,8 +305,9 @@ def test_the_polish_raises_the_worst_quality_of_every_star_it_moves(seed, n, cel
     assert np.array_equal(P2[sliding[P[sliding, 1] == 0], 1], np.zeros(2))
     assert np.array_equal(P2[sliding[P[sliding, 0] == 1], 0], np.ones(2))
     some = movers[rng.random(len(movers)) < 0.5]
-    P3, _ = moves.polish(P, T, twin, Qbar, s, b, field, some, tangent=tan)
-    assert np.array_equal(P3[some], P2[some])
+    alone = state()
+    moves.polish(alone, some, tangent=tan)
+    assert np.array_equal(alone.P[some], P2[some])
 
 
 FORMULA = ("1 + x**2 + sin(3*y)", "0.9*sin(4*x)*cos(3*y)", "1.2 + cos(2*x)")
@@ -321,18 +324,16 @@ def test_each_mover_is_judged_on_its_own(seed, n, shape, own):
     rng = np.random.default_rng(seed)
     field = qmesh.TensorField.from_expressions(*FORMULA)
     metric = None if own else field_metric(field, 0.1, (np.zeros(2), np.ones(2)))
-    Qbar, err = (np.asarray(x) for x in field.means_with_error(P, T))
-    s, b = shares.shares(P, T, Qbar, err)
     twin = topology.twins(T)
     fixed = np.zeros(len(P), bool)
     fixed[:4] = True
     movers = moves.movers(T, twin, moves.free(T, twin, fixed, np.arange(len(P))), rng)
     all_refused, some_refused = np.zeros(len(P), bool), np.zeros(len(P), bool)
-    P_all, _ = moves.relax(P, T, twin, Qbar, err, s, b, field, metric, movers, shape=shape,
-                        refused=all_refused)
+    every, part = RepairState.of(P, T, field, fixed=fixed), RepairState.of(P, T, field, fixed=fixed)
+    moves.relax(every, metric, movers, shape=shape, refused=all_refused)
     some = movers[rng.random(len(movers)) < 0.5]
-    P_some, t = moves.relax(P, T, twin, Qbar, err, s, b, field, metric, some, shape=shape,
-                         refused=some_refused)
+    moves.relax(part, metric, some, shape=shape, refused=some_refused)
+    P_all, P_some = every.P, part.P
     assert np.array_equal(P_some[some], P_all[some])
     assert np.array_equal(some_refused[some], all_refused[some])
     assert np.array_equal(all_refused[movers], np.all(P_all[movers] == P[movers], axis=1))
@@ -349,13 +350,14 @@ def test_flips_refused_once_are_refused_again(seed, n, cells):
     field = qmesh.TensorField.from_raster(edges, edges, k1, k2, angle)
     _, s, b, twin = total_deficit(P, T, field)
     h, _, _ = shares.failing(s, b, twin)
+    state = RepairState.of(P, T, field)
     refused = np.zeros(len(twin), bool)
-    done = flips.mending_flips(P, T, twin, h, s, b, field, refused=refused)
+    done = flips.mending_flips(state, h, refused=refused)
     assert not refused[done].any()
     again = np.zeros(len(twin), bool)
-    assert not len(flips.mending_flips(P, T, twin, h[refused[h]], s, b, field, refused=again))
+    assert not len(flips.mending_flips(state, h[refused[h]], refused=again))
     assert again[h[refused[h]]].all()
-    assert np.array_equal(flips.mending_flips(P, T, twin, h[~refused[h]], s, b, field), done)
+    assert np.array_equal(flips.mending_flips(state, h[~refused[h]]), done)
 
 
 @settings(max_examples=10, deadline=None)
@@ -416,9 +418,11 @@ def test_the_polish_asks_adaptive_means_for_one_try_a_mover(seed, n):
     rng = np.random.default_rng(seed)
     P, T = square_mesh(seed, n)
     field = qmesh.TensorField.from_expressions(*FORMULA)
-    before, s, b, twin, h0, Qbar, tan, movers = polish_inputs(P, T, field, rng)
-    counted = Counted(field)
-    P2, _ = moves.polish(P, T, twin, Qbar, s, b, counted, movers, tangent=tan)
+    before, state, twin, h0, tan, movers = polish_inputs(P, T, field, rng)
+    polished = state()
+    counted = polished.field = Counted(field)     # the means the polish asks for, counted
+    moves.polish(polished, movers, tangent=tan)
+    P2 = polished.P
     stars = int(topology.touching(T, np.isin(np.arange(len(P)), movers)).sum())
     tries = len(moves.STEPS) + moves.PATTERN * len(moves.REACH)
     assert counted.asked["rough"] == tries * stars

@@ -1,0 +1,113 @@
+"""The repair's one state: the mesh it changes, the means and shares it judges by, what it refused.
+
+FIELDS.md §4. Certify (certify.py) and its steps — the flips (flips.py), the splits (splits.py)
+and the vertex moves (moves.py) — read and update one `RepairState` instead of handing each
+other the mesh arrays, the twins, the means, their errors and the shares: a step changes the
+mesh (P, T, twin and cut, fixed, out, reg), and `refresh` then brings the means and shares of
+the triangles it changed up to date.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from qmesh.fields.moves import Judged
+from qmesh.fields.shares import cut_interfaces, failing, means_of, shares
+from qmesh.geometry import topology
+
+Array = NDArray[np.float64]
+Index = NDArray[np.int64]
+
+
+@dataclass
+class RepairState:
+    """A mesh under repair and what its steps judge by.
+
+    The mesh: vertices `P` (n, 2), triangles `T` (M, 3), the `twin` of each half-edge 3t + j
+    (corner j → j + 1; −1 on the boundary), `cut` (the twins less a medium's interfaces, which
+    are judged side by side and never flipped: `twin` itself without regions), the `fixed`
+    vertices, the tag of the boundary edge leaving each vertex `out` (−1 none), each triangle's
+    region tag `reg` (a medium; else None). The means: `field` gives them (`cache.ElementMeans`,
+    `piecewise.RegionMeans` with tags, or anything with `means_with_error`), `Qbar` (M, 2, 2)
+    and their error bounds `err` (M,), `tight` where they are at the field's own tolerance; each
+    half-edge's share `s` of its edge's q_ij and its bound `b` (3M,) (shares.py). The failing
+    edges `h` (a half-edge each) and their q_ij `q` as `fail` last found them; what was judged
+    and refused, `seen` (moves.Judged); the `flips` made."""
+
+    P: Array
+    T: Index
+    twin: Index
+    cut: Index
+    fixed: NDArray[np.bool_]
+    out: Index
+    reg: Index | None
+    field: Any
+    Qbar: Array
+    err: Array
+    s: Array
+    b: Array
+    tight: NDArray[np.bool_]
+    seen: Judged
+    h: Index
+    q: Array
+    flips: int = 0
+
+    @classmethod
+    def of(cls, P, T, field, *, fixed=None, out=None, reg=None) -> "RepairState":
+        """The state of the mesh P, T: its twins, the means of `field` and their shares
+        computed, nothing judged yet (`fixed` none and `out` −1 unless given)."""
+        P, T = np.array(P), np.array(T)
+        twin = topology.twins(T)
+        cut = cut_interfaces(twin, reg)
+        Qbar, err = means_of(field, "means_with_error", P, T, reg)
+        Qbar, err = np.array(Qbar, dtype=float), np.array(err, dtype=float)
+        s, b = shares(P, T, Qbar, err)
+        h, q, _ = failing(s, b, cut)
+        return cls(P, T, twin, cut,
+                   np.zeros(len(P), bool) if fixed is None else np.array(fixed),
+                   np.full(len(P), -1, np.int64) if out is None else np.array(out),
+                   reg, field, Qbar, err, s, b, np.zeros(len(T), bool), Judged(len(P), len(T)),
+                   h, q)
+
+    def means(self, how: str, P, T, tags=None):
+        """`field`'s means and error bounds of triangles T over P (`shares.means_of`)."""
+        return means_of(self.field, how, P, T, tags)
+
+    def fail(self) -> None:
+        """The failing edges `h` and their `q` from the shares as they are."""
+        self.h, self.q, _ = failing(self.s, self.b, self.cut)
+
+    def flip(self, done: Index) -> Index:
+        """Flip the interior half-edges `done` (no two in one triangle); the triangles changed."""
+        t = done[:0]
+        if len(done):
+            t = np.concatenate([done // 3, self.twin[done] // 3])
+            self.T, self.twin = topology.flip(self.T, self.twin, done)
+            self.cut = cut_interfaces(self.twin, self.reg)
+            self.flips += len(done)
+        return t
+
+    def refresh(self, t, tighten: bool = False) -> None:
+        """The means of the triangles `t` (changed rows, and rows past the old end) computed
+        again (`tighten`: at the field's own tolerance, `ElementMeans.tighten`), their shares
+        (each round assembles only what changed), and what was judged on them forgotten."""
+        M = len(self.T)
+        if len(self.Qbar) < M:
+            self.Qbar = np.concatenate([self.Qbar, np.zeros((M - len(self.Qbar), 2, 2))])
+            self.err = np.concatenate([self.err, np.zeros(M - len(self.err))])
+            self.s = np.concatenate([self.s, np.zeros(3 * M - len(self.s))])
+            self.b = np.concatenate([self.b, np.zeros(3 * M - len(self.b))])
+            self.tight = np.concatenate([self.tight, np.zeros(M - len(self.tight), bool)])
+        u = np.unique(t)
+        Qn, en = self.means("tighten" if tighten else "means_with_error", self.P, self.T[u],
+                           None if self.reg is None else self.reg[u])
+        self.Qbar[u], self.err[u] = Qn, en
+        st, bt = shares(self.P, self.T[u], self.Qbar[u], self.err[u])
+        rows = (3 * u[:, None] + np.arange(3)).ravel()
+        self.s[rows], self.b[rows] = st, bt
+        self.tight[u] = tighten
+        self.seen.forget(self.T, self.twin, t)
