@@ -306,10 +306,12 @@ class TensorField:
 
     @classmethod
     def _of_components(cls, components: Callable[[Array, Array], Array], label: str,
-                       constant: list[float] | None, forms: list[tuple]) -> "TensorField":
-        """A field from a checked components(X, Y) → (n, 3) of texts whose checked forms of
-        q11, q12, q22 are `forms` (its means' error is bounded by their enclosures); a constant
-        one (its components q11, q12, q22 given) is checked now."""
+                       constant: list[float] | None, forms: list[tuple] | None = None
+                       ) -> "TensorField":
+        """A field from a checked components(X, Y) → (n, 3), of texts whose checked forms of
+        q11, q12, q22 are `forms` (its means' error is bounded by their enclosures; None: its
+        means are sampled, as a callable's); a constant one (its components q11, q12, q22
+        given) is checked now."""
         if constant is not None:
             q11, q12, q22 = constant
             if not (q11 > 0 and q22 > 0 and q11 * q22 - q12 * q12 > 0):
