@@ -25,6 +25,7 @@ from scipy.spatial import cKDTree
 
 from qmesh.geometry.portable import eigvalsh2
 from qmesh.mesher import conform
+from qmesh.mesher.corners import metric_at
 
 
 def _in_ellipses(P, a, b, ids, anisotropy, tree=None, mutual=False):
@@ -38,7 +39,7 @@ def _in_ellipses(P, a, b, ids, anisotropy, tree=None, mutual=False):
         return none
     M = 0.5 * (P[a] + P[b])
     E = P[b] - P[a]
-    H = conform._metric_at(anisotropy, M)
+    H = metric_at(anisotropy, M)
     L2 = np.einsum("ki,kij,kj->k", E, H, E)
     r = 0.5 * np.sqrt(L2 / np.clip(eigvalsh2(H)[:, 0], 1e-300, None)) * (1 + 1e-9)
     r = np.where(np.isfinite(r), r, 0.0)
@@ -58,7 +59,7 @@ def _in_ellipses(P, a, b, ids, anisotropy, tree=None, mutual=False):
     enc = depth < -conform.ENCROACH_TOL * L2[k]
     if mutual:
         k, j, D = k[enc], j[enc], D[enc]
-        Hj = conform._metric_at(anisotropy, P[j])
+        Hj = metric_at(anisotropy, P[j])
         enc = np.einsum("ki,kij,kj->k", D, Hj, D) < 0.25 * np.einsum("ki,kij,kj->k", E[k], Hj, E[k])
     return k[enc], j[enc]
 
