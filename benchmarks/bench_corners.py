@@ -58,7 +58,7 @@ def run(theta: float, n: int) -> list[str]:
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--no-page", action="store_true", help="print the table only")
+    report_page.add_option(ap)
     args = ap.parse_args(argv)
     headers = ["corner (°)", "target", "N", "interior q ≥ 0", "boundary q ≥ 0", "min quality",
                "corner bound", "seconds"]

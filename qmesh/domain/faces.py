@@ -17,11 +17,13 @@ def face_domain(part, face, extra: dict, name: str):
     skips the pair checks (a thousand holes around a face took most of its run's time)."""
     rings, tags, simple = part.face_rings(face, extra)
     known = Domain.from_checked_rings(rings, tags) if simple else None
-    if known is not None:
-        return known
-    try:
-        return Domain(rings[0], rings[1:], tags=tags)
-    except QmeshError as e:
-        raise QmeshError(f"{name} cannot be meshed on its own: {e} (regions that touch in a "
-                         "single point pinch it; let them share an edge or keep them apart)") from None
+    if known is None:
+        try:
+            known = Domain(rings[0], rings[1:], tags=tags)
+        except QmeshError as e:
+            raise QmeshError(f"{name} cannot be meshed on its own: {e} (regions that touch in a "
+                             "single point pinch it; let them share an edge or keep them apart)"
+                             ) from None
+    known.media_face = True          # its corners keep their points (mesher/corners.py)
+    return known
 

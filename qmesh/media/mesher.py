@@ -174,7 +174,10 @@ def _group(plan: MediaPlan, at: int, extra: dict, meshes: FaceMeshes, alone: set
         if n < batch:
             break
         taken, k, batch = np.concatenate([taken, r.points]), k + n, 2 * batch
-    return faces, dom if len(faces) == 1 else Components(rings, tags, sizes), sizes, first
+    if len(faces) > 1:
+        dom = Components(rings, tags, sizes)
+        dom.media_face = True          # its corners keep their points (mesher/corners.py)
+    return faces, dom, sizes, first
 
 
 def _face_steps(plan: MediaPlan, faces: list, dom: Any, options: dict, said: list,

@@ -72,8 +72,9 @@ def sharp_seeds(domain, anisotropy) -> np.ndarray:
     Q (where the metric is affine and a mirror exact; decided on the cosine, so that no
     CPU-dispatched function reads the decision's last bits). A reflex corner (a slit's tip) has
     Ω on the far side of its small angle: it is not one."""
-    if not anisotropy.is_constant or not len(domain.segments):
-        return np.zeros(len(domain.seeds), bool)
+    if (not anisotropy.is_constant or not len(domain.segments)
+            or getattr(domain, "media_face", False)):   # a medium's faces share their boundary
+        return np.zeros(len(domain.seeds), bool)        # points: matched sides would move them
     a, b = _sides(domain)
     convex = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0] < 0          # Ω on the left: a left turn
     return convex & (corner_cosines(domain, anisotropy) > COS_SHARP)
