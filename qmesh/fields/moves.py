@@ -331,8 +331,8 @@ def _judged(st, v, D, shape, how="means_with_error"):
     X = np.where(flat[:, mover, None, None], X, moved)
     pts = X.reshape(-1, 2)
     tags = None if reg is None else np.tile(reg[star], K)
-    Qn, en = st.means(how, pts, tri, tags)
-    Qn, en = np.asarray(Qn, dtype=float), np.asarray(en, dtype=float)
+    Qn, en = _try_means(st, how, pts, tri, tags, star, mover,
+                        flat | (np.hypot(D[..., 0], D[..., 1]) == 0))
     sn, bn = (x.reshape(K, 3 * m) for x in shares(pts, tri, Qn, en))
     he = (3 * star[:, None] + np.arange(3)).ravel()
     local = np.full(len(T), -1, np.int64)
@@ -371,6 +371,27 @@ def _judged(st, v, D, shape, how="means_with_error"):
         take = ((f1 <= f0) & (d1 <= d0) & ((f1 < f0) | (d1 < (1.0 - GAIN) * d0))
                 & (q1 >= np.minimum(q0, KEEP * FLOOR)))
     return take & (np.hypot(D[..., 0], D[..., 1]) > 0) & ~flat, q1
+
+
+def _try_means(st, how, pts, tri, tags, star, mover, still):
+    """The means and error bounds of the K tries' stars (K m triangles `tri` over `pts`), the
+    stars of the tries `still` ((K, k): refused on geometry alone, a triangle flattened or no
+    move) left unmoved. Rough means are asked for the moved stars only, and the unmoved ones
+    take the state's own: a refused try's means decide nothing (stars two triangles apart
+    share no edge), and each other triangle's rough mean is its own, whatever the batch. Other
+    means come from the cache (`cache.ElementMeans`), where an unmoved star is already kept."""
+    if how != "rough" or not still.any():
+        Qn, en = st.means(how, pts, tri, tags)
+        return np.asarray(Qn, dtype=float), np.asarray(en, dtype=float)
+    K, m = len(still), len(star)
+    kept = still[:, mover].ravel()                           # (K m,): unmoved triangles
+    Qn, en = np.empty((K * m, 2, 2)), np.empty(K * m)
+    Qn[kept], en[kept] = np.tile(st.Qbar[star], (K, 1, 1))[kept], np.tile(st.err[star], K)[kept]
+    ask = np.flatnonzero(~kept)
+    if len(ask):
+        Qa, ea = st.means(how, pts, tri[ask], None if tags is None else tags[ask])
+        Qn[ask], en[ask] = Qa, ea
+    return Qn, en
 
 
 def _own_metric(H):

@@ -1,0 +1,63 @@
+"""The vertex moves' tries (qmesh/fields/moves.py `_judged`): a try refused on geometry alone —
+it flattens or turns over a triangle of its star, or does not move — has no rough means asked
+for its star, and the other tries are judged exactly as they are on their own."""
+
+import numpy as np
+from hypothesis import given, settings, strategies as st
+
+import qmesh
+from qmesh.fields import moves
+from qmesh.fields.cache import ElementMeans
+from qmesh.fields.repair_state import RepairState
+from qmesh.geometry import topology
+from qmesh.geometry.triangles import proper
+from tests.fields.test_certify import FORMULA, square_mesh
+
+
+class Counted(ElementMeans):
+    """The field's means, the triangles asked for rough means counted."""
+
+    rough_asked = 0
+
+    def rough(self, P, T):
+        self.rough_asked += len(np.reshape(T, (-1, 3)))
+        return super().rough(P, T)
+
+
+def _state(P, T):
+    fixed = np.zeros(len(P), bool)
+    fixed[:4] = True
+    return RepairState.of(P, T, Counted(qmesh.TensorField.from_expressions(*FORMULA)), fixed=fixed)
+
+
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), n=st.integers(20, 150), reach=st.floats(0.005, 0.2))
+def test_tries_refused_on_geometry_ask_for_no_means(seed, n, reach):
+    P, T = square_mesh(seed, n)
+    rng = np.random.default_rng(seed)
+    twin = topology.twins(T)
+    fixed = np.zeros(len(P), bool)
+    fixed[:4] = True
+    v = moves.movers(T, twin, moves.free(T, twin, fixed, np.arange(len(P))), rng)
+    k = len(v)
+    small = rng.normal(0.0, reach, (k, 2))            # some of these flatten their star
+    D = np.stack([small, np.zeros((k, 2)), 10.0 * np.ones((k, 2))])   # no move; out of Ω
+    st_ = _state(P, T)
+    take, q1 = moves._judged(st_, v, D, True, how="rough")
+    # the star triangles of the first try's movers that move and flatten nothing, found here
+    mask = np.zeros(len(P), bool)
+    mask[v] = True
+    star = np.flatnonzero(topology.touching(T, mask))
+    corner = np.argmax(mask[T[star]], axis=1)
+    mover = np.searchsorted(v, T[star][np.arange(len(star)), corner])
+    X = P[T[star]].copy()
+    X[np.arange(len(star)), corner] += small[mover]
+    bad = np.zeros(k, bool)
+    bad[mover[~proper(X.reshape(-1, 2), np.arange(3 * len(star)).reshape(-1, 3))]] = True
+    bad |= np.hypot(*small.T) == 0
+    assert st_.field.rough_asked == np.count_nonzero(~bad[mover])
+    assert not take[1:].any() and not take[0][bad].any()
+    alone = _state(P, T)
+    take1, q11 = moves._judged(alone, v, D[:1], True, how="rough")
+    assert np.array_equal(take1[0], take[0])
+    assert np.array_equal(q11[0][~bad], q1[0][~bad])
