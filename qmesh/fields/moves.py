@@ -258,9 +258,9 @@ def polish(st, movers, tangent=None, refused=None):
     D = np.concatenate([np.asarray(STEPS)[:, None, None] * step[None], back])   # (K, k, 2)
     if tangent is not None:                    # a boundary vertex: the move's share along it
         D = _along(D, tangent[v])
-    # every try judged on rough means (the degree-5 rule against its children), the one each
-    # mover would take judged again on the means it is kept with: the field's adaptive means
-    # for one try a mover, not for all of them
+    # every try judged on rough means (the degree-5 rule alone, `ElementMeans.rough`), the one
+    # each mover would take judged again on the means it is kept with: the field's adaptive
+    # means for one try a mover, not for all of them
     ok, q1 = _judged(st, v, D, True, how="rough")
     q1 = np.where(ok, q1, -np.inf)
     best = np.argmax(q1, axis=0)

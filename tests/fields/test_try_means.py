@@ -61,3 +61,25 @@ def test_tries_refused_on_geometry_ask_for_no_means(seed, n, reach):
     take1, q11 = moves._judged(alone, v, D[:1], True, how="rough")
     assert np.array_equal(take1[0], take[0])
     assert np.array_equal(q11[0][~bad], q1[0][~bad])
+
+
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), n=st.integers(5, 80),
+       c=st.lists(st.floats(-0.5, 0.5), min_size=6, max_size=6))
+def test_rough_means_are_the_rule_alone(seed, n, c):
+    """Candidates are ranked on the degree-5 rule alone: Q at 7 points a triangle, no more; exact
+    for a quadratic Q, whose mean over a triangle is the average of Q at its edges' midpoints."""
+    P, T = square_mesh(seed, n)
+    a, b, d, e, f, g = c
+    q11 = f"3 + {a}*x + {b}*y*y"
+    q12 = f"{d}*x*y/4"
+    q22 = f"4 + {e}*x*x + {f}*y + {g}*x*y"
+    field = qmesh.TensorField.from_expressions(q11, q12, q22)
+    cache = ElementMeans(field)
+    before = field.evaluations.asked
+    Q, err = cache.rough(P, T)
+    assert field.evaluations.asked - before == 7 * len(T)
+    assert not err.any()
+    mid = 0.5 * (P[T] + P[T[:, [1, 2, 0]]])                          # (M, 3, 2)
+    exact = field(mid.reshape(-1, 2)).reshape(len(T), 3, 2, 2).mean(axis=1)
+    assert np.allclose(Q, exact, rtol=1e-12, atol=1e-12)
