@@ -157,12 +157,12 @@ class ElementMeans:
     def rough(self, P, T):
         """Means good enough to rank candidates, not kept: the degree-5 rule alone, 7 points a
         triangle (`TensorField.rule_means`), error 0 (exact for rasters and constants). Nothing is
-        kept or certified on them: the polish judges the try it keeps again on the adaptive
-        means, and a split's triangles have those computed and judged in the next round.
-        Ranked so instead of on the rule against its four children (35 points), the formula,
-        callable and medium cases of benchmarks/bench_fields.py at 2 000 and 20 000 vertices keep
-        their meshes bit for bit but two, each certified at the same N with no lower minimum
-        quality."""
+        kept or certified on them: a move that passes on them is judged again on the adaptive
+        means, and a split's triangles have those computed and judged in the next round. On
+        the formula, callable and medium cases of benchmarks/bench_fields.py at 2 000 and
+        20 000 vertices, the meshes that ranking and screening on these rather than on the rule
+        against its four children (35 points) changed kept their N, their certificate and
+        their minimum quality."""
         P, T = np.asarray(P, dtype=float), np.asarray(T, dtype=np.int64).reshape(-1, 3)
         if self.field.means_exact:
             return self.means_with_error(P, T)

@@ -294,10 +294,14 @@ def _along(d, t):
 
 def _accepted(st, d, moving, shape):
     """Which `moving` vertices (two triangles apart) `relax` takes moved by d: their stars'
-    edges and shapes judged on the means at the new places."""
+    edges and shapes judged first on rough means (`ElementMeans.rough`, 7 points a triangle),
+    and the moves that pass judged again on the means at the new places (each mover is judged
+    on its own star: the same verdict among fewer movers)."""
     v = np.flatnonzero(moving)
     out = np.zeros(len(st.P), bool)
-    out[v] = _judged(st, v, d[v][None], shape)[0][0]
+    maybe = v[_judged(st, v, d[v][None], shape, how="rough")[0][0]]
+    if len(maybe):
+        out[maybe] = _judged(st, maybe, d[maybe][None], shape)[0][0]
     return out
 
 

@@ -83,3 +83,38 @@ def test_rough_means_are_the_rule_alone(seed, n, c):
     mid = 0.5 * (P[T] + P[T[:, [1, 2, 0]]])                          # (M, 3, 2)
     exact = field(mid.reshape(-1, 2)).reshape(len(T), 3, 2, 2).mean(axis=1)
     assert np.allclose(Q, exact, rtol=1e-12, atol=1e-12)
+
+
+class Both(Counted):
+    """`Counted`, the triangles asked for adaptive means counted too."""
+
+    full_asked = 0
+
+    def means_with_error(self, P, T):
+        self.full_asked += len(np.reshape(T, (-1, 3)))
+        return super().means_with_error(P, T)
+
+
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), n=st.integers(30, 150), shape=st.booleans())
+def test_relax_asks_adaptive_means_only_for_moves_that_pass_on_rough_ones(seed, n, shape):
+    """A relax move is judged on rough means first; only the moves that pass them are judged
+    on adaptive means, and a move taken passes on both."""
+    P, T = square_mesh(seed, n)
+    rng = np.random.default_rng(seed)
+    twin = topology.twins(T)
+    fixed = np.zeros(len(P), bool)
+    fixed[:4] = True
+    v = moves.movers(T, twin, moves.free(T, twin, fixed, np.arange(len(P))), rng)
+    field = Both(qmesh.TensorField.from_expressions(*FORMULA))
+    st_ = RepairState.of(P, T, field, fixed=fixed)
+    field.full_asked = field.rough_asked = 0
+    moves.relax(st_, None, v, shape=shape)
+    assert field.rough_asked > 0
+    assert field.full_asked <= field.rough_asked
+    moved = np.flatnonzero(np.any(st_.P != P, axis=1))
+    if len(moved):
+        d = st_.P[moved] - P[moved]
+        for how in ("rough", "means_with_error"):
+            again = RepairState.of(P, T, qmesh.TensorField.from_expressions(*FORMULA), fixed=fixed)
+            assert moves._judged(again, moved, d[None], shape, how=how)[0][0].all()
