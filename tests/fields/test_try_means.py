@@ -24,23 +24,28 @@ class Counted(ElementMeans):
         return super().rough(P, T)
 
 
-def _state(P, T):
+def _state(P, T, means=Counted):
     fixed = np.zeros(len(P), bool)
     fixed[:4] = True
-    return RepairState.of(P, T, Counted(qmesh.TensorField.from_expressions(*FORMULA)), fixed=fixed)
+    return RepairState.of(P, T, means(qmesh.TensorField.from_expressions(*FORMULA)), fixed=fixed)
+
+
+def _movers(seed, n):
+    """A square's mesh (its corners fixed) and movers of it, two triangles apart."""
+    P, T = square_mesh(seed, n)
+    twin = topology.twins(T)
+    fixed = np.zeros(len(P), bool)
+    fixed[:4] = True
+    free = moves.free(T, twin, fixed, np.arange(len(P)))
+    return P, T, moves.movers(T, twin, free, np.random.default_rng(seed))
 
 
 @settings(max_examples=10, deadline=None)
 @given(seed=st.integers(0, 2**31 - 1), n=st.integers(20, 150), reach=st.floats(0.005, 0.2))
 def test_tries_refused_on_geometry_ask_for_no_means(seed, n, reach):
-    P, T = square_mesh(seed, n)
-    rng = np.random.default_rng(seed)
-    twin = topology.twins(T)
-    fixed = np.zeros(len(P), bool)
-    fixed[:4] = True
-    v = moves.movers(T, twin, moves.free(T, twin, fixed, np.arange(len(P))), rng)
+    P, T, v = _movers(seed, n)
     k = len(v)
-    small = rng.normal(0.0, reach, (k, 2))            # some of these flatten their star
+    small = np.random.default_rng(seed + 1).normal(0.0, reach, (k, 2))   # some flatten their star
     D = np.stack([small, np.zeros((k, 2)), 10.0 * np.ones((k, 2))])   # no move; out of Ω
     st_ = _state(P, T)
     take, q1 = moves._judged(st_, v, D, True, how="rough")
@@ -100,14 +105,9 @@ class Both(Counted):
 def test_relax_asks_adaptive_means_only_for_moves_that_pass_on_rough_ones(seed, n, shape):
     """A relax move is judged on rough means first; only the moves that pass them are judged
     on adaptive means, and a move taken passes on both."""
-    P, T = square_mesh(seed, n)
-    rng = np.random.default_rng(seed)
-    twin = topology.twins(T)
-    fixed = np.zeros(len(P), bool)
-    fixed[:4] = True
-    v = moves.movers(T, twin, moves.free(T, twin, fixed, np.arange(len(P))), rng)
-    field = Both(qmesh.TensorField.from_expressions(*FORMULA))
-    st_ = RepairState.of(P, T, field, fixed=fixed)
+    P, T, v = _movers(seed, n)
+    st_ = _state(P, T, Both)
+    field = st_.field
     field.full_asked = field.rough_asked = 0
     moves.relax(st_, None, v, shape=shape)
     assert field.rough_asked > 0
@@ -116,5 +116,4 @@ def test_relax_asks_adaptive_means_only_for_moves_that_pass_on_rough_ones(seed, 
     if len(moved):
         d = st_.P[moved] - P[moved]
         for how in ("rough", "means_with_error"):
-            again = RepairState.of(P, T, qmesh.TensorField.from_expressions(*FORMULA), fixed=fixed)
-            assert moves._judged(again, moved, d[None], shape, how=how)[0][0].all()
+            assert moves._judged(_state(P, T), moved, d[None], shape, how=how)[0][0].all()
