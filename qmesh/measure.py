@@ -827,6 +827,19 @@ def _interpolation_errors2(P: NDArray[np.float64], T: NDArray[np.int64],
 
 # --------------------------------------------------------------------------- report
 
+def _sampled_at(mesh: Mesh, given: Given) -> float | None:
+    """The spacing the element means measured sample a callable field at: the mesh's own
+    (`Mesh.means_sampled_at`) or the given field's (`TensorField.sampled_at`); None when every
+    mean is exact or its error bound proven."""
+    if given is None:
+        return mesh.means_sampled_at
+    fields: list[Any] = ([given] if _is_field(given) else
+                         list(given.values()) if isinstance(given, Mapping) else [])
+    h = [f.sampled_at(mesh.points, mesh.triangles) for f in fields if _is_field(f)]
+    found = [float(v) for v in h if v is not None]
+    return max(found) if found else None
+
+
 def report(mesh: Mesh, anisotropy: Given = None, *, laplacian: bool = True) -> Report:
     """All measurements of one mesh as plain Python numbers and texts (JSON-serialisable).
 
@@ -848,7 +861,9 @@ def report(mesh: Mesh, anisotropy: Given = None, *, laplacian: bool = True) -> R
     zero-area triangle). κ2 is computed once per matrix
     (`kappa2` with the conductivity, `kappa2_laplacian` with Q = I); `laplacian=False` leaves
     `kappa2_laplacian` out, for callers that keep only `kappa2` (it is another matrix's κ2,
-    as long to compute).
+    as long to compute). `means_sampled_at` is there when the element means are a callable
+    field's: the spacing h of the samples they come from (the shares of q_ij ≥ 0 hold for Q as
+    sampled at h; a jump or a bump narrower than h between samples can go unseen).
     """
     A = _resolve(mesh, anisotropy, allow_none=False)
     P, T = mesh.points, mesh.triangles
@@ -871,6 +886,9 @@ def report(mesh: Mesh, anisotropy: Given = None, *, laplacian: bool = True) -> R
     }
     if not laplacian:
         del out["kappa2_laplacian"]
+    sampled = _sampled_at(mesh, anisotropy)
+    if sampled is not None:
+        out["means_sampled_at"] = sampled
     if len(T) == 0 or np.any(area == 0.0):
         out["kappa2_undefined"] = ("the mesh has no triangle" if len(T) == 0 else
                                    "the mesh has degenerate (zero-area) triangles")

@@ -41,7 +41,11 @@ class Mesh:
     gives each triangle's region (0, the rest of Ω, when the domain has no regions) and
     `region_names` names them. `conductivity (M, 2, 2)`, when the mesh was made for a
     `TensorField`, holds each triangle's element mean Q̄_T = (1/|T|)∫_T Q: exactly what the P1
-    stiffness matrix assembles (FIELDS.md §2); None otherwise.
+    stiffness matrix assembles (FIELDS.md §2); None otherwise. `means_sampled_at`, when those
+    means come from a callable field, is the spacing h of the samples they were computed from
+    (`TensorField.sampled_at`): a jump or a bump narrower than h between samples can go unseen,
+    so the certificate holds for Q as sampled at h; None when the means are exact or their error
+    bound is proven (texts, rasters, constants).
     """
 
     points: NDArray[np.float64] = field(repr=False)
@@ -53,13 +57,15 @@ class Mesh:
     region_tags: NDArray[np.int64] = field(default=_FILLED, repr=False)
     region_names: dict[int, str] = field(default=_FILLED, repr=False)
     conductivity: NDArray[np.float64] | None = field(default=None, repr=False)
+    means_sampled_at: float | None = field(default=None, repr=False)
 
     if TYPE_CHECKING:   # what the constructor takes; the fields above are what it keeps
         def __init__(self, points: ArrayLike, triangles: ArrayLike, fixed: ArrayLike | None = None,
                      boundary_edges: ArrayLike | None = None, boundary_tags: ArrayLike | None = None,
                      tag_names: Mapping[int, str] | None = None, region_tags: ArrayLike | None = None,
                      region_names: Mapping[int, str] | None = None,
-                     conductivity: ArrayLike | None = None) -> None: ...
+                     conductivity: ArrayLike | None = None,
+                     means_sampled_at: float | None = None) -> None: ...
 
     def __post_init__(self) -> None:
         P = self.points if _is_float_array(self.points) else real_array(self.points, "points",
@@ -97,6 +103,12 @@ class Mesh:
             Q = frozen(real_array(self.conductivity, "conductivity", (None, 2, 2)), np.float64)
             if Q.shape != (len(T), 2, 2):
                 raise QmeshError(f"conductivity must have shape ({len(T)}, 2, 2), got {Q.shape}")
+        h = self.means_sampled_at
+        if h is not None:
+            if isinstance(h, bool) or not isinstance(h, (int, float, np.floating, np.integer)) \
+                    or not (np.isfinite(float(h)) and float(h) > 0):
+                raise QmeshError(f"means_sampled_at must be a finite length > 0 or None, got {h!r:.80}")
+            object.__setattr__(self, "means_sampled_at", float(h))
         for name, value in (("points", P), ("triangles", T), ("fixed", F), ("boundary_edges", E),
                             ("boundary_tags", tags), ("tag_names", names), ("region_tags", regions),
                             ("region_names", region_names), ("conductivity", Q)):

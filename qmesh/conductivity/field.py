@@ -21,6 +21,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from qmesh.conductivity import means as _m
 from qmesh.conductivity.expression import check, function_of_xy
+from qmesh.conductivity.intervals import principal_forms
 from qmesh.conductivity.point_cache import Evaluations, PointCache
 from qmesh import checks
 from qmesh.errors import QmeshError
@@ -46,15 +47,16 @@ def _point(X: Array, Y: Array, k: int) -> str:
     return f"(x, y) = ({_fmt(X[k])}, {_fmt(Y[k])})"
 
 
-def _scalar(v: Any, name: str) -> tuple[float | None, _Scalar, str]:
+def _scalar(v: Any, name: str) -> tuple[float | None, _Scalar, str, tuple]:
     """A number or a text in x, y → (the number or None, a vectorised g(X, Y) on 1-D arrays, its
-    text for labels). Texts are checked by the s(x, y) parser, messages naming `name`."""
+    text for labels, its checked form for enclosures). Texts are checked by the s(x, y) parser,
+    messages naming `name`."""
     if isinstance(v, str):
         form = check(v, f"{name}(x, y)")
         if form[0] == "num":
             c = float(form[1])
-            return c, (lambda X, Y: np.full(X.shape, c)), v.strip()
-        return None, function_of_xy(v, f"{name}(x, y)", form), v.strip()
+            return c, (lambda X, Y: np.full(X.shape, c)), v.strip(), form
+        return None, function_of_xy(v, f"{name}(x, y)", form), v.strip(), form
     scalar = isinstance(v, numbers.Real) or (isinstance(v, np.ndarray) and v.ndim == 0 and v.dtype.kind in "iuf")
     if isinstance(v, (bool, np.bool_)) or not scalar:
         raise QmeshError(f"{name} must be a number or a text in x and y, got {v!r:.80}")
@@ -65,7 +67,7 @@ def _scalar(v: Any, name: str) -> tuple[float | None, _Scalar, str]:
                          "beyond any float") from None
     if not np.isfinite(c):
         raise QmeshError(f"{name} must be finite, got {c}")
-    return c, (lambda X, Y: np.full(X.shape, c)), f"{c:g}"
+    return c, (lambda X, Y: np.full(X.shape, c)), f"{c:g}", ("num", c)
 
 
 def _value_checked(g: _Scalar, X: Array, Y: Array, name: str, text: str) -> Array:
@@ -174,15 +176,27 @@ class TensorField:
     bounds: tuple[Array, Array] | None
     """A raster's (lo, hi) corners; None for formulas and callables (defined everywhere they
     evaluate)."""
+    resolution: float | None
+    """A callable's sampling: its element means sample Q at least this finely (None: as finely
+    as the adaptive rule reaches by itself, half a triangle's longest edge where Q looks smooth
+    to it). None for texts and rasters, whose means are bounded or exact."""
 
     def __init__(self, f: Callable[..., ArrayLike], label: str | None = None, *,
-                 cache: bool = False):
+                 cache: bool = False, resolution: float | None = None):
         if not callable(f):
             raise QmeshError(f"TensorField takes a callable f(x, y) → (..., 2, 2), got {f!r:.80}")
         if label is not None and not isinstance(label, str):
             raise QmeshError(f"label must be text, got {label!r:.80}")
         if not isinstance(cache, (bool, np.bool_)):
             raise QmeshError(f"cache must be True or False, got {cache!r:.80}")
+        if resolution is not None:
+            ok = isinstance(resolution, numbers.Real) and not isinstance(resolution, bool)
+            if not ok or not (np.isfinite(float(resolution)) and float(resolution) > 0):
+                raise QmeshError(f"resolution must be a finite length > 0 (or None), got {resolution!r:.80}")
+            resolution = float(resolution)
+        self.resolution = resolution
+        self._forms: list[tuple] | None = None
+        self._bound: _m.Bound | None = None
         self._f = f
         self.label = label if label is not None else f"Q = {getattr(f, '__name__', type(f).__name__)}(x, y)"
         self.is_raster = False
@@ -209,10 +223,11 @@ class TensorField:
         parts = [_scalar(v, n) for v, n in ((q11, "q11"), (q12, "q12"), (q22, "q22"))]
         texts = [p[2] for p in parts]
         label = f"Q = [[{texts[0]}, {texts[1]}], [{texts[1]}, {texts[2]}]]"
-        for (c, _, _), n in ((parts[0], "q11"), (parts[2], "q22")):
+        for (c, *_), n in ((parts[0], "q11"), (parts[2], "q22")):
             if c is not None and c <= 0:
                 raise QmeshError(f"{n} = {c:g}: a diagonal entry of a positive definite Q must be > 0")
         g = [p[1] for p in parts]
+        forms = [p[3] for p in parts]
 
         def components(X: Array, Y: Array) -> Array:
             v = [_value_checked(gi, X, Y, n, t) for gi, n, t in zip(g, ("q11", "q12", "q22"), texts)]
@@ -221,7 +236,7 @@ class TensorField:
         constant = None
         if parts[0][0] is not None and parts[1][0] is not None and parts[2][0] is not None:
             constant = [parts[0][0], parts[1][0], parts[2][0]]
-        return cls._of_components(components, label, constant)
+        return cls._of_components(components, label, constant, forms)
 
     @classmethod
     def principal(cls, k1: Any, k2: Any, angle_deg: Any) -> "TensorField":
@@ -230,7 +245,7 @@ class TensorField:
         number or a text in x and y. Numbers are checked at once (k1, k2 > 0); texts where they
         are evaluated (k1, k2 finite and > 0, the angle finite, naming the point)."""
         parts = [_scalar(v, n) for v, n in ((k1, "k1"), (k2, "k2"), (angle_deg, "angle"))]
-        for (c, _, _), n in ((parts[0], "k1"), (parts[1], "k2")):
+        for (c, *_), n in ((parts[0], "k1"), (parts[1], "k2")):
             if c is not None and c <= 0:
                 raise QmeshError(f"{n} = {c:g}: principal conductivities must be > 0")
         texts = [p[2] for p in parts]
@@ -254,7 +269,8 @@ class TensorField:
             a, b, t = parts[0][0], parts[1][0], np.deg2rad(parts[2][0])
             c, s_ = np.cos(t), np.sin(t)
             constant = [a * c * c + b * s_ * s_, (a - b) * c * s_, a * s_ * s_ + b * c * c]
-        return cls._of_components(components, label, constant)
+        forms = principal_forms(parts[0][3], parts[1][3], parts[2][3])
+        return cls._of_components(components, label, constant, forms)
 
     @classmethod
     def from_raster(cls, x: ArrayLike, y: ArrayLike, k1: ArrayLike, k2: ArrayLike,
@@ -280,6 +296,8 @@ class TensorField:
         field.label = f"raster {shape[0]} × {shape[1]}"
         field.is_raster = True
         field.bounds = (np.array([X[0], Y[0]]), np.array([X[-1], Y[-1]]))
+        field.resolution = None
+        field._forms, field._bound = None, None
         field._cache = None
         field._components = field._raster_components
         field._constant = None
@@ -288,9 +306,12 @@ class TensorField:
 
     @classmethod
     def _of_components(cls, components: Callable[[Array, Array], Array], label: str,
-                       constant: list[float] | None) -> "TensorField":
-        """A field from a checked components(X, Y) → (n, 3); a constant one (its components
-        q11, q12, q22 given) is checked now."""
+                       constant: list[float] | None, forms: list[tuple] | None = None
+                       ) -> "TensorField":
+        """A field from a checked components(X, Y) → (n, 3), of texts whose checked forms of
+        q11, q12, q22 are `forms` (its means' error is bounded by their enclosures; None: its
+        means are sampled, as a callable's); a constant one (its components q11, q12, q22
+        given) is checked now."""
         if constant is not None:
             q11, q12, q22 = constant
             if not (q11 > 0 and q22 > 0 and q11 * q22 - q12 * q12 > 0):
@@ -303,6 +324,7 @@ class TensorField:
         field = cls(f, label)
         field._cache = PointCache(components, capacity=0)       # counted, not kept
         field._components = field._cache
+        field._forms = forms
         if constant is not None:
             field._constant = np.array(constant, dtype=float)
         return field
@@ -399,15 +421,24 @@ class TensorField:
         return self.means_with_error(points, triangles)[0]
 
     def means_with_error(self, points: ArrayLike, triangles: ArrayLike, *, rtol: float = _m.RTOL,
-                         max_depth: int = _m.MAX_DEPTH) -> tuple[Array, Array]:
+                         max_depth: int = _m.MAX_DEPTH,
+                         bound_rtol: float | ArrayLike | None = _m.BOUND_RTOL
+                         ) -> tuple[Array, Array]:
         """Element means (M, 2, 2) and a bound of their error per triangle (M,) in the Frobenius
-        norm; `rtol` and `max_depth` are the adaptive quadrature's (formulas and callables only).
+        norm; `rtol` and `max_depth` are the adaptive quadrature's (formulas and callables only),
+        `bound_rtol` the proven bound's (texts only: a number or one per triangle; None leaves
+        a text's bound the rule's estimate, as a callable's, for `enclosure_errors` to prove).
 
         - constant fields: Q itself, error 0;
         - formulas and callables: adaptive quadrature (`means.adaptive_means`: Dunavant's degree-5
           rule against its 4 midpoint children, subdivided where they differ by more than
-          `means.RTOL` · ‖Q̄_T‖), exact to round-off for constant and linear fields; the bound is
-          the last difference;
+          `means.RTOL` · ‖Q̄_T‖), exact to round-off for constant and linear fields;
+        - texts: the bound is proven (`means.enclosure_bound`: interval enclosures of the
+          components and their gradients over each piece), the pieces split until it is within
+          `bound_rtol` · ‖Q̄_T‖ — a jump or a bump between the samples is in it;
+        - callables: the bound is the rule's last difference, an estimate from samples: nothing
+          bounds a callable between them (`sampled_at` says how finely they lie; `resolution`
+          sets it);
         - rasters: the exact area-weighted mean of the cells T overlaps (`means.raster_means`,
           Green's theorem along the edges); the bound is the round-off's. A triangle reaching
           outside the raster is refused.
@@ -425,8 +456,14 @@ class TensorField:
             assert self.bounds is not None
             q, err = _m.raster_means(self._raster, np.clip(P, *self.bounds), T)
             return _m.full_tensors(q), err
+        bound = None if bound_rtol is None else self._enclosure()
+        btol: float | Array = 1.0          # unused without a bound
+        if bound is not None and bound_rtol is not None:
+            btol = np.asarray(bound_rtol, dtype=float)
+            btol = btol.reshape(M) if btol.ndim else float(btol)
         q, err = _m.adaptive_means(self._evaluate, P[T[:, 0]], P[T[:, 1]], P[T[:, 2]],
-                                   rtol=rtol, max_depth=max_depth)
+                                   rtol=rtol, max_depth=max_depth, bound=bound, bound_rtol=btol,
+                                   resolution=self.resolution)
         return _m.full_tensors(q), err
 
     def rule_means(self, points: ArrayLike, triangles: ArrayLike) -> Array:
@@ -439,6 +476,58 @@ class TensorField:
         if self.means_exact or not len(T):
             return self.means_with_error(P, T)[0]
         return _m.full_tensors(_m.rule_averages(self._evaluate, P[T[:, 0]], P[T[:, 1]], P[T[:, 2]]))
+
+    def _enclosure(self) -> _m.Bound | None:
+        """A text's `means.enclosure_bound`, built once; None for other fields."""
+        if self._forms is not None and self._bound is None:
+            self._bound = _m.enclosure_bound(self._forms)
+        return self._bound
+
+    def enclosure_errors(self, points: ArrayLike, triangles: ArrayLike) -> Array | None:
+        """A text's proven bound (M,) of the error of its element means as `means_with_error`
+        takes them, whatever their tolerances: None for other fields.
+
+        Those means apply the degree-5 rule on each of the triangle's 4 midpoint children at
+        least (`means.adaptive_means`), so on each child they are a rule with positive weights,
+        exact for degree 2, whose points lie in it, however far the child was refined: the
+        error is at most the mean of the children's `means.enclosure_bound` (∞ where the text is
+        unbounded on one). Four enclosures a triangle; the field is not evaluated."""
+        bound = None if self._constant is not None else self._enclosure()
+        if bound is None:
+            return None
+        P = _points(points)
+        T = _triangles(triangles, len(P))
+        out = np.empty(len(T))
+        step = _m.CHUNK // 4
+        for s in range(0, len(T), step):
+            t = T[s:s + step]
+            kids = bound(*_m._children(P[t[:, 0]], P[t[:, 1]], P[t[:, 2]]))
+            out[s:s + step] = 0.25 * kids.reshape(4, -1).sum(axis=0)
+        return out
+
+    @property
+    def means_bounded(self) -> bool:
+        """True when `means_with_error`'s bound is proven (constants, rasters, texts); False for
+        a callable, whose values between samples nothing bounds (`sampled_at`)."""
+        return self.means_exact or self._forms is not None
+
+    def sampled_at(self, points: ArrayLike, triangles: ArrayLike) -> float | None:
+        """The spacing h the element means of a callable sample Q at over the triangles: a jump
+        or a bump narrower than h between samples can go unseen (None where the means are
+        bounded or exact, `means_bounded`). The rule samples each piece's 4 children; a piece is
+        split while its children's longest edge exceeds `resolution`, down to `means.BOUND_DEPTH`
+        levels: h is the largest over the triangles T of max(min(ℓ_T / 2, resolution),
+        ℓ_T / 2^(BOUND_DEPTH + 1)), ℓ_T the longest edge (ℓ_T / 2 without a resolution)."""
+        if self.means_bounded:
+            return None
+        P = _points(points)
+        T = _triangles(triangles, len(P))
+        if not len(T):
+            return None
+        L = _m.longest_edges(P[T[:, 0]], P[T[:, 1]], P[T[:, 2]])
+        if self.resolution is None:
+            return float(np.max(L) / 2)
+        return float(np.max(np.maximum(np.minimum(L / 2, self.resolution), L / 2.0 ** (_m.BOUND_DEPTH + 1))))
 
     def check_covers(self, box: tuple[ArrayLike, ArrayLike], what: str = "the domain") -> None:
         """A raster knows Q only over its cells: QmeshError naming both rectangles when the box

@@ -124,8 +124,83 @@ def _fine(kid_avg: Array) -> Array:
     return 0.25 * (kid_avg[:k] + kid_avg[k:2 * k] + kid_avg[2 * k:3 * k] + kid_avg[3 * k:])
 
 
+Bound = Callable[[Array, Array, Array], Array]
+"""A rigorous bound of a piece's quadrature error: corners (k, 2) each → (k,) in the Frobenius
+norm, ∞ where nothing bounds it (`enclosure_bound`)."""
+
+BOUND_RTOL = 1e-2
+"""With a rigorous bound (text formulas): pieces are also split until their proven bound is
+within this share of ‖Q̄_T‖ (the default of `bound_rtol` for a caller of
+`TensorField.means_with_error`), or `BOUND_DEPTH` is reached. What the enclosures prove shrinks
+as the cube of a piece's size, far slower than the rule's own error for a smooth field (the
+sixth power), so the repair does not prove every mean to one tolerance: it proves each to what
+its edges need (`fields.certify`), most with the enclosures of its 4 children alone."""
+BOUND_DEPTH = 8
+"""At most this many levels of subdivision for the bound (those of the rule, `MAX_DEPTH`): a jump
+line crossing a triangle keeps about 2^L of its 4^L pieces at level L, so what the line's pieces
+leave unresolved falls 2× a level (1/256 of the triangle at 8; each level more doubles the work
+along the line, which the repair pays on every triangle it tries there). A piece still unbounded
+there touches a point where the text divides by zero (FVCA5 test 5's rotation centre, where Q has
+no limit but stays bounded): it adds the rule's estimate instead, the only part of a text's bound
+that rests on samples, a 4^-8 share of its triangle."""
+NEGLIGIBLE = 1e-3
+"""An unresolved piece whose proven share 4^-L e_p is below this share of its triangle's bound
+tolerance ends there, adding it (the pieces around a point where Q has no limit look the same at
+every level: they would otherwise all go to BOUND_DEPTH)."""
+
+
+def enclosure_bound(forms: list[tuple]) -> Bound:
+    """The rigorous error bound of the 7-point rule and its 4 children on a piece, from interval
+    enclosures (`intervals.evaluate`) of the components' checked forms, their gradients and
+    Hessians over the piece's box.
+
+    The rule and its children have positive weights and integrate polynomials of degree ≤ 5
+    exactly, so for any polynomial p of degree ≤ 2 the error of the mean of f is that of
+    g = f − p, and both the exact mean and the rule's lie in g's range: |error| ≤ sup g − inf g.
+    Per component, the least of three such widths, r_i = max_T |x_i − c_i| about the centroid c:
+    - p = 0: the width of f's enclosure (all a jump leaves);
+    - p the tangent plane at c with the midpoint slope of the gradient's enclosure G (the
+      mean-value theorem on the segment c → x, inside the box): Σ_i w(G_i) r_i;
+    - p the second-order Taylor polynomial at c with the midpoint Hessian of its enclosure H
+      (Taylor's theorem with a remainder at a point of that segment):
+      ½ Σ_ij w(H_ij) r_i r_j;
+    plus a relative 1e-13 for the rule's own round-off, combined in the Frobenius norm; ∞ where
+    every enclosure is unbounded or not finite."""
+    from qmesh.conductivity import intervals   # imported here: only text fields need it
+
+    def bound(A: Array, B: Array, C: Array) -> Array:
+        lo, hi = np.minimum(np.minimum(A, B), C), np.maximum(np.maximum(A, B), C)
+        c = (A + B + C) / 3.0
+        reach = np.maximum(np.maximum(np.abs(A - c), np.abs(B - c)), np.abs(C - c))   # (k, 2)
+        rx, ry = (reach * (1.0 + 1e-15)).T
+        X, Y = (lo[:, 0], hi[:, 0]), (lo[:, 1], hi[:, 1])
+        e = np.zeros((len(A), 3))
+        with np.errstate(all="ignore"):
+            for i, node in enumerate(intervals.evaluate_all(forms, X, Y)):
+                (vl, vh), gx, gy, hxx, hxy, hyy = node
+                zeroth = vh - vl
+                first = (gx[1] - gx[0]) * rx + (gy[1] - gy[0]) * ry
+                second = 0.5 * ((hxx[1] - hxx[0]) * rx * rx + 2.0 * (hxy[1] - hxy[0]) * rx * ry
+                                + (hyy[1] - hyy[0]) * ry * ry)
+                first = np.where(np.isfinite(first), first, np.inf)
+                second = np.where(np.isfinite(second), second, np.inf)
+                size = np.maximum(np.abs(vl), np.abs(vh))
+                e[:, i] = np.minimum(np.minimum(zeroth, first), second) + 1e-13 * size
+            out = frobenius(e)
+        return np.where(np.isfinite(out), out, np.inf)
+
+    return bound
+
+
+def longest_edges(A: Array, B: Array, C: Array) -> Array:
+    """The longest edge of each triangle (k,)."""
+    return np.maximum(np.maximum(np.hypot(*(B - A).T), np.hypot(*(C - B).T)), np.hypot(*(A - C).T))
+
+
 def adaptive_means(evaluate: Evaluate, A: Array, B: Array, C: Array, rtol: float = RTOL,
-                   atol: float = ATOL, max_depth: int = MAX_DEPTH) -> tuple[Array, Array]:
+                   atol: float = ATOL, max_depth: int = MAX_DEPTH, bound: Bound | None = None,
+                   bound_rtol: float | Array = BOUND_RTOL, resolution: float | None = None
+                   ) -> tuple[Array, Array]:
     """Element means of a field over triangles (A, B, C) (each (M, 2)): components (M, 3) and an
     error bound (M,) in the Frobenius norm.
 
@@ -135,23 +210,41 @@ def adaptive_means(evaluate: Evaluate, A: Array, B: Array, C: Array, rtol: float
     pieces ended before) is ≤ tol_T = rtol ‖Q̄_T‖_F + atol; otherwise a piece ends when d_p ≤ tol_T
     (its share 4^-L of the tolerance) and the others are split. An ended piece contributes its fine
     average, and its 4^-L d_p to the bound: the bound is the last difference, which for a smooth
-    field overestimates the fine rule's error (that shrinks ~64× per level). Work per level is
+    field overestimates the fine rule's error (that shrinks ~64× per level) but is blind to what
+    no sample sees (a jump no sample straddles, a bump between samples). Work per level is
     capped (MIN_BUDGET); at `max_depth`, or past the cap, pieces end as they are and the bound
     carries what is left.
+
+    With `bound` (a text formula: `enclosure_bound`), each piece's e_p = bound(p) is a proven
+    bound of the error of any rule with positive weights, exact for degree 2, on it: a piece
+    ends only when, beside the rule's test, it is resolved — e_p ≤ btol_T = bound_rtol ‖Q̄_T‖_F +
+    atol (`bound_rtol` a number or one per triangle), or its triangle's bound so far with every
+    live piece's 4^-L e_p is ≤ btol_T (then all of them are) — or at BOUND_DEPTH. A piece adds its 4^-L e_p
+    to the bound once: when it is resolved (its pieces are then resolved without a look: whatever
+    rules the quadrature ends with on them make one such rule on it, within its e_p), or when it
+    ends unresolved (a jump crosses it); so the bound is proven, and a jump or a bump no sample
+    sees is in it. The one exception: a piece still unbounded at BOUND_DEPTH (the text divides by
+    zero at a point of it) adds the rule's estimate d_p.
+
+    With `resolution` h (a callable, whose values between samples nothing bounds), a piece is
+    split while its children's longest edge exceeds h, up to BOUND_DEPTH and outside the work
+    cap.
 
     The field is evaluated in as few calls as CHUNK allows: the triangles and their children
     together, then all the children of a level's split pieces at once (each piece's rule sums
     its own 7 points in the same order whatever the batch, so the batching does not change a bit
     of the result)."""
     M = len(A)
-    total, err = np.zeros((M, 3)), np.zeros(M)
+    total, err, rule_err = np.zeros((M, 3)), np.zeros(M), np.zeros(M)
     owner = np.arange(M)
     KA, KB, KC = _children(A, B, C)
     both = rule_averages(evaluate, np.concatenate([A, KA]), np.concatenate([B, KB]),
                          np.concatenate([C, KC]))
     coarse, kid_avg = both[:M], both[M:]
+    known = np.zeros(M, bool)
     budget = max(4 * M, MIN_BUDGET)
-    for level in range(max_depth + 1):
+    deepest = max_depth if bound is None and resolution is None else max(max_depth, BOUND_DEPTH)
+    for level in range(deepest + 1):
         if level:
             KA, KB, KC = _children(A, B, C)
             kid_avg = rule_averages(evaluate, KA, KB, KC)
@@ -160,25 +253,49 @@ def adaptive_means(evaluate: Evaluate, A: Array, B: Array, C: Array, rtol: float
         d = frobenius(fine - coarse)
         share = 0.25 ** level
         estimate = total + _sum_by(owner, share * fine, M)
-        tol = rtol * frobenius(estimate) + atol
-        settled = err + _sum_by(owner, share * d, M) <= tol
-        end = settled[owner] | (d <= tol[owner])
-        if level == max_depth:
+        size = frobenius(estimate)
+        tol = rtol * size + atol
+        end = (rule_err + _sum_by(owner, share * d, M) <= tol)[owner] | (d <= tol[owner])
+        if level >= max_depth:
             end[:] = True
-        split = np.flatnonzero(~end)
+        forced = np.zeros(k, bool)
+        if bound is not None:
+            e = np.zeros(k)                   # a piece of a resolved one: resolved (see above)
+            ask = np.flatnonzero(~known)
+            if len(ask):
+                e[ask] = bound(A[ask], B[ask], C[ask])
+            if level >= BOUND_DEPTH:          # unbounded this deep: a point the text divides by 0
+                e = np.where(np.isfinite(e), e, d)
+            btol = bound_rtol * size + atol
+            settled = err + _sum_by(owner, np.where(known, 0.0, share * e), M) <= btol
+            resolved = known | (e <= btol[owner]) | settled[owner]
+            end &= resolved | (share * e <= NEGLIGIBLE * btol[owner]) | (level >= BOUND_DEPTH)
+        if resolution is not None:
+            forced = (0.5 * longest_edges(A, B, C) > resolution) & (level < BOUND_DEPTH)
+            end &= ~forced
+        if level == deepest:
+            end[:] = True
+            forced[:] = False
+        split = np.flatnonzero(~end & ~forced)
         if 4 * len(split) > budget:                       # the worst pieces first
-            keep = split[np.argpartition(-d[split], budget // 4)[:budget // 4]]
-            end[:] = True
+            worst = -d[split] if bound is None else -np.minimum(e[split] / btol[owner[split]], 1e300)
+            keep = split[np.argpartition(worst, budget // 4)[:budget // 4]]
+            end[split] = True
             end[keep] = False
-            split = np.flatnonzero(~end)
+        split = np.flatnonzero(~end)
         total += _sum_by(owner[end], share * fine[end], M)
-        err += _sum_by(owner[end], share * d[end], M)
+        rule_err += _sum_by(owner[end], share * d[end], M)
+        if bound is not None:             # proven once a piece: where resolved, or where it ends
+            said = ~known & (resolved | end)
+            err += _sum_by(owner[said], share * e[said], M)
         if len(split) == 0:
             break
         rows = (np.arange(4)[:, None] * k + split).ravel()   # the split pieces' children
         A, B, C, coarse = KA[rows], KB[rows], KC[rows], kid_avg[rows]
         owner = np.tile(owner[split], 4)
-    return total, err
+        if bound is not None:
+            known = np.tile(resolved[split], 4)
+    return total, (rule_err if bound is None else err)
 
 
 GAUSS_BOX_POINTS = 4

@@ -11,8 +11,14 @@ at the tolerance RTOL, looser than the field's own: the certificate holds as lon
 passes by more than the bound the means carry (FIELDS.md §3), and an edge that fails only by its
 bound has the means of its triangles computed again at the field's tolerance (`tighten`). Split
 candidates and the polish's tries are ranked on `rough` means (the degree-5 rule alone, 7 points
-a triangle): the split taken and the try kept are then computed in full. Rasters and constant
-fields keep their own exact means.
+a triangle, never kept): the split taken and the try kept are then computed in full. Rasters and
+constant fields keep their own exact means.
+
+For a text formula those bounds are the rule's estimates, which a jump or a bump between its
+samples fools; `prove` replaces them by proven ones (`TensorField.enclosure_errors`: one enclosure
+of each triangle), and `refine` proves triangles whose edges need a tighter bound by the adaptive
+refinement of the enclosures (`means.adaptive_means` with a bound). A proven row stays proven:
+`tighten` leaves it.
 """
 
 from __future__ import annotations
@@ -80,11 +86,14 @@ class ElementMeans:
         self._corners = np.empty((1024, 6))
         self._q = np.empty((1024, 2, 2))
         self._err = np.empty(1024)
+        self._proven = np.empty(1024, bool)
         self.computed = 0                            # triangles whose means were computed
+        self.provable = bool(getattr(field, "means_bounded", False)) and not field.means_exact
+        """A text: its rows are estimates until proven (`prove`, `refine`)."""
 
-    def _compute(self, P, T, rtol, depth=_m.MAX_DEPTH):
+    def _compute(self, P, T, rtol, depth=_m.MAX_DEPTH, bound_rtol=None):
         self.computed += len(T)
-        Q, e = self.field.means_with_error(P, T, rtol=rtol, max_depth=depth)
+        Q, e = self.field.means_with_error(P, T, rtol=rtol, max_depth=depth, bound_rtol=bound_rtol)
         return np.asarray(Q, dtype=float), np.asarray(e, dtype=float)
 
     def _find(self, keys, C):
@@ -110,8 +119,10 @@ class ElementMeans:
             self._corners = np.resize(self._corners, (size, 6))
             self._q = np.resize(self._q, (size, 2, 2))
             self._err = np.resize(self._err, size)
+            self._proven = np.resize(self._proven, size)
         rows = self._n + np.arange(k)
         self._corners[rows], self._q[rows], self._err[rows] = C[first], Q[first], e[first]
+        self._proven[rows] = not self.provable
         self._n += k
         at = np.searchsorted(self._new_keys, keys)                      # keys sorted by unique
         self._new_keys = np.insert(self._new_keys, at, keys)
@@ -138,21 +149,54 @@ class ElementMeans:
             self._store(keys[miss], C[miss], Q[miss], e[miss])
         return Q, e
 
+    def _rows_of(self, P, T):
+        """The rows of the triangles T (computed where not seen yet)."""
+        self.means_with_error(P, T)
+        C = _canonical(P[T])
+        return self._find(_hash(C), C)
+
     def tighten(self, P, T):
         """The means of the triangles T at the field's own tolerance (`means.RTOL`), kept in
-        place of the ones at RTOL."""
+        place of the ones at RTOL (a proven row is kept as it is)."""
         P, T = np.asarray(P, dtype=float), np.asarray(T, dtype=np.int64).reshape(-1, 3)
         if self.field.means_exact or self.rtol <= _m.RTOL:
             return self.means_with_error(P, T)
-        Q, e = self._compute(P, T, _m.RTOL)
-        C = _canonical(P[T])
-        keys = _hash(C)
-        row = self._find(keys, C)
-        have = row >= 0
-        self._q[row[have]], self._err[row[have]] = Q[have], e[have]
-        if not have.all():
-            self._store(keys[~have], C[~have], Q[~have], e[~have])
-        return Q, e
+        row = self._rows_of(P, T)
+        todo = np.flatnonzero(~self._proven[row])
+        if len(todo):
+            self._q[row[todo]], self._err[row[todo]] = self._compute(P, T[todo], _m.RTOL)
+        return self._q[row], self._err[row]
+
+    def proven(self, P, T):
+        """Which of the triangles T have a proven bound (all of them but a text's estimates)."""
+        P, T = np.asarray(P, dtype=float), np.asarray(T, dtype=np.int64).reshape(-1, 3)
+        return self._proven[self._rows_of(P, T)]
+
+    def prove(self, P, T):
+        """The means of the triangles T with proven bounds: a text's estimates bounded by one
+        enclosure of each triangle (`TensorField.enclosure_errors`), kept."""
+        P, T = np.asarray(P, dtype=float), np.asarray(T, dtype=np.int64).reshape(-1, 3)
+        row = self._rows_of(P, T)
+        todo = np.flatnonzero(~self._proven[row])
+        if len(todo):
+            self._err[row[todo]] = self.field.enclosure_errors(P, T[todo])
+            self._proven[row[todo]] = True
+        return self._q[row], self._err[row]
+
+    def refine(self, P, T, bound_rtol):
+        """The means of the triangles T computed again with their bound proven to `bound_rtol`
+        (one per triangle) of ‖Q̄_T‖ by the adaptive refinement of the enclosures, kept where
+        their bound is lower than the one kept."""
+        P, T = np.asarray(P, dtype=float), np.asarray(T, dtype=np.int64).reshape(-1, 3)
+        row = self._rows_of(P, T)
+        if not self.provable or not len(T):
+            return self._q[row], self._err[row]
+        self.computed += len(T)
+        Q, e = self.field.means_with_error(P, T, rtol=self.rtol, bound_rtol=bound_rtol)
+        better = ~self._proven[row] | (e < self._err[row])
+        self._q[row[better]], self._err[row[better]] = Q[better], e[better]
+        self._proven[row] = True
+        return self._q[row], self._err[row]
 
     def rough(self, P, T):
         """Means good enough to rank candidates, not kept: the degree-5 rule alone, 7 points a

@@ -14,6 +14,12 @@ and a pattern of places around them (moves.polish), and their edges flip where t
 worse of the two and raises no deficit. The means come from `cache.ElementMeans`: each
 triangle's computed once. Certify and its steps read and update one state, the mesh under
 repair with its means and shares (`repair_state.RepairState`).
+
+A text formula's means are proven lazily (`_prove`): all of the above runs on the rule's cheap
+means and estimates; once every edge passes, each triangle's bound is replaced by a proven one
+(the enclosures of its 4 children), the triangles beside edges that fail by it have their bounds
+refined to what the edge needs, and edges that still fail (a jump crosses them, a bump lies in
+them) go back to the repair, up to PROOF_ROUNDS times. The mesh is certified on proven bounds.
 """
 
 from __future__ import annotations
@@ -45,6 +51,9 @@ RELAX = 3           # rounds of shape steps mending edges before the next split
 SMOOTH = 4          # shape steps of the vertices the splits added, once every edge passes
 POLISH = 12         # then rounds of polish (moves.polish), in each triangle's own means, of
                     # the corners of triangles below FLOOR
+PROOF_ROUNDS = 8    # times the repair runs again on edges its proven bounds fail (texts)
+REFINE = 3          # refinements of the proven bounds beside such edges before they go back
+MARGIN = 0.9        # ... each asking for bounds within this share of the edge's q_ij
 SHORTEST = 1e-9     # edges shorter than this share of the domain's extent are not split
 GROWTH = 10         # the repair may take the mesh to this many times its vertices (at least
 SPARE = 2000        # this many more), and never past the memory budget: refused beyond
@@ -90,65 +99,80 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
     fewest, since = np.inf, 0
     rng = np.random.default_rng(0)
     tries = 0                                  # shape steps since the last split
-    for rounds in range(max_rounds + 1):
-        st.fail()
-        t = by_bound(st.s, st.b, st.cut, st.h, st.tight)
-        if len(t):                             # failing by the bound only: tighter means
-            st.refresh(t, tighten=True)
+    total = 0
+    for attempt in range(PROOF_ROUNDS + 1):    # the repair, then the proof of what it passed
+        for rounds in range(max_rounds + 1):
             st.fail()
-        if len(st.h) and len(st.P) > limit:
-            _refuse_growth(given, st, mesh.n_vertices, limit)
-        if len(st.h) < fewest:
-            fewest, since = len(st.h), 0
-        since += 1
-        if not len(st.h) or rounds == max_rounds or since > STALL:
-            break
-        done = mending_flips(st, st.h[~st.seen.edges[st.h]], refused=st.seen.edges)
-        t = st.flip(done)
-        if not len(done) and shaping and tries < RELAX:
-            tries += 1
+            t = by_bound(st.s, st.b, st.cut, st.h, st.tight)
+            if len(t):                             # failing by the bound only: tighter means
+                st.refresh(t, tighten=True)
+                st.fail()
+            if len(st.h) and len(st.P) > limit:
+                _refuse_growth(given, st, mesh.n_vertices, limit)
+            if len(st.h) < fewest:
+                fewest, since = len(st.h), 0
+            since += 1
+            if (len(st.h) and since > STALL
+                    and 2 * (len(st.P) - mesh.n_vertices) > limit - mesh.n_vertices):
+                _refuse_growth(given, st, mesh.n_vertices, limit, stalled=True)
+            if not len(st.h) or rounds == max_rounds or since > STALL:
+                break
+            done = mending_flips(st, st.h[~st.seen.edges[st.h]], refused=st.seen.edges)
+            t = st.flip(done)
+            if not len(done) and shaping and tries < RELAX:
+                tries += 1
+                tan = _tangents(st)
+                t = isosceles(st, st.h, tan, rng, refused=st.seen.vertices)
+                ends = (free(st.T, st.cut, st.fixed, corners(st.T, st.cut, st.h), tan) if not len(t)
+                        else t[:0])
+                if len(ends):
+                    who = movers(st.T, st.twin, ends, rng)
+                    t = relax(st, moves, who[~st.seen.vertices[who]], shape=False, tangent=tan,
+                              refused=st.seen.vertices)
+            if not len(t):
+                keep = longer(st.P, st.T, st.h, shortest)
+                if not keep.any():
+                    break
+                split = split_failing if reg is None else split_failing_medium
+                t = split(st, st.h[keep], st.q[keep])
+                added = len(st.P) - mesh.n_vertices
+                tries = 0
+            st.refresh(t)
+        if shaping and not len(st.h) and added and not attempt:
             tan = _tangents(st)
-            t = isosceles(st, st.h, tan, rng, refused=st.seen.vertices)
-            ends = (free(st.T, st.cut, st.fixed, corners(st.T, st.cut, st.h), tan) if not len(t)
-                    else t[:0])
-            if len(ends):
-                who = movers(st.T, st.twin, ends, rng)
-                t = relax(st, moves, who[~st.seen.vertices[who]], shape=False, tangent=tan,
+            st.seen.vertices[:] = False            # judged otherwise than the repair's moves
+            new = free(st.T, st.cut, st.fixed, np.arange(mesh.n_vertices, len(st.P)), tan)
+            for _ in range(SMOOTH):
+                who = movers(st.T, st.twin, new, rng)
+                t = relax(st, moves, who[~st.seen.vertices[who]], shape=True, tangent=tan,
                           refused=st.seen.vertices)
-        if not len(t):
-            keep = longer(st.P, st.T, st.h, shortest)
-            if not keep.any():
-                break
-            split = split_failing if reg is None else split_failing_medium
-            t = split(st, st.h[keep], st.q[keep])
-            added = len(st.P) - mesh.n_vertices
-            tries = 0
-        st.refresh(t)
-    if shaping and not len(st.h) and added:
-        tan = _tangents(st)
-        st.seen.vertices[:] = False            # judged otherwise than the repair's moves
-        new = free(st.T, st.cut, st.fixed, np.arange(mesh.n_vertices, len(st.P)), tan)
-        for _ in range(SMOOTH):
-            who = movers(st.T, st.twin, new, rng)
-            t = relax(st, moves, who[~st.seen.vertices[who]], shape=True, tangent=tan,
-                      refused=st.seen.vertices)
-            st.refresh(t)
-    if shaping and not len(st.h):
-        tan = _tangents(st)
-        st.seen = Judged(len(st.P), len(st.T))  # judged afresh: the moves are judged otherwise
-        for _ in range(POLISH):                # the worst shapes, each in its own means
-            low = metric_quality(st.P, st.T, shape_metric(st.Qbar)) < FLOOR
-            poor = free(st.T, st.cut, st.fixed, st.T[low].ravel(), tan)
-            poor = poor[~st.seen.vertices[poor]]   # none left: all refused, nothing changed since
-            if not len(poor):
-                break
-            t = polish(st, movers(st.T, st.twin, poor, rng), tangent=tan,
-                       refused=st.seen.vertices)
-            st.refresh(t)
-            low = np.flatnonzero(metric_quality(st.P, st.T, shape_metric(st.Qbar)) < FLOOR)
-            done = quality_flips(st, (3 * low[:, None] + np.arange(3)).ravel())
-            if len(done):
-                st.refresh(st.flip(done))
+                st.refresh(t)
+        if shaping and not len(st.h) and not attempt:
+            tan = _tangents(st)
+            st.seen = Judged(len(st.P), len(st.T))  # judged afresh: the moves are judged otherwise
+            for _ in range(POLISH):                # the worst shapes, each in its own means
+                low = metric_quality(st.P, st.T, shape_metric(st.Qbar)) < FLOOR
+                poor = free(st.T, st.cut, st.fixed, st.T[low].ravel(), tan)
+                poor = poor[~st.seen.vertices[poor]]   # none left: all refused, nothing changed since
+                if not len(poor):
+                    break
+                t = polish(st, movers(st.T, st.twin, poor, rng), tangent=tan,
+                           refused=st.seen.vertices)
+                st.refresh(t)
+                low = np.flatnonzero(metric_quality(st.P, st.T, shape_metric(st.Qbar)) < FLOOR)
+                done = quality_flips(st, (3 * low[:, None] + np.arange(3)).ravel())
+                if len(done):
+                    st.refresh(st.flip(done))
+        total += rounds
+        if not means.provable:
+            break
+        gave_up = len(st.h) > 0
+        _prove(st)
+        if not len(st.h) or gave_up or attempt == PROOF_ROUNDS:
+            break
+        st.tight[:] = True                     # every bound proven: nothing to tighten
+        st.seen = Judged(len(st.P), len(st.T))  # judged again on the proven bounds
+        fewest, since = np.inf, 0
     P, T, twin, tc, fixed, out = st.P, st.T, st.twin, st.cut, st.fixed, st.out
     Qbar, err, flips, reg = st.Qbar, st.err, st.flips, st.reg
     s, b = shares(P, T, Qbar, err)             # what is said is assembled afresh
@@ -158,8 +182,19 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
     tb, kb = np.divmod(hb, 3)
     E = np.column_stack([T[tb, kb], T[tb, topology.NXT[kb]]])
     regions = {} if reg is None else {"region_tags": reg, "region_names": mesh.region_names}
-    done_mesh = Mesh(P, T, fixed, E, out[E[:, 0]], mesh.tag_names, conductivity=Qbar, **regions)
-    return done_mesh, Certificate(rounds, flips, added, len(h), worst)
+    done_mesh = Mesh(P, T, fixed, E, out[E[:, 0]], mesh.tag_names, conductivity=Qbar,
+                     means_sampled_at=sampled_at(given, P, T, reg), **regions)
+    return done_mesh, Certificate(total, flips, added, len(h), worst)
+
+
+def sampled_at(field, P, T, reg) -> float | None:
+    """The spacing the means of a callable field (or of a medium's callable regions) sampled Q
+    at (`TensorField.sampled_at`), None where every mean is exact or bounded."""
+    parts = [(field, np.arange(len(T)))] if reg is None else \
+        [(f, np.flatnonzero(reg == tag)) for tag, f in field.items()]
+    h = [f.sampled_at(P, T[at]) for f, at in parts if len(at) and hasattr(f, "sampled_at")]
+    h = [v for v in h if v is not None]
+    return max(h) if h else None
 
 
 def growth_limit(n: int) -> int:
@@ -169,8 +204,9 @@ def growth_limit(n: int) -> int:
     return min(max(GROWTH * n, n + SPARE), max(n, memory))
 
 
-def _refuse_growth(field, st: RepairState, start: int, limit: int) -> None:
-    """QmeshError naming what drove the repair past `limit`: of the triangles beside failing
+def _refuse_growth(field, st: RepairState, start: int, limit: int, stalled: bool = False) -> None:
+    """QmeshError naming what drove the repair past `limit` (or, `stalled`, past half the way to
+    it without progress for STALL rounds): of the triangles beside failing
     edges, the one whose mean has the largest eigenvalue (a mean's small eigenvalue is lost to
     round-off at such ratios, its large one is not), and in it the point of a barycentric grid
     where Q itself is the most anisotropic (its raster cell, for a raster)."""
@@ -189,11 +225,48 @@ def _refuse_growth(field, st: RepairState, start: int, limit: int) -> None:
     worst = int(np.argmax(ratio))
     place = getattr(src, "place", None)
     where = place(X[worst]) if callable(place) else f"({X[worst][0]:.6g}, {X[worst][1]:.6g})"
+    how = (f"stopped making progress at {len(P)} vertices (from {start}; the limit is {limit})"
+           if stalled else f"took the mesh past {limit} vertices (from {start})")
     raise QmeshError(
-        f"keeping every q_ij >= 0 with the element means took the mesh past {limit} vertices "
-        f"(from {start}) with {len(h)} edges still failing, the worst beside {where}, where Q is "
+        f"keeping every q_ij >= 0 with the element means {how} with {len(h)} edges still "
+        f"failing, the worst beside {where}, where Q is "
         f"{float(ratio[worst]):.3g} : 1. A jump to an anisotropy that strong needs ever smaller "
         "triangles along it: bound or smooth Q there")
+
+
+def _prove(st: RepairState) -> None:
+    """The means' bounds proven (a text's: FIELDS.md §3), lazily: one enclosure of each child of
+    each triangle not proven yet (`ElementMeans.prove`), then, for the edges with q_ij > 0 that
+    fail only by those bounds, their triangles' bounds refined (`ElementMeans.refine`) to within
+    MARGIN of q_ij, split between the two by their shares' weights, up to REFINE times while
+    that asks for a tighter bound than the last. The edges that still fail are left in `st.h`
+    for the repair."""
+    P, T, tags = st.P, st.T, () if st.reg is None else (st.reg,)
+    st.Qbar, st.err = st.field.prove(P, T, *tags)
+    st.s, st.b = shares(P, T, st.Qbar, st.err)
+    asked = np.full(len(T), np.inf)
+    for _ in range(REFINE):
+        st.fail()
+        h, q = st.h, st.q
+        g = st.cut[h]
+        inner = g >= 0
+        gg = np.where(inner, g, h)
+        weight = shares(P, T, st.Qbar, np.ones(len(T)))[1]    # a bound per unit of error
+        ok = q > 0                                             # else no bound can pass it
+        t = np.concatenate([h[ok] // 3, gg[ok & inner] // 3])
+        w = weight[h[ok]] + np.where(inner[ok], weight[gg[ok]], 0.0)
+        room = np.concatenate([q[ok], q[ok & inner]]) * MARGIN / np.concatenate([w, w[inner[ok]]])
+        want = np.full(len(T), np.inf)
+        np.minimum.at(want, t, room)
+        size = np.sqrt(np.sum(st.Qbar.reshape(-1, 4) ** 2, axis=1))     # ‖Q̄_T‖_F
+        rtol = np.where(size > 0, want / np.where(size > 0, size, 1.0), 0.0)
+        t = np.flatnonzero((rtol < 0.5 * asked) & (want < st.err))
+        if not len(t):
+            break
+        asked[t] = rtol[t]
+        st.Qbar[t], st.err[t] = st.field.refine(P, T[t], *(v[t] for v in tags), rtol[t])
+        st.s, st.b = shares(P, T, st.Qbar, st.err)
+    st.fail()
 
 
 def _tangents(st: RepairState):

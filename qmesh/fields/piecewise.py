@@ -41,7 +41,8 @@ def as_field(conductivity: Any) -> Any:
 
 class RegionMeans:
     """Means Q̄_T (M, 2, 2) and their error bounds (M,) of triangles of given region tags:
-    `means_with_error`, `tighten` and `rough` as `cache.ElementMeans`'s, each with the tags."""
+    `means_with_error`, `tighten`, `rough`, `proven`, `prove` and `refine` as
+    `cache.ElementMeans`'s, each with the tags."""
 
     def __init__(self, conductivity: Mapping[int, Any]):
         self._cached: dict[int, ElementMeans] = {}
@@ -54,19 +55,42 @@ class RegionMeans:
                 self._cached[int(tag)] = ElementMeans(f)
 
     @property
+    def provable(self) -> bool:
+        """Some field region is a text, whose means' bounds are estimates until proven."""
+        return any(c.provable for c in self._cached.values())
+
+    @property
     def computed(self) -> int:
         """Triangles whose means a field region computed (constants cost nothing)."""
         return sum(c.computed for c in self._cached.values())
 
-    def _each(self, how: str, P: Any, T: Any, tags: Any) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    def _each(self, how: str, P: Any, T: Any, tags: Any,
+              *per: Any) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         T = np.asarray(T, dtype=np.int64).reshape(-1, 3)
         tags = np.asarray(tags, dtype=np.int64)
         Q, e = self._table[tags], np.zeros(len(T))
         for r in self._cached:                            # a pass per field region
             at = np.flatnonzero(tags == r)
             if len(at):
-                Q[at], e[at] = getattr(self._cached[r], how)(P, T[at])
+                Q[at], e[at] = getattr(self._cached[r], how)(P, T[at], *(v[at] for v in per))
         return Q, e
+
+    def proven(self, P: Any, T: Any, tags: Any) -> NDArray[np.bool_]:
+        T = np.asarray(T, dtype=np.int64).reshape(-1, 3)
+        tags = np.asarray(tags, dtype=np.int64)
+        out = np.ones(len(T), bool)
+        for r in self._cached:
+            at = np.flatnonzero(tags == r)
+            if len(at):
+                out[at] = self._cached[r].proven(P, T[at])
+        return out
+
+    def prove(self, P: Any, T: Any, tags: Any) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        return self._each("prove", P, T, tags)
+
+    def refine(self, P: Any, T: Any, tags: Any,
+               bound_rtol: Any) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        return self._each("refine", P, T, tags, np.asarray(bound_rtol, dtype=float))
 
     def means_with_error(self, P: Any, T: Any, tags: Any) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         return self._each("means_with_error", P, T, tags)

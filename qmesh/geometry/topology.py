@@ -40,9 +40,13 @@ def left_of(T: np.ndarray, twin: np.ndarray, h_in: np.ndarray) -> np.ndarray:
     the other edges, labelled by the side of a cut edge they touch. ValueError where a component
     touches both sides."""
     M = len(T)
+    tw = twin[h_in]
+    if not np.any(tw >= 0) and np.count_nonzero(twin < 0) == len(np.unique(h_in)):
+        # the cut is the whole boundary (a convex domain's hull): every component has a
+        # boundary edge (no finite planar triangulation is closed), so every triangle is left
+        return np.ones(M, bool)
     cut = np.zeros(3 * M, bool)
     cut[h_in] = True
-    tw = twin[h_in]
     cut[tw[tw >= 0]] = True
     h = np.flatnonzero((twin >= 0) & ~cut)
     index = np.int32 if M < 2**31 - 1 else np.int64          # a quarter of the bytes at 1e6 vertices
@@ -90,8 +94,7 @@ def twins(T: np.ndarray) -> np.ndarray:
     a = T.ravel()
     n = int(T.max()) + 1 if M else 0
     key = edge_keys(a, T[:, NXT].ravel(), n)
-    order = np.argsort(key, kind="stable")
-    k = key[order]
+    k, order = _sorted_with_order(key)
     del key                                 # (each of these is 48 MB at 1e6 vertices)
     same = k[1:] == k[:-1]
     del k
@@ -105,6 +108,23 @@ def twins(T: np.ndarray) -> np.ndarray:
     twin[h1] = h2
     twin[h2] = h1
     return twin
+
+
+def _sorted_with_order(key: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """np.sort(key) and np.argsort(key, kind="stable"), the same arrays, by one sort of the
+    keys packed with their positions (key · len + position, unique, so any sort gives the stable
+    order) where that fits in 63 bits: several times faster than the stable argsort of a
+    triangulation in Qhull's order, and no random gather for the sorted keys."""
+    m = len(key)
+    if m and int(key.min()) >= 0 and int(key.max()) < (2**63 - 1) // m - 1:
+        packed = key * np.int64(m)
+        packed += np.arange(m, dtype=np.int64)
+        packed.sort()
+        k = packed // m
+        packed -= k * m
+        return k, packed
+    order = np.argsort(key, kind="stable")
+    return key[order], order
 
 
 def _moved(twin: np.ndarray, src: np.ndarray, dst: np.ndarray, size: int,

@@ -1,12 +1,14 @@
-"""Writers that lay a Payload out as meshio cells and let meshio write the file.
+"""Writers that lay a Payload out as meshio cells and let meshio write the file (a large
+.vtu: vtu_raw.py).
 
 - `.vtu`, `.vtk`: triangles then one line block (int32 indices; a `.vtu` zlib-compressed up
-  to ZLIB_MAX vertices, uncompressed beyond); integer cell data "boundary_tag" (lines: the
-  tag, triangles 0), "region" (triangles: the region tag, lines 0) and "gmsh:physical" (both in
-  gmsh numbering, `Payload.cell_tags`); `.vtu` also gets a `<FieldData>` block {identifier:
-  [tag, dim]}, which meshio reads as `field_data`, so that scikit-fem's `MeshTri.load` names
-  `boundaries` and `subdomains` by it; the element means (`Mesh.conductivity`), when the mesh has
-  them, as float cell data "Q11" "Q12" "Q22" (triangles: Q̄_T; lines 0);
+  to ZLIB_MAX vertices, uncompressed beyond, and then in meshio's layout by `vtu_raw`); integer
+  cell data "boundary_tag" (lines: the tag, triangles 0), "region" (triangles: the region tag,
+  lines 0) and "gmsh:physical" (both in gmsh numbering, `Payload.cell_tags`); `.vtu` also gets
+  a `<FieldData>` block {identifier: [tag, dim]}, which meshio reads as `field_data`, so that
+  scikit-fem's `MeshTri.load` names `boundaries` and `subdomains` by it; the element means
+  (`Mesh.conductivity`), when the mesh has them, as float cell data "Q11" "Q12" "Q22"
+  (triangles: Q̄_T; lines 0);
 - medit `.mesh`: 2-D points; references: vertices the fixed flag, edges the boundary tag,
   triangles the region tag;
 - `.obj`: triangles only;
@@ -27,12 +29,14 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 
 from qmesh.errors import QmeshError
-from qmesh.io import metadata
+from qmesh.io import metadata, vtu_raw
 from qmesh.io.boundary import filler
 
 VERTEX_DATA = "qmesh:vertex"
 ZLIB_MAX = 200_000      # .vtu of more vertices are written uncompressed: beyond, zlib's time is a
                         # large share of a `qmesh mesh` run (at 1e6 vertices: 49 MB compressed, 155 MB not)
+                        # and by qmesh itself (vtu_raw.py: about half meshio's time, in one pass)
+RAW_MAX = 2**32 // 24   # vtu_raw's byte counts are UInt32, as meshio's: points (N, 3) float64 fit
 
 
 def optional(module: str, what: str):
@@ -59,6 +63,11 @@ def vtk_family(fmt: str):
         cell_data["boundary_tag"] = [np.zeros(len(p.triangles), np.int32), p.tags.astype(np.int32)]
         cell_data["region"] = [p.regions.astype(np.int32), np.zeros(k, np.int32)]
         cell_data["gmsh:physical"] = [p.cell_tags, p.tags.astype(np.int32)]
+        if fmt == "vtu" and ZLIB_MAX < len(p.points) <= RAW_MAX:
+            vtu_raw.write(tmp, _xyz(p.points), _compact(p.triangles), _compact(p.edges),
+                          {"fixed": p.fixed, **p.point_data}, cell_data, p.meta,
+                          _field_data(p.field_data()))
+            return [(tmp, final)]
         m = meshio.Mesh(_xyz(p.points), [("triangle", _compact(p.triangles)), ("line", _compact(p.edges))],
                         point_data={"fixed": p.fixed, **p.point_data}, cell_data=cell_data)
         if fmt == "vtu":
@@ -77,17 +86,23 @@ def _compact(cells: np.ndarray) -> np.ndarray:
     return cells.astype(np.int32) if cells.size == 0 or cells.max() < 2**31 - 1 else cells
 
 
-def _field_data_edit(groups: dict):
-    """The edit (bytes → bytes) that puts a VTK `<FieldData>` block {name: [tag, dim]} as the
-    UnstructuredGrid's first child."""
+def _field_data(groups: dict) -> str:
+    """A VTK `<FieldData>` block {name: [tag, dim]}."""
     arrays = "".join(f'<DataArray type="Int32" Name={quoteattr(name)} NumberOfTuples="2" '
                      f'format="ascii">{v[0]} {v[1]}</DataArray>'
                      for name, v in groups.items())
+    return f"<FieldData>{arrays}</FieldData>"
+
+
+def _field_data_edit(groups: dict):
+    """The edit (bytes → bytes) that puts a VTK `<FieldData>` block {name: [tag, dim]} as the
+    UnstructuredGrid's first child."""
+    block = _field_data(groups).encode("ascii")
 
     def insert(data: bytes) -> bytes:
         start = data.index(b"<UnstructuredGrid")
         end = data.index(b">", start) + 1
-        return data[:end] + f"<FieldData>{arrays}</FieldData>".encode("ascii") + data[end:]
+        return data[:end] + block + data[end:]
     return insert
 
 

@@ -30,7 +30,8 @@ from qmesh.geometry import topology
 from qmesh.errors import QmeshError
 from qmesh.geometry.portable import cholesky2, round_log2, times2
 from qmesh.geometry.triangles import signed_areas
-from qmesh.mesher import lattice_delaunay
+from qmesh.mesher import corners, lattice_delaunay
+from qmesh.mesher.corners import metric_at
 from qmesh.mesher.triangulate import Crowded, first_triangulation, restore
 
 ENCROACH_TOL = 1e-9     # relative depth below the plane that counts as encroaching
@@ -44,12 +45,6 @@ MIN_KEPT = 0.1          # a push must leave every triangle of the star this shar
 
 # --------------------------------------------------------------------------- the test
 
-def _metric_at(anisotropy, X: np.ndarray) -> np.ndarray:
-    if anisotropy.is_constant:
-        return np.broadcast_to(anisotropy.H, (len(X), 2, 2))
-    return np.asarray(anisotropy.hessian(X), dtype=float)
-
-
 def encroached(A: np.ndarray, B: np.ndarray, C: np.ndarray, anisotropy) -> np.ndarray:
     """Whether point C[k] encroaches the subsegment A[k]→B[k] (GEOMETRY.md §1, the lifted test).
 
@@ -58,7 +53,7 @@ def encroached(A: np.ndarray, B: np.ndarray, C: np.ndarray, anisotropy) -> np.nd
     """
     M = 0.5 * (A + B)
     E = B - A
-    Hm = _metric_at(anisotropy, M)
+    Hm = metric_at(anisotropy, M)
     L2 = np.einsum("ki,kij,kj->k", E, Hm, E)                 # (b − a)ᵀH(b − a)
     if anisotropy.is_constant or not anisotropy.potential:     # the ellipse in H at the midpoint
         D = C - M
@@ -79,17 +74,9 @@ def encroached(A: np.ndarray, B: np.ndarray, C: np.ndarray, anisotropy) -> np.nd
 def sharpest_corner(domain, anisotropy) -> tuple[int, float]:
     """The input point with the domain's smallest angle, measured in the metric there, and
     that angle in degrees."""
-    A, B = domain.segment_ends                       # segment k runs from seed k
-    seg = domain.segments
-    into = np.empty(len(seg), np.int64)
-    into[seg[:, 1]] = np.arange(len(seg))            # the segment that ends at each seed
-    P = domain.seeds
-    a, b = A[into] - P, B - P                        # towards the previous and the next seed
-    H = _metric_at(anisotropy, P)
-    cos = np.einsum("ki,kij,kj->k", a, H, b) / np.sqrt(
-        np.einsum("ki,kij,kj->k", a, H, a) * np.einsum("ki,kij,kj->k", b, H, b))
-    k = int(np.argmax(cos))
-    return k, float(np.degrees(np.arccos(np.clip(cos[k], -1.0, 1.0))))   # measures only
+    angles = corners.corner_angles(domain, anisotropy)
+    k = int(np.argmin(angles))
+    return k, float(angles[k])
 
 
 class SharpCorner(QmeshError):
@@ -113,7 +100,7 @@ def split_points(A: np.ndarray, B: np.ndarray, a_is_seed: np.ndarray, b_is_seed:
     if shell.any():
         seed = np.where(a_is_seed[shell, None], A[shell], B[shell])
         E = B[shell] - A[shell]
-        H = _metric_at(anisotropy, seed)
+        H = metric_at(anisotropy, seed)
         L = np.sqrt(np.einsum("ki,kij,kj->k", E, H, E))
         d = np.ldexp(1.0, round_log2(0.5 * L))
         f = np.clip(d / L, 0.25, 0.75)
@@ -165,7 +152,7 @@ def beside_corners(x, P, u, v, w, junction, anisotropy) -> np.ndarray:
 
 def metric_lengths2(A: np.ndarray, B: np.ndarray, anisotropy) -> np.ndarray:
     E = B - A
-    return np.einsum("ki,kij,kj->k", E, _metric_at(anisotropy, 0.5 * (A + B)), E)
+    return np.einsum("ki,kij,kj->k", E, metric_at(anisotropy, 0.5 * (A + B)), E)
 
 
 # --------------------------------------------------------------------------- from scratch
@@ -204,9 +191,13 @@ def _canonical_order(T: np.ndarray, twin: np.ndarray, rows: np.ndarray):
     Tr = T[rows]
     m = len(Tr)
     r = np.argmin(Tr, axis=1) if m else np.zeros(0, np.int64)
-    at = np.arange(m)
-    cols = [Tr[at, (r + j) % 3] for j in range(3)]          # corner j: the old corner r + j
-    del Tr
+    # corner j: the old corner r + j, chosen column by column (a fancy index of (row, corner)
+    # pairs took several times as long at 1e6 vertices)
+    c = [Tr[:, j] for j in range(3)]
+    first, second = r == 0, r == 1
+    cols = [np.where(first, c[j], np.where(second, c[(j + 1) % 3], c[(j + 2) % 3]))
+            for j in range(3)]
+    del Tr, c
     n = int(max(c.max() for c in cols)) + 1 if m else 0
     if n * n * n < 2 ** 63:        # one int64 key per triangle: a third of lexsort's time, same order
         order = np.argsort((cols[0] * n + cols[1]) * n + cols[2], kind="stable")
@@ -221,11 +212,13 @@ def _canonical_order(T: np.ndarray, twin: np.ndarray, rows: np.ndarray):
     del order
     index = np.int32 if len(twin) < 2 ** 31 else np.int64
     new_id = np.full(len(twin), -1, index)
+    old = [base + ((np.arange(3) + j) % 3)[r] for j in range(3)]   # (no % over the whole mesh)
+    del base, r
     for j in range(3):
-        new_id[base + (r + j) % 3] = np.arange(j, 3 * m, 3, dtype=index)
+        new_id[old[j]] = np.arange(j, 3 * m, 3, dtype=index)
     new_twin = np.empty(3 * m, np.int64)
     for j in range(3):
-        tw = twin[base + (r + j) % 3]
+        tw = twin[old[j]]
         new_twin[j::3] = np.where(tw >= 0, new_id[np.maximum(tw, 0)], -1)
     return out, new_twin
 
@@ -324,7 +317,30 @@ def _in_ellipses_since(X, a, b, first, n_old, anisotropy, P):
     return np.concatenate([old[k_old], new[k_new], new[k_add]])
 
 
-def _split_crowded(domain, P, edge_id, pinned, place, anisotropy, size, max_points):
+def _mirrors_of_boundary_points(domain, P, X, a, b, edge_id, sharp, anisotropy, new):
+    """`new`, the split points of the subsegments a→b, with the mirror (corners.mirrored) of the
+    first boundary point (lowest index) in the ellipse of each subsegment on a side of a sharp
+    corner: all boundary points are tested for those, so the choice does not depend on which
+    of them a round's test looked at (X = P L, metric coordinates)."""
+    from scipy.spatial import cKDTree
+    n_seeds = len(domain.seeds)
+    seg = domain.segments[np.where(a < n_seeds, a, edge_id[a])]
+    near = np.flatnonzero(sharp[seg[:, 0]] | sharp[seg[:, 1]])
+    if not len(near):
+        return new
+    bnd = np.flatnonzero((np.arange(len(P)) < n_seeds) | (edge_id >= 0))
+    k, j = _in_ellipses(X, a[near], b[near], cKDTree(X[bnd]), bnd, anisotropy, P)
+    first = np.full(len(near), len(P), np.int64)
+    np.minimum.at(first, k, j)
+    hit = first < len(P)
+    k = near[hit]
+    out = np.array(new)
+    out[k] = corners.mirrored(P, a[k], b[k], first[hit], edge_id, np.arange(len(P)) < n_seeds,
+                              new[k], domain, sharp, anisotropy)[0]
+    return out
+
+
+def _split_crowded(domain, P, edge_id, pinned, place, anisotropy, size, max_points, deep=None):
     """Constant Q, before a Qhull build: subsegments whose diametral ellipse holds another
     boundary point (or, longer than LONG·h, any point) on the side of Ω split, and the free
     interior points in the ellipse of a shorter one dropped, until no ellipse holds a point.
@@ -336,15 +352,19 @@ def _split_crowded(domain, P, edge_id, pinned, place, anisotropy, size, max_poin
     the opposite side's subsegments in turn, one Qhull build per step before. The points split
     in for another boundary point are pinned, as the rounds pin them. None when the splits
     would pass `max_points` (a corner too sharp for the run): the rounds then find the cause
-    (round-off crowding at the corner, or too many points) as they did."""
+    (round-off crowding at the corner, or too many points) as they did.
+    `deep` (mask, reach): points farther than `reach` (metric) from every segment; when every
+    subsegment's disc is narrower, they are left out of the interior points' k-d tree (its
+    build was most of this function's time at 1e6 vertices), which cannot change a result."""
     from scipy.spatial import cKDTree
     n_seeds = len(domain.seeds)
     A, Bend = domain.segment_ends
     seg_len2 = np.einsum("ki,ki->k", Bend - A, Bend - A)
+    sharp = corners.sharp_seeds(domain, anisotropy)
     L = cholesky2(anisotropy.H)
     X = times2(P, L)
     inner = np.flatnonzero((np.arange(len(P)) >= n_seeds) & (edge_id < 0))
-    itree = cKDTree(X[inner]) if len(inner) else None
+    itree = None
     alive = np.ones(len(P), bool)
     n_old = len(P)           # subsegments with an end at or past n_old are new
     first = None             # the boundary points of the first round and their k-d tree
@@ -356,7 +376,10 @@ def _split_crowded(domain, P, edge_id, pinned, place, anisotropy, size, max_poin
         a, b = _subsegments(domain, n_seeds, edge_id, t)
         L2 = metric_lengths2(P[a], P[b], anisotropy)
         short = L2 <= (LONG * size) ** 2
-        if first is None:
+        if first is None:          # subsegments only get shorter: the first round's are the longest
+            if deep is not None and len(L2) and 0.5 * np.sqrt(L2.max()) < (1 - 1e-6) * deep[1]:
+                inner = inner[~deep[0][inner]]
+            itree = cKDTree(X[inner]) if len(inner) else None
             bnd = np.flatnonzero((np.arange(len(P)) < n_seeds) | on)
             first = (bnd, cKDTree(X[bnd]), len(P))
             kb, _ = _in_ellipses(X, a, b, first[1], bnd, anisotropy, P)
@@ -380,6 +403,8 @@ def _split_crowded(domain, P, edge_id, pinned, place, anisotropy, size, max_poin
         if max_points is not None and n + len(a) > max_points:
             return None
         new = split_points(P[a], P[b], a < n_seeds, b < n_seeds, anisotropy)
+        if sharp.any():
+            new = _mirrors_of_boundary_points(domain, P, X, a, b, edge_id, sharp, anisotropy, new)
         n_old = len(P)
         P = np.concatenate([P, new])
         X = np.concatenate([X, times2(new, L)])
@@ -430,6 +455,7 @@ def _conforming(domain, P, edge_id, anisotropy, size, max_points, pinned, place,
     seg_len2 = np.einsum("ki,ki->k", Bend - A, Bend - A)
     is_seed_pt = lambda i: i < n_seeds                                     # noqa: E731
     pinned = np.zeros(len(P), bool) if pinned is None else pinned
+    sharp = corners.sharp_seeds(domain, anisotropy)
     if anisotropy.is_constant:
         # a disc (radius ≤ LONG·h/2, centred on the boundary) cannot reach a deep lattice point
         far = None
@@ -440,8 +466,10 @@ def _conforming(domain, P, edge_id, anisotropy, size, max_points, pinned, place,
     presplit = anisotropy.is_constant
     kept = None          # a metric without s: the last round's triangulation, its splits made
     for _ in range(MAX_ROUNDS):
+        deep = None if lattice is None else ((place >= 0) & lattice[1][np.maximum(place, 0)],
+                                             lattice_delaunay.DEEP * lattice[0].h)
         crowded = _split_crowded(domain, P, edge_id, pinned, place, anisotropy, size,
-                                 max_points) if presplit else None
+                                 max_points, deep) if presplit else None
         if crowded is None:
             presplit = False          # past the run's points: the rounds name the cause
         else:
@@ -487,10 +515,15 @@ def _conforming(domain, P, edge_id, anisotropy, size, max_points, pinned, place,
             split &= _one_per_triangle(h, twin, split)
         hs = h[split]
         crowd = ~missing[split] & ~free[split]              # split for another boundary point
-        a, b = a[split], b[split]
+        a, b, by = a[split], b[split], apex[split]
         if max_points is not None and n + len(a) > max_points:
             raise _too_many(n + len(a), max_points)
         new = split_points(P[a], P[b], is_seed_pt(a), is_seed_pt(b), anisotropy)
+        mirror = crowd & (is_seed_pt(by) | (edge_id[by] >= 0))
+        if sharp.any() and mirror.any():
+            new[mirror] = corners.mirrored(P, a[mirror], b[mirror], by[mirror], edge_id,
+                                           np.arange(n) < n_seeds, new[mirror], domain, sharp,
+                                           anisotropy)[0]
         new_seg = np.where(a < n_seeds, a, edge_id[a])        # seed k starts segment k
         keep = np.ones(n, bool)
         keep[drop] = False
@@ -555,7 +588,7 @@ def _push_out(P, a, b, c, anisotropy):
     midpoint): along the metric ray from the midpoint, or along the inward normal."""
     A, B, C = P[a], P[b], P[c]
     M = 0.5 * (A + B)
-    H = _metric_at(anisotropy, M)
+    H = metric_at(anisotropy, M)
     E, D = B - A, C - M
     R = 0.5 * np.sqrt(np.einsum("ki,kij,kj->k", E, H, E))
     r = np.sqrt(np.einsum("ki,kij,kj->k", D, H, D))
@@ -591,7 +624,7 @@ def _stars(T, v, n):
 
 
 def restore_conformity(P, T, twin, edge_id, fixed, pinned, anisotropy,
-                       max_points: int | None = None) -> Conformed:
+                       max_points: int | None = None, domain=None) -> Conformed:
     """Make no boundary half-edge of a constrained Q-Delaunay triangulation of Ω encroached.
 
     An interior vertex that encroaches the subsegment it faces is pushed just outside its
@@ -600,9 +633,12 @@ def restore_conformity(P, T, twin, edge_id, fixed, pinned, anisotropy,
     on its segment. Flips follow each round. A point split in because another boundary vertex
     encroached (two segments meeting at a small metric angle, or facing each other across a
     thin part) is pinned: it stays at its concentric-shell distance instead of sliding, which
-    would undo the matching splits and start them again at every iteration.
+    would undo the matching splits and start them again at every iteration. With the `domain`,
+    a subsegment encroached by a boundary point across a corner sharp in the metric is split at
+    that point's mirror (corners.py), and that point is pinned too.
     """
     n0, flips = len(P), 0
+    sharp = None if domain is None else corners.sharp_seeds(domain, anisotropy)
     corner = edge_id.copy()
     corner[fixed] = np.flatnonzero(fixed)                   # seed k starts segment k
     P0 = P
@@ -646,6 +682,12 @@ def restore_conformity(P, T, twin, edge_id, fixed, pinned, anisotropy,
         if max_points is not None and n + len(hb) > max_points:
             raise _too_many(n + len(hb), max_points)
         new = split_points(P[a], P[b], fixed[a], fixed[b], anisotropy)
+        if sharp is not None and sharp.any():
+            by = np.flatnonzero(fixed[c] | (edge_id[c] >= 0))     # split for a boundary point
+            new[by], made = corners.mirrored(P, a[by], b[by], c[by], edge_id, fixed, new[by],
+                                             domain, sharp, anisotropy)
+            pinned = pinned.copy()
+            pinned[c[by[made]]] = True                    # the point mirrored stays matched
         T, twin = topology.split_boundary_edges(T, twin, hb, n + np.arange(len(hb)))
         seg = corner[a]
         P = np.concatenate([P, new])

@@ -47,13 +47,12 @@ def deep_points(domain, lattice) -> np.ndarray:
 
 def closed_form(lattice, place: np.ndarray, deep: np.ndarray):
     """The `closed_form` hook of triangulate.first_triangulation for points whose lattice
-    index is `place` (-1 for the others), `deep` from deep_points."""
+    index is `place` (-1 for the others), `deep` from deep_points: (triangles, twins), or None."""
     def build(hull_of):
-        D = _deep_triangles(lattice, place, deep)
+        D, twin = _deep_triangles(lattice, place, deep)
         if not len(D):
             return None
         n = len(place)
-        twin = topology.twins(D)
         border = np.flatnonzero(twin < 0)
         a, b = D.ravel()[border], D[:, topology.NXT].ravel()[border]
         inside = np.zeros(n, bool)
@@ -64,24 +63,24 @@ def closed_form(lattice, place: np.ndarray, deep: np.ndarray):
             TS = hull_of(~inside)
         except QmeshError:
             return None
-        keep = _outside(TS, n, a, b)
-        return None if keep is None else np.concatenate([D, TS[keep]])
+        return _glued(D, twin, border, TS, n, a, b)
     return build
 
 
-def _deep_triangles(lattice, place: np.ndarray, deep: np.ndarray) -> np.ndarray:
-    """D: the up and down lattice triangles whose three vertices are deep (point indices, ccw)."""
+def _deep_triangles(lattice, place: np.ndarray, deep: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """D: the up and down lattice triangles whose three vertices are deep (point indices, ccw),
+    and their twins, in closed form (each lattice triangle's neighbours are the lattice's)."""
     on = np.flatnonzero(place >= 0)
     on = on[deep[place[on]]]
     u, row = lattice.u[place[on]], lattice.row[place[on]]
     if not len(on):
-        return np.empty((0, 3), np.int64)
+        return np.empty((0, 3), np.int64), np.empty(0, np.int64)
     u0, width = u.min() - 4, int(u.max() - u.min()) + 8
     key = (row - row.min() + 1) * width + (u - u0)
     size = int(key.max()) + 2 * width + 4
     if size <= TABLE_FILL * len(key):               # a table of every place: one gather each
         table = np.full(size, -1, np.int64)
-        table[key] = on
+        table[key] = np.arange(len(on))
 
         def find(du, dr):
             return table[key + (dr * width + du)]
@@ -92,25 +91,74 @@ def _deep_triangles(lattice, place: np.ndarray, deep: np.ndarray) -> np.ndarray:
         def find(du, dr):
             want = key + dr * width + du
             pos = np.minimum(np.searchsorted(sorted_key, want), len(sorted_key) - 1)
-            return np.where(sorted_key[pos] == want, on[order[pos]], -1)
+            return np.where(sorted_key[pos] == want, order[pos], -1)
 
+    # the anchor (u, row) of every triangle is a deep point: "up" (u, row), (u + 2, row),
+    # (u + 1, row + 1); "down" (u + 2, row), (u + 3, row + 1), (u + 1, row + 1); by position in `on`
     right, above, above_right = find(2, 0), find(1, 1), find(3, 1)
-    up = np.column_stack([on, right, above])
-    down = np.column_stack([right, above_right, above])
+    is_up = (right >= 0) & (above >= 0)
+    is_down = is_up & (above_right >= 0)
+    n_up = int(np.count_nonzero(is_up))
+    up_id = np.where(is_up, np.cumsum(is_up) - 1, -1)                  # each anchor's row in D
+    down_id = np.where(is_down, n_up + np.cumsum(is_down) - 1, -1)
+    pt = np.append(on, -1)                                             # position -1 reads -1
+    up = np.column_stack([on, pt[right], pt[above]])[is_up]
+    down = np.column_stack([pt[right], pt[above_right], pt[above]])[is_down]
     T = np.concatenate([up, down])
-    T = T[(T[:, 0] >= 0) & (T[:, 1] >= 0) & (T[:, 2] >= 0)]
-    if det2(lattice.frame) < 0:       # the frame maps the domain reversed
+    # the neighbours: up's edges 0, 1, 2 face the down triangles anchored at (u − 1, row − 1)
+    # (its edge 1), (u, row) (edge 2) and (u − 2, row) (edge 0); down's face the up ones
+    # anchored at (u + 2, row) (edge 2), (u + 1, row + 1) (edge 0) and (u, row) (edge 1)
+    up_at, down_at = np.append(up_id, -1), np.append(down_id, -1)
+
+    def half(rows, e):
+        return np.where(rows >= 0, 3 * rows + e, -1)
+    twin = np.concatenate([
+        np.column_stack([half(down_at[find(-1, -1)], 1), half(down_id, 2),
+                         half(down_at[find(-2, 0)], 0)])[is_up],
+        np.column_stack([half(up_at[right], 2), half(up_at[above], 0),
+                         half(up_id, 1)])[is_down]]).ravel()
+    if det2(lattice.frame) < 0:       # the frame maps the domain reversed: (a, c, b)
         T = T[:, [0, 2, 1]]
-    return T
+        swap = np.array([2, 1, 0])          # edge e of (a, b, c) is edge 2 − e of (a, c, b)
+        twin = twin.reshape(-1, 3)[:, ::-1].ravel()
+        twin = np.where(twin >= 0, twin - twin % 3 + swap[twin % 3], -1)
+    return T, twin
 
 
-def _outside(TS: np.ndarray, n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray | None:
-    """Mask of S's triangles outside D's region, whose border half-edges are a→b (D on their
-    left); None where S's triangulation does not hold every border edge on both sides."""
+def _glued(D, twin, border, TS, n, a, b):
+    """D and S's triangles outside D's region, and their twins: D's, S's own among the kept
+    ones, and across D's border half-edges a→b, S's b→a. None where S's triangulation does not
+    hold every border edge on both sides, or meets D's region elsewhere."""
+    keep = _outside(TS, n, a, b)
+    if keep is None:
+        return None
+    keep, tw_s, h_out = keep
+    rows = np.cumsum(keep) - 1 + len(D)                # S's row t → its row in the result
+    kept_h = (3 * np.flatnonzero(keep)[:, None] + np.arange(3)).ravel()
+    tw = tw_s[kept_h]
+    inner = tw >= 0
+    across = np.zeros(len(tw), bool)
+    across[inner] = ~keep[tw[inner] // 3]              # a kept triangle's neighbour in D's region
+    new = np.where(inner, 3 * rows[np.maximum(tw, 0) // 3] + tw % 3, -1)
+    out_h = 3 * rows[h_out // 3] + h_out % 3           # h_out in the result
+    if np.count_nonzero(across) != len(h_out) or not keep[h_out // 3].all():
+        return None
+    new[across] = -1
+    full = np.concatenate([twin, new])
+    full[border] = out_h
+    full[out_h] = border
+    return np.concatenate([D, TS[keep]]), full
+
+
+def _outside(TS: np.ndarray, n: int, a: np.ndarray, b: np.ndarray):
+    """(mask of S's triangles outside D's region, S's twins, S's half-edges b→a), D's border
+    half-edges being a→b (D on their left); None where S's triangulation does not hold every
+    border edge on both sides."""
     h_in, h_out = topology.find_half_edges(TS, n, a, b), topology.find_half_edges(TS, n, b, a)
     if np.any(h_in < 0) or np.any(h_out < 0):
         return None
     try:
-        return ~topology.left_of(TS, topology.twins(TS), h_in)
+        tw = topology.twins(TS)
+        return ~topology.left_of(TS, tw, h_in), tw, h_out
     except ValueError:
         return None

@@ -14,7 +14,8 @@ edges, so a lattice per patch is nearly optimal inside the patch:
    y-coordinates, binned by search reach);
 3. a maximal independent set of the conflict graph (Luby's rounds, vectorised) keeps every
    patch's core and fills the seams from whichever lattice fits;
-4. h comes from the metric area ∫√det ∇²s (Monte Carlo) and is rescaled from the count.
+4. h comes from the metric area ∫√det ∇²s (Monte Carlo) and is rescaled from the count; a
+   tensor field's first draw expects the seams to cost a share of it (`initial_points`).
 It uses only `domain.contains`, `domain.seeds` and the seeds' bounds.
 """
 
@@ -36,6 +37,15 @@ OVERLAP = 0.75        # each patch's lattice reaches this share of a patch size 
 CONFLICT = 0.9        # points closer than this many spacings (metric) conflict
 MARGIN = 0.5          # points keep this many spacings (metric) inside Ω
 PASSES = 3            # draws to land the count
+KEPT = 0.87           # a tensor field's first draw expects the merge to keep this share of the
+                      # lattices' count (0.66-0.89 on the fields benchmark at 2e4, above 1 for
+                      # some at 2e3: a draw too many is drawn again)
+AIM = 0.985           # a field's later draw aims this far below n: its share kept drifts with h
+SHORT = 0.04          # a field's draw short of n by at most this share is kept (one 22% short,
+                      # left for the insertions to fill, doubled the repair's vertices on fvca5
+                      # at 2e3 and lowered its mean quality)
+RESCALE = 2.0         # a field's later draw changes h by at most this factor
+OVER = 0.015          # a field's draw over n by at most this share is kept (thinned at random)
 MAX_LATTICE = 2e7     # at most about this many lattice points before filtering
 LATTICE_CHUNK = 500_000   # lattice points made at once (bounds the memory)
 PAIR_CHUNK = 1_000_000    # candidate pairs tested at once (bounds the memory)
@@ -389,28 +399,42 @@ def _check_followable(domain, anisotropy, h: float, n: int) -> None:
 
 def initial_points(domain, anisotropy, n: int, rng) -> np.ndarray:
     """About n (never more) interior points: patch lattices in the local metric, merged by a
-    maximal independent set that prefers each patch's core."""
+    maximal independent set that prefers each patch's core.
+
+    For a varying s the draws land within 3% of n. A tensor field's draws (no s) land between
+    SHORT below and OVER above n: the first expects the merge to keep KEPT of the lattices'
+    count, a later one the share the last draw kept (each draw is most of the cost of a field's
+    first triangulation: one where KEPT holds, two for most fields, instead of two or three)."""
     n = int(n)
     if n < 1:
         return np.empty((0, 2))
     Lbar = _mean_metric(domain, anisotropy, rng)
     area_m = sizing.metric_area(domain, anisotropy)
     cell = np.sqrt(3.0) / 2.0                         # lattice area per point is cell·h²
-    h = np.sqrt(area_m / (cell * n))
-    if anisotropy.potential:     # a tensor field's mesh is certified on its means instead
+    field = not anisotropy.potential
+    h = np.sqrt((KEPT if field else 1.0) * area_m / (cell * n))
+    if not field:                # a tensor field's mesh is certified on its means instead
         _check_followable(domain, anisotropy, h, n)
+    low, high = ((1.0 - SHORT) * n, (1.0 + OVER) * n) if field else (0.97 * n, 1.03 * n)
     best = np.empty((0, 2))
     for _ in range(PASSES):
         X, H, prio = _patch_lattices(domain, anisotropy, h, Lbar)
         inside = _inside_with_margin(domain, X, H, MARGIN * h)
         X, H, prio = X[inside], H[inside], prio[inside]
-        i, j = (_conflicts(X, H, CONFLICT * h, Lbar) if anisotropy.potential
-                else _conflicts_oriented(X, H, CONFLICT * h))
+        i, j = (_conflicts_oriented(X, H, CONFLICT * h) if field
+                else _conflicts(X, H, CONFLICT * h, Lbar))
         P = X[_luby(len(X), i, j, rng, prio)]
         if abs(len(P) - n) < abs(len(best) - n):
             best = P
-        if abs(len(P) - n) <= 0.03 * n:
+        if low <= len(P) <= high:
             break
+        if field:    # the seams lose a share of the count that changes slowly with h (the
+            # patches are PATCH·h wide): the next h keeps this draw's share, aimed AIM low, by
+            # at most a factor RESCALE (a raster cell of 1e14 : 1 holds nearly all the metric
+            # area and the merge kept 4 of 182 points: h / 6.7 made 50 000 lattice points
+            # whose conflicts took 19 s, for a field the repair then refuses)
+            h *= np.clip(np.sqrt(max(len(P), 1) / (AIM * n)), 1.0 / RESCALE, RESCALE)
+            continue
         # the count is (area_m − band·h) / (cell·h²): the margin and the seams lose a band whose
         # metric length this pass measures; solve cell·n·h² + band·h = area_m for the next h
         band = max((area_m - len(P) * cell * h * h) / h, 0.0)

@@ -18,7 +18,7 @@ import numpy as np
 
 from qmesh.errors import QmeshError
 from qmesh.geometry.triangles import quadratic_form
-from qmesh.mesher import conform, seeding, seeding_varying, sizing
+from qmesh.mesher import conform, corners, crowding_varying, seeding, seeding_varying, sizing
 from qmesh.mesher.adjust import boundary_layer, limit_moves, newton_step, shape_step
 from qmesh.mesher.boundary import hold_off_boundary, hold_out_of_ellipses, snap_to_boundary
 from qmesh.mesher.insert import insert, relocate_degree3
@@ -57,7 +57,8 @@ def _build(plan: Plan, rng):
     """The seeds, boundary and interior points of `plan`, conformingly triangulated."""
     domain, anisotropy, h, target = plan.norm.domain, plan.norm.anisotropy, plan.h, plan.aim
     seeds = domain.seeds
-    bpts, bseg = seeding.boundary_points(domain, anisotropy, h, plan.boundary_factor)
+    bpts, bseg = corners.matched_boundary_points(
+        domain, anisotropy, *seeding.boundary_points(domain, anisotropy, h, plan.boundary_factor))
     n_b = len(seeds) + len(bpts)
     lattice = None
     if not anisotropy.is_constant:
@@ -71,7 +72,12 @@ def _build(plan: Plan, rng):
         inner = lattice.points
     P = np.concatenate([seeds, bpts, inner])
     edge_id = np.concatenate([np.full(len(seeds), -1), bseg, np.full(len(inner), -1)]).astype(np.int64)
-    return conform.conforming_delaunay(domain, P, edge_id, anisotropy, h, plan.cap,
+    pinned = None
+    if not anisotropy.is_constant and not anisotropy.potential:   # settled before Qhull's build
+        settled = crowding_varying.split_crowded(domain, P, edge_id, anisotropy, h, plan.cap)
+        if settled is not None:
+            P, edge_id, pinned = settled
+    return conform.conforming_delaunay(domain, P, edge_id, anisotropy, h, plan.cap, pinned=pinned,
                                        target=target, rng=rng, lattice=lattice)
 
 
@@ -119,7 +125,7 @@ def retriangulate(plan: Plan, st: State, it: int) -> Step:
     st.retriangulate(T, twin)
     P0 = st.P
     c = conform.restore_conformity(st.P, st.T, st.twin, st.edge_id, st.fixed, st.pinned,
-                                   st.anisotropy, plan.cap)
+                                   st.anisotropy, plan.cap, domain=st.domain)
     st.conform(c)
     n = len(P0)
     pushed = None

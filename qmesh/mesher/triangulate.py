@@ -26,7 +26,7 @@ from scipy.spatial import ConvexHull, Delaunay, QhullError
 from qmesh.conductivity.anisotropy import Anisotropy, adj2
 from qmesh.geometry import topology
 from qmesh.errors import QmeshError
-from qmesh.geometry.portable import cholesky2, cov2, eigvalsh2, matmul2, times2
+from qmesh.geometry.portable import cholesky2, cov2, eigh2, eigvalsh2, matmul2, moments2, times2
 from qmesh.geometry.triangles import columns, signed_areas
 
 class Crowded(QmeshError):
@@ -162,7 +162,8 @@ def first_triangulation(P: np.ndarray, anisotropy, boundary: np.ndarray | None =
     beyond any global lifting).
 
     `closed_form(hull_of)`, beyond EXACT_MAX points, may give the perturbed hull's triangles
-    without building all of it (lattice_delaunay.py: the lattice's interior in closed form);
+    and their twins without building all of it (lattice_delaunay.py: the lattice's interior
+    in closed form);
     `hull_of(among)` is the perturbed hull of the points in the mask `among`, lifted exactly as
     in the whole set's. It returns None where it cannot; the whole hull is built then.
     """
@@ -171,20 +172,23 @@ def first_triangulation(P: np.ndarray, anisotropy, boundary: np.ndarray | None =
         T = orient_ccw(P, np.array([[0, 1, 2]]))
         return T, topology.twins(T)
     T = _exact_lower_hull(P, anisotropy) if len(P) <= EXACT_MAX else None
-    candidates = None
+    candidates = twin = None
     if T is None:
         perturbed = np.ones(len(P), bool) if boundary is None else np.asarray(boundary, bool)
         L = _mean_factor(P, anisotropy)
-        T = None if closed_form is None else closed_form(lambda among: _perturbed_hull(P, L, perturbed, among))
-        if T is None:
+        built = None if closed_form is None else closed_form(
+            lambda among: _perturbed_hull(P, L, perturbed, among))
+        if built is None:
             T = _perturbed_hull(P, L, perturbed)
+        else:
+            T, twin = built
         if anisotropy.is_constant:      # the rest is exact: only the perturbed points' stars
             near = topology.touching(T, perturbed)
             candidates = (3 * np.flatnonzero(near)[:, None] + np.arange(3)).ravel()
     # from a start this far off, the flips may run along a needle of the metric for many rounds
     # (660 for exp(20x) + exp(20y)); later rounds touch only the last round's triangles
     try:
-        twin = topology.twins(T)
+        twin = topology.twins(T) if twin is None else twin
     except ValueError:      # round-off decided the orientation of a flat triangle: exact 2-D
         (T, twin), candidates = _fallback(P, anisotropy), None
     T, twin, _ = restore(P, T, twin, anisotropy, candidates=candidates)
@@ -203,32 +207,49 @@ def _exact_lower_hull(P: np.ndarray, anisotropy) -> np.ndarray | None:
 
 def _fallback(P: np.ndarray, anisotropy) -> tuple[np.ndarray, np.ndarray]:
     """A triangulation (and its twins) where the lifted hull's is not one: Qhull's exact 2-D
-    Delaunay of the mapped points, then, for a metric without s, the lower hull of its mean
-    quadratic; Crowded where none is (a constant Q or an s: the 2-D one's lost points said as
-    they are)."""
-    routes = [_exact_delaunay] + ([] if anisotropy.potential else [_mean_lower_hull])
+    Delaunay of the mapped points, the same along their principal axes, then, for a metric
+    without s, the lower hull of its mean quadratic; Crowded where none is (a constant Q or an
+    s: the 2-D one's lost points said as they are)."""
+    routes = [_exact_delaunay, _aligned_delaunay]
+    if not anisotropy.potential:
+        routes.append(_mean_lower_hull)
+    lost = None          # the exact route's lost points, said as they are (a constant Q or an s)
     for route in routes:
         try:
             T = route(P, anisotropy)
             return T, topology.twins(T)
-        except QmeshError:
-            if len(routes) == 1:
-                raise
+        except QmeshError as e:
+            if route is _exact_delaunay and anisotropy.potential:
+                lost = e
         except ValueError:
             pass
+    if lost is not None:
+        raise lost
     raise Crowded("the points the boundary needs are closer than round-off allows there")
 
 
-def _exact_delaunay(P: np.ndarray, anisotropy) -> np.ndarray:
+def _exact_delaunay(P: np.ndarray, anisotropy, aligned: bool = False) -> np.ndarray:
     """Qhull's exact 2-D Delaunay triangulation of the points mapped by the (mean) metric
     factor: the fallback where the perturbed lifted hull leaves a flat triangle whose
     orientation round-off decided (a sliver corner's concentric shells); `restore` then
-    makes it regular for a varying s."""
+    makes it regular for a varying s. `aligned`: the mapped points turned to their principal
+    axes first (`_aligned_delaunay`)."""
     X = times2(P - P.mean(axis=0), _mean_factor(P, anisotropy))
+    if aligned:
+        _, V = eigh2(moments2(X, np.ones(len(X))))
+        X = times2(X, V[:, ::-1])                          # the longest direction first
     T = _valid(P, _delaunay(X / np.abs(X).max()))
     if T is None:
         raise QmeshError("some points are not vertices of the triangulation (duplicate points?)")
     return T
+
+
+def _aligned_delaunay(P: np.ndarray, anisotropy) -> np.ndarray:
+    """`_exact_delaunay` along the points' principal axes: a sliver a few tenths of a degree
+    wide in the metric lies at a slant in the mapped plane, where Qhull's Delaunay of its
+    matched sides (isosceles trapezoids, each cyclic, a few 1e-6 of the domain apart near the
+    apex) can leave flat triangles; along an axis it did not, in the cases seen."""
+    return _exact_delaunay(P, anisotropy, aligned=True)
 
 
 def _mean_lower_hull(P: np.ndarray, anisotropy) -> np.ndarray:

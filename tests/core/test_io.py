@@ -1,5 +1,7 @@
 """qmesh.io: every format round-trips through meshio; files from other programs read cleanly."""
 
+import re
+
 import meshio
 import numpy as np
 import pytest
@@ -151,6 +153,32 @@ def test_large_vtu_is_written_uncompressed_and_reads_back_the_same(tmp_path, del
     assert np.array_equal(b.triangles, delaunay_mesh.triangles)
     cells = meshio.read(large).cells_dict["triangle"]
     assert np.array_equal(cells, delaunay_mesh.triangles)
+
+
+def test_large_vtu_is_meshio_uncompressed_layout_byte_for_byte(tmp_path, delaunay_mesh,
+                                                                chapter_anisotropy, monkeypatch):
+    """Past ZLIB_MAX qmesh writes the .vtu itself (vtu_raw): the same bytes as meshio's
+    uncompressed writer and the metadata edit give, but for the comment naming the writer;
+    point and cell data of every kind included."""
+    from qmesh.io import meshio_writers
+    n, m = delaunay_mesh.n_vertices, delaunay_mesh.n_triangles
+    data = dict(point_data={"u": np.arange(n, dtype=np.float32), "grad": np.ones((n, 2))},
+                cell_data={"k": np.arange(m), "flag": np.ones(m, bool)})
+    real = meshio.vtu.write
+    monkeypatch.setattr(meshio.vtu, "write",
+                        lambda f, mesh, compression: real(f, mesh, compression=None))
+    monkeypatch.setattr(meshio_writers, "ZLIB_MAX", 10 * n)          # meshio, uncompressed
+    io.write(tmp_path / "meshio.vtu", delaunay_mesh, anisotropy=chapter_anisotropy, **data)
+    monkeypatch.setattr(meshio.vtu, "write", None)                   # not called any more
+    monkeypatch.setattr(meshio_writers, "ZLIB_MAX", n - 1)
+    io.write(tmp_path / "raw.vtu", delaunay_mesh, anisotropy=chapter_anisotropy, **data)
+    comment = re.compile(rb"<!--This file was created by [^>]*-->")
+    raw = (tmp_path / "raw.vtu").read_bytes()
+    assert b"created by qmesh" in raw and b"vtkZLibDataCompressor" not in raw
+    assert comment.sub(b"", raw) == comment.sub(b"", (tmp_path / "meshio.vtu").read_bytes())
+    back = io.read(tmp_path / "raw.vtu")
+    assert np.array_equal(back.points, delaunay_mesh.points)
+    assert np.array_equal(back.triangles, delaunay_mesh.triangles)
 
 
 @pytest.mark.parametrize("head", [8, 600, 1 << 16])

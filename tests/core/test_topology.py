@@ -69,6 +69,39 @@ def test_twins_pairs_interior_edges_and_marks_boundary(n, seed):
         set(map(tuple, np.sort(hull, axis=1).tolist()))
 
 
+@SETTINGS
+@given(n=st.integers(4, 150), seed=st.integers(0, 10**6), spread=st.sampled_from([1, 10**6]))
+def test_twins_of_shuffled_and_sparsely_numbered_triangles(n, seed, spread):
+    """Triangles in any order, vertex numbers so far apart that the sort keys no longer pack
+    with their positions (spread 10**6): the same pairs as in the sorted, dense numbering."""
+    P, T = random_triangulation(n, seed)
+    perm = np.random.default_rng(seed).permutation(len(T))
+    twin = topology.twins(T[perm] * spread)
+    inner = twin >= 0
+    back = np.empty_like(perm)
+    back[perm] = np.arange(len(T))
+    h = np.arange(3 * len(T))
+    ref = topology.twins(T)[3 * perm[h // 3] + h % 3]            # T[perm]'s half-edge h in T
+    np.testing.assert_array_equal(inner, ref >= 0)
+    np.testing.assert_array_equal(3 * back[ref[inner] // 3] + ref[inner] % 3, twin[inner])
+
+
+def test_left_of_a_cut_along_the_whole_boundary_is_everything_without_a_search(monkeypatch):
+    """A convex domain's hull: every triangle lies on the left, known without the component
+    search (which would fail here); a cut along part of the boundary still searches."""
+    P, T = random_triangulation(60, 3)
+    twin = topology.twins(T)
+    boundary = np.flatnonzero(twin < 0)
+    searched = []
+    real = topology.connected_components
+    monkeypatch.setattr(topology, "connected_components",
+                        lambda *a, **k: searched.append(1) or real(*a, **k))
+    assert topology.left_of(T, twin, boundary).all()
+    assert not searched
+    assert topology.left_of(T, twin, boundary[:-1]).all()
+    assert searched
+
+
 def test_twins_rejects_an_edge_in_three_triangles():
     T = np.array([[0, 1, 2], [1, 0, 3], [0, 1, 4]])
     with pytest.raises(ValueError):

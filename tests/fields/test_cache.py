@@ -48,3 +48,26 @@ def test_raster_means_are_the_fields_own():
         Q, e = get(P, T)
         exact, exact_err = F.means_with_error(P, T)
         assert np.array_equal(Q, exact) and np.array_equal(e, exact_err)
+
+
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), n=st.integers(10, 120))
+def test_a_texts_bounds_proven_on_demand_and_kept_proven(seed, n):
+    """A text's cached bounds are the rule's estimates until `prove` replaces them by its
+    children's enclosures (which hold the field's means at the rule's tolerance, RTOL), `refine`
+    takes them to the tolerance asked, and `tighten` no longer replaces a proven bound."""
+    P, T = square_mesh(seed, n)
+    F = qmesh.TensorField.from_expressions(*FIELD)
+    cache = ElementMeans(F)
+    assert cache.provable and not cache.proven(P, T).any()
+    Q, e = cache.prove(P, T)
+    assert cache.proven(P, T).all()
+    reference, ref_err = F.means_with_error(P, T, bound_rtol=None)
+    assert np.all(np.linalg.norm(Q - reference, axis=(1, 2)) <= e + ref_err)
+    Qt, et = cache.tighten(P, T)
+    assert np.array_equal(Qt, Q) and np.array_equal(et, e)
+    asked = np.full(len(T), 1e-4)
+    Qr, er = cache.refine(P, T, asked)
+    assert np.all(er <= np.minimum(e, 1e-4 * np.linalg.norm(Qr, axis=(1, 2))) * (1 + 1e-9))
+    assert np.all(np.linalg.norm(Qr - reference, axis=(1, 2)) <= er + ref_err)
+    assert np.array_equal(cache.means_with_error(P, T)[1], er)      # kept

@@ -94,14 +94,21 @@ SMOOTH = {
 @given(seed=seeds, cx=st.floats(0.4, 0.9), cy=st.floats(0.4, 0.9), scale=st.sampled_from([0.3, 0.05, 0.005]))
 def test_means_of_smooth_fields_within_their_bound(name, seed, cx, cy, scale):
     """Away from FVCA5 test 5's rotation centre the field is smooth: the adaptive mean agrees with
-    a fine reference of another rule (collapsed Gauss on 4⁴ pieces) within the returned bound."""
+    a fine reference of another rule (collapsed Gauss on 4⁴ pieces) within the returned bound —
+    the rule's estimate for a callable, within RTOL; for a text the proven one, within its
+    `bound_rtol` (`means.BOUND_RTOL`), the mean itself as close as the callable's."""
+    from qmesh.conductivity import means as _m
     make, f = SMOOTH[name]
     tri = _triangle(np.random.default_rng(seed), np.array([cx, cy]), scale)
     m, err = make().means_with_error(tri, [[0, 1, 2]])
     expected = ref.fine_mean(f, tri, levels=3 if name == "principal_texts" else 4)
     gap = np.linalg.norm(m[0] - expected)
     assert gap <= err[0] + 1e-13 * np.linalg.norm(expected), (gap, err[0])
-    assert err[0] <= 1e-9 * np.linalg.norm(expected)
+    if name == "principal_texts":
+        assert err[0] <= _m.BOUND_RTOL * 1.01 * np.linalg.norm(m[0])
+        assert gap <= 1e-9 * np.linalg.norm(expected)
+    else:
+        assert err[0] <= 1e-9 * np.linalg.norm(expected)
 
 
 @pytest.mark.parametrize("name", ["fvca5_texts", "plasma_texts", "principal_texts"])
@@ -134,9 +141,12 @@ def test_batched_means_equal_piece_by_piece_quadrature_bit_for_bit(name, rtol, d
     one = [ref.adaptive_mean_one_piece_at_a_time(field._evaluate, t, rtol, max_depth=depth) for t in tris]
     assert np.array_equal(q, np.array([m for m, _ in one]))
     assert np.array_equal(e, np.array([b for _, b in one]))
-    if rtol == 1e-10:                            # and the field's own means are these
+    if rtol == 1e-10:            # and the field's own means are these, pieces split by its bound
+        qb, eb = _m.adaptive_means(field._evaluate, tris[:, 0], tris[:, 1], tris[:, 2], rtol=rtol,
+                                   max_depth=depth, bound=_m.enclosure_bound(field._forms))
         m, b = field.means_with_error(tris.reshape(-1, 2), np.arange(3 * len(tris)).reshape(-1, 3))
-        assert np.array_equal(m, _m.full_tensors(q)) and np.array_equal(b, e)
+        assert np.array_equal(m, _m.full_tensors(qb)) and np.array_equal(b, eb)
+        assert np.max(np.abs(qb - q)) <= 1e-6 * np.max(np.abs(q))     # smooth: the same means
 
 
 def test_singular_corner_keeps_a_bound():

@@ -43,3 +43,36 @@ def test_near_cells_hold_every_point_within_a_cell():
     pool = sv._near_cells(X, src, cell)
     d = np.hypot(*(X[:, None, :] - X[src][None]).transpose(2, 0, 1)).min(axis=1)
     assert set(np.flatnonzero(d <= cell)) <= set(pool)
+
+
+PLASMA = ("1e-4 + (1 - 1e-4)*(4*(y - 0.5))**2/((2*(x - 0.5))**2 + (4*(y - 0.5))**2)",
+          "-(1 - 1e-4)*(2*(x - 0.5))*(4*(y - 0.5))/((2*(x - 0.5))**2 + (4*(y - 0.5))**2)",
+          "1e-4 + (1 - 1e-4)*(2*(x - 0.5))**2/((2*(x - 0.5))**2 + (4*(y - 0.5))**2)")
+
+
+def test_a_field_aligned_seeding_lands_its_count_in_one_draw(monkeypatch):
+    """Plasma-like (1 : 1e4 along ellipses around a hole) at 3e3 and 6e3 vertices: the first
+    draw expects the seams to cost its share, and lands between SHORT below and n (two draws
+    before, each most of the first triangulation's cost)."""
+    import qmesh
+    draws, got = [], []
+    lattices, initial = sv._patch_lattices, sv.initial_points
+
+    def counted(*args, **kwargs):
+        draws[-1] += 1
+        return lattices(*args, **kwargs)
+
+    def seeded(domain, anisotropy, n, rng):
+        draws.append(0)
+        P = initial(domain, anisotropy, n, rng)
+        got.append((n, len(P)))
+        return P
+
+    monkeypatch.setattr(sv, "_patch_lattices", counted)
+    monkeypatch.setattr(sv, "initial_points", seeded)
+    domain = qmesh.Domain([(0, 0), (1, 0), (1, 1), (0, 1)],
+                          [qmesh.Disk(32, radius=0.15, center=(0.5, 0.5))])
+    for target in (3000, 6000):
+        next(qmesh.iterate(domain, qmesh.TensorField.from_expressions(*PLASMA), target_vertices=target))
+    assert draws == [1, 1]
+    assert all((1 - sv.SHORT) * n <= k <= n for n, k in got)

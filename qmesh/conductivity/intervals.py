@@ -1,0 +1,408 @@
+"""Rigorous enclosures of a checked text formula over boxes: its range and its gradient's.
+
+A quadrature that compares samples cannot see what lies between them (a jump no sample
+straddles, a bump narrower than their spacing), so the error bound of a text formula's element
+means comes from here (`means.adaptive_means`'s `bound`). The checked form of a text
+(`expression.check`: numbers, x, y, + − * / **, unary −, the whitelisted functions) is evaluated
+on intervals [lo, hi], vectorised over boxes, in forward mode to second order: every node gives
+an enclosure of its value, its gradient and its Hessian over the box (an exact zero, the
+derivatives of a number or of x and y, is carried as None and costs nothing; a subexpression the
+forms share is enclosed once). Every result is widened outward — by at least one ulp after
++ − × ÷, by a few ulps plus the smallest normal after a function (NumPy's and
+`geometry.portable`'s functions agree with the true one to a few ulps) — so the enclosure holds
+whatever the CPU's last bits; the functions are `portable`'s, so the enclosure itself is the same
+on every CPU.
+
+What cannot be bounded is said so: a division by an interval holding 0, a logarithm or a root
+reaching 0, `tan` across a pole give [−∞, ∞]. Where a function is not differentiable its
+gradient enclosure is the Clarke one (`abs`: [−1, 1] across 0, its Hessian unbounded there),
+valid for the mean-value inequality since `abs` is Lipschitz; `c·abs(u)/u` and `u/abs(u)` (a
+sign, a jump) are recognised: their value lies in c·[−1, 1] and their derivatives are unbounded
+across u = 0.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Callable
+
+import numpy as np
+from numpy.typing import NDArray
+
+from qmesh.geometry import portable
+
+Array = NDArray[np.float64]
+Interval = tuple[Array, Array]
+Node = tuple[Interval, ...]     # value, ∂x, ∂y, ∂xx, ∂xy, ∂yy
+Zeroable = Interval | None      # None: an exact 0 (a derivative of a number, ∂x/∂y, ...)
+
+ULPS = 1e-15          # relative widening after a function (4–9 ulps each side)
+TINY = 1e-300         # absolute widening after a function
+INF = math.inf
+
+
+def _clean(lo: Array, hi: Array) -> Interval:
+    """NaN anywhere (∞ − ∞, 0 · ∞ of an unbounded operand): the whole line."""
+    with np.errstate(all="ignore"):
+        bad = np.isnan(lo + hi)             # also where lo = −∞, hi = ∞ (the whole line anyway)
+    if not bad.any():
+        return lo, hi
+    return np.where(bad, -INF, lo), np.where(bad, INF, hi)
+
+
+HALF_ULP = 2.0 ** -52      # twice a normal float's half-ulp (relative)
+DENORMAL = 5e-324          # the smallest subnormal
+
+
+def _round(lo: Array, hi: Array) -> Interval:
+    """Outward past the rounding of a correctly rounded + − × ÷ (at most half an ulp): each end
+    moved by |v|·2^-52 plus the smallest subnormal, a move of at least one ulp that rounding to
+    nearest cannot undo (four times cheaper than `np.nextafter`)."""
+    with np.errstate(all="ignore"):
+        return _clean(lo - (np.abs(lo) * HALF_ULP + DENORMAL), hi + (np.abs(hi) * HALF_ULP + DENORMAL))
+
+
+def _widen(lo: Array, hi: Array) -> Interval:
+    """A few ulps outward: after a function accurate to a few ulps."""
+    lo, hi = _clean(lo, hi)
+    return (np.nextafter(lo - ULPS * np.abs(lo) - TINY, -INF),
+            np.nextafter(hi + ULPS * np.abs(hi) + TINY, INF))
+
+
+def _const(c: float, shape: tuple) -> Interval:
+    return np.full(shape, c), np.full(shape, c)
+
+
+def add(a: Zeroable, b: Zeroable) -> Zeroable:
+    if a is None or b is None:
+        return b if a is None else a
+    with np.errstate(all="ignore"):
+        return _round(a[0] + b[0], a[1] + b[1])
+
+
+def sub(a: Zeroable, b: Zeroable) -> Zeroable:
+    if a is None or b is None:
+        return a if b is None else neg(b)
+    with np.errstate(all="ignore"):
+        return _round(a[0] - b[1], a[1] - b[0])
+
+
+def neg(a: Zeroable) -> Zeroable:
+    return None if a is None else (-a[1], -a[0])
+
+
+def mul(a: Zeroable, b: Zeroable) -> Zeroable:
+    """The four corner products, an exact 0 (None) times anything an exact 0. A 0 · ∞ (NaN) is
+    left out of the least and the largest (`np.fmin`, `np.fmax`): a corner 0 · ∞ has a neighbour
+    corner 0 · (a finite end) = 0 unless both ends are infinite, where the others give ±∞ or NaN
+    too, and all NaN is the whole line (`_clean`): never narrower than 0 · ∞ = 0 would give."""
+    if a is None or b is None:
+        return None
+    with np.errstate(all="ignore"):
+        p = [a[0] * b[0], a[0] * b[1], a[1] * b[0], a[1] * b[1]]
+        lo = np.fmin(np.fmin(p[0], p[1]), np.fmin(p[2], p[3]))
+        hi = np.fmax(np.fmax(p[0], p[1]), np.fmax(p[2], p[3]))
+        return _round(lo, hi)
+
+
+def div(a: Zeroable, b: Interval) -> Zeroable:
+    """a / b; the whole line where b holds 0 (an exact 0 over b elsewhere: an exact 0)."""
+    zero = (b[0] <= 0) & (b[1] >= 0)
+    if a is None:
+        return None if not zero.any() else (np.where(zero, -INF, 0.0), np.where(zero, INF, 0.0))
+    with np.errstate(all="ignore"):
+        inv = (np.where(zero, 1.0, 1.0 / b[1]), np.where(zero, 1.0, 1.0 / b[0]))
+    inv = _round(*inv)
+    lo, hi = mul(a, inv)
+    return np.where(zero, -INF, lo), np.where(zero, INF, hi)
+
+
+def _contains_zero(a: Interval) -> NDArray[np.bool_]:
+    return (a[0] <= 0) & (a[1] >= 0)
+
+
+def whole_power(a: Zeroable, n: int) -> Zeroable:
+    """aⁿ for a whole n: even powers through |a|, odd ones monotone, negative ones as 1/a^|n|."""
+    if a is None:                     # an exact 0 to a power n > 0 (derivatives only)
+        return None
+    if n == 0:
+        return _const(1.0, a[0].shape)
+    if n < 0:
+        return div(_const(1.0, a[0].shape), whole_power(a, -n))
+    lo, hi = a
+    with np.errstate(all="ignore"):
+        if n % 2:
+            return _widen(portable.power(lo, n), portable.power(hi, n))
+        m = np.maximum(np.abs(lo), np.abs(hi))
+        low = np.where(_contains_zero(a), 0.0, np.minimum(np.abs(lo), np.abs(hi)))
+        out_lo, out_hi = _widen(portable.power(low, n), portable.power(m, n))
+    return np.maximum(out_lo, 0.0), out_hi
+
+
+def real_power(a: Interval, p: float) -> Interval:
+    """aᵖ for a constant p that is not whole: defined for a ≥ 0 only (the whole line where a
+    reaches below 0), increasing for p > 0, decreasing (and unbounded at 0) for p < 0."""
+    lo, hi = a
+    bad = lo < 0
+    with np.errstate(all="ignore"):
+        l0, h0 = np.maximum(lo, 0.0), np.maximum(hi, 0.0)
+        if p > 0:
+            r = _widen(portable.power(l0, p), portable.power(h0, p))
+        else:
+            r = _widen(portable.power(h0, p), np.where(l0 > 0, portable.power(l0, p), INF))
+    return np.where(bad, -INF, np.maximum(r[0], 0.0)), np.where(bad, INF, r[1])
+
+
+def _monotone(f: Callable[[Array], Array], a: Interval, lo_ok: Array | float = -INF) -> Interval:
+    """An increasing function defined above `lo_ok` (the whole line where a reaches below)."""
+    bad = a[0] < lo_ok
+    with np.errstate(all="ignore"):
+        r = _widen(f(np.maximum(a[0], lo_ok)), f(a[1]))
+    return np.where(bad, -INF, r[0]), np.where(bad, INF, r[1])
+
+
+def _periodic(a: Interval, peak: float) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+    """Whether [lo, hi] holds a point peak + 2kπ (a maximum) and peak + π + 2kπ (a minimum),
+    deciding "yes" near the ends (an enclosure may only grow)."""
+    lo, hi = a
+    two_pi = 2.0 * math.pi
+    slack = 1e-12 * (1.0 + np.maximum(np.abs(lo), np.abs(hi)))
+    with np.errstate(all="ignore"):
+        k_max = np.ceil((lo - slack - peak) / two_pi)
+        k_min = np.ceil((lo - slack - peak - math.pi) / two_pi)
+        has_max = peak + two_pi * k_max <= hi + slack
+        has_min = peak + math.pi + two_pi * k_min <= hi + slack
+    wide = ~np.isfinite(lo) | ~np.isfinite(hi) | (hi - lo >= two_pi)
+    return has_max | wide, has_min | wide
+
+
+def sin(a: Interval) -> Interval:
+    top, bottom = _periodic(a, 0.5 * math.pi)
+    with np.errstate(all="ignore"):
+        u, v = np.sin(np.nan_to_num(a[0])), np.sin(np.nan_to_num(a[1]))
+    lo, hi = _widen(np.minimum(u, v), np.maximum(u, v))
+    return np.where(bottom, -1.0, np.maximum(lo, -1.0)), np.where(top, 1.0, np.minimum(hi, 1.0))
+
+
+def cos(a: Interval) -> Interval:
+    top, bottom = _periodic(a, 0.0)
+    with np.errstate(all="ignore"):
+        u, v = np.cos(np.nan_to_num(a[0])), np.cos(np.nan_to_num(a[1]))
+    lo, hi = _widen(np.minimum(u, v), np.maximum(u, v))
+    return np.where(bottom, -1.0, np.maximum(lo, -1.0)), np.where(top, 1.0, np.minimum(hi, 1.0))
+
+
+def tan(a: Interval) -> Interval:
+    """Increasing between poles; the whole line across one (π/2 + kπ)."""
+    pole, _ = _periodic(a, 0.5 * math.pi)
+    other, _ = _periodic(a, 1.5 * math.pi)
+    across = pole | other | (a[1] - a[0] >= math.pi)
+    with np.errstate(all="ignore"):
+        r = _widen(portable.tan(a[0]), portable.tan(a[1]))
+    return np.where(across, -INF, r[0]), np.where(across, INF, r[1])
+
+
+def absolute(a: Interval) -> Interval:
+    lo, hi = a
+    z = _contains_zero(a)
+    return (np.where(z, 0.0, np.minimum(np.abs(lo), np.abs(hi))),
+            np.maximum(np.abs(lo), np.abs(hi)))
+
+
+def cosh(a: Interval) -> Interval:
+    m = absolute(a)
+    with np.errstate(all="ignore"):
+        r = _widen(portable.cosh(m[0]), portable.cosh(m[1]))
+    return np.maximum(r[0], 1.0), r[1]
+
+
+def _clip(a: Interval, lo: float, hi: float) -> Interval:
+    return np.clip(a[0], lo, hi), np.clip(a[1], lo, hi)
+
+
+VALUES = {
+    "exp": lambda a: _monotone(portable.exp, a),
+    "log": lambda a: _monotone(portable.log, a, 0.0),
+    "log1p": lambda a: _monotone(portable.log1p, a, -1.0),
+    "sqrt": lambda a: _monotone(np.sqrt, a, 0.0),
+    "sin": sin, "cos": cos, "tan": tan,
+    "sinh": lambda a: _monotone(portable.sinh, a),
+    "cosh": cosh,
+    "tanh": lambda a: _clip(_monotone(portable.tanh, a), -1.0, 1.0),
+    "arctan": lambda a: _clip(_monotone(portable.arctan, a), -2.0, 2.0),
+    "atan": lambda a: _clip(_monotone(portable.arctan, a), -2.0, 2.0),
+    "abs": absolute,
+}
+
+
+def _slopes(name: str, u: Interval, value: Interval) -> tuple[Interval, Interval]:
+    """Enclosures of f'(u) and f''(u) over u, given f(u)'s (`value`); f'' is the whole line
+    where f has a kink in u (`abs` across 0: its second derivative is a Dirac mass there)."""
+    shape = u[0].shape
+    one, two = _const(1.0, shape), _const(2.0, shape)
+    if name == "exp":
+        return value, value
+    if name == "log":
+        d1 = div(one, u)
+        return d1, neg(whole_power(d1, 2))
+    if name == "log1p":
+        d1 = div(one, add(one, u))
+        return d1, neg(whole_power(d1, 2))
+    if name == "sqrt":
+        d1 = div(_const(0.5, shape), value)
+        return d1, div(neg(d1), mul(two, u))
+    if name == "sin":
+        return cos(u), neg(value)
+    if name == "cos":
+        return neg(sin(u)), neg(value)
+    if name == "tan":
+        d1 = add(one, whole_power(value, 2))
+        return d1, mul(mul(two, value), d1)
+    if name == "sinh":
+        return cosh(u), value
+    if name == "cosh":
+        return VALUES["sinh"](u), value
+    if name == "tanh":
+        d1 = sub(one, whole_power(value, 2))
+        return d1, neg(mul(mul(two, value), d1))
+    if name in ("arctan", "atan"):
+        d1 = div(one, add(one, whole_power(u, 2)))
+        return d1, neg(mul(mul(two, u), whole_power(d1, 2)))
+    assert name == "abs"
+    z = _contains_zero(u)
+    d1 = np.where(z | (u[0] < 0), -1.0, 1.0), np.where(z | (u[1] > 0), 1.0, -1.0)
+    return d1, (np.where(z, -INF, 0.0), np.where(z, INF, 0.0))
+
+
+def _sign_of(f: tuple) -> tuple | None:
+    """(u, c) when f is c·abs(u)/u or c·u/abs(u) (c·sign(u): a jump across u = 0; c = None for
+    1), else None."""
+    if f[0] != "/":
+        return None
+    a, b = f[1], f[2]
+    if a == ("call", "abs", b):
+        return b, None
+    if b[0] == "call" and b[1] == "abs" and a == b[2]:
+        return a, None
+    if a[0] == "*":
+        for c, d in ((a[1], a[2]), (a[2], a[1])):
+            if d == ("call", "abs", b):
+                return b, c
+    return None
+
+
+def _compose(v: Interval, d1: Interval, d2: Interval, u: Node) -> Node:
+    """f(u) from u's value and derivatives, f'(u) ∈ d1, f''(u) ∈ d2 (the chain rule to second
+    order: ∇f = f' ∇u, ∇²f = f'' ∇u ∇uᵀ + f' ∇²u)."""
+    _, gx, gy, hxx, hxy, hyy = u
+    return (v, mul(d1, gx), mul(d1, gy),
+            add(mul(d2, whole_power(gx, 2)), mul(d1, hxx)),
+            add(mul(d2, mul(gx, gy)), mul(d1, hxy)),
+            add(mul(d2, whole_power(gy, 2)), mul(d1, hyy)))
+
+
+def _times(a: Node, b: Node) -> Node:
+    """a · b to second order."""
+    av, ax, ay, axx, axy, ayy = a
+    bv, bx, by, bxx, bxy, byy = b
+    return (mul(av, bv), add(mul(ax, bv), mul(av, bx)), add(mul(ay, bv), mul(av, by)),
+            add(add(mul(axx, bv), mul(_const(2.0, av[0].shape), mul(ax, bx))), mul(av, bxx)),
+            add(add(mul(axy, bv), add(mul(ax, by), mul(ay, bx))), mul(av, bxy)),
+            add(add(mul(ayy, bv), mul(_const(2.0, av[0].shape), mul(ay, by))), mul(av, byy)))
+
+
+def _over(a: Node, b: Node) -> Node:
+    """a / b to second order: q = a/b, ∇q = (∇a − q ∇b)/b,
+    ∇²q = (∇²a − q ∇²b − ∇q ∇bᵀ − ∇b ∇qᵀ)/b."""
+    av, ax, ay, axx, axy, ayy = a
+    bv, bx, by, bxx, bxy, byy = b
+    q = div(av, bv)
+    qx, qy = div(sub(ax, mul(q, bx)), bv), div(sub(ay, mul(q, by)), bv)
+    two = _const(2.0, av[0].shape)
+    return (q, qx, qy,
+            div(sub(sub(axx, mul(q, bxx)), mul(two, mul(qx, bx))), bv),
+            div(sub(sub(axy, mul(q, bxy)), add(mul(qx, by), mul(qy, bx))), bv),
+            div(sub(sub(ayy, mul(q, byy)), mul(two, mul(qy, by))), bv))
+
+
+def evaluate(form: tuple, X: Interval, Y: Interval) -> Node:
+    """Enclosures of the value, the gradient (∂x, ∂y) and the Hessian (∂xx, ∂xy, ∂yy) of the
+    checked `form` over the boxes X × Y (each an interval of arrays of one shape)."""
+    return evaluate_all([form], X, Y)[0]
+
+
+def evaluate_all(forms: list[tuple], X: Interval, Y: Interval) -> list[Node]:
+    """`evaluate` of each form, a subexpression they share (x² + y² in three components, the
+    angle's cos and sin in a principal field's) enclosed once."""
+    shape = X[0].shape
+    zero = None                       # an exact 0: the derivatives of numbers and of x, y
+    one = _const(1.0, shape)
+    seen: dict[tuple, Node] = {}
+
+    def walk(f: tuple) -> Node:
+        if f not in seen:
+            seen[f] = _walk(f)
+        return seen[f]
+
+    def _walk(f: tuple) -> Node:
+        kind = f[0]
+        if kind == "num":
+            return _const(f[1], shape), zero, zero, zero, zero, zero
+        if kind == "var":
+            return ((X, one, zero) if f[1] == "x" else (Y, zero, one)) + (zero, zero, zero)
+        if kind == "neg":
+            return tuple(neg(a) for a in walk(f[1]))
+        sign = _sign_of(f)
+        if sign is not None:
+            v = walk(sign[0])[0]
+            z = _contains_zero(v)
+            val = (np.where(z | (v[0] < 0), -1.0, 1.0), np.where(z | (v[1] > 0), 1.0, -1.0))
+            jump = (np.where(z, -INF, 0.0), np.where(z, INF, 0.0))
+            s = (val, jump, jump, jump, jump, jump)
+            return s if sign[1] is None else _times(walk(sign[1]), s)
+        if kind == "call":
+            name = f[1]
+            u = walk(f[2])
+            v = VALUES[name](u[0])
+            return _compose(v, *_slopes(name, u[0], v), u)
+        if kind == "**" and f[2][0] == "num":
+            u = walk(f[1])
+            p = f[2][1]
+            if p == 0:
+                return one, zero, zero, zero, zero, zero
+            if p == round(p) and abs(p) <= 64:
+                n = int(p)
+                v = whole_power(u[0], n)
+                d1 = mul(_const(p, shape), whole_power(u[0], n - 1))
+                d2 = mul(_const(p * (p - 1), shape), whole_power(u[0], n - 2))
+            else:
+                v = real_power(u[0], p)
+                d1 = mul(_const(p, shape), real_power(u[0], p - 1.0))
+                d2 = mul(_const(p * (p - 1), shape), real_power(u[0], p - 2.0))
+            return _compose(v, d1, d2, u)
+        if kind == "**":       # b ** e = exp(e · log b)
+            return walk(("call", "exp", ("*", f[2], ("call", "log", f[1]))))
+        a, b = walk(f[1]), walk(f[2])
+        if kind == "+":
+            return tuple(add(p, q) for p, q in zip(a, b))
+        if kind == "-":
+            return tuple(sub(p, q) for p, q in zip(a, b))
+        if kind == "*":
+            return _times(a, b)
+        if kind == "/":
+            return _over(a, b)
+        raise ValueError(f"not a checked form: {kind!r}")
+
+    filled = _const(0.0, shape)
+    return [tuple(filled if v is None else v for v in walk(f)) for f in forms]
+
+
+def principal_forms(k1: tuple, k2: tuple, angle_deg: tuple) -> list[tuple]:
+    """The checked forms of q11, q12, q22 of R diag(k1, k2) Rᵀ, R the rotation by angle_deg
+    degrees (as `TensorField.principal` computes them, the squares as squares)."""
+    t = ("*", ("num", math.pi / 180.0), angle_deg)
+    c, s = ("call", "cos", t), ("call", "sin", t)
+    c2, s2 = ("**", c, ("num", 2.0)), ("**", s, ("num", 2.0))
+    return [("+", ("*", k1, c2), ("*", k2, s2)),
+            ("*", ("*", ("-", k1, k2), c), s),
+            ("+", ("*", k1, s2), ("*", k2, c2))]
