@@ -466,6 +466,17 @@ class TensorField:
                                    resolution=self.resolution)
         return _m.full_tensors(q), err
 
+    def rule_means(self, points: ArrayLike, triangles: ArrayLike) -> Array:
+        """The degree-5 rule's average of Q over each triangle (M, 3) of points (n, 2) →
+        (M, 2, 2): Q at 7 points a triangle, no error estimate (`means.rule_averages`; exact for
+        polynomials of degree ≤ 5), what the repair ranks its candidates by. Constant fields and
+        rasters: their exact means (`means_with_error`)."""
+        P = _points(points)
+        T = _triangles(triangles, len(P))
+        if self.means_exact or not len(T):
+            return self.means_with_error(P, T)[0]
+        return _m.full_tensors(_m.rule_averages(self._evaluate, P[T[:, 0]], P[T[:, 1]], P[T[:, 2]]))
+
     def _enclosure(self) -> _m.Bound | None:
         """A text's `means.enclosure_bound`, built once; None for other fields."""
         if self._forms is not None and self._bound is None:

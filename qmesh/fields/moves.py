@@ -258,9 +258,9 @@ def polish(st, movers, tangent=None, refused=None):
     D = np.concatenate([np.asarray(STEPS)[:, None, None] * step[None], back])   # (K, k, 2)
     if tangent is not None:                    # a boundary vertex: the move's share along it
         D = _along(D, tangent[v])
-    # every try judged on rough means (the degree-5 rule against its children), the one each
-    # mover would take judged again on the means it is kept with: the field's adaptive means
-    # for one try a mover, not for all of them
+    # every try judged on rough means (the degree-5 rule alone, `ElementMeans.rough`), the one
+    # each mover would take judged again on the means it is kept with: the field's adaptive
+    # means for one try a mover, not for all of them
     ok, q1 = _judged(st, v, D, True, how="rough")
     q1 = np.where(ok, q1, -np.inf)
     best = np.argmax(q1, axis=0)
@@ -294,10 +294,14 @@ def _along(d, t):
 
 def _accepted(st, d, moving, shape):
     """Which `moving` vertices (two triangles apart) `relax` takes moved by d: their stars'
-    edges and shapes judged on the means at the new places."""
+    edges and shapes judged first on rough means (`ElementMeans.rough`, 7 points a triangle),
+    and the moves that pass judged again on the means at the new places (each mover is judged
+    on its own star: the same verdict among fewer movers)."""
     v = np.flatnonzero(moving)
     out = np.zeros(len(st.P), bool)
-    out[v] = _judged(st, v, d[v][None], shape)[0][0]
+    maybe = v[_judged(st, v, d[v][None], shape, how="rough")[0][0]]
+    if len(maybe):
+        out[maybe] = _judged(st, maybe, d[maybe][None], shape)[0][0]
     return out
 
 
@@ -331,8 +335,8 @@ def _judged(st, v, D, shape, how="means_with_error"):
     X = np.where(flat[:, mover, None, None], X, moved)
     pts = X.reshape(-1, 2)
     tags = None if reg is None else np.tile(reg[star], K)
-    Qn, en = st.means(how, pts, tri, tags)
-    Qn, en = np.asarray(Qn, dtype=float), np.asarray(en, dtype=float)
+    Qn, en = _try_means(st, how, pts, tri, tags, star, mover,
+                        flat | (np.hypot(D[..., 0], D[..., 1]) == 0))
     sn, bn = (x.reshape(K, 3 * m) for x in shares(pts, tri, Qn, en))
     he = (3 * star[:, None] + np.arange(3)).ravel()
     local = np.full(len(T), -1, np.int64)
@@ -371,6 +375,27 @@ def _judged(st, v, D, shape, how="means_with_error"):
         take = ((f1 <= f0) & (d1 <= d0) & ((f1 < f0) | (d1 < (1.0 - GAIN) * d0))
                 & (q1 >= np.minimum(q0, KEEP * FLOOR)))
     return take & (np.hypot(D[..., 0], D[..., 1]) > 0) & ~flat, q1
+
+
+def _try_means(st, how, pts, tri, tags, star, mover, still):
+    """The means and error bounds of the K tries' stars (K m triangles `tri` over `pts`), the
+    stars of the tries `still` ((K, k): refused on geometry alone, a triangle flattened or no
+    move) left unmoved. Rough means are asked for the moved stars only, and the unmoved ones
+    take the state's own: a refused try's means decide nothing (stars two triangles apart
+    share no edge), and each other triangle's rough mean is its own, whatever the batch. Other
+    means come from the cache (`cache.ElementMeans`), where an unmoved star is already kept."""
+    if how != "rough" or not still.any():
+        Qn, en = st.means(how, pts, tri, tags)
+        return np.asarray(Qn, dtype=float), np.asarray(en, dtype=float)
+    K, m = len(still), len(star)
+    kept = still[:, mover].ravel()                           # (K m,): unmoved triangles
+    Qn, en = np.empty((K * m, 2, 2)), np.empty(K * m)
+    Qn[kept], en[kept] = np.tile(st.Qbar[star], (K, 1, 1))[kept], np.tile(st.err[star], K)[kept]
+    ask = np.flatnonzero(~kept)
+    if len(ask):
+        Qa, ea = st.means(how, pts, tri[ask], None if tags is None else tags[ask])
+        Qn[ask], en[ask] = Qa, ea
+    return Qn, en
 
 
 def _own_metric(H):

@@ -425,7 +425,7 @@ def test_the_polish_asks_adaptive_means_for_one_try_a_mover(seed, n):
     P2 = polished.P
     stars = int(topology.touching(T, np.isin(np.arange(len(P)), movers)).sum())
     tries = len(moves.STEPS) + moves.PATTERN * len(moves.REACH)
-    assert counted.asked["rough"] == tries * stars
+    assert 0 < counted.asked["rough"] <= tries * stars   # tries refused on geometry: not asked
     assert counted.asked["means_with_error"] <= stars
     after, s2, b2, _ = total_deficit(P2, T, field)
     assert len(shares.failing(s2, b2, twin)[0]) <= len(h0)
