@@ -6,7 +6,8 @@ the single-region mesher's own relation h ↔ N, each face counted with the poin
 will hold and the grading toward them, less those two faces count twice (mesher/face_count.py).
 
 A face thin or sharp in its own metric needs more vertices than its area says, so the faces
-still to come are sized again before each face (`size_rest`), and the largest, meshed last, is
+still to come are sized again before each face (`size_rest`; with thousands of faces, each time
+a share of those left is done: `resize_due`), and the largest, meshed last, is
 given the count that remains (`sizing_of`): the run lands on N without a second run.
 """
 
@@ -43,6 +44,8 @@ ROUND = 1e-6     # lengths this close count as equal (the face mesher measures t
 WHOLE = 0.01     # shared pieces up to this share longer than a face's h are kept whole
 NEAR = 1e-9      # lengths measured many at once are this close to one measured alone
 SMALL = 200      # faces expected to take fewer triangles share a run where they can
+EVERY = 64       # the faces left are sized again before each of the first EVERY faces, then
+SHARE = 1 / 16   # ... once this share of the faces left is meshed (each sizing reads all of them)
 
 
 class MediaPlan:
@@ -101,6 +104,7 @@ class MediaPlan:
                      else f"the default size (the mean edge length in the metrics, {self.h:.3g})")
             sizing.check_vertex_count(self.counter(self.order)(self.h), asked)
         self.h_rest = self.h
+        self._sized_at = 0         # the face before which the faces left were last sized
         # interface edges cut evenly into pieces ≤ h in both sides' metrics (the others: by their face)
         self.extra = SharedPoints(part.even_cuts(self._inter, np.ceil(self.longest / (BOUNDARY_FACTOR * self.h))),
                                   len(part.edges))
@@ -172,6 +176,15 @@ class MediaPlan:
 
     def _size_for(self, faces: list, n: float, thin: bool = False) -> float:
         return sizing.size_for_count(self.counter(faces, thin), n, *self._total, steps=100)
+
+    def resize_due(self, at: int) -> bool:
+        """Whether the faces left are to be sized again before the at-th face: before each of
+        the first EVERY, then each time SHARE of the faces then left is done (a sizing per face
+        made thousands of cells quadratic; a medium of up to EVERY faces is sized as before)."""
+        if at > EVERY and at - self._sized_at < SHARE * (len(self.order) - at):
+            return False
+        self._sized_at = at
+        return True
 
     def size_rest(self, rest: list, n_done: int) -> None:
         """Size the faces `rest` still to mesh for what the target leaves after `n_done`
