@@ -38,7 +38,7 @@ COARSER = 64.0   # ... and at most this factor coarser (a target below what the 
 THIN_ASPECT = 8.0  # a face whose longest side is this many widths (in its metric) is thin
 LEAST_SHARE = 0.5  # faces whose least count is this share of the target are sized by width at once
 THIN = 0.25      # a face w wide in its metric needs boundary pieces about this many w long
-TINY = 1e-5      # a face this small (× the domain's size) that cannot be meshed is named as the cause
+TINY = 1e-5      # a face this small (× the domain's size) is meshed after the faces around it
 SLACK = 0.03     # ... and only when the faces done so far put the run this share off its target
 ROUND = 1e-6     # lengths this close count as equal (the face mesher measures them in its own frame)
 WHOLE = 0.01     # shared pieces up to this share longer than a face's h are kept whole
@@ -89,7 +89,13 @@ class MediaPlan:
         w = np.where(THIN_ASPECT * width < longest, THIN * width, np.inf)
         self._thin_step = w[self._seg_face]
         self.target = target_vertices
-        self.order = sorted(range(len(self.faces)), key=lambda i: self.area[i])   # largest last
+        by_area = sorted(range(len(self.faces)), key=lambda i: self.area[i])
+        # the largest last, given the count that remains (sizing_of); then the tiny faces, whose
+        # edge points, closer together than a triangulation of the rest resolves, go into the
+        # faces around them by insertion (insert_shared) instead of into those faces' runs
+        tiny = self.extent <= TINY * domain.diameter
+        self.order = [i for i in by_area if not tiny[i]] + [i for i in by_area if tiny[i]]
+        self.last = self.order[int(np.count_nonzero(~tiny)) - 1] if not tiny.all() else by_area[-1]
         self.thin = False          # sized with the faces' widths from the start
         if target_vertices is not None:
             # a least count over LEAST_SHARE of the target: thin from the first face on
@@ -207,7 +213,7 @@ class MediaPlan:
         is a hair shorter than its interface pieces (it would split each in two), their size."""
         a, k, L = self.anis[i], self.k[i], sizing.metric_edge_lengths(dom, self.anis[i], self.k[i])
         n = 0
-        if self.target is not None and i == self.order[-1] and meshes:
+        if self.target is not None and i == self.last and (meshes or i != self.order[-1]):
             n = self.target - meshes.vertex_count(dom.seeds) + len(dom.seeds)
         count = n > len(dom.seeds)
         h = sizing.size_for_vertices(sizing.metric_area_scaled(dom, a, k), L, n, BOUNDARY_FACTOR) if count else self.h_rest
