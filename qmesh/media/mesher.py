@@ -232,8 +232,10 @@ def _share(plan: MediaPlan, meshes: FaceMeshes, mesh: Mesh, extra: dict, options
         redone.add(j)
         try:
             dom = face_domain(part, plan.faces[j], extra, plan.face_name(j))
-            again = last_step(_face_steps(plan, [j], dom, options, [],
-                                          {"size": plan.h_rest * np.sqrt(plan.k[j])})).mesh
+            # the face given the count that remains is given it again, less the other faces' now
+            size = (plan.sizing_of(j, dom, meshes.without(j)) if j == plan.last and plan.target
+                    else {"size": plan.h_rest * np.sqrt(plan.k[j])})
+            again = last_step(_face_steps(plan, [j], dom, options, [], size)).mesh
         except QmeshError:               # it keeps the points inserted, as it is
             continue
         if _worst(again, plan.anis[j]) > now:

@@ -44,6 +44,12 @@ class FaceMeshes(dict[int, Mesh]):
         self._inner += sum(m.n_vertices for m in meshes) - len(held)
         self._held.update(held)
 
+    def without(self, i: int) -> FaceMeshes:
+        """The other faces' meshes, counted afresh (a face meshed again is sized without its old mesh)."""
+        out, faces = FaceMeshes(), [f for f in self if f != i]
+        out.add(faces, [self[f] for f in faces])
+        return out
+
     def vertex_count(self, adding: Any = ()) -> int:
         """Vertices of the face meshes stitched together, and of the points `adding` they lack."""
         rows = list(map(tuple, np.reshape(adding, (-1, 2)).tolist()))
