@@ -29,6 +29,8 @@ mesh the target N.
     python benchmarks/bench_media.py --figure screenshots/media_inclusion.png   (that PNG only)
     python benchmarks/bench_media.py --timing 100000     (layered box with and without regions;
                                                           page bench_media-timing.md)
+    python benchmarks/bench_media.py --cells 25 50 100    (Domain.from_cells on n × n cells at
+                                                          N = 8 n², CPU seconds; page bench_media-cells.md)
 """
 
 from __future__ import annotations
@@ -216,10 +218,54 @@ def timing(n: int) -> str:
     return line
 
 
+def cell_maps(n: int) -> dict:
+    """Two n × n cell maps of the unit square, (k1, k2, angle) each: "3 media", a random map of
+    three conductivities (1, 10:1 at 30°, 100:1 at 60°) where a value touching itself only at a
+    corner is joined by an edge (from_cells refuses such a pinch), and "all differ", every cell
+    its own axis-aligned k1 in [1, 100] and k1/k2 in [1, 10]."""
+    rng = np.random.default_rng(1)
+    v = rng.integers(0, 3, (n, n))
+    while True:
+        a, b, c, d = v[:-1, :-1], v[:-1, 1:], v[1:, :-1], v[1:, 1:]
+        pinch = ((a == d) & (b != a) & (c != a)) | ((b == c) & (a != b) & (d != b))
+        if not pinch.any():
+            break
+        j, i = np.nonzero(pinch)
+        v[j, i + 1] = v[j + 1, i + 1]
+    k1 = 10 ** (2 * rng.random((n, n)))
+    return {"3 media": (np.array([1.0, 10.0, 100.0])[v], np.ones((n, n)), np.array([0.0, 30.0, 60.0])[v]),
+            "all differ": (k1, k1 / 10 ** rng.random((n, n)), np.zeros((n, n)))}
+
+
+def cells_timing(sizes: list[int]) -> list[list]:
+    """CPU seconds of `Domain.from_cells` and of `qmesh.mesh` at N = 8 n² on `cell_maps(n)`."""
+    rows = []
+    for n in sizes:
+        x = np.linspace(0.0, 1.0, n + 1)
+        for kind, (k1, k2, angle) in cell_maps(n).items():
+            t0 = time.process_time()
+            domain, cond = qmesh.Domain.from_cells(x, x, k1, k2, angle)
+            t1 = time.process_time()
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", qmesh.QmeshWarning)
+                m = qmesh.mesh(domain, cond, target_vertices=8 * n * n)
+            t2 = time.process_time()
+            share = min(measure.q_nonnegative_fractions(m, cond).values())
+            rows.append([f"{n} × {n}", kind, len(cond), 8 * n * n, m.n_vertices, f"{share:.4f}",
+                         f"{t1 - t0:.2f}", f"{t2 - t1:.1f}"])
+            print(*rows[-1], sep=" | ", flush=True)
+    return rows
+
+
+CELL_HEADERS = ["cells", "map", "regions", "target", "N", "min share q_ij ≥ 0", "from_cells s",
+                "mesh s"]
+
+
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--figure", metavar="PNG", help="only draw the figure of the inclusion case")
     ap.add_argument("--timing", type=int, metavar="N", help="only time the layered box at N")
+    ap.add_argument("--cells", type=int, nargs="+", metavar="n", help="only time n × n cell maps")
     ap.add_argument("--n", type=int, nargs="+", default=[2000, 8000])
     ap.add_argument("--cases", nargs="+", choices=sorted(SHORT), default=list(SHORT))
     ap.add_argument("--no-mmg", action="store_true")
@@ -236,6 +282,18 @@ def main(argv=None) -> None:
                 f"Seconds of `qmesh.mesh` for the layered box (`qmesh.domain.media_cases.layered`, five "
                 f"regions) at target N = {args.timing}, and for the same box with one Q (the "
                 f"second region's) and no interfaces.", notes=[line + "."], suffix="timing")
+        return
+    if args.cells:
+        print(*CELL_HEADERS, sep=" | ")
+        rows = cells_timing(args.cells)
+        if not args.no_page:
+            report_page.write_page(
+                __file__, sys.argv, "Heterogeneous media: grids of cells",
+                "CPU seconds of `qmesh.Domain.from_cells` and of `qmesh.mesh` at target N = 8 n² "
+                "on n × n cells of the unit square (`cell_maps` in the script): a random map of "
+                "three media, and every cell its own conductivity (every cell a region); the "
+                "least share of `q_ij ≥ 0` over interior, boundary and interface edges.",
+                tables=[report_page.Table(CELL_HEADERS, rows)], suffix="cells")
         return
     print(HEADER)
     rows = run([SHORT[c] for c in args.cases], args.n, mmg=not args.no_mmg)

@@ -89,7 +89,7 @@ def _run(plan: MediaPlan, options: dict, every: bool) -> Iterator[Step]:
     at, alone, redone = 0, set[int](), set[int]()   # faces of a group whose run failed; meshed again
     turned: list[str] = []                   # field faces whose runs took far more than planned
     while at < len(plan.order):
-        if at:
+        if at and plan.resize_due(at):
             plan.size_rest(plan.order[at:], meshes.vertex_count())
         faces, dom, sizes, size = _group(plan, at, extra, meshes, alone)
         said: list = []
@@ -203,7 +203,7 @@ def _share(plan: MediaPlan, meshes: FaceMeshes, mesh: Mesh, extra: dict, options
     finished face whose worst metric quality such points drop below FLOOR (a fan of them next to
     its corner, finer than its own spacing) is meshed again with them fixed, once, and kept (and
     returned, its points to share in turn) when its run, grading towards them, shapes it better."""
-    part, rank, remeshed = plan.part, {j: k for k, j in enumerate(meshes)}, []
+    part, rank, remeshed = plan.part, meshes.rank, []     # rank: kept as faces are added
     new = points_on_edges(mesh, plan.corners, int(mesh.fixed.sum()))
     queue, before = [{e: X for e, X in new.items() if part.interface[e]}], dict[int, float]()
     for _ in range(MAX_HANDOVERS):
@@ -235,8 +235,10 @@ def _share(plan: MediaPlan, meshes: FaceMeshes, mesh: Mesh, extra: dict, options
         redone.add(j)
         try:
             dom = face_domain(part, plan.faces[j], extra, plan.face_name(j))
-            again = last_step(_face_steps(plan, [j], dom, options, [],
-                                          {"size": plan.h_rest * np.sqrt(plan.k[j])})).mesh
+            # the face given the count that remains is given it again, less the other faces' now
+            size = (plan.sizing_of(j, dom, meshes.without(j)) if j == plan.last and plan.target
+                    else {"size": plan.h_rest * np.sqrt(plan.k[j])})
+            again = last_step(_face_steps(plan, [j], dom, options, [], size)).mesh
         except QmeshError:               # it keeps the points inserted, as it is
             continue
         if _worst(again, plan.anis[j]) > now:

@@ -6,7 +6,8 @@ the single-region mesher's own relation h ↔ N, each face counted with the poin
 will hold and the grading toward them, less those two faces count twice (mesher/face_count.py).
 
 A face thin or sharp in its own metric needs more vertices than its area says, so the faces
-still to come are sized again before each face (`size_rest`), and the largest, meshed last, is
+still to come are sized again before each face (`size_rest`; with thousands of faces, each time
+a share of those left is done: `resize_due`), and the largest, meshed last, is
 given the count that remains (`sizing_of`): the run lands on N without a second run.
 """
 
@@ -37,12 +38,14 @@ COARSER = 64.0   # ... and at most this factor coarser (a target below what the 
 THIN_ASPECT = 8.0  # a face whose longest side is this many widths (in its metric) is thin
 LEAST_SHARE = 0.5  # faces whose least count is this share of the target are sized by width at once
 THIN = 0.25      # a face w wide in its metric needs boundary pieces about this many w long
-TINY = 1e-5      # a face this small (× the domain's size) that cannot be meshed is named as the cause
+TINY = 1e-5      # a face this small (× the domain's size) is meshed after the faces around it
 SLACK = 0.03     # ... and only when the faces done so far put the run this share off its target
 ROUND = 1e-6     # lengths this close count as equal (the face mesher measures them in its own frame)
 WHOLE = 0.01     # shared pieces up to this share longer than a face's h are kept whole
 NEAR = 1e-9      # lengths measured many at once are this close to one measured alone
 SMALL = 200      # faces expected to take fewer triangles share a run where they can
+EVERY = 64       # the faces left are sized again before each of the first EVERY faces, then
+SHARE = 1 / 16   # ... once this share of the faces left is meshed (each sizing reads all of them)
 
 
 class MediaPlan:
@@ -86,7 +89,13 @@ class MediaPlan:
         w = np.where(THIN_ASPECT * width < longest, THIN * width, np.inf)
         self._thin_step = w[self._seg_face]
         self.target = target_vertices
-        self.order = sorted(range(len(self.faces)), key=lambda i: self.area[i])   # largest last
+        by_area = sorted(range(len(self.faces)), key=lambda i: self.area[i])
+        # the largest last, given the count that remains (sizing_of); then the tiny faces, whose
+        # edge points, closer together than a triangulation of the rest resolves, go into the
+        # faces around them by insertion (insert_shared) instead of into those faces' runs
+        tiny = self.extent <= TINY * domain.diameter
+        self.order = [i for i in by_area if not tiny[i]] + [i for i in by_area if tiny[i]]
+        self.last = self.order[int(np.count_nonzero(~tiny)) - 1] if not tiny.all() else by_area[-1]
         self.thin = False          # sized with the faces' widths from the start
         if target_vertices is not None:
             # a least count over LEAST_SHARE of the target: thin from the first face on
@@ -101,6 +110,7 @@ class MediaPlan:
                      else f"the default size (the mean edge length in the metrics, {self.h:.3g})")
             sizing.check_vertex_count(self.counter(self.order)(self.h), asked)
         self.h_rest = self.h
+        self._sized_at = 0         # the face before which the faces left were last sized
         # interface edges cut evenly into pieces ≤ h in both sides' metrics (the others: by their face)
         self.extra = SharedPoints(part.even_cuts(self._inter, np.ceil(self.longest / (BOUNDARY_FACTOR * self.h))),
                                   len(part.edges))
@@ -173,6 +183,15 @@ class MediaPlan:
     def _size_for(self, faces: list, n: float, thin: bool = False) -> float:
         return sizing.size_for_count(self.counter(faces, thin), n, *self._total, steps=100)
 
+    def resize_due(self, at: int) -> bool:
+        """Whether the faces left are to be sized again before the at-th face: before each of
+        the first EVERY, then each time SHARE of the faces then left is done (a sizing per face
+        made thousands of cells quadratic; a medium of up to EVERY faces is sized as before)."""
+        if at > EVERY and at - self._sized_at < SHARE * (len(self.order) - at):
+            return False
+        self._sized_at = at
+        return True
+
     def size_rest(self, rest: list, n_done: int) -> None:
         """Size the faces `rest` still to mesh for what the target leaves after `n_done`
         vertices, when the run is more than SLACK off course (a target near the faces' own
@@ -194,7 +213,7 @@ class MediaPlan:
         is a hair shorter than its interface pieces (it would split each in two), their size."""
         a, k, L = self.anis[i], self.k[i], sizing.metric_edge_lengths(dom, self.anis[i], self.k[i])
         n = 0
-        if self.target is not None and i == self.order[-1] and meshes:
+        if self.target is not None and i == self.last and (meshes or i != self.order[-1]):
             n = self.target - meshes.vertex_count(dom.seeds) + len(dom.seeds)
         count = n > len(dom.seeds)
         h = sizing.size_for_vertices(sizing.metric_area_scaled(dom, a, k), L, n, BOUNDARY_FACTOR) if count else self.h_rest

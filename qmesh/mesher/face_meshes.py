@@ -20,6 +20,7 @@ class FaceMeshes(dict[int, Mesh]):
         super().__init__()
         self._inner = 0                               # interior vertices of all faces
         self._held: Counter[tuple] = Counter()        # boundary point -> faces holding it
+        self.rank: dict[int, int] = {}                # face -> when it was first meshed (0, 1, …)
 
     def __setitem__(self, i: int, m: Mesh) -> None:
         old = self.get(i)
@@ -37,10 +38,17 @@ class FaceMeshes(dict[int, Mesh]):
     def add(self, faces: Iterable[int], meshes: list[Mesh]) -> None:
         """New faces and their meshes, counted all at once (a run's thousand small faces)."""
         for i, m in zip(faces, meshes):
+            self.rank.setdefault(i, len(self.rank))
             super().__setitem__(i, m)
         held = _boundary_points(*meshes)
         self._inner += sum(m.n_vertices for m in meshes) - len(held)
         self._held.update(held)
+
+    def without(self, i: int) -> FaceMeshes:
+        """The other faces' meshes, counted afresh (a face meshed again is sized without its old mesh)."""
+        out, faces = FaceMeshes(), [f for f in self if f != i]
+        out.add(faces, [self[f] for f in faces])
+        return out
 
     def vertex_count(self, adding: Any = ()) -> int:
         """Vertices of the face meshes stitched together, and of the points `adding` they lack."""
