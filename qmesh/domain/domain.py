@@ -128,6 +128,9 @@ class Domain:
     `region_names`: a dict tag → name, or one name per region.
     """
 
+    media_face = False
+    """True for a medium's face (`domain.faces.face_domain`): its corners keep their points."""
+
     def __init__(self, outer: Ring, holes: Iterable[Ring] = (), tags: Iterable[ArrayLike] | None = None,
                  names: Names | None = None, regions: Iterable[Ring] | None = (),
                  region_names: Names | None = None) -> None:
