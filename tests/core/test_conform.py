@@ -5,6 +5,8 @@ the q_ij of the boundary edge it protects; meshes of non-convex and holed domain
 for the invariants the issue lists, on named shapes and on random ones (hypothesis).
 """
 
+import warnings
+
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -110,10 +112,46 @@ def check_mesh(D, A, m, constant=True):
     assert len(m.boundary_edges) == int((~interior).sum())
     if constant:
         rel = q / np.abs(q).max()
-        assert rel[interior].min() >= -1e-9 and rel[~interior].min() >= -1e-9
+        tol = 1e-9 + coordinate_precision(P, edges)
+        assert rel[interior].min() >= -tol and rel[~interior].min() >= -tol
+
+
+def coordinate_precision(P, edges) -> float:
+    """What the stored coordinates alone can move a q_ij by, relative to the largest: the mesher
+    decides in its normalised frame, and a point mapped back far from the origin is rounded by
+    half an ulp there, which tilts an edge's angles by about ulp / edge length (a q_ij that is 0
+    in the mesher's frame, four points on one ellipse, then reads about −1e-9 at 5e5 sizes
+    from the origin: the README's limit on far-away domains)."""
+    shortest = np.hypot(*(P[edges[:, 0]] - P[edges[:, 1]]).T).min()
+    return 10.0 * float(np.spacing(np.abs(P).max())) / float(shortest)
 
 
 CHAPTER = qmesh.Anisotropy.constant(qmesh.CHAPTER_Q)
+
+FAR_20GON = [(-628033618.6561793, -3.7846282118862054e-05), (-628033667.9700164, 125.82171584961382),
+             (-628033731.0542207, 378.13434340906934), (-628033995.0587281, 399.326300269783),
+             (-628034076.5397655, 632.8443720539814), (-628034224.6651572, 648.8308550593498),
+             (-628034385.6707753, 448.24532321508786), (-628034647.2384335, 503.2308338171274),
+             (-628034649.9960337, 279.39012690355787), (-628034792.67332, 176.97690165207098),
+             (-628034842.0071036, -21.392682988604403), (-628034607.8784503, -124.51358463447372),
+             (-628034671.1658456, -246.0582338044841), (-628034538.333489, -431.727458631043),
+             (-628034492.1609607, -614.3323196388601), (-628034286.1226298, -522.7755848678822),
+             (-628034053.0367248, -528.2181060984495), (-628033886.727237, -429.7820000490722),
+             (-628033868.6541914, -240.80204683377522), (-628033766.7906288, -207.11095148205442)]
+
+
+def test_a_domain_far_from_the_origin_keeps_q_to_its_coordinates_precision():
+    """A 20-gon 1e3 wide at 6e8 from the origin (drawn by the random test below): four points on
+    one ellipse give an edge whose q_ij is 0 in the mesher's frame and −1.75e-9 of the largest in
+    the stored coordinates, within what their rounding allows."""
+    D = qmesh.Domain(FAR_20GON)
+    A = qmesh.Anisotropy.constant(np.diag([64.91730213001026, 22655.871627119046]))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", qmesh.QmeshWarning)
+        m = qmesh.mesh(D, A, target_vertices=88)
+    check_mesh(D, A, m)
+    edges, q, _ = measure.edge_weights(m, A)
+    assert coordinate_precision(m.points, edges) > 1e-9          # the coordinates' rounding rules
 ROTATED = qmesh.Anisotropy.principal(1.0, 60.0, 35.0)
 
 
