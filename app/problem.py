@@ -211,7 +211,8 @@ SHOWN_RTOL = 1e-6
 """The quadrature tolerance of the means shown for a stage before the last (the repair's own,
 `qmesh.fields.cache.RTOL`): they colour the pictures and count the q_ij signs of a mesh that is
 replaced a moment later; at the field's own 1e-10 they took four fifths of a Run on the rotating
-preset."""
+preset. Their error bounds are not proven (`bound_rtol=None`): the last Step carries the certified
+means."""
 _MEANS: dict = {}
 _MEANS_KEPT = 8
 _MEANS_LOCK = threading.Lock()      # the app draws on its loop and measures in a worker
@@ -228,7 +229,8 @@ def element_means(mesh, field) -> np.ndarray:
     with _MEANS_LOCK:
         hit = _MEANS.get(key)
     if hit is None or hit[0] is not mesh or hit[1] is not field:
-        Q = field.means_with_error(mesh.points, mesh.triangles, rtol=SHOWN_RTOL)[0]
+        Q = field.means_with_error(mesh.points, mesh.triangles, rtol=SHOWN_RTOL,
+                                   bound_rtol=None)[0]    # shown, not certified: no proof
         hit = (mesh, field, np.asarray(Q, dtype=float))
         with _MEANS_LOCK:
             while len(_MEANS) >= _MEANS_KEPT:
