@@ -107,14 +107,12 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
             if len(t):                             # failing by the bound only: tighter means
                 st.refresh(t, tighten=True)
                 st.fail()
-            if len(st.h) and len(st.P) > limit:
-                _refuse_growth(given, st, mesh.n_vertices, limit)
             if len(st.h) < fewest:
                 fewest, since = len(st.h), 0
             since += 1
-            if (len(st.h) and since > STALL
-                    and 2 * (len(st.P) - mesh.n_vertices) > limit - mesh.n_vertices):
-                _refuse_growth(given, st, mesh.n_vertices, limit, stalled=True)
+            stalled = since > STALL and 2 * (len(st.P) - mesh.n_vertices) > limit - mesh.n_vertices
+            if len(st.h) and (len(st.P) > limit or stalled):
+                _refuse_growth(given, st, mesh.n_vertices, limit, stalled=len(st.P) <= limit)
             if not len(st.h) or rounds == max_rounds or since > STALL:
                 break
             done = mending_flips(st, st.h[~st.seen.edges[st.h]], refused=st.seen.edges)
