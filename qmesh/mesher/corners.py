@@ -19,6 +19,13 @@ its subsegment is not made (the trapezoid it leaves would be short against its w
 round-off could tip its q_ij = 0 diagonal below zero): the ordinary split halves towards it.
 Only for a constant Q, where the metric is affine and a mirror exact; corners of SHARP degrees
 or more keep the ordinary splits (the meshes of domains without such corners are unchanged).
+
+A medium's faces (MEDIA.md §2) take the same matching in their own region's metric: a side of
+a corner is the run of segments on one partition edge (side_runs), since the points that faces
+meshed before shared on it are the face's seeds; and a point a face meshed later puts on a side
+of a finished face's corner under SHARP_SHARED degrees is matched there by its mirror
+(mirrored_in_face), handed back across the interface. Between SHARP_SHARED and SHARP the
+finished face's ordinary splits stop within a few dozen points and keep the shapes its run made.
 """
 
 from __future__ import annotations
