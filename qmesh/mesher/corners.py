@@ -221,7 +221,8 @@ def mirrored_in_face(P, u, v, w, out, at_part, part, anisotropy, x):
     out_x = np.array(x, dtype=float)
     for j in (0, 1):                            # the corner at either end of u→v's edge
         o = ends[e, j]
-        k = np.flatnonzero((ew >= 0) & (ew != e) & (ends[np.maximum(ew, 0)] == o[:, None]).any(axis=1))
+        meets = (ends[np.maximum(ew, 0)] == o[:, None]).any(axis=1)     # w's edge ends at o too
+        k = np.flatnonzero((ew >= 0) & (ew != e) & meets)
         if not len(k):
             continue
         O = part.points[o[k]]
