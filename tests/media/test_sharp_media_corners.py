@@ -41,10 +41,10 @@ def one_corner(theta, short, height):
 
 
 def sliver(alpha, beta):
-    """The triangle on (0, 0)–(1, 0) whose angles at those ends are alpha and beta degrees."""
+    """The triangle on (0, 0)–(1, 0) whose angles at those ends are alpha and beta degrees: its
+    side from the origin is sin β / sin(α + β) long (the law of sines)."""
     a, b = np.radians(alpha), np.radians(beta)
-    x = np.tan(b) / (np.tan(a) + np.tan(b))
-    return np.array([[0, 0], [1, 0], [x, x * np.tan(a)]])
+    return np.array([[0, 0], [1, 0], np.sin(b) / np.sin(a + b) * np.array([np.cos(a), np.sin(a)])])
 
 
 def sharp_medium(polygon, where, third, turn, A1, A0, A2, scale, shift):
