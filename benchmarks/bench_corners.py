@@ -75,8 +75,11 @@ def run(theta: float, n: int, where: str | None = None) -> list[str]:
             4 if where is None else 5) + [f"{time.perf_counter() - t0:.2f}"]
     seconds = time.perf_counter() - t0
     r = qmesh.measure.report(m, cond, laplacian=False)
-    bound = (corner_bound(m.points, m.triangles, np.broadcast_to(cond.matrix, (m.n_triangles, 2, 2)))
-             if where is None else regions_corner_bound(m, cond))
+    if where is None:
+        Qbar = np.broadcast_to(cond.matrix, (m.n_triangles, 2, 2))
+        bound = corner_bound(m.points, m.triangles, Qbar)
+    else:
+        bound = regions_corner_bound(m, cond)
     share = r["q_nonnegative_fraction"]
     shares = ["—" if share is None else f"{share:.4f}"]
     if where is not None:
@@ -131,7 +134,8 @@ def main(argv=None):
             "Q = principal(1, 5, 70°), its corner inside (both sides interfaces) or on the "
             "outline (its first side on the rectangle's), with the share of q_ij ≥ 0 on "
             "interface edges (each side's, MEDIA.md §2) and the corners' bound of every region.",
-            tables=[report_page.Table(headers, rows), report_page.Table(media_headers, media_rows)],
+            tables=[report_page.Table(headers, rows),
+                    report_page.Table(media_headers, media_rows)],
             notes=[summary, media])
 
 
