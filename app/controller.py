@@ -224,8 +224,8 @@ class Controller:
         self._figures.clear()
         self.done = False
         self.index = 0
-        self._pull()                # a medium too: its first face's first triangulation, then
-                                    # Step and Run go through every face's run in turn
+        self._pull()    # a medium too: its first face's first triangulation, then Step and
+                        # Run go through every face's run in turn
 
     def _pull(self) -> bool:
         """Ask the generator for one more Step; False once the run has ended. An exception from

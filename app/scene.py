@@ -432,8 +432,8 @@ def outline_polydata(ellipses: pv.PolyData, segments: int = ELLIPSE_SEGMENTS) ->
 def ellipses(step, field, *, domain=None, cells: int = GLYPH_CELLS) -> FieldScene:
     """The first view of `step` for a conductivity field: Q(x) as ellipses on a coarse grid
     over Ω (see `FieldScene`), drawn just above the flat mesh. With a `domain` the ellipses
-    are the same at every stage: made once per field and domain (`_ellipse_glyphs`), only the mesh
-    under them is new."""
+    are the same at every stage: made once per field and domain (`_ellipse_glyphs`), only
+    the mesh under them is new."""
     if not is_field(field):
         raise QmeshError(f"ellipses show a qmesh.TensorField, got {type(field).__name__}")
     P, T = step.mesh.points, step.mesh.triangles
@@ -454,7 +454,7 @@ def ellipses(step, field, *, domain=None, cells: int = GLYPH_CELLS) -> FieldScen
 
 _glyph_cache: dict = {}
 """The last few fields' ellipses, by (field, domain, cells): a Run draws the same ones at every
-stage, and evaluating a formula field at the grid's centres cost as much as the rest of the view."""
+stage, and each drawing evaluated the field at the grid's centres again."""
 
 
 def _ellipse_glyphs(field, rings, cells: int, contains) -> dict:

@@ -76,4 +76,5 @@ def test_picking_rotating_runs_and_shows_ellipses_and_the_mesh():
         assert re.search(r"q_ij ≥ 0 with the element means: \d+\.\d%", back), back
         assert re.search(r"quality min \d\.\d{3} mean \d\.\d{3}", back), back
         b.wait_view_change(page, "quality", before, min_diff=0.3)
-        assert "computed from the field on this stage's mesh" in b.page_text(page, "#legend-quality")
+        legend = b.page_text(page, "#legend-quality")
+        assert "computed from the field on this stage's mesh" in legend, legend
