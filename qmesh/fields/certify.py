@@ -49,8 +49,10 @@ MAX_ROUNDS = 400    # rounds of flips and splits before the remaining edges are 
 STALL = 120         # ... or rounds without fewer failing edges than the best so far
 RELAX = 3           # rounds of shape steps mending edges before the next split
 SMOOTH = 4          # shape steps of the vertices the splits added, once every edge passes
-POLISH = 12         # then rounds of polish (moves.polish), in each triangle's own means, of
-                    # the corners of triangles below FLOOR
+POLISH = 60         # then rounds of polish (moves.polish), in each triangle's own means, of
+                    # the corners of triangles below FLOOR, at most ...
+PATIENCE = 12       # ... while the last this many lowered the shortfall below FLOOR,
+PROGRESS = 0.01     # Σ max(0, FLOOR − quality), by this share at least
 PROOF_ROUNDS = 8    # times the repair runs again on edges its proven bounds fail (texts)
 REFINE = 3          # refinements of the proven bounds beside such edges before they go back
 MARGIN = 0.9        # ... each asking for bounds within this share of the edge's q_ij
@@ -148,8 +150,13 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
         if shaping and not len(st.h) and not attempt:
             tan = _tangents(st)
             st.seen = Judged(len(st.P), len(st.T))  # judged afresh: the moves are judged otherwise
+            short = []                             # the shortfall below FLOOR before each round
             for _ in range(POLISH):                # the worst shapes, each in its own means
-                low = metric_quality(st.P, st.T, shape_metric(st.Qbar)) < FLOOR
+                quality = metric_quality(st.P, st.T, shape_metric(st.Qbar))
+                low = quality < FLOOR
+                short.append(float(np.sum(FLOOR - quality[low])))
+                if len(short) > PATIENCE and short[-1] >= (1.0 - PROGRESS) * short[-1 - PATIENCE]:
+                    break                          # moves that only trade shapes among the poor
                 poor = free(st.T, st.cut, st.fixed, st.T[low].ravel(), tan)
                 poor = poor[~st.seen.vertices[poor]]   # none left: all refused, nothing changed since
                 if not len(poor):
