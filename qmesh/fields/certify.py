@@ -19,7 +19,9 @@ A text formula's means are proven lazily (`_prove`): all of the above runs on th
 means and estimates; once every edge passes, each triangle's bound is replaced by a proven one
 (the enclosures of its 4 children), the triangles beside edges that fail by it have their bounds
 refined to what the edge needs, and edges that still fail (a jump crosses them, a bump lies in
-them) go back to the repair, up to PROOF_ROUNDS times. The mesh is certified on proven bounds.
+them) go back to the repair, up to PROOF_ROUNDS times, each repair followed by the polish (its
+splits leave triangles below FLOOR too), whose moves are proven in turn. The mesh is certified on
+proven bounds.
 """
 
 from __future__ import annotations
@@ -147,7 +149,7 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
                 t = relax(st, moves, who[~st.seen.vertices[who]], shape=True, tangent=tan,
                           refused=st.seen.vertices)
                 st.refresh(t)
-        if shaping and not len(st.h) and not attempt:
+        if shaping and not len(st.h):
             tan = _tangents(st)
             st.seen = Judged(len(st.P), len(st.T))  # judged afresh: the moves are judged otherwise
             short = []                             # the shortfall below FLOOR before each round
