@@ -17,11 +17,13 @@ longest edges:
   the side's direction and n its normal, found on the mesh's boundary vertices);
 - elsewhere: none of these.
 
-The table gives each class's count and worst quality. `--show K` prints the K worst triangles
-left elsewhere: where they are, how far from each class's point (in their longest edges) and
-their corners' kinds.
+The table gives each class's count and worst quality, and the CPU seconds of the run
+(`qmesh.mesh`, in this process). A second table lists the `--show` worst triangles left
+elsewhere: where they are, their corners (a seed, on a side, inside) and how far they lie from
+a sharp corner, a singular point and a touch, in their longest edges.
 
-    python benchmarks/quality_fields.py [--cases islands ...] [--n 2000 20000] [--show 5]
+    python benchmarks/quality_fields.py [--cases islands ...] [--n 2000 20000] [--show 3]
+                                        [--no-page]
 """
 
 from __future__ import annotations
@@ -38,7 +40,8 @@ import qmesh
 from qmesh import measure
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_fields import CASES  # noqa: E402 — beside this script
+import report_page  # noqa: E402 — beside this script, imported before measuring
+from bench_fields import CASES  # noqa: E402
 
 FLOOR = 0.3
 NEAR = 3.0                       # "near": within this many of the triangle's longest edges
@@ -137,6 +140,7 @@ def classify(case, mesh, field, q):
 
 
 def run(name, n, show):
+    """One case at one target: its table row and its `show` worst triangles left elsewhere."""
     case = CASES[name]
     field = case.field()
     t0 = time.process_time()
@@ -146,36 +150,54 @@ def run(name, n, show):
     cpu = time.process_time() - t0
     q = measure.quality(mesh, mesh.conductivity)
     low, cls, dist = classify(case, mesh, field, q)
-    row = [f"{name:9s} {n:>6d} {mesh.n_vertices:>6d} {cpu:6.1f} {len(low):>5d} {np.nanmin(q):6.3f}"]
+    row = [name, n, mesh.n_vertices, f"{cpu:.1f}", len(low), f"{np.nanmin(q):.3f}"]
     for k in range(len(CLASSES)):
         at = cls == k
-        row.append(f"{int(at.sum()):>5d} {q[low[at]].min():5.3f}" if at.any() else f"{0:>5d}   -  ")
-    print(" ".join(row), flush=True)
-    if show:
-        P, T = mesh.points, mesh.triangles
-        on = np.zeros(mesh.n_vertices, bool)
-        on[mesh.boundary_edges.ravel()] = True
-        for i in np.flatnonzero(cls == 4)[np.argsort(q[low[cls == 4]])][:show]:
-            t = low[i]
-            c = P[T[t]].mean(axis=0)
-            kinds = "".join("f" if mesh.fixed[x] else "b" if on[x] else "i" for x in T[t])
-            print(f"    elsewhere q = {q[t]:.3f} at ({c[0]:.4f}, {c[1]:.4f}), corners {kinds}; "
-                  "in longest edges from a sharp corner {:.1f}, a singular point {:.1f}, a touch "
-                  "{:.1f}".format(*dist[i]))
+        row.append(f"{int(at.sum())} ({q[low[at]].min():.3f})" if at.any() else "0")
+    P, T = mesh.points, mesh.triangles
+    on = np.zeros(mesh.n_vertices, bool)
+    on[mesh.boundary_edges.ravel()] = True
+    shown = []
+    for i in np.flatnonzero(cls == 4)[np.argsort(q[low[cls == 4]])][:show]:
+        t = low[i]
+        c = P[T[t]].mean(axis=0)
+        kinds = ", ".join("seed" if mesh.fixed[x] else "side" if on[x] else "inner" for x in T[t])
+        shown.append([name, n, f"{q[t]:.3f}", f"({c[0]:.4f}, {c[1]:.4f})", kinds,
+                      *(f"{d:.1f}" for d in dist[i])])
+    return row, shown
+
+
+HEADERS = ["case", "target N", "N", "CPU s", "below 0.3", "min",
+           *(f"{c} (worst)" for c in CLASSES)]
+SHOWN = ["case", "target N", "quality", "centroid", "its corners", "from a sharp corner",
+         "from a singular point", "from a touch"]
 
 
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cases", nargs="+", default=list(GUIDE_CASES), choices=sorted(CASES))
     ap.add_argument("--n", nargs="+", type=int, default=[2000, 20000])
-    ap.add_argument("--show", type=int, default=0, help="print the K worst triangles elsewhere")
+    ap.add_argument("--show", type=int, default=3, help="the K worst triangles left elsewhere")
+    report_page.add_option(ap)
     args = ap.parse_args(argv)
-    head = ["case      target      N  cpu s   <0.3    min"]
-    head += [f"{c:>11s}" for c in CLASSES]
-    print(" ".join(head))
+    rows, shown = [], []
     for n in args.n:
         for name in args.cases:
-            run(name, n, args.show)
+            row, worst = run(name, n, args.show)
+            rows.append(row)
+            shown += worst
+            print(" | ".join(map(str, row)), flush=True)
+    print(report_page.markdown_table(HEADERS, rows))
+    print(report_page.markdown_table(SHOWN, shown))
+    if not args.no_page:
+        report_page.write_page(
+            __file__, sys.argv if argv is None else ["benchmarks/quality_fields.py", *argv],
+            "Where the field meshes keep triangles below quality 0.3",
+            __doc__.split("\n\n", 1)[1].rsplit("\n\n", 1)[0],
+            tables=[report_page.Table(HEADERS, rows, "Triangles below 0.3 by class: count "
+                                      "(worst quality)"),
+                    report_page.Table(SHOWN, shown, "The worst triangles elsewhere (distances "
+                                      "in their longest edges)")])
 
 
 if __name__ == "__main__":
