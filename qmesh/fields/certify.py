@@ -37,6 +37,7 @@ from qmesh.fields.cache import ElementMeans
 from qmesh.fields.flips import mending_flips, quality_flips
 from qmesh.fields.moves import (Judged, corners, free, isosceles, movers, polish, relax, slides,
                                 tangents)
+from qmesh.fields.merges import compact, side_merges
 from qmesh.fields.piecewise import RegionMeans
 from qmesh.fields.repair_state import RepairState
 from qmesh.fields.shares import FLOOR, by_bound, failing, shares
@@ -170,6 +171,8 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
                 done = quality_flips(st, (3 * low[:, None] + np.arange(3)).ravel())
                 if len(done):
                     st.refresh(st.flip(done))
+                if reg is None and side_merges(st, st.T[low].ravel(), tan):
+                    tan = _tangents(st)
         total += rounds
         if not means.provable:
             break
@@ -180,6 +183,7 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
         st.tight[:] = True                     # every bound proven: nothing to tighten
         st.seen = Judged(len(st.P), len(st.T))  # judged again on the proven bounds
         fewest, since = np.inf, 0
+    compact(st)                                # the vertices the merges removed
     P, T, twin, tc, fixed, out = st.P, st.T, st.twin, st.cut, st.fixed, st.out
     Qbar, err, flips, reg = st.Qbar, st.err, st.flips, st.reg
     s, b = shares(P, T, Qbar, err)             # what is said is assembled afresh
