@@ -38,6 +38,7 @@ import numpy as np
 
 import qmesh
 from qmesh import measure
+from qmesh.conductivity.anisotropy import shape_metric
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import report_page  # noqa: E402 — beside this script, imported before measuring
@@ -74,7 +75,7 @@ def wedge_angles(H, u, w):
     uu = np.einsum("ki,mij,kj->mk", u, H, u)
     ww = np.einsum("ki,mij,kj->mk", w, H, w)
     uw = np.einsum("ki,mij,kj->mk", u, H, w)
-    cross = np.sqrt(np.maximum(uu * ww - uw ** 2, 0.0))         # |u × w|_H (det H = 1)
+    cross = np.sqrt(np.maximum(uu * ww - uw ** 2, 0.0))         # |u × w| measured in H
     angle = np.arctan2(cross, uw)
     convex = (u[:, 0] * w[:, 1] - u[:, 1] * w[:, 0]) > 0          # Ω to the left of u, w → u
     return np.where(convex[None], angle, 2 * np.pi - angle)
@@ -116,7 +117,7 @@ def classify(case, mesh, field, q):
     X = P[T[low]]
     c = X.mean(axis=1)
     size = np.hypot(*(X - X[:, [1, 2, 0]]).transpose(2, 0, 1)).max(axis=1)
-    H = measure._metric_of(Qbar[low])
+    H = shape_metric(Qbar[low])                  # the metric the quality is measured in
     v, u, w = domain_corners(mesh)
     sharp = wedge_angles(H, u, w) < np.pi / 3
     to_corner = np.where(sharp, np.hypot(*(c[:, None] - P[v][None]).transpose(2, 0, 1)), np.inf)
