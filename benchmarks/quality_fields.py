@@ -2,9 +2,9 @@
 
 Each case of `bench_fields.py` the fields guide lists (fvca5, plasma, layers, spiral, islands,
 raster64) is meshed at each N, and every triangle whose quality (2.94) in its own metric
-H_T = adj Q̄_T / √det Q̄_T (the mesh's own means, as the polish judges it) is below FLOOR is
-put in the first class it falls in, each "near" meaning within NEAR of the triangle's own
-longest edges:
+H_T = adj Q̄_T / √det Q̄_T (the mesh's own means, as the polish judges it) is below 0.3 is
+put in the first class it falls in, each "near" meaning within 3 of the triangle's own longest
+edges:
 
 - corner: near a corner of the domain (the outline's or a hole's) whose wedge, measured in the
   triangle's metric, is narrower than 60°: a triangle there has quality at most
