@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from qmesh.conductivity.anisotropy import shape_metric
+from qmesh.conductivity.anisotropy import Anisotropy, shape_metric
 from qmesh.domain.domain import as_domain
 from qmesh.errors import QmeshWarning
 from qmesh.fields import followable
@@ -46,11 +46,15 @@ def iterate(domain: Any, field: Any, *, target_vertices: int | None = None,
                     **{k: v for k, v in options.items() if k in OPTION_NAMES})
     if target_vertices is not None:            # refused before the metric's table is built
         budget.check(int(target_vertices), varying=True, field=True)
-    width = smoothing_width(domain, target_vertices, size)
-    # a formula no mesh of this size can follow, or not integrable: refused before it is tried
-    followable.check(domain, field, width,
-                     None if target_vertices is None else int(target_vertices))
-    metric = field_metric(field, width, domain.bounds)
+    Q = getattr(field, "constant_matrix", None)
+    if Q is not None:                          # numbers only: the constant Q's own path, no metric
+        metric = Anisotropy.constant(Q)        # table, no smoothing, the same mesh as it
+    else:
+        width = smoothing_width(domain, target_vertices, size)
+        # a formula no mesh of this size can follow, or not integrable: refused before it is tried
+        followable.check(domain, field, width,
+                         None if target_vertices is None else int(target_vertices))
+        metric = field_metric(field, width, domain.bounds)
     steps = loop.iterate(domain, metric, target_vertices=target_vertices, size=size, **options)
     return _certified(steps, field, metric, target_vertices)
 
