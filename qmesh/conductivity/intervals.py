@@ -67,9 +67,10 @@ def _round(lo: Array, hi: Array) -> Interval:
 
 def _outward(v: Array, move: np.ufunc) -> Array:
     """v ∓ (|v|·2^-52 + DENORMAL), in one buffer (the same operations in the same order)."""
-    t = np.abs(v)
-    t *= HALF_ULP
-    t += DENORMAL
+    t = np.empty_like(v)
+    np.abs(v, out=t)
+    np.multiply(t, HALF_ULP, out=t)
+    np.add(t, DENORMAL, out=t)
     return move(v, t, out=t)
 
 
