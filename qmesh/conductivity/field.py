@@ -410,6 +410,12 @@ class TensorField:
     # ---------------------------------------------------------------- means
 
     @property
+    def constant_matrix(self) -> Array | None:
+        """Q as one 2×2 matrix when the field is constant (numbers only), else None: such a field
+        is meshed as `Anisotropy.constant` of it (`qmesh.fields.mesher`)."""
+        return None if self._constant is None else _m.full_tensors(self._constant)
+
+    @property
     def means_exact(self) -> bool:
         """True for a constant field and a raster: their element means are exact (to round-off)
         whatever the quadrature's tolerance."""

@@ -44,7 +44,10 @@ INF = math.inf
 def _clean(lo: Array, hi: Array) -> Interval:
     """NaN anywhere (∞ − ∞, 0 · ∞ of an unbounded operand): the whole line."""
     with np.errstate(all="ignore"):
-        bad = np.isnan(lo + hi)             # also where lo = −∞, hi = ∞ (the whole line anyway)
+        both = lo + hi
+        if not np.isnan(np.add.reduce(both, axis=None)):   # no NaN in any row (one pass, no mask)
+            return lo, hi
+        bad = np.isnan(both)                # also where lo = −∞, hi = ∞ (the whole line anyway)
     if not bad.any():
         return lo, hi
     return np.where(bad, -INF, lo), np.where(bad, INF, hi)
@@ -59,7 +62,16 @@ def _round(lo: Array, hi: Array) -> Interval:
     moved by |v|·2^-52 plus the smallest subnormal, a move of at least one ulp that rounding to
     nearest cannot undo (four times cheaper than `np.nextafter`)."""
     with np.errstate(all="ignore"):
-        return _clean(lo - (np.abs(lo) * HALF_ULP + DENORMAL), hi + (np.abs(hi) * HALF_ULP + DENORMAL))
+        return _clean(_outward(lo, np.subtract), _outward(hi, np.add))
+
+
+def _outward(v: Array, move: np.ufunc) -> Array:
+    """v ∓ (|v|·2^-52 + DENORMAL), in one buffer (the same operations in the same order)."""
+    t = np.empty_like(v)
+    np.abs(v, out=t)
+    np.multiply(t, HALF_ULP, out=t)
+    np.add(t, DENORMAL, out=t)
+    return move(v, t, out=t)
 
 
 def _widen(lo: Array, hi: Array) -> Interval:
@@ -70,7 +82,9 @@ def _widen(lo: Array, hi: Array) -> Interval:
 
 
 def _const(c: float, shape: tuple) -> Interval:
-    return np.full(shape, c), np.full(shape, c)
+    """The point [c, c]: both ends one array (never written to), which `mul` recognises."""
+    v = np.full(shape, c)
+    return v, v
 
 
 def add(a: Zeroable, b: Zeroable) -> Zeroable:
@@ -98,7 +112,12 @@ def mul(a: Zeroable, b: Zeroable) -> Zeroable:
     too, and all NaN is the whole line (`_clean`): never narrower than 0 · ∞ = 0 would give."""
     if a is None or b is None:
         return None
+    if b[0] is b[1]:
+        a, b = b, a
     with np.errstate(all="ignore"):
+        if a[0] is a[1]:                   # a point (`_const`): its corners are two of the four
+            p0, p1 = a[0] * b[0], a[0] * b[1]
+            return _round(np.fmin(p0, p1), np.fmax(p0, p1))
         p = [a[0] * b[0], a[0] * b[1], a[1] * b[0], a[1] * b[1]]
         lo = np.fmin(np.fmin(p[0], p[1]), np.fmin(p[2], p[3]))
         hi = np.fmax(np.fmax(p[0], p[1]), np.fmax(p[2], p[3]))
