@@ -65,8 +65,10 @@ RULE_WEIGHTS = np.array([9 / 40, _WA, _WA, _WA, _WB, _WB, _WB])
 
 
 def frobenius(q: Array) -> Array:
-    """‖Q‖_F of symmetric tensors given as components (..., 3)."""
-    return np.sqrt(q[..., 0] ** 2 + 2.0 * q[..., 1] ** 2 + q[..., 2] ** 2)
+    """‖Q‖_F of symmetric tensors given as components (..., 3); ∞ past the floats (a field that
+    large is refused where it is checked, not warned about here)."""
+    with np.errstate(over="ignore"):
+        return np.sqrt(q[..., 0] ** 2 + 2.0 * q[..., 1] ** 2 + q[..., 2] ** 2)
 
 
 def full_tensors(q: Array) -> Array:
