@@ -20,12 +20,13 @@ round-off could tip its q_ij = 0 diagonal below zero): the ordinary split halves
 Only for a constant Q, where the metric is affine and a mirror exact; corners of SHARP degrees
 or more keep the ordinary splits (the meshes of domains without such corners are unchanged).
 
-A medium's faces (MEDIA.md §2) take the same matching in their own region's metric: a side of
-a corner is the run of segments on one partition edge (side_runs), since the points that faces
-meshed before shared on it are the face's seeds; and a point a face meshed later puts on a side
-of a finished face's corner under SHARP_SHARED degrees is matched there by its mirror
-(mirrored_in_face), handed back across the interface. Between SHARP_SHARED and SHARP the
-finished face's ordinary splits stop within a few dozen points and keep the shapes its run made.
+A medium's faces (MEDIA.md §2) take the same matching in their own region's metric for corners
+under SHARP_SHARED degrees (between it and SHARP their ordinary splits stop within a few dozen
+points, and matched tips of 2–3° made small triangles that raised the inclusion preset's κ2 by
+half): a side of a corner is the run of segments on one partition edge (side_runs), since the
+points that faces meshed before shared on it are the face's seeds; and a point a face meshed
+later puts on a side of a finished face's corner is matched there by its mirror
+(mirrored_in_face), handed back across the interface.
 """
 
 from __future__ import annotations
@@ -85,7 +86,10 @@ def sharp_seeds(domain, anisotropy) -> np.ndarray:
         return np.zeros(len(domain.seeds), bool)
     a, b = _sides(domain)
     convex = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0] < 0          # Ω on the left: a left turn
-    return convex & (corner_cosines(domain, anisotropy) > COS_SHARP)
+    # a medium's face: only under SHARP_SHARED (a star's tips of 2–3° keep their ordinary
+    # splits: matched, their small triangles raised κ2 of the inclusion preset by half)
+    limit = COS_SHARP_SHARED if getattr(domain, "media_face", False) else COS_SHARP
+    return convex & (corner_cosines(domain, anisotropy) > limit)
 
 
 def side_runs(domain) -> tuple[np.ndarray, np.ndarray]:
