@@ -113,6 +113,8 @@ ORIENTATIONS = 64     # groups of major-axis direction in the oriented conflict 
 ROUND_METRIC = 16.0   # metrics less anisotropic than this share one group (a tree per group
                       # over all points costs more than their balls holding up to ~4x more)
 TREE = dict(leafsize=32, balanced_tree=False, compact_nodes=False)   # one tree per group: fast builds
+REACH = 1.01          # search balls this much wider than the ellipse they hold (round-off of λ_min)
+COUNT_EVERY = 8       # searchers counted to cut a group's search into parts (one in this many)
 
 
 def _quadratic(E: np.ndarray, H: np.ndarray) -> np.ndarray:
@@ -121,14 +123,18 @@ def _quadratic(E: np.ndarray, H: np.ndarray) -> np.ndarray:
 
 
 def _conflicts_oriented(X: np.ndarray, H: np.ndarray, r: float):
-    """The pairs of `_conflicts` for a metric whose direction turns across Ω (a tensor field):
-    a pair conflicts only if Eᵀ H_i E < 2r² (½(H_i + H_j) ≥ ½H_i), so each point searches from
-    its own side with its own reach, in the coordinates of the mean metric of the points whose
-    major axis points the same way (up to ORIENTATIONS groups): a ball there is as narrow as the
-    point's own ellipse, where the mean metric of a turning field is nearly round and its balls
-    hold a thousand points. Either point of a pair finds it, so a group's tree holds only the
-    points of its own and later groups. The pairs are the same set; the search costs a tree per
-    group."""
+    """The pairs of `_conflicts` for a metric whose direction turns across Ω (a tensor field),
+    each once as (i < j), in no particular order (the merge does not depend on it).
+
+    A pair conflicts when ½(q_i + q_j) < r², q_k = Eᵀ H_k E, so the point of the smaller q (the
+    lower index on a tie) has q < r²: it alone reports the pair, having found it inside its
+    own ellipse Eᵀ H E < r², searched in the coordinates of the mean metric of the points whose
+    major axis points the same way (up to ORIENTATIONS groups), among every point within that
+    ellipse's reach: a ball there is as narrow as the point's own ellipse, where the mean metric
+    of a turning field is nearly round and its balls hold a thousand points. Each pair is found
+    by the point that reports it (a ball of the ellipse's radius, half the area of one that must
+    hold the partner's ellipse too), with no sort or hash of all pairs; the search costs a tree
+    per group."""
     a, b, c = H[:, 0, 0], H[:, 0, 1], H[:, 1, 1]
     theta = 0.5 * arctan2(2.0 * b, a - c)                      # the larger eigenvalue's axis
     lmin = np.clip(_sym_eig_min(H), 1e-300, None)
@@ -137,42 +143,53 @@ def _conflicts_oriented(X: np.ndarray, H: np.ndarray, r: float):
     group = np.floor((theta / np.pi + 0.5) * k).astype(np.int64) % k
     group[ratio < ROUND_METRIC] = -1
     n = len(X)
-    keys = [np.empty(0, np.int64)]
+    keys: list = []
     cells: dict = {}
     x, y, h11, h12, h22 = X[:, 0].copy(), X[:, 1].copy(), a.copy(), b.copy(), c.copy()
-    for g in np.unique(group):
-        src = np.flatnonzero(group == g)
+    by_group = np.argsort(group, kind="stable")          # each group's points, ascending
+    names = np.unique(group)
+    for g, src in zip(names, np.split(by_group, np.searchsorted(group[by_group], names)[1:])):
         L = cholesky2(H[src].mean(axis=0))
         Linv = inv2(L)
         G = np.einsum("ij,njk,lk->nil", Linv, H[src], Linv)        # L⁻¹ H L⁻ᵀ: H where y = x L
-        radius = np.sqrt(2.0) * r / np.sqrt(np.clip(_sym_eig_min(G), 1e-300, None))
-        Y = times2(X, L)
-        # the tree holds only the points a searcher's own ellipse (Eᵀ H_i E < 2r²) can reach,
-        # found by cells that wide: a group's points lie in a few sectors of a turning field
-        cell = np.sqrt(2.0) * r / np.sqrt(float(lmin[src].min()))
+        # the ellipse Eᵀ H_i E < r² lies in the ball of this radius in y (REACH: round-off of
+        # λ_min), and within this distance of x_i: the cells of the points it can reach
+        radius = REACH * r / np.sqrt(np.clip(_sym_eig_min(G), 1e-300, None))
+        cell = REACH * r / np.sqrt(float(lmin[src].min()))
         pool = _near_cells(X, src, cell, cells)
-        pool = pool[group[pool] >= g]      # a pair across groups is the lower group's to find
-        tree = cKDTree(Y[pool], **TREE)
+        Yp = times2(X[pool], L)            # the pool only: a group costs its points, not all
+        Ys = Yp[np.searchsorted(pool, src)]                   # the searchers are in the pool
+        tree = cKDTree(Yp, **TREE)
         # searchers binned by reach (factors of √2), each bin one array-valued search with
         # its largest reach, filtered by each searcher's own: no per-point lists
         level = floor_log2_steps(radius / radius.min(), 2)
-        for b in np.unique(level):
-            s, reach = src[level == b], radius[level == b]
-            count = np.cumsum(tree.query_ball_point(Y[s], reach, return_length=True))
-            cuts = np.searchsorted(count, np.arange(PAIR_CHUNK, count[-1], PAIR_CHUNK))
-            for part in np.split(np.arange(len(s)), np.unique(cuts[cuts > 0])):
-                p = cKDTree(Y[s[part]], **TREE).sparse_distance_matrix(
+        for lev in np.unique(level):
+            s, reach, Yb = src[level == lev], radius[level == lev], Ys[level == lev]
+            for part in _parts(tree, Yb, reach):
+                p = cKDTree(Yb[part], **TREE).sparse_distance_matrix(
                     tree, float(reach[part].max()), output_type="ndarray")
                 pi = p["i"]
                 ok = p["v"] <= reach[part][pi]
                 i, j = s[part][pi[ok]], pool[p["j"][ok]]
                 ex, ey = x[j] - x[i], y[j] - y[i]           # `_quadratic`, on columns
-                d2 = 0.5 * ((h11[i] * ex ** 2 + 2.0 * h12[i] * ex * ey + h22[i] * ey ** 2)
-                            + (h11[j] * ex ** 2 + 2.0 * h12[j] * ex * ey + h22[j] * ey ** 2))
-                near = (d2 < r * r) & (i != j)
-                keys.append(np.minimum(i, j)[near] * n + np.maximum(i, j)[near])
-    key = np.unique(np.concatenate(keys))           # each pair once, sorted as (i, j)
-    return key // n, key % n
+                qi = h11[i] * ex ** 2 + 2.0 * h12[i] * ex * ey + h22[i] * ey ** 2
+                qj = h11[j] * ex ** 2 + 2.0 * h12[j] * ex * ey + h22[j] * ey ** 2
+                mine = (qi < qj) | ((qi == qj) & (i < j))   # the same on j's side, bit for bit
+                near = (0.5 * (qi + qj) < r * r) & mine & (i != j)
+                i, j = i[near], j[near]
+                keys.append(np.column_stack([np.minimum(i, j), np.maximum(i, j)]))
+    return tuple(np.concatenate([np.empty((0, 2), np.int64), *keys]).T)
+
+
+def _parts(tree, Y: np.ndarray, reach: np.ndarray) -> list:
+    """The searchers Y (reach each) in consecutive parts of about PAIR_CHUNK candidates in the
+    k-d tree: every COUNT_EVERY-th searcher's candidates counted stand for its neighbours' (the
+    searchers come patch by patch, neighbours alike), a fraction of a count of them all."""
+    every = COUNT_EVERY if len(Y) >= 8 * COUNT_EVERY else 1
+    count = tree.query_ball_point(Y[::every], reach[::every], return_length=True)
+    total = np.cumsum(np.repeat(count, every)[:len(Y)])
+    cuts = np.searchsorted(total, np.arange(PAIR_CHUNK, total[-1], PAIR_CHUNK))
+    return np.split(np.arange(len(Y)), np.unique(cuts[cuts > 0]))
 
 
 def _near_cells(X: np.ndarray, src: np.ndarray, cell: float, cache: dict | None = None) -> np.ndarray:
