@@ -34,8 +34,10 @@ def power(field: TensorField, p: float) -> TensorField:
     raster = field._raster
     if raster is not None:
         k1, k2, angle = principal(raster.q)
-        return TensorField.from_raster(raster.x + raster.origin[0], raster.y + raster.origin[1],
-                                       portable.power(k1, p), portable.power(k2, p), angle)
+        powered = TensorField.from_raster(raster.x + raster.origin[0], raster.y + raster.origin[1],
+                                          portable.power(k1, p), portable.power(k2, p), angle)
+        powered.label = label                                  # says it is a power, as the others
+        return powered
     source, constant = field._components, field._constant
 
     def components(X: Array, Y: Array) -> Array:

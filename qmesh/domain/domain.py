@@ -129,7 +129,8 @@ class Domain:
     """
 
     media_face = False
-    """True for a medium's face (`domain.faces.face_domain`): its corners keep their points."""
+    """True for a medium's face (`domain.faces.face_domain`): the segments of one edge of the
+    partition (one tag, straight on) are one side of its corners (`mesher.corners.side_runs`)."""
 
     def __init__(self, outer: Ring, holes: Iterable[Ring] = (), tags: Iterable[ArrayLike] | None = None,
                  names: Names | None = None, regions: Iterable[Ring] | None = (),

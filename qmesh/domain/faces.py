@@ -24,6 +24,6 @@ def face_domain(part, face, extra: dict, name: str):
             raise QmeshError(f"{name} cannot be meshed on its own: {e} (regions that touch in a "
                              "single point pinch it; let them share an edge or keep them apart)"
                              ) from None
-    known.media_face = True          # its corners keep their points (mesher/corners.py)
+    known.media_face = True          # a side is a partition edge (corners.side_runs)
     return known
 

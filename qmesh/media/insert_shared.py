@@ -17,6 +17,7 @@ from qmesh.errors import QmeshError
 from qmesh.geometry import topology
 from qmesh.geometry.portable import dot2
 from qmesh.mesher.conform import beside_corners, encroached, marked, split_points
+from qmesh.mesher.corners import mirrored_in_face
 from qmesh.mesher.triangulate import restore
 from qmesh.triangle_mesh import Mesh
 
@@ -44,6 +45,7 @@ def insert_on_boundary(mesh: Mesh, anisotropy, points: dict, part) -> tuple[Mesh
         X, edge = np.delete(X, first, axis=0), np.delete(edge, first)
     T, twin, _ = restore(P, T, twin, anisotropy)                  # its own metric
     corners = part.points[np.bincount(part.edges.ravel(), minlength=len(part.points)) >= 3]
+    at_part = marked(P, part.points)
     on_edge, added = [np.zeros(0, np.int64)], [np.zeros((0, 2))]  # split points, their edges
     for _ in range(MAX_SPLITS):
         hb = np.flatnonzero(twin < 0)
@@ -55,6 +57,8 @@ def insert_on_boundary(mesh: Mesh, anisotropy, points: dict, part) -> tuple[Mesh
         first = bad[np.unique(t[bad], return_index=True)[1]]
         x = split_points(P[u[first]], P[v[first]], fixed[u[first]], fixed[v[first]], anisotropy)
         x = beside_corners(x, P, u[first], v[first], w[first], marked(P, corners), anisotropy)
+        at_part = np.concatenate([at_part, np.zeros(len(P) - len(at_part), bool)])
+        x = mirrored_in_face(P, u[first], v[first], w[first], out, at_part, part, anisotropy, x)
         crowded_junction(x, P[u[first]], P[v[first]], corners, float(np.ptp(P, axis=0).max()))
         on_edge.append(out[u[first]])
         added.append(x)

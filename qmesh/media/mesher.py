@@ -176,7 +176,7 @@ def _group(plan: MediaPlan, at: int, extra: dict, meshes: FaceMeshes, alone: set
         taken, k, batch = np.concatenate([taken, r.points]), k + n, 2 * batch
     if len(faces) > 1:
         dom = Components(rings, tags, sizes)
-        dom.media_face = True          # its corners keep their points (mesher/corners.py)
+        dom.media_face = True          # a side is a partition edge (corners.side_runs)
     return faces, dom, sizes, first
 
 

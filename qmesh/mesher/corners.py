@@ -19,6 +19,13 @@ its subsegment is not made (the trapezoid it leaves would be short against its w
 round-off could tip its q_ij = 0 diagonal below zero): the ordinary split halves towards it.
 Only for a constant Q, where the metric is affine and a mirror exact; corners of SHARP degrees
 or more keep the ordinary splits (the meshes of domains without such corners are unchanged).
+
+A medium's faces (MEDIA.md §2) take the same matching in their own region's metric: a side of
+a corner is the run of segments on one partition edge (side_runs), since the points that faces
+meshed before shared on it are the face's seeds; and a point a face meshed later puts on a side
+of a finished face's corner under SHARP_SHARED degrees is matched there by its mirror
+(mirrored_in_face), handed back across the interface. Between SHARP_SHARED and SHARP the
+finished face's ordinary splits stop within a few dozen points and keep the shapes its run made.
 """
 
 from __future__ import annotations
@@ -30,6 +37,8 @@ import numpy as np
 SHARP = 3.0        # degrees: corners below this in the metric (at the apex) split by mirrors
 COS_SHARP = math.cos(math.radians(SHARP))
 MARGIN = 0.1       # a mirror this close (share of the subsegment) to an end is not made
+SHARP_SHARED = 1.0  # degrees: below this, a point a neighbour puts on a corner's side is mirrored
+COS_SHARP_SHARED = math.cos(math.radians(SHARP_SHARED))
 
 
 def metric_at(anisotropy, X: np.ndarray) -> np.ndarray:
@@ -72,45 +81,70 @@ def sharp_seeds(domain, anisotropy) -> np.ndarray:
     Q (where the metric is affine and a mirror exact; decided on the cosine, so that no
     CPU-dispatched function reads the decision's last bits). A reflex corner (a slit's tip) has
     Ω on the far side of its small angle: it is not one."""
-    if (not anisotropy.is_constant or not len(domain.segments)
-            or getattr(domain, "media_face", False)):   # a medium's faces share their boundary
-        return np.zeros(len(domain.seeds), bool)        # points: matched sides would move them
+    if not anisotropy.is_constant or not len(domain.segments):
+        return np.zeros(len(domain.seeds), bool)
     a, b = _sides(domain)
     convex = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0] < 0          # Ω on the left: a left turn
     return convex & (corner_cosines(domain, anisotropy) > COS_SHARP)
 
 
+def side_runs(domain) -> tuple[np.ndarray, np.ndarray]:
+    """For every segment, the first and the last segment of its *side*: the run of segments it
+    lies in that continue one another on one straight edge. A medium's face (`media_face`) has
+    the points its neighbours share on its edges as seeds, so one edge of the partition (its
+    segments' tag) is several segments; elsewhere every segment is a side of its own."""
+    k = np.arange(len(domain.segments))
+    if not getattr(domain, "media_face", False) or not len(k):
+        return k, k
+    prev = _into(domain)[domain.segments[:, 0]]
+    A, B = domain.segment_ends
+    E = B - A
+    tags = domain.segment_tags
+    same = (tags[prev] == tags) & (np.einsum("ki,ki->k", E[prev], E) > 0)   # straight on
+    head, tail = np.where(same, prev, k), np.full(len(k), -1, np.int64)
+    tail[prev[same]] = k[same]
+    tail = np.where(tail >= 0, tail, k)
+    while True:                                     # pointer doubling: log(side length) steps
+        h2, t2 = head[head], tail[tail]
+        if np.array_equal(h2, head) and np.array_equal(t2, tail):
+            return head, tail
+        head, tail = h2, t2
+
+
 def mirrored(P, a, b, c, edge_id, is_seed, new, domain, sharp, anisotropy):
     """`new` (the split points of the subsegments a[k]→b[k], encroached by the points c[k]) with
     the mirror of c in place of the ordinary point where c is a boundary point on the other side
-    of a sharp corner (`sharp`: sharp_seeds) that a→b's segment shares: the point of a→b at c's
+    of a sharp corner (`sharp`: sharp_seeds) that a→b's side shares: the point of a→b at c's
     metric distance from the apex, measured with the metric at the apex; and the mask of the
     mirrors made. `edge_id[i]`: the segment of a boundary point i that is not a seed
-    (`is_seed[i]`: seed i starts segment i)."""
+    (`is_seed[i]`: seed i starts segment i). A side is a run of straight segments (`side_runs`)."""
     made = np.zeros(len(a), bool)
     if not len(a) or not sharp.any():
         return new, made
     seg = domain.segments
     into = _into(domain)
+    head, tail = side_runs(domain)
     seg_ab = np.where(is_seed[a], a, edge_id[a])                 # a→b runs along its segment
     c_seed = is_seed[c]
     on = c_seed | (edge_id[c] >= 0)
     cs = np.where(c_seed, c, 0)
-    # the segments of c: a seed lies on the one it starts and the one it ends
-    first = np.where(c_seed, cs, np.maximum(edge_id[c], 0))
-    second = np.where(c_seed, into[cs], first)
+    # the sides of c: a seed lies on the one its segment starts and the one it ends
+    first = head[np.where(c_seed, cs, np.maximum(edge_id[c], 0))]
+    second = np.where(c_seed, head[into[cs]], first)
+    ends = np.column_stack([seg[head, 0], seg[tail, 1]])         # a side's first and last seed
+    side_ab = head[seg_ab]
     apex = np.full(len(a), -1, np.int64)
-    for o in (seg[seg_ab, 0], seg[seg_ab, 1]):
+    for o in (ends[side_ab, 0], ends[side_ab, 1]):
         shares = np.zeros(len(a), bool)
         for s in (first, second):
-            shares |= (s != seg_ab) & ((seg[s, 0] == o) | (seg[s, 1] == o))
+            shares |= (s != side_ab) & ((ends[s, 0] == o) | (ends[s, 1] == o))
         shares &= on & sharp[o] & ~(c_seed & (c == o)) & (apex < 0)
         apex = np.where(shares, o, apex)
     k = np.flatnonzero(apex >= 0)
     if not len(k):
         return new, made
     O = domain.seeds[apex[k]]
-    far = np.where(seg[seg_ab[k], 0] == apex[k], seg[seg_ab[k], 1], seg[seg_ab[k], 0])
+    far = np.where(ends[side_ab[k], 0] == apex[k], ends[side_ab[k], 1], ends[side_ab[k], 0])
     U = domain.seeds[far] - O
     H = metric_at(anisotropy, O)
     norm = lambda V: np.sqrt(np.einsum("ki,kij,kj->k", V, H, V))          # noqa: E731
@@ -167,3 +201,37 @@ def _radii(points, seg, e, apex, u, length):
     on = seg == e
     r[on] = np.einsum("ki,i->k", points[on] - apex, u) / (u[0] * u[0] + u[1] * u[1]) * length
     return r
+
+
+def mirrored_in_face(P, u, v, w, out, at_part, part, anisotropy, x):
+    """`x` (the split points of the boundary edges u[k]→v[k] of a finished face mesh of a medium,
+    encroached by w[k]) with the mirror of w in place of the ordinary point where w is a point
+    of the face's boundary on the other side of a corner sharp in the face's constant metric:
+    the point of u→v at w's metric distance from the corner. A point a neighbour put on an
+    interface by that corner (MEDIA.md §2) is then matched by one split, as the face's own run
+    matches them (`mirrored`), not by splits that halve towards the corner without end.
+    `out[i]`: the partition edge of the boundary edge leaving vertex i; `at_part[i]`: whether i
+    is a partition point (its edge is then ambiguous). The wedge is the face's own: the
+    triangle u, v, w lies in the face and between the corner's two sides."""
+    if not len(u) or not anisotropy.is_constant:
+        return x
+    e, ew = out[u], np.where(at_part[w], -1, out[w])
+    ends, H = part.edges, np.asarray(anisotropy.H, float)
+    norm = lambda V: np.sqrt(np.einsum("ki,ij,kj->k", V, H, V))           # noqa: E731
+    out_x = np.array(x, dtype=float)
+    for j in (0, 1):                            # the corner at either end of u→v's edge
+        o = ends[e, j]
+        meets = (ends[np.maximum(ew, 0)] == o[:, None]).any(axis=1)     # w's edge ends at o too
+        k = np.flatnonzero((ew >= 0) & (ew != e) & meets)
+        if not len(k):
+            continue
+        O = part.points[o[k]]
+        U = part.points[ends[e[k], 1 - j]] - O
+        far_w = np.where(ends[ew[k], 0] == o[k], ends[ew[k], 1], ends[ew[k], 0])
+        V = part.points[far_w] - O
+        sharp = np.einsum("ki,ij,kj->k", U, H, V) > COS_SHARP_SHARED * norm(U) * norm(V)
+        rc, ra, rb = norm(P[w[k]] - O), norm(P[u[k]] - O), norm(P[v[k]] - O)
+        lo, hi = np.minimum(ra, rb), np.maximum(ra, rb)
+        ok = sharp & (rc > lo + MARGIN * (hi - lo)) & (rc < hi - MARGIN * (hi - lo))
+        out_x[k[ok]] = O[ok] + (rc[ok] / norm(U)[ok])[:, None] * U[ok]
+    return out_x

@@ -59,6 +59,13 @@ def test_kinds_kept_and_means_of_the_power():
     assert np.allclose(R.means(tri, [[0, 1, 2]]), cell(np.array([[0.2, 0.2]])), rtol=1e-12)
 
 
+def test_every_kind_labelled_as_a_power():
+    """The label a report and the viewer print says which power of which field was meshed."""
+    for kind, field in fields(10.0, 100.0, 30.0).items():
+        label = power(field, 0.5).label
+        assert label == f"({field.label})^0.5", (kind, label)
+
+
 @given(q=st.tuples(st.floats(1e-3, 1e3), st.floats(-1, 1), st.floats(1e-3, 1e3)))
 def test_principal_rebuilds_q(q):
     a, c = q[0], q[2]
