@@ -15,7 +15,8 @@ edges, so a lattice per patch is nearly optimal inside the patch:
 3. a maximal independent set of the conflict graph (Luby's rounds, vectorised) keeps every
    patch's core and fills the seams from whichever lattice fits;
 4. h comes from the metric area ∫√det ∇²s (Monte Carlo) and is rescaled from the count; a
-   tensor field's first draw expects the seams to cost a share of it (`initial_points`).
+   tensor field's first draw expects the seams to cost a share of it (`initial_points`), a
+   large field's share foretold from a draw of some of its patches (`_pilot`).
 It uses only `domain.contains`, `domain.seeds` and the seeds' bounds.
 """
 
@@ -193,7 +194,7 @@ def _parts(tree, Y: np.ndarray, reach: np.ndarray) -> list:
     """The searchers Y (reach each) in consecutive parts of about PAIR_CHUNK candidates in the
     k-d tree: every COUNT_EVERY-th searcher's candidates counted stand for its neighbours' (the
     searchers come patch by patch, neighbours alike), a fraction of a count of them all."""
-    every = COUNT_EVERY if len(Y) >= 8 * COUNT_EVERY else 1
+    every = COUNT_EVERY if len(Y) >= 8 * COUNT_EVERY else 1     # a few: count them all
     count = tree.query_ball_point(Y[::every], reach[::every], return_length=True)
     total = np.cumsum(np.repeat(count, every)[:len(Y)])
     cuts = np.searchsorted(total, np.arange(PAIR_CHUNK, total[-1], PAIR_CHUNK))
@@ -303,7 +304,7 @@ def _patch_lattices(domain, anisotropy, h: float, Lbar: np.ndarray, select=None)
     near = np.isfinite(rings.distance(Xc, A, Bs, reach))
     deep = domain.contains(Xc, tol=0.0)
     ok &= deep | near
-    deep &= ok & ~near                     # a patch and its neighbours' lattices all in Ω
+    deep &= ok & ~near                     # farther inside Ω than a patch is wide
     Yc, Xc, Hc = Yc[ok], Xc[ok], Hc[ok]
     B = _inv_sqrt_spd(Hc)                                          # lattice basis: H^{-1/2}
     # lattice steps needed to reach OVERLAP·S in y: the shortest y-length of a unit metric step
@@ -499,8 +500,9 @@ def initial_points(domain, anisotropy, n: int, rng) -> np.ndarray:
 
     For a varying s the draws land within 3% of n. A tensor field's draws (no s) land between
     SHORT below and OVER above n: the first expects the merge to keep KEPT of the lattices'
-    count, a later one the share the last draw kept (each draw is most of the cost of a field's
-    first triangulation: one where KEPT holds, two for most fields, instead of two or three)."""
+    count (from PILOT_FROM points on, the share foretold by `_pilot`), a later one the share
+    the last draw kept (each draw is most of the cost of a field's first triangulation: one
+    where KEPT holds, two for most fields, instead of two or three)."""
     n = int(n)
     if n < 1:
         return np.empty((0, 2))
