@@ -293,8 +293,9 @@ class QmeshView(TrameApp):
     async def _stage_work(self, action, figures: bool = True):
         """`_work(action)`, and then, still in the worker, the shown stage's own numbers (a
         Step computes its energy and quality statistics when first asked, a pass over the
-        triangles the event loop would otherwise make before drawing). Without `figures`,
-        above `QUICK_FIRST` vertices, they are left for after the pictures (`_measure`).
+        triangles the event loop would otherwise make before drawing) and a field's element
+        means (`Controller.warm`). Without `figures`, above `QUICK_FIRST` vertices, the numbers
+        are left for after the pictures (`_measure`).
 
         In a run the worker goes on to the next stage while the views are still drawing an
         earlier one (`_drawing`), so the mesher never waits for the pictures; the run then
@@ -306,8 +307,10 @@ class QmeshView(TrameApp):
             while (outcome.kind == "applied" and self._drawing.is_set() and c.running
                    and not c.stopping and not c.at_end):
                 outcome = action()
-            if outcome.ok and (figures or c.current.mesh.n_vertices <= QUICK_FIRST):
-                c.status(quick=True)
+            if outcome.ok:
+                c.controller.warm()        # a field's means of the stage drawn next, here
+                if figures or c.current.mesh.n_vertices <= QUICK_FIRST:
+                    c.status(quick=True)
             return outcome
         return await self._work(act)
 

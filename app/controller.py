@@ -224,8 +224,8 @@ class Controller:
         self._figures.clear()
         self.done = False
         self.index = 0
-        self._pull()                # a medium too: its first face's first triangulation, then
-        self._warm()                # Step and Run go through every face's run in turn
+        self._pull()    # a medium too: its first face's first triangulation, then Step and
+                        # Run go through every face's run in turn
 
     def _pull(self) -> bool:
         """Ask the generator for one more Step; False once the run has ended. An exception from
@@ -269,14 +269,15 @@ class Controller:
         """Show the next stage (replayed from the history, or computed). False at the end."""
         if self.index + 1 < len(self.history) or self._pull():
             self.index += 1
-            self._warm()
             return True
         return False
 
-    def _warm(self) -> None:
+    def warm(self) -> None:
         """A field: compute the shown stage's element means now (the caller's thread: the app's
-        worker), so drawing it on the event loop finds them ready. A field that refuses to be
-        averaged there is left for the views and the status line to report."""
+        worker, for the stage it is about to draw), so drawing it on the event loop finds them
+        ready. Moving through the run does not compute them: a Run meshes several stages while
+        the views draw one, and those never drawn nor measured are never averaged. A field that
+        refuses to be averaged there is left for the views and the status line to report."""
         if self.is_field:
             try:
                 self.conductivity_of(self.current)
@@ -303,7 +304,6 @@ class Controller:
     def scrub(self, index: int) -> qmesh.Step:
         """Show stage `index` of the history (clamped to the stages computed so far)."""
         self.index = int(np.clip(int(index), 0, len(self.history) - 1))
-        self._warm()
         return self.current
 
     # ------------------------------------------------------------------ measurements

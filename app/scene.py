@@ -431,12 +431,35 @@ def outline_polydata(ellipses: pv.PolyData, segments: int = ELLIPSE_SEGMENTS) ->
 
 def ellipses(step, field, *, domain=None, cells: int = GLYPH_CELLS) -> FieldScene:
     """The first view of `step` for a conductivity field: Q(x) as ellipses on a coarse grid
-    over Ω (see `FieldScene`), drawn just above the flat mesh."""
+    over Ω (see `FieldScene`), drawn just above the flat mesh. With a `domain` the ellipses
+    are the same at every stage: made once per field and domain (`_ellipse_glyphs`), only
+    the mesh under them is new."""
     if not is_field(field):
         raise QmeshError(f"ellipses show a qmesh.TensorField, got {type(field).__name__}")
     P, T = step.mesh.points, step.mesh.triangles
-    rings = domain_rings(step, domain)
-    C, h = glyph_centres(rings, cells, None if domain is None else lambda X: domain.contains(X))
+    if domain is None:
+        glyphs = _ellipse_glyphs(field, domain_rings(step), cells, None)
+    else:
+        key = (id(field), id(domain), int(cells))
+        hit = _glyph_cache.get(key)
+        if hit is None or hit[0] is not field or hit[1] is not domain:
+            hit = (field, domain, _ellipse_glyphs(field, domain_rings(step, domain), cells,
+                                                  domain.contains))
+            while len(_glyph_cache) >= 8:
+                _glyph_cache.pop(next(iter(_glyph_cache)), None)
+            _glyph_cache[key] = hit
+        glyphs = hit[2]
+    return FieldScene(mesh=triangles_polydata(P, T), **glyphs)
+
+
+_glyph_cache: dict = {}
+"""The last few fields' ellipses, by (field, domain, cells): a Run draws the same ones at every
+stage, and each drawing evaluated the field at the grid's centres again."""
+
+
+def _ellipse_glyphs(field, rings, cells: int, contains) -> dict:
+    """The fields of a `FieldScene` that depend on the field and Ω only, not on the mesh."""
+    C, h = glyph_centres(rings, cells, contains)
     Q, ok = _field_at(field, C)
     C_ok = C[ok]
     width = float(np.ptp(np.concatenate(rings), axis=0).max()) or 1.0
@@ -450,8 +473,8 @@ def ellipses(step, field, *, domain=None, cells: int = GLYPH_CELLS) -> FieldScen
             clim = (lo, hi)
         else:
             clim, uniform = (lo - 1.0, lo + 1.0), lo
-    return FieldScene(poly, outline_polydata(poly), triangles_polydata(P, T), C_ok, Q, clim,
-                      int((~ok).sum()), uniform)
+    return dict(ellipses=poly, outlines=outline_polydata(poly), centres=C_ok, tensors=Q,
+                clim=clim, n_skipped=int((~ok).sum()), uniform=uniform)
 
 
 # --------------------------------------------------------------------------- projected view

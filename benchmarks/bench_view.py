@@ -10,11 +10,15 @@
    `tests/view/view_browser.LATENCY_PROBE`, without a screen recorder.
 4. In the browser (target 5 s at N = 1e5): from the click on Run (from the first triangulation)
    to the converged picture and status line, and to the κ2 of that stage.
+5. With --presets, in the browser (target: 1.5× the disk's): Run on each preset from its first
+   triangulation to the converged picture and status line; 5a. the CPU seconds of the worker's
+   part of that Run outside the browser (what the machine's load does not change).
 
     python benchmarks/bench_view.py [--vertices 10000] [--window 520 480] [--repeat 6]
                                     [--sizes 212 100000] [--modes remote] [--no-page]
     python benchmarks/bench_view.py --browser [--modes remote local] [--sizes 212 1000 100000]
     python benchmarks/bench_view.py --no-browser
+    python benchmarks/bench_view.py --browser --sizes --presets --no-page    (5. and 5a. alone)
 
 The page is docs/benchmarks/bench_view.md (all four; 1. and 2. only with --no-browser), or
 bench_view-browser.md (3. and 4., with --browser).
@@ -215,6 +219,37 @@ PRESET_RUN_RATIO = 1.5
 """A preset's Run may take at most this multiple of the default case's (the disk at 212)."""
 
 
+def preset_cpu() -> report_page.Table:
+    """CPU seconds of each preset's Run outside the browser, in the worker's parts: its stages
+    up to the last, the last (a field's certification, a medium's stitched mesh), and a field's
+    element means of every stage before the last (a Run computes them only for the stages it
+    draws or measures)."""
+    print("5a. CPU seconds of a Run on each preset outside the browser, by part")
+    rows = []
+    for name in PRESETS:
+        c = Controller(domain=name)
+        seconds = []
+        while True:
+            t = time.process_time()
+            if not c.step():
+                break
+            seconds.append(time.process_time() - t)
+        t = time.process_time()
+        for i in range(len(c.history) - 1):
+            c.scrub(i)
+            c.warm()
+        means = time.process_time() - t if c.is_field else None
+        row = [name, len(seconds), f"{sum(seconds[:-1]):.3f}", f"{seconds[-1]:.3f}",
+               "" if means is None else f"{means:.3f}"]
+        print(f"   {name:<10} {row[1]:>3} stages: up to the last {row[2]} s, the last {row[3]} s"
+              + ("" if means is None else f", means of the stages before it {row[4]} s"))
+        rows.append(row)
+    return report_page.Table(["preset", "stages", "stages before the last s", "last stage s",
+                              "a field's means of those stages s"], rows,
+                             "5a. CPU seconds of a Run on each preset outside the browser "
+                             "(the last stage: a field's certification, a medium's stitching)")
+
+
 def preset_runs(repeat: int) -> report_page.Table:
     """Run on each preset from its first triangulation, at the preset's own target, in Chromium:
     seconds to the converged picture and status line, and the ratio to the default case's."""
@@ -261,7 +296,7 @@ def main() -> None:
     p.add_argument("--modes", nargs="+", default=["remote"], choices=["remote", "local"])
     p.add_argument("--sizes", nargs="*", type=int, default=[212, 100_000])
     p.add_argument("--presets", action="store_true",
-                   help="also Run on each preset in Chromium (5.)")
+                   help="also Run on each preset in Chromium (5.), and its CPU seconds by part (5a.)")
     report_page.add_option(p)
     a = p.parse_args()
     with report_page.capture() as printed:
@@ -273,7 +308,7 @@ def main() -> None:
         if not a.no_browser:
             tables += browser(a.modes, a.sizes, a.repeat)
         if a.presets:
-            tables.append(preset_runs(a.repeat))
+            tables += [preset_cpu(), preset_runs(a.repeat)]
         print(f"load average after: {os.getloadavg()[0]:.2f}")
     if a.no_page:
         return

@@ -41,7 +41,8 @@ def shape_metric(Q: NDArray[np.float64]) -> NDArray[np.float64]:
     which a triangle's share of q_ij is ½ cot of its opposite angle (FIELDS.md §3); NaN where Q
     is not positive definite."""
     Q = np.asarray(Q, dtype=float)
-    det = Q[..., 0, 0] * Q[..., 1, 1] - Q[..., 0, 1] * Q[..., 1, 0]
+    with np.errstate(over="ignore", invalid="ignore"):        # past the floats: refused by the caller
+        det = Q[..., 0, 0] * Q[..., 1, 1] - Q[..., 0, 1] * Q[..., 1, 0]
     with np.errstate(invalid="ignore", divide="ignore"):
         scale = np.where(det > 0, 1.0 / np.sqrt(np.where(det > 0, det, 1.0)), np.nan)
     H = np.empty_like(Q)

@@ -100,7 +100,8 @@ def _check_components(X: Array, Y: Array, q11: Array, q12: Array, q21: Array, q2
             refuse(asym, "not symmetric")
     q = np.empty((len(q11), 3))
     q[:, 0], q[:, 1], q[:, 2] = q11, 0.5 * (q12 + q21), q22
-    spd = (q[:, 0] > 0) & (q[:, 2] > 0) & (q[:, 0] * q[:, 2] - q[:, 1] ** 2 > 0)
+    with np.errstate(over="ignore", invalid="ignore"):   # det past the floats: refused later, named
+        spd = (q[:, 0] > 0) & (q[:, 2] > 0) & (q[:, 0] * q[:, 2] - q[:, 1] ** 2 > 0)
     if not spd.all():
         refuse(~spd, "not positive definite")
     return q
@@ -408,6 +409,12 @@ class TensorField:
         return _m.full_tensors(self._evaluate(A))
 
     # ---------------------------------------------------------------- means
+
+    @property
+    def constant_matrix(self) -> Array | None:
+        """Q as one 2×2 matrix when the field is constant (numbers only), else None: such a field
+        is meshed as `Anisotropy.constant` of it (`qmesh.fields.mesher`)."""
+        return None if self._constant is None else _m.full_tensors(self._constant)
 
     @property
     def means_exact(self) -> bool:

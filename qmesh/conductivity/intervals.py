@@ -18,7 +18,9 @@ reaching 0, `tan` across a pole give [−∞, ∞]. Where a function is not diff
 gradient enclosure is the Clarke one (`abs`: [−1, 1] across 0, its Hessian unbounded there),
 valid for the mean-value inequality since `abs` is Lipschitz; `c·abs(u)/u` and `u/abs(u)` (a
 sign, a jump) are recognised: their value lies in c·[−1, 1] and their derivatives are unbounded
-across u = 0.
+across u = 0. A principal field's angle matters modulo 180° only: an arctangent of a quotient
+that it holds as a whole number of half turns (`180/pi*atan(y/x)`, a polar angle as a direction)
+is enclosed on each box by the branch whose quotient is bounded there (`principal_forms`).
 """
 
 from __future__ import annotations
@@ -44,7 +46,10 @@ INF = math.inf
 def _clean(lo: Array, hi: Array) -> Interval:
     """NaN anywhere (∞ − ∞, 0 · ∞ of an unbounded operand): the whole line."""
     with np.errstate(all="ignore"):
-        bad = np.isnan(lo + hi)             # also where lo = −∞, hi = ∞ (the whole line anyway)
+        both = lo + hi
+        if not np.isnan(np.add.reduce(both, axis=None)):   # no NaN in any row (one pass, no mask)
+            return lo, hi
+        bad = np.isnan(both)                # also where lo = −∞, hi = ∞ (the whole line anyway)
     if not bad.any():
         return lo, hi
     return np.where(bad, -INF, lo), np.where(bad, INF, hi)
@@ -59,7 +64,16 @@ def _round(lo: Array, hi: Array) -> Interval:
     moved by |v|·2^-52 plus the smallest subnormal, a move of at least one ulp that rounding to
     nearest cannot undo (four times cheaper than `np.nextafter`)."""
     with np.errstate(all="ignore"):
-        return _clean(lo - (np.abs(lo) * HALF_ULP + DENORMAL), hi + (np.abs(hi) * HALF_ULP + DENORMAL))
+        return _clean(_outward(lo, np.subtract), _outward(hi, np.add))
+
+
+def _outward(v: Array, move: np.ufunc) -> Array:
+    """v ∓ (|v|·2^-52 + DENORMAL), in one buffer (the same operations in the same order)."""
+    t = np.empty_like(v)
+    np.abs(v, out=t)
+    np.multiply(t, HALF_ULP, out=t)
+    np.add(t, DENORMAL, out=t)
+    return move(v, t, out=t)
 
 
 def _widen(lo: Array, hi: Array) -> Interval:
@@ -70,7 +84,9 @@ def _widen(lo: Array, hi: Array) -> Interval:
 
 
 def _const(c: float, shape: tuple) -> Interval:
-    return np.full(shape, c), np.full(shape, c)
+    """The point [c, c]: both ends one array (never written to), which `mul` recognises."""
+    v = np.full(shape, c)
+    return v, v
 
 
 def add(a: Zeroable, b: Zeroable) -> Zeroable:
@@ -98,7 +114,12 @@ def mul(a: Zeroable, b: Zeroable) -> Zeroable:
     too, and all NaN is the whole line (`_clean`): never narrower than 0 · ∞ = 0 would give."""
     if a is None or b is None:
         return None
+    if b[0] is b[1]:
+        a, b = b, a
     with np.errstate(all="ignore"):
+        if a[0] is a[1]:                   # a point (`_const`): its corners are two of the four
+            p0, p1 = a[0] * b[0], a[0] * b[1]
+            return _round(np.fmin(p0, p1), np.fmax(p0, p1))
         p = [a[0] * b[0], a[0] * b[1], a[1] * b[0], a[1] * b[1]]
         lo = np.fmin(np.fmin(p[0], p[1]), np.fmin(p[2], p[3]))
         hi = np.fmax(np.fmax(p[0], p[1]), np.fmax(p[2], p[3]))
@@ -360,6 +381,8 @@ def evaluate_all(forms: list[tuple], X: Interval, Y: Interval) -> list[Node]:
             jump = (np.where(z, -INF, 0.0), np.where(z, INF, 0.0))
             s = (val, jump, jump, jump, jump, jump)
             return s if sign[1] is None else _times(walk(sign[1]), s)
+        if kind == "direction":                      # a polar angle mod π (principal_forms)
+            return _direction(walk(f[1]), walk(f[2]))
         if kind == "call":
             name = f[1]
             u = walk(f[2])
@@ -399,10 +422,83 @@ def evaluate_all(forms: list[tuple], X: Interval, Y: Interval) -> list[Node]:
 
 def principal_forms(k1: tuple, k2: tuple, angle_deg: tuple) -> list[tuple]:
     """The checked forms of q11, q12, q22 of R diag(k1, k2) Rᵀ, R the rotation by angle_deg
-    degrees (as `TensorField.principal` computes them, the squares as squares)."""
-    t = ("*", ("num", math.pi / 180.0), angle_deg)
+    degrees (as `TensorField.principal` computes them, the squares as squares).
+
+    Q depends on the angle modulo 180° only, so an arctangent of a quotient that the angle holds
+    as a term of a whole number of half turns (`180/pi*atan(u/v)`, a polar angle as a direction)
+    is enclosed without its jump across v = 0 (`_direction`)."""
+    t = ("*", ("num", math.pi / 180.0), _directions(angle_deg, math.pi / 180.0))
     c, s = ("call", "cos", t), ("call", "sin", t)
     c2, s2 = ("**", c, ("num", 2.0)), ("**", s, ("num", 2.0))
     return [("+", ("*", k1, c2), ("*", k2, s2)),
             ("*", ("*", ("-", k1, k2), c), s),
             ("+", ("*", k1, s2), ("*", k2, c2))]
+
+
+def _constant(f: tuple) -> float | None:
+    """The value of a form made of numbers only (None when it holds x or y or a function)."""
+    if f[0] == "num":
+        return f[1]
+    if f[0] == "neg":
+        a = _constant(f[1])
+        return None if a is None else -a
+    if f[0] in ("+", "-", "*", "/"):
+        a, b = _constant(f[1]), _constant(f[2])
+        if a is None or b is None or (f[0] == "/" and b == 0):
+            return None
+        return a + b if f[0] == "+" else a - b if f[0] == "-" else a * b if f[0] == "*" else a / b
+    return None
+
+
+def _directions(f: tuple, turns: float) -> tuple:
+    """`f` with each arctangent of a quotient u/v it holds as a term of `turns` · f worth a
+    whole, non-zero number of half turns marked ("direction", u, v): atan(u/v) and
+    sgn(u)·π/2 − atan(v/u) differ by a multiple of π, so either may stand for it in a
+    quantity of period π — the one whose quotient is bounded on each box (`_direction`)."""
+    kind = f[0]
+    if kind in ("+", "-"):
+        return (kind, _directions(f[1], turns), _directions(f[2], turns))
+    if kind == "neg":
+        return ("neg", _directions(f[1], -turns))
+    if kind == "*":
+        for i, j in ((1, 2), (2, 1)):
+            c = _constant(f[i])
+            if c is not None and c != 0:
+                parts = [f[1], f[2]]
+                parts[j - 1] = _directions(f[j], turns * c)
+                return ("*", parts[0], parts[1])
+        return f
+    if kind == "/":
+        c = _constant(f[2])
+        return f if c is None or c == 0 else ("/", _directions(f[1], turns / c), f[2])
+    if kind == "call" and f[1] in ("atan", "arctan") and f[2][0] == "/":
+        k = round(turns)                     # a jump of π in atan(u/v) moves turns · f by k·π
+        if k != 0 and abs(turns - k) <= 1e-12 * abs(k):
+            return ("direction", f[2][1], f[2][2])
+    return f
+
+
+def _direction(u: Node, v: Node) -> Node:
+    """atan(u/v) to second order on the boxes where v keeps its sign, sgn(u)·π/2 − atan(v/u)
+    where v changes sign and u keeps its own: equal modulo π, and each bounded there with its
+    derivatives (those of atan(u/v), continuous across v = 0)."""
+    flip = _contains_zero(v[0]) & ~_contains_zero(u[0])
+    straight = _atan_of(_over(u, v))
+    if not flip.any():
+        return straight
+    shape = u[0][0].shape
+    half = np.where(u[0][0] > 0, 0.5 * math.pi, -0.5 * math.pi)
+    turned = _atan_of(_over(v, u))
+    turned = (sub(_widen(half, half), turned[0]),) + tuple(neg(d) for d in turned[1:])
+    out = []
+    for a, b in zip(straight, turned):
+        a = _const(0.0, shape) if a is None else a
+        b = _const(0.0, shape) if b is None else b
+        out.append((np.where(flip, b[0], a[0]), np.where(flip, b[1], a[1])))
+    return tuple(out)
+
+
+def _atan_of(q: Node) -> Node:
+    """atan(q) to second order."""
+    value = VALUES["atan"](q[0])
+    return _compose(value, *_slopes("atan", q[0], value), q)

@@ -19,7 +19,9 @@ A text formula's means are proven lazily (`_prove`): all of the above runs on th
 means and estimates; once every edge passes, each triangle's bound is replaced by a proven one
 (the enclosures of its 4 children), the triangles beside edges that fail by it have their bounds
 refined to what the edge needs, and edges that still fail (a jump crosses them, a bump lies in
-them) go back to the repair, up to PROOF_ROUNDS times. The mesh is certified on proven bounds.
+them) go back to the repair, up to PROOF_ROUNDS times, each repair followed by the polish (its
+splits leave triangles below FLOOR too), whose moves are proven in turn. The mesh is certified on
+proven bounds.
 """
 
 from __future__ import annotations
@@ -35,6 +37,7 @@ from qmesh.fields.cache import ElementMeans
 from qmesh.fields.flips import mending_flips, quality_flips
 from qmesh.fields.moves import (Judged, corners, free, isosceles, movers, polish, relax, slides,
                                 tangents)
+from qmesh.fields.merges import compact, side_merges
 from qmesh.fields.piecewise import RegionMeans
 from qmesh.fields.repair_state import RepairState
 from qmesh.fields.shares import FLOOR, by_bound, failing, shares
@@ -49,8 +52,10 @@ MAX_ROUNDS = 400    # rounds of flips and splits before the remaining edges are 
 STALL = 120         # ... or rounds without fewer failing edges than the best so far
 RELAX = 3           # rounds of shape steps mending edges before the next split
 SMOOTH = 4          # shape steps of the vertices the splits added, once every edge passes
-POLISH = 12         # then rounds of polish (moves.polish), in each triangle's own means, of
-                    # the corners of triangles below FLOOR
+POLISH = 60         # then rounds of polish (moves.polish), in each triangle's own means, of
+                    # the corners of triangles below FLOOR, at most ...
+PATIENCE = 12       # ... while the last this many lowered the shortfall below FLOOR,
+PROGRESS = 0.01     # Σ max(0, FLOOR − quality), by this share at least
 PROOF_ROUNDS = 8    # times the repair runs again on edges its proven bounds fail (texts)
 REFINE = 3          # refinements of the proven bounds beside such edges before they go back
 MARGIN = 0.9        # ... each asking for bounds within this share of the edge's q_ij
@@ -145,11 +150,16 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
                 t = relax(st, moves, who[~st.seen.vertices[who]], shape=True, tangent=tan,
                           refused=st.seen.vertices)
                 st.refresh(t)
-        if shaping and not len(st.h) and not attempt:
+        if shaping and not len(st.h):
             tan = _tangents(st)
             st.seen = Judged(len(st.P), len(st.T))  # judged afresh: the moves are judged otherwise
+            short = []                             # the shortfall below FLOOR before each round
             for _ in range(POLISH):                # the worst shapes, each in its own means
-                low = metric_quality(st.P, st.T, shape_metric(st.Qbar)) < FLOOR
+                quality = metric_quality(st.P, st.T, shape_metric(st.Qbar))
+                low = quality < FLOOR
+                short.append(float(np.sum(FLOOR - quality[low])))
+                if len(short) > PATIENCE and short[-1] >= (1.0 - PROGRESS) * short[-1 - PATIENCE]:
+                    break                          # moves that only trade shapes among the poor
                 poor = free(st.T, st.cut, st.fixed, st.T[low].ravel(), tan)
                 poor = poor[~st.seen.vertices[poor]]   # none left: all refused, nothing changed since
                 if not len(poor):
@@ -161,6 +171,8 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
                 done = quality_flips(st, (3 * low[:, None] + np.arange(3)).ravel())
                 if len(done):
                     st.refresh(st.flip(done))
+                if reg is None and side_merges(st, st.T[low].ravel(), tan):
+                    tan = _tangents(st)
         total += rounds
         if not means.provable:
             break
@@ -171,6 +183,7 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
         st.tight[:] = True                     # every bound proven: nothing to tighten
         st.seen = Judged(len(st.P), len(st.T))  # judged again on the proven bounds
         fewest, since = np.inf, 0
+    compact(st)                                # the vertices the merges removed
     P, T, twin, tc, fixed, out = st.P, st.T, st.twin, st.cut, st.fixed, st.out
     Qbar, err, flips, reg = st.Qbar, st.err, st.flips, st.reg
     s, b = shares(P, T, Qbar, err)             # what is said is assembled afresh

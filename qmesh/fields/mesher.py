@@ -17,9 +17,9 @@ from typing import Any
 
 import numpy as np
 
-from qmesh.conductivity.anisotropy import shape_metric
+from qmesh.conductivity.anisotropy import Anisotropy, shape_metric
 from qmesh.domain.domain import as_domain
-from qmesh.errors import QmeshWarning
+from qmesh.errors import QmeshError, QmeshWarning
 from qmesh.fields import followable
 from qmesh.fields.certify import Certificate, certify
 from qmesh.fields.metric import field_metric, smoothing_width
@@ -46,13 +46,27 @@ def iterate(domain: Any, field: Any, *, target_vertices: int | None = None,
                     **{k: v for k, v in options.items() if k in OPTION_NAMES})
     if target_vertices is not None:            # refused before the metric's table is built
         budget.check(int(target_vertices), varying=True, field=True)
-    width = smoothing_width(domain, target_vertices, size)
-    # a formula no mesh of this size can follow, or not integrable: refused before it is tried
-    followable.check(domain, field, width,
-                     None if target_vertices is None else int(target_vertices))
-    metric = field_metric(field, width, domain.bounds)
+    metric = _constant(field)                  # numbers only: the constant Q's own path, no
+    if metric is None:                         # metric table, no smoothing, the same mesh as it
+        width = smoothing_width(domain, target_vertices, size)
+        # a formula no mesh of this size can follow, or not integrable: refused before it is tried
+        followable.check(domain, field, width,
+                         None if target_vertices is None else int(target_vertices))
+        metric = field_metric(field, width, domain.bounds)
     steps = loop.iterate(domain, metric, target_vertices=target_vertices, size=size, **options)
     return _certified(steps, field, metric, target_vertices)
+
+
+def _constant(field: Any) -> Anisotropy | None:
+    """`Anisotropy.constant` of a constant field's Q; None for a varying field, and for a Q the
+    constant refuses (beyond the floats): the field's own path then says what to change."""
+    Q = getattr(field, "constant_matrix", None)
+    if Q is None:
+        return None
+    try:
+        return Anisotropy.constant(Q)
+    except QmeshError:
+        return None
 
 
 def mesh(domain: Any, field: Any, *, progress: Callable[[Step], object] | None = None,

@@ -283,6 +283,7 @@ def test_a_corner_sharp_in_its_cells_metric_is_certified():
     qmesh.TensorField.principal(1e300, 1e-300, 0),                           # was OverflowError
     qmesh.TensorField.from_raster([0, 0.5, 1], [0, 0.5, 1], np.full((2, 2), 1e300), 1e-300),  # ValueError
 ])
+@pytest.mark.filterwarnings("error::RuntimeWarning")     # the refusal alone, no overflow warned
 def test_a_field_beyond_the_floats_is_refused_naming_the_field_not_an_s(field):
     """A field has no s: the refusal names the field's metric and says what to change."""
     with pytest.raises(qmesh.QmeshError) as e:

@@ -64,3 +64,17 @@ def test_picking_rotating_runs_and_shows_ellipses_and_the_mesh():
         assert b.page_text(page, "#messages") == ""       # no warning at its default target
         ARTIFACTS.mkdir(exist_ok=True)
         page.screenshot(path=str(ARTIFACTS / "field_rotating.png"))
+
+        # a stage the Run meshed while the views drew another has its element means computed
+        # when it is shown: scrubbed to, its quality view, status line and legend follow
+        before = b.view_image(page, "quality")
+        thumb = page.locator("#slider-history_index .v-slider-thumb")
+        thumb.focus()
+        page.keyboard.press("ArrowLeft")
+        back = b.until(lambda: (lambda s: s if "converged" not in s and "means: –%" not in s
+                                else None)(b.status(page)), 60, "the stage before's measures")
+        assert re.search(r"q_ij ≥ 0 with the element means: \d+\.\d%", back), back
+        assert re.search(r"quality min \d\.\d{3} mean \d\.\d{3}", back), back
+        b.wait_view_change(page, "quality", before, min_diff=0.3)
+        legend = b.page_text(page, "#legend-quality")
+        assert "computed from the field on this stage's mesh" in legend, legend

@@ -15,7 +15,7 @@ from PIL import Image
 import qmesh
 from qmesh import measure
 from qmesh_view import draw, legend, problem, scene
-from qmesh_view.controller import Params, status_text
+from qmesh_view.controller import Controller, Params, status_text
 from qmesh_view.session import Session
 from view_cases import ARTIFACTS
 
@@ -162,6 +162,46 @@ def test_ellipses_follow_the_field(rotating):
         assert r.max() == pytest.approx(scene.GLYPH_FILL / scene.GLYPH_CELLS, rel=1e-9)
     assert np.all(view.ellipses.points[:, 2] > 0)            # just above the flat mesh
     assert view.mesh.n_cells == first.mesh.n_triangles
+
+
+def test_ellipses_are_made_once_per_field_and_domain(rotating):
+    """A Run draws the same ellipses at every stage: the field is evaluated at the glyph
+    centres once, each stage gets only its own mesh under them; another field its own."""
+    s, first = rotating
+    field = qmesh.TensorField(lambda x, y: fvca5(np.column_stack([x, y])), "FVCA5 by hand")
+    a = scene.ellipses(first, field, domain=s.domain)
+    asked = field.evaluations.points
+    assert asked == len(a.centres) == scene.GLYPH_CELLS ** 2
+    b = scene.ellipses(s.current, field, domain=s.domain)
+    assert field.evaluations.points == asked
+    np.testing.assert_array_equal(b.tensors, a.tensors)
+    assert (a.mesh.n_cells, b.mesh.n_cells) == (first.mesh.n_triangles, s.current.mesh.n_triangles)
+    other = qmesh.TensorField.from_expressions("2 + x", "0", "1")
+    np.testing.assert_allclose(scene.ellipses(s.current, other, domain=s.domain).tensors[:, 0, 0],
+                               2 + a.centres[:, 0], rtol=1e-12)
+
+
+def test_moving_through_a_field_run_averages_only_the_stages_asked_for():
+    """Step and scrub compute no element means (a Run meshes stages the views never draw);
+    `warm` (the app's worker, for the stage it draws next) computes the shown stage's once, and
+    its measures and views find them."""
+    c = Controller(domain="rotating")
+    field, averaged = c.anisotropy, []
+    means_with_error = field.means_with_error
+
+    def counted(points, triangles, **options):
+        averaged.append(len(triangles))
+        return means_with_error(points, triangles, **options)
+    field.means_with_error = counted
+    for _ in range(3):
+        assert c.step() and not c.current.converged
+    assert c.scrub(1).stage and averaged == []
+    c.warm()
+    assert averaged == [c.current.mesh.n_triangles]
+    c.warm()
+    scene.quality(c.current, field)
+    assert c.status()["q_nonnegative"] is not None
+    assert averaged == [c.current.mesh.n_triangles]
 
 
 def test_ellipses_of_a_raster_and_a_field_that_refuses_some_points(raster):
