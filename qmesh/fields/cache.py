@@ -87,7 +87,6 @@ class ElementMeans:
         self._q = np.empty((1024, 2, 2))
         self._err = np.empty(1024)
         self._proven = np.empty(1024, bool)
-        self._tight = np.empty(1024, bool)           # computed at the field's own tolerance
         self.computed = 0                            # triangles whose means were computed
         self.provable = bool(getattr(field, "means_bounded", False)) and not field.means_exact
         """A text: its rows are estimates until proven (`prove`, `refine`)."""
@@ -121,11 +120,9 @@ class ElementMeans:
             self._q = np.resize(self._q, (size, 2, 2))
             self._err = np.resize(self._err, size)
             self._proven = np.resize(self._proven, size)
-            self._tight = np.resize(self._tight, size)
         rows = self._n + np.arange(k)
         self._corners[rows], self._q[rows], self._err[rows] = C[first], Q[first], e[first]
         self._proven[rows] = not self.provable
-        self._tight[rows] = self.rtol <= _m.RTOL
         self._n += k
         at = np.searchsorted(self._new_keys, keys)                      # keys sorted by unique
         self._new_keys = np.insert(self._new_keys, at, keys)
@@ -160,16 +157,14 @@ class ElementMeans:
 
     def tighten(self, P, T):
         """The means of the triangles T at the field's own tolerance (`means.RTOL`), kept in
-        place of the ones at RTOL, once each (a text's proven row is kept as it is; a callable's
-        rows, never proven, are tightened too)."""
+        place of the ones at RTOL (a proven row is kept as it is)."""
         P, T = np.asarray(P, dtype=float), np.asarray(T, dtype=np.int64).reshape(-1, 3)
         if self.field.means_exact or self.rtol <= _m.RTOL:
             return self.means_with_error(P, T)
         row = self._rows_of(P, T)
-        todo = np.flatnonzero(~self._tight[row] & ~(self._proven[row] & self.provable))
+        todo = np.flatnonzero(~self._proven[row])
         if len(todo):
             self._q[row[todo]], self._err[row[todo]] = self._compute(P, T[todo], _m.RTOL)
-            self._tight[row[todo]] = True
         return self._q[row], self._err[row]
 
     def proven(self, P, T):
@@ -200,7 +195,7 @@ class ElementMeans:
         Q, e = self.field.means_with_error(P, T, rtol=self.rtol, bound_rtol=bound_rtol)
         better = ~self._proven[row] | (e < self._err[row])
         self._q[row[better]], self._err[row[better]] = Q[better], e[better]
-        self._proven[row] = self._tight[row] = True
+        self._proven[row] = True
         return self._q[row], self._err[row]
 
     def rough(self, P, T):

@@ -39,23 +39,6 @@ def test_means_within_their_bound_and_each_triangle_computed_once(seed, n):
     assert cache.computed == len(T) + len(pick) + 1
 
 
-def test_a_callables_means_are_tightened_too_and_once():
-    """A callable's rows are never proven (nothing bounds it between samples), which must not
-    exempt them from tightening: an edge failing only by its bound is averaged again."""
-    P, T = square_mesh(3, 60)
-    text = qmesh.TensorField.from_expressions(*FIELD)
-    F = qmesh.TensorField(lambda x, y: text(np.column_stack([x, y])))
-    cache = ElementMeans(F)
-    Q, e = cache.means_with_error(P, T)
-    before = cache.computed
-    Qt, et = cache.tighten(P, T)
-    assert cache.computed == before + len(T)
-    assert np.all(et <= _m.RTOL * np.linalg.norm(Qt, axis=(1, 2)) * (1 + 1e-9) + 1e-300)
-    assert et.max() < e.max()
-    cache.tighten(P, T)                                 # kept: not averaged a third time
-    assert cache.computed == before + len(T)
-
-
 def test_raster_means_are_the_fields_own():
     P, T = square_mesh(3, 80)
     edges, k1, k2, angle = random_raster(3, 7, 2.0)
