@@ -33,7 +33,7 @@ STAGES = ("set-up", "first triangulation", "adjust", "insert", "triangulate", "c
 
 
 def _rss_kb(key: str = "VmHWM:") -> int:
-    """A line of /proc/self/status in kB (VmHWM: the peak so far; VmRSS: now)."""
+    """A line of /proc/self/status in kB (VmHWM: the peak so far)."""
     with open("/proc/self/status") as f:
         for line in f:
             if line.startswith(key):
@@ -49,7 +49,6 @@ def _worker(case_name: str, n: int, profile: bool, top: int, memory: bool) -> di
 
     fld = CASES[case_name].field()
     domain = CASES[case_name].domain()
-    base = _rss_kb("VmRSS:")
     cpu = dict.fromkeys(STAGES, 0.0)
     peaks: list[tuple[str, int]] = []
     prof = cProfile.Profile(time.process_time) if profile else None     # CPU: the machine is shared
@@ -81,7 +80,7 @@ def _worker(case_name: str, n: int, profile: bool, top: int, memory: bool) -> di
     m = step.mesh
     r_in, r_b, _ = measure._relative_q(m, measure._resolve(m, None), split=True)
     out = {"case": case_name, "target": n, "N": m.n_vertices, "cpu": cpu, "total": total,
-           "peak_mb": _rss_kb() / 1024, "base_mb": base / 1024, "first_peak_mb": first_peak / 1024,
+           "peak_mb": _rss_kb() / 1024, "first_peak_mb": first_peak / 1024,
            "positive": [int((r_in < -measure.Q_RTOL).sum()), int((r_b < -measure.Q_RTOL).sum())],
            "min_quality": float(measure.quality(m).min())}
     out["hash"] = hashlib.sha256(np.ascontiguousarray(m.points).tobytes()
