@@ -22,6 +22,8 @@ conforming one restricted to Ω.
 
 from __future__ import annotations
 
+from itertools import chain
+
 from dataclasses import dataclass
 
 import numpy as np
@@ -268,7 +270,7 @@ def _encroaching_free(domain, P, edge_id, anisotropy, h, far=None) -> np.ndarray
     r = 0.5 * np.hypot(*(X[b] - X[a]).T)
     M, r = M[r <= 0.5 * LONG * h], r[r <= 0.5 * LONG * h]     # long ones are split instead
     hits = cKDTree(X[free]).query_ball_point(M, r * (1 + 1e-9))
-    inside = np.unique(np.fromiter((i for h in hits for i in h), np.int64))
+    inside = np.unique(np.fromiter(chain.from_iterable(hits), np.int64))
     keep = np.ones(len(P), bool)
     keep[free[inside]] = False
     return keep
@@ -288,7 +290,7 @@ def _in_ellipses(X, a, b, tree, ids, anisotropy, P):
     hits = tree.query_ball_point(M[some], r[some])
     count = np.fromiter((len(h) for h in hits), np.int64, len(hits))
     k = np.repeat(some, count)
-    j = ids[np.fromiter((i for h in hits for i in h), np.int64, int(count.sum()))]
+    j = ids[np.fromiter(chain.from_iterable(hits), np.int64, int(count.sum()))]
     # on the side of Ω only (on the left of a→b), as the rounds test the apex on that side
     E, C = X[b[k]] - X[a[k]], X[j] - X[a[k]]
     other = (j != a[k]) & (j != b[k]) & (E[:, 0] * C[:, 1] - E[:, 1] * C[:, 0] > 0)

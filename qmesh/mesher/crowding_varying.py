@@ -20,6 +20,8 @@ semi-axis ½L/√λ_min(H) (a k-d tree of the points), then tested exactly.
 
 from __future__ import annotations
 
+from itertools import chain
+
 import numpy as np
 from scipy.spatial import cKDTree
 
@@ -50,7 +52,7 @@ def _in_ellipses(P, a, b, ids, anisotropy, tree=None, mutual=False):
         return none
     hits = tree.query_ball_point(M[some], r[some])
     k = np.repeat(some, count[some])
-    j = ids[np.fromiter((i for h in hits for i in h), np.int64, int(count[some].sum()))]
+    j = ids[np.fromiter(chain.from_iterable(hits), np.int64, int(count[some].sum()))]
     C = P[j] - P[a[k]]
     left = (j != a[k]) & (j != b[k]) & (E[k, 0] * C[:, 1] - E[k, 1] * C[:, 0] > 0)
     k, j = k[left], j[left]

@@ -15,7 +15,8 @@ edges, so a lattice per patch is nearly optimal inside the patch:
 3. a maximal independent set of the conflict graph (Luby's rounds, vectorised) keeps every
    patch's core and fills the seams from whichever lattice fits;
 4. h comes from the metric area ∫√det ∇²s (Monte Carlo) and is rescaled from the count; a
-   tensor field's first draw expects the seams to cost a share of it (`initial_points`).
+   tensor field's first draw expects the seams to cost a share of it (`initial_points`), a
+   large field's share foretold from a draw of some of its patches (`_pilot`).
 It uses only `domain.contains`, `domain.seeds` and the seeds' bounds.
 """
 
@@ -46,6 +47,14 @@ SHORT = 0.04          # a field's draw short of n by at most this share is kept 
                       # at 2e3 and lowered its mean quality)
 RESCALE = 2.0         # a field's later draw changes h by at most this factor
 OVER = 0.015          # a field's draw over n by at most this share is kept (thinned at random)
+PILOT_SHARE = 0.25    # a large field's first spacing is foretold from a draw of this share of
+                      # its patches: all those near the boundary (windows alone, their share
+                      # of boundary patches left to chance, foretold the 512² raster's count
+                      # 3-5% low) and windows of PILOT_SIDE² patches at random among the rest,
+PILOT_WINDOWS = 12    # at least this many of them, their inner patches PILOT_MARGIN inside
+PILOT_SIDE = 7        # (25 each); plasma's, the spiral's and FVCA5's counts come within 3-11%
+PILOT_MARGIN = 1      # at 2e5 (their seams change across Ω), the raster's within 1%
+PILOT_FROM = 50_000   # from this many points on (below, the draws are as cheap as the foretelling)
 MAX_LATTICE = 2e7     # at most about this many lattice points before filtering
 LATTICE_CHUNK = 500_000   # lattice points made at once (bounds the memory)
 PAIR_CHUNK = 1_000_000    # candidate pairs tested at once (bounds the memory)
@@ -113,6 +122,8 @@ ORIENTATIONS = 64     # groups of major-axis direction in the oriented conflict 
 ROUND_METRIC = 16.0   # metrics less anisotropic than this share one group (a tree per group
                       # over all points costs more than their balls holding up to ~4x more)
 TREE = dict(leafsize=32, balanced_tree=False, compact_nodes=False)   # one tree per group: fast builds
+REACH = 1.01          # search balls this much wider than the ellipse they hold (round-off of λ_min)
+COUNT_EVERY = 8       # searchers counted to cut a group's search into parts (one in this many)
 
 
 def _quadratic(E: np.ndarray, H: np.ndarray) -> np.ndarray:
@@ -121,14 +132,18 @@ def _quadratic(E: np.ndarray, H: np.ndarray) -> np.ndarray:
 
 
 def _conflicts_oriented(X: np.ndarray, H: np.ndarray, r: float):
-    """The pairs of `_conflicts` for a metric whose direction turns across Ω (a tensor field):
-    a pair conflicts only if Eᵀ H_i E < 2r² (½(H_i + H_j) ≥ ½H_i), so each point searches from
-    its own side with its own reach, in the coordinates of the mean metric of the points whose
-    major axis points the same way (up to ORIENTATIONS groups): a ball there is as narrow as the
-    point's own ellipse, where the mean metric of a turning field is nearly round and its balls
-    hold a thousand points. Either point of a pair finds it, so a group's tree holds only the
-    points of its own and later groups. The pairs are the same set; the search costs a tree per
-    group."""
+    """The pairs of `_conflicts` for a metric whose direction turns across Ω (a tensor field),
+    each once as (i < j), in no particular order (the merge does not depend on it).
+
+    A pair conflicts when ½(q_i + q_j) < r², q_k = Eᵀ H_k E, so the point of the smaller q (the
+    lower index on a tie) has q < r²: it alone reports the pair, having found it inside its
+    own ellipse Eᵀ H E < r², searched in the coordinates of the mean metric of the points whose
+    major axis points the same way (up to ORIENTATIONS groups), among every point within that
+    ellipse's reach: a ball there is as narrow as the point's own ellipse, where the mean metric
+    of a turning field is nearly round and its balls hold a thousand points. Each pair is found
+    by the point that reports it (a ball of the ellipse's radius, half the area of one that must
+    hold the partner's ellipse too), with no sort or hash of all pairs; the search costs a tree
+    per group."""
     a, b, c = H[:, 0, 0], H[:, 0, 1], H[:, 1, 1]
     theta = 0.5 * arctan2(2.0 * b, a - c)                      # the larger eigenvalue's axis
     lmin = np.clip(_sym_eig_min(H), 1e-300, None)
@@ -137,42 +152,53 @@ def _conflicts_oriented(X: np.ndarray, H: np.ndarray, r: float):
     group = np.floor((theta / np.pi + 0.5) * k).astype(np.int64) % k
     group[ratio < ROUND_METRIC] = -1
     n = len(X)
-    keys = [np.empty(0, np.int64)]
+    keys: list = []
     cells: dict = {}
     x, y, h11, h12, h22 = X[:, 0].copy(), X[:, 1].copy(), a.copy(), b.copy(), c.copy()
-    for g in np.unique(group):
-        src = np.flatnonzero(group == g)
+    by_group = np.argsort(group, kind="stable")          # each group's points, ascending
+    names = np.unique(group)
+    for g, src in zip(names, np.split(by_group, np.searchsorted(group[by_group], names)[1:])):
         L = cholesky2(H[src].mean(axis=0))
         Linv = inv2(L)
         G = np.einsum("ij,njk,lk->nil", Linv, H[src], Linv)        # L⁻¹ H L⁻ᵀ: H where y = x L
-        radius = np.sqrt(2.0) * r / np.sqrt(np.clip(_sym_eig_min(G), 1e-300, None))
-        Y = times2(X, L)
-        # the tree holds only the points a searcher's own ellipse (Eᵀ H_i E < 2r²) can reach,
-        # found by cells that wide: a group's points lie in a few sectors of a turning field
-        cell = np.sqrt(2.0) * r / np.sqrt(float(lmin[src].min()))
+        # the ellipse Eᵀ H_i E < r² lies in the ball of this radius in y (REACH: round-off of
+        # λ_min), and within this distance of x_i: the cells of the points it can reach
+        radius = REACH * r / np.sqrt(np.clip(_sym_eig_min(G), 1e-300, None))
+        cell = REACH * r / np.sqrt(float(lmin[src].min()))
         pool = _near_cells(X, src, cell, cells)
-        pool = pool[group[pool] >= g]      # a pair across groups is the lower group's to find
-        tree = cKDTree(Y[pool], **TREE)
+        Yp = times2(X[pool], L)            # the pool only: a group costs its points, not all
+        Ys = Yp[np.searchsorted(pool, src)]                   # the searchers are in the pool
+        tree = cKDTree(Yp, **TREE)
         # searchers binned by reach (factors of √2), each bin one array-valued search with
         # its largest reach, filtered by each searcher's own: no per-point lists
         level = floor_log2_steps(radius / radius.min(), 2)
-        for b in np.unique(level):
-            s, reach = src[level == b], radius[level == b]
-            count = np.cumsum(tree.query_ball_point(Y[s], reach, return_length=True))
-            cuts = np.searchsorted(count, np.arange(PAIR_CHUNK, count[-1], PAIR_CHUNK))
-            for part in np.split(np.arange(len(s)), np.unique(cuts[cuts > 0])):
-                p = cKDTree(Y[s[part]], **TREE).sparse_distance_matrix(
+        for lev in np.unique(level):
+            s, reach, Yb = src[level == lev], radius[level == lev], Ys[level == lev]
+            for part in _parts(tree, Yb, reach):
+                p = cKDTree(Yb[part], **TREE).sparse_distance_matrix(
                     tree, float(reach[part].max()), output_type="ndarray")
                 pi = p["i"]
                 ok = p["v"] <= reach[part][pi]
                 i, j = s[part][pi[ok]], pool[p["j"][ok]]
                 ex, ey = x[j] - x[i], y[j] - y[i]           # `_quadratic`, on columns
-                d2 = 0.5 * ((h11[i] * ex ** 2 + 2.0 * h12[i] * ex * ey + h22[i] * ey ** 2)
-                            + (h11[j] * ex ** 2 + 2.0 * h12[j] * ex * ey + h22[j] * ey ** 2))
-                near = (d2 < r * r) & (i != j)
-                keys.append(np.minimum(i, j)[near] * n + np.maximum(i, j)[near])
-    key = np.unique(np.concatenate(keys))           # each pair once, sorted as (i, j)
-    return key // n, key % n
+                qi = h11[i] * ex ** 2 + 2.0 * h12[i] * ex * ey + h22[i] * ey ** 2
+                qj = h11[j] * ex ** 2 + 2.0 * h12[j] * ex * ey + h22[j] * ey ** 2
+                mine = (qi < qj) | ((qi == qj) & (i < j))   # the same on j's side, bit for bit
+                near = (0.5 * (qi + qj) < r * r) & mine & (i != j)
+                i, j = i[near], j[near]
+                keys.append(np.column_stack([np.minimum(i, j), np.maximum(i, j)]))
+    return tuple(np.concatenate([np.empty((0, 2), np.int64), *keys]).T)
+
+
+def _parts(tree, Y: np.ndarray, reach: np.ndarray) -> list:
+    """The searchers Y (reach each) in consecutive parts of about PAIR_CHUNK candidates in the
+    k-d tree: every COUNT_EVERY-th searcher's candidates counted stand for its neighbours' (the
+    searchers come patch by patch, neighbours alike), a fraction of a count of them all."""
+    every = COUNT_EVERY if len(Y) >= 8 * COUNT_EVERY else 1     # a few: count them all
+    count = tree.query_ball_point(Y[::every], reach[::every], return_length=True)
+    total = np.cumsum(np.repeat(count, every)[:len(Y)])
+    cuts = np.searchsorted(total, np.arange(PAIR_CHUNK, total[-1], PAIR_CHUNK))
+    return np.split(np.arange(len(Y)), np.unique(cuts[cuts > 0]))
 
 
 def _near_cells(X: np.ndarray, src: np.ndarray, cell: float, cache: dict | None = None) -> np.ndarray:
@@ -250,12 +276,15 @@ def _inside_with_margin(domain, X, H, margin: float) -> np.ndarray:
     return out
 
 
-def _patch_lattices(domain, anisotropy, h: float, Lbar: np.ndarray):
+def _patch_lattices(domain, anisotropy, h: float, Lbar: np.ndarray, select=None):
     """Hexagonal lattices of metric spacing h, one per patch, each in the metric at its centre.
 
     Patches tile the seeds' bounding box in y = x L̄; each lattice reaches OVERLAP·PATCH·h from
     its centre so neighbours overlap. Returns the points, their Hessians and their priority
     (distance from their own patch centre in patch half-sizes: the core of a patch wins).
+    `select(ok, deep, shape)`: the patches to build, a mask of the grid (shape: patches along
+    y₁, y₂) given the masks of those that reach Ω (`ok`) and of those whose lattice and its
+    neighbours' lie inside it (`deep`) (`_pilot`); the lattices are those of the whole.
     """
     S = PATCH * h
     Y0 = times2(domain.seeds, Lbar)
@@ -272,7 +301,10 @@ def _patch_lattices(domain, anisotropy, h: float, Lbar: np.ndarray):
     # only patches that reach Ω: the cost follows Ω's area, not its bounding box's
     A, Bs = domain.segment_ends
     reach = float(np.abs(Linv).sum(axis=0).max()) * S
-    ok &= domain.contains(Xc, tol=0.0) | np.isfinite(rings.distance(Xc, A, Bs, reach))
+    near = np.isfinite(rings.distance(Xc, A, Bs, reach))
+    deep = domain.contains(Xc, tol=0.0)
+    ok &= deep | near
+    deep &= ok & ~near                     # farther inside Ω than a patch is wide
     Yc, Xc, Hc = Yc[ok], Xc[ok], Hc[ok]
     B = _inv_sqrt_spd(Hc)                                          # lattice basis: H^{-1/2}
     # lattice steps needed to reach OVERLAP·S in y: the shortest y-length of a unit metric step
@@ -281,6 +313,9 @@ def _patch_lattices(domain, anisotropy, h: float, Lbar: np.ndarray):
     rho = OVERLAP * S * np.sqrt(2.0) / (h * shortest)           # the box's reach, in steps
     m = int(np.ceil(rho.max()) + 1)
     m = max(2, min(m, 60, int(np.sqrt(MAX_LATTICE / len(Xc)) / 2)))   # bounded work
+    if select is not None:     # some patches only, each lattice as in the whole set's
+        some = select(ok, deep, (len(gx), len(gy)))[ok]
+        Yc, Xc, B, rho = Yc[some], Xc[some], B[some], rho[some]
     # each patch only as many steps as cover its own box (a lattice of |i|, |j| ≤ m holds the
     # metric disc of radius m·√3/2 steps): the same points as m everywhere, in the same order,
     # at a cost that follows the points kept where the metric varies by orders of magnitude
@@ -397,14 +432,77 @@ def _check_followable(domain, anisotropy, h: float, n: int) -> None:
                      f"target_vertices or a smaller size; or a gentler s)")
 
 
+def _draw(domain, anisotropy, h: float, Lbar: np.ndarray, rng, field: bool, select=None):
+    """The patch lattices at spacing h merged: their points inside Ω kept by the maximal
+    independent set of their conflicts."""
+    X, H, prio = _patch_lattices(domain, anisotropy, h, Lbar, select)
+    inside = _inside_with_margin(domain, X, H, MARGIN * h)
+    X, H, prio = X[inside], H[inside], prio[inside]
+    i, j = (_conflicts_oriented(X, H, CONFLICT * h) if field
+            else _conflicts(X, H, CONFLICT * h, Lbar))
+    return X[_luby(len(X), i, j, rng, prio)]
+
+
+def _pilot(domain, anisotropy, h: float, Lbar: np.ndarray) -> float | None:
+    """The count a tensor field's draw at spacing h would keep, foretold from a draw of some
+    of its patches (its own generator): every patch near the boundary (kept points counted
+    there) and windows of PILOT_SIDE² patches at random among the deep ones (the points kept
+    per inner patch, whose neighbours are all drawn, times the deep patches), PILOT_SHARE of
+    the patches in all. None when that leaves room for fewer than PILOT_WINDOWS windows.
+
+    The share of the lattices a draw keeps depends on the field (0.65-0.9 of the metric area's
+    count: the seams between patches), so a large field's first draw missed its count and was
+    drawn again, the whole cost of a first triangulation twice (the 512² raster at 1e6)."""
+    chosen: dict = {}
+    S = PATCH * h
+
+    def grow(mask, by):
+        """`mask` and its neighbours up to `by` patches away (Chebyshev), on the grid."""
+        out = np.zeros_like(mask)
+        padded = np.pad(mask, by)
+        for dx in range(2 * by + 1):
+            for dy in range(2 * by + 1):
+                out |= padded[dx:dx + mask.shape[0], dy:dy + mask.shape[1]]
+        return out
+
+    def windows(ok, deep, shape):
+        grid, deep = ok.reshape(shape), deep.reshape(shape)
+        edge = grid & ~deep
+        build = grow(edge, PILOT_MARGIN) & grid
+        count = int((PILOT_SHARE * ok.sum() - build.sum()) // PILOT_SIDE ** 2)
+        if count < PILOT_WINDOWS or count > deep.sum():
+            return np.zeros_like(ok)
+        cells = np.column_stack(np.nonzero(deep))
+        at = cells[np.random.default_rng(0).choice(len(cells), count, replace=False)]
+        centre = np.zeros(shape, bool)
+        centre[at[:, 0], at[:, 1]] = True
+        inner = grow(centre, PILOT_SIDE // 2 - PILOT_MARGIN) & deep
+        build |= grow(inner, PILOT_MARGIN) & grid
+        chosen.update(inner=inner, edge=edge, deep=int(deep.sum()))
+        return build.ravel()
+
+    P = _draw(domain, anisotropy, h, Lbar, np.random.default_rng(0), True, windows)
+    if not chosen:
+        return None
+    # the patch of each kept point: its square of side S in y, centred at lo − S/2 + S·index
+    lo = times2(domain.seeds, Lbar).min(axis=0)
+    at = np.floor((times2(P, Lbar) - lo) / S).astype(np.int64) + 1
+    inner, edge = chosen["inner"], chosen["edge"]
+    fits = np.all((at >= 0) & (at < np.array(inner.shape)), axis=1)
+    at = at[fits]
+    per_inner = inner[at[:, 0], at[:, 1]].sum() / inner.sum()
+    return float(edge[at[:, 0], at[:, 1]].sum() + per_inner * chosen["deep"])
+
+
 def initial_points(domain, anisotropy, n: int, rng) -> np.ndarray:
     """About n (never more) interior points: patch lattices in the local metric, merged by a
     maximal independent set that prefers each patch's core.
 
     For a varying s the draws land within 3% of n. A tensor field's draws (no s) land between
     SHORT below and OVER above n: the first expects the merge to keep KEPT of the lattices'
-    count, a later one the share the last draw kept (each draw is most of the cost of a field's
-    first triangulation: one where KEPT holds, two for most fields, instead of two or three)."""
+    count (from PILOT_FROM points on, the share foretold by `_pilot`), a later one the share
+    the last draw kept (each draw is most of the cost of a field's first triangulation: one
+    where KEPT holds, two for most fields, instead of two or three)."""
     n = int(n)
     if n < 1:
         return np.empty((0, 2))
@@ -416,14 +514,13 @@ def initial_points(domain, anisotropy, n: int, rng) -> np.ndarray:
     if not field:                # a tensor field's mesh is certified on its means instead
         _check_followable(domain, anisotropy, h, n)
     low, high = ((1.0 - SHORT) * n, (1.0 + OVER) * n) if field else (0.97 * n, 1.03 * n)
+    if field and n >= PILOT_FROM:        # a large field's count foretold on some of its patches
+        foretold = _pilot(domain, anisotropy, h, Lbar)
+        if foretold is not None:
+            h *= np.clip(np.sqrt(max(foretold, 1.0) / (AIM * n)), 1.0 / RESCALE, RESCALE)
     best = np.empty((0, 2))
     for _ in range(PASSES):
-        X, H, prio = _patch_lattices(domain, anisotropy, h, Lbar)
-        inside = _inside_with_margin(domain, X, H, MARGIN * h)
-        X, H, prio = X[inside], H[inside], prio[inside]
-        i, j = (_conflicts_oriented(X, H, CONFLICT * h) if field
-                else _conflicts(X, H, CONFLICT * h, Lbar))
-        P = X[_luby(len(X), i, j, rng, prio)]
+        P = _draw(domain, anisotropy, h, Lbar, rng, field)
         if abs(len(P) - n) < abs(len(best) - n):
             best = P
         if low <= len(P) <= high:
