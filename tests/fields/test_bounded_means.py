@@ -64,19 +64,24 @@ def test_the_enclosure_holds_the_value_and_derivatives_at_every_point_of_the_box
     half = 10.0 ** rng.uniform(-6, -0.3, (k, 2))
     X, Y = (centre[:, 0] - half[:, 0], centre[:, 0] + half[:, 0]), (centre[:, 1] - half[:, 1],
                                                                      centre[:, 1] + half[:, 1])
-    node = intervals.evaluate(form, X, Y)
-    funcs = _derivatives(form)
-    for _ in range(6):
+    assert_enclosed(intervals.evaluate(form, X, Y), _derivatives(form), centre, half, rng, text)
+
+
+def assert_enclosed(node, funcs, centre, half, rng, label, draws=6):
+    """Each of `funcs` (value, gradient, Hessian) at random points of the boxes centre ± half
+    lies in its enclosure in `node`, but for the reference's own round-off (SymPy's order of
+    operations: a relative 1e-9)."""
+    k = len(centre)
+    for _ in range(draws):
         u = rng.uniform(-1, 1, (k, 2))
         px, py = centre[:, 0] + u[:, 0] * half[:, 0], centre[:, 1] + u[:, 1] * half[:, 1]
         for (lo, hi), f in zip(node, funcs):
             with np.errstate(all="ignore"):
                 v = np.broadcast_to(np.asarray(f(px, py), dtype=float), (k,))
             ok = np.isfinite(v)
-            # the reference's own round-off (SymPy's order of operations): a relative 1e-9
             slack = 1e-9 * (1 + np.abs(v))
-            assert np.all(lo[ok] <= v[ok] + slack[ok]), (text, lo[ok], v[ok])
-            assert np.all(v[ok] - slack[ok] <= hi[ok]), (text, v[ok], hi[ok])
+            assert np.all(lo[ok] <= v[ok] + slack[ok]), (label, lo[ok], v[ok])
+            assert np.all(v[ok] - slack[ok] <= hi[ok]), (label, v[ok], hi[ok])
 
 
 def test_a_division_by_an_interval_holding_zero_is_unbounded_and_a_sign_is_not():

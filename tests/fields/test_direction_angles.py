@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 
 from qmesh.conductivity import intervals
 from qmesh.conductivity.expression import _to_sympy, check
+from tests.fields.test_bounded_means import assert_enclosed
 
 
 def _reference(k1, k2, angle):
@@ -50,16 +51,7 @@ def test_the_enclosures_hold_the_field_on_every_box(a, b, turns, rate, ratio, se
     Y = (centre[:, 1] - half[:, 1], centre[:, 1] + half[:, 1])
     nodes = intervals.evaluate_all(forms, X, Y)
     for node, funcs in zip(nodes, _reference(1.0, 1.0 / ratio, angle)):
-        for _ in range(5):
-            u = rng.uniform(-1, 1, (k, 2))
-            px, py = centre[:, 0] + u[:, 0] * half[:, 0], centre[:, 1] + u[:, 1] * half[:, 1]
-            for (lo, hi), f in zip(node, funcs):
-                with np.errstate(all="ignore"):
-                    v = np.broadcast_to(np.asarray(f(px, py), dtype=float), (k,))
-                ok = np.isfinite(v)
-                slack = 1e-9 * (1 + np.abs(v))
-                assert np.all(lo[ok] <= v[ok] + slack[ok]), (angle, lo[ok], v[ok])
-                assert np.all(v[ok] - slack[ok] <= hi[ok]), (angle, v[ok], hi[ok])
+        assert_enclosed(node, funcs, centre, half, rng, angle, draws=5)
 
 
 def test_a_box_across_the_polar_angle_s_jump_is_bounded():
