@@ -479,10 +479,11 @@ def _directions(f: tuple, turns: float) -> tuple:
 
 
 def _direction(u: Node, v: Node) -> Node:
-    """atan(u/v) to second order on the boxes where v keeps its sign, sgn(u)·π/2 − atan(v/u)
-    where v changes sign and u keeps its own: equal modulo π, and each bounded there with its
-    derivatives (those of atan(u/v), continuous across v = 0)."""
-    flip = _contains_zero(v[0]) & ~_contains_zero(u[0])
+    """atan(u/v) to second order, or sgn(u)·π/2 − atan(v/u) on the boxes where u keeps its sign
+    and stays farther from 0 than v does (v changing sign among them): equal modulo π, and the
+    quotient by the one farther from 0 has the narrower enclosures, its derivatives (those of
+    atan(u/v), continuous across v = 0) included."""
+    flip = ~_contains_zero(u[0]) & (_contains_zero(v[0]) | (_least(u[0]) > _least(v[0])))
     straight = _atan_of(_over(u, v))
     if not flip.any():
         return straight
@@ -496,6 +497,11 @@ def _direction(u: Node, v: Node) -> Node:
         b = _const(0.0, shape) if b is None else b
         out.append((np.where(flip, b[0], a[0]), np.where(flip, b[1], a[1])))
     return tuple(out)
+
+
+def _least(a: Interval) -> Array:
+    """min |t| over each interval (0 where it holds 0)."""
+    return np.where(_contains_zero(a), 0.0, np.minimum(np.abs(a[0]), np.abs(a[1])))
 
 
 def _atan_of(q: Node) -> Node:
