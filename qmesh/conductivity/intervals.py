@@ -435,26 +435,11 @@ def principal_forms(k1: tuple, k2: tuple, angle_deg: tuple) -> list[tuple]:
             ("+", ("*", k1, s2), ("*", k2, c2))]
 
 
-def _constant(f: tuple) -> float | None:
-    """The value of a form made of numbers only (None when it holds x or y or a function)."""
-    if f[0] == "num":
-        return f[1]
-    if f[0] == "neg":
-        a = _constant(f[1])
-        return None if a is None else -a
-    if f[0] in ("+", "-", "*", "/"):
-        a, b = _constant(f[1]), _constant(f[2])
-        if a is None or b is None or (f[0] == "/" and b == 0):
-            return None
-        return a + b if f[0] == "+" else a - b if f[0] == "-" else a * b if f[0] == "*" else a / b
-    return None
-
-
 def _directions(f: tuple, turns: float) -> tuple:
-    """`f` with each arctangent of a quotient u/v it holds as a term of `turns` · f worth a
-    whole, non-zero number of half turns marked ("direction", u, v): atan(u/v) and
-    sgn(u)·π/2 − atan(v/u) differ by a multiple of π, so either may stand for it in a
-    quantity of period π — the one whose quotient is bounded on each box (`_direction`)."""
+    """`f` (checked: its numbers folded, `expression.check`) with each arctangent of a quotient
+    u/v it holds as a term of `turns` · f worth a whole, non-zero number of half turns marked
+    ("direction", u, v): atan(u/v) and sgn(u)·π/2 − atan(v/u) differ by a multiple of π, so
+    either may stand for it in a quantity of period π (`_direction` picks one on each box)."""
     kind = f[0]
     if kind in ("+", "-"):
         return (kind, _directions(f[1], turns), _directions(f[2], turns))
@@ -462,14 +447,14 @@ def _directions(f: tuple, turns: float) -> tuple:
         return ("neg", _directions(f[1], -turns))
     if kind == "*":
         for i, j in ((1, 2), (2, 1)):
-            c = _constant(f[i])
+            c = f[i][1] if f[i][0] == "num" else None
             if c is not None and c != 0:
                 parts = [f[1], f[2]]
                 parts[j - 1] = _directions(f[j], turns * c)
                 return ("*", parts[0], parts[1])
         return f
     if kind == "/":
-        c = _constant(f[2])
+        c = f[2][1] if f[2][0] == "num" else None
         return f if c is None or c == 0 else ("/", _directions(f[1], turns / c), f[2])
     if kind == "call" and f[1] in ("atan", "arctan") and f[2][0] == "/":
         k = round(turns)                     # a jump of π in atan(u/v) moves turns · f by k·π
