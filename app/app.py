@@ -52,7 +52,7 @@ from . import connect, delivery, legend
 from .controller import PARAMS, status_text
 from .draw import VIEWS, ViewSet, view_scene
 from .problem import DISK, S_PRESETS
-from .session import Outcome, Session, describe
+from .session import Outcome, Session, check_run_pause, describe
 
 TITLE = "qmesh-view — triangle meshes shaped by a conductivity Q"
 TITLE_TIP = ("Q-adapted meshes: Algorithm 2.1 of the chapter, a mesh whose every stiffness "
@@ -130,13 +130,16 @@ class QmeshView(TrameApp):
     """The web GUI: parameter drawer, Step/Iterate/Run/Reset, history slider, three views."""
 
     def __init__(self, server=None, view_mode: str = "remote", memory_budget: int | None = None,
-                 session: Session | None = None, **params):
+                 session: Session | None = None, run_pause: float = 0.0, **params):
         """Either the parameters of a new Session (`memory_budget`, `**params`) or a `session`
-        made beforehand (the command line checks its arguments that way, before VTK loads)."""
+        made beforehand (the command line checks its arguments that way, before VTK loads).
+        `run_pause`: seconds Run holds each stage before asking for the next (0: as fast as the
+        mesher goes), to watch the algorithm step by step."""
         if session is not None and (params or memory_budget is not None):
             raise QmeshError("give either a session or the parameters of a new one, not both")
         if view_mode not in VIEW_MODES:
             raise QmeshError(f"view_mode must be one of {VIEW_MODES}, got {view_mode!r}")
+        self.run_pause = check_run_pause(run_pause)
         super().__init__(server, client_type="vue3")
         self.view_mode = view_mode
         self.session = session if session is not None else Session(memory_budget=memory_budget,
@@ -314,8 +317,9 @@ class QmeshView(TrameApp):
             return outcome
         return await self._work(act)
 
-    async def _act(self, action):
-        """Busy while: the session's `action` (worker) → draw (loop) → measure (worker).
+    async def _act(self, action, then=None):
+        """Busy while: the session's `action` (worker) → draw (loop) → measure (worker), then
+        `then()` (controls that follow the action), so that idle means the page is complete.
 
         Returns the Outcome; a refusal keeps the picture and shows its message.
         """
@@ -335,6 +339,8 @@ class QmeshView(TrameApp):
             self._messages()
             return outcome
         finally:
+            if then is not None:
+                then()
             with self.state:
                 self.state.busy = False
             self._redraw_changed_options()
@@ -487,7 +493,8 @@ class QmeshView(TrameApp):
         measure = False
         self._drawer, self._wanted = None, None
         try:
-            outcome = await self.session.run(self._run_stage, work=self._stage_work, pause=0)
+            outcome = await self.session.run(self._run_stage, work=self._stage_work,
+                                             pause=self.run_pause)
             if self._drawer is not None:
                 await self._drawer
             if self._drawn != (self.session.controller, self.session.index):   # where it stopped
@@ -592,8 +599,13 @@ class QmeshView(TrameApp):
         if isinstance(content, Exception):
             self.session.action_messages = [f"the uploaded file could not be read: {content}"]
             self._messages()
+            self._offer_domains()
         else:
-            await self._act(lambda: self.session.upload(name, content))
+            await self._act(lambda: self.session.upload(name, content), then=self._offer_domains)
+
+    def _offer_domains(self) -> None:
+        """The domain list names what is on screen (an upload added to it) and the file field
+        is cleared either way."""
         with self.state:
             self.state.domain_file = None
             self.state.domain_items = self.session.domain_names()

@@ -43,6 +43,15 @@ def vertex_count(text: str) -> int:
         raise argparse.ArgumentTypeError(str(e)) from None
 
 
+def run_pause(text: str) -> float:
+    """Seconds from 0 to 60 (argparse type)."""
+    from .session import check_run_pause
+    try:
+        return check_run_pause(text)
+    except QmeshError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+
+
 def domain_help() -> str:
     """--domain's help: every preset the viewer offers, by kind, from `problem` itself (the
     named shapes, the media, the fields), so none is left out."""
@@ -90,6 +99,9 @@ def parser() -> argparse.ArgumentParser:
                         "estimated cost (mesher, kept stages, measures, views) would not fit "
                         "beside what the server holds is refused, naming the largest target that "
                         "fits (default: half the memory available when the request is made)")
+    p.add_argument("--run-pause", type=run_pause, default=0.0, metavar="SECONDS",
+                   help="hold each stage of Run on screen this long, to watch the algorithm "
+                        "step by step (default 0: as fast as the mesher goes)")
     return p
 
 
@@ -103,7 +115,7 @@ def main(argv: list[str] | None = None) -> int:
         session = Session(vb=args.vb, target_vertices=args.target_vertices, domain=args.domain,
                           memory_budget=args.memory_budget, **extra)
         from .app import QmeshView          # after the environment: imports VTK
-        view = QmeshView(view_mode=args.views, session=session)
+        view = QmeshView(view_mode=args.views, session=session, run_pause=args.run_pause)
     except QmeshError as e:
         print(f"qmesh-view: error: {e}", file=sys.stderr)
         return 2

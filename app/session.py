@@ -36,6 +36,19 @@ from .problem import FILE_PREFIX, domain_names, read_upload
 
 REGION_WORD = re.compile(r"\bregion (\d+)\b(?! \()")
 RUN_PAUSE = 0.05     # seconds between animated stages, so every frame reaches the screen
+MAX_RUN_PAUSE = 60.0  # seconds: Run's longest hold per stage the viewer accepts
+
+
+def check_run_pause(value) -> float:
+    """Seconds Run holds each stage: a number from 0 to MAX_RUN_PAUSE, else a QmeshError."""
+    try:
+        pause = float(value)
+    except (TypeError, ValueError):
+        raise QmeshError(f"the run pause must be a number of seconds, got {value!r}") from None
+    if not 0 <= pause <= MAX_RUN_PAUSE:
+        raise QmeshError(f"the run pause must be from 0 to {MAX_RUN_PAUSE:g} seconds, "
+                         f"got {value!r}")
+    return pause
 LABELS = {"vb": "VB", "target_vertices": "target vertices"}
 
 

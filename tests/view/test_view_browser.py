@@ -24,7 +24,7 @@ def _iteration_stage(line):
 
 @pytest.mark.slow
 def test_app_session_in_chromium():
-    with b.qmesh_view_server() as url, b.chromium_page(url) as page:
+    with b.qmesh_view_server("--run-pause", "0.5") as url, b.chromium_page(url) as page:
         start = b.wait_drawn(page)
         b.wait_idle(page)
         b.save(page, "browser-0-start")
@@ -99,8 +99,8 @@ def test_app_session_in_chromium():
         assert b.mean_diff(b.view_image(page, "lifted"), before["lifted"]) < 1.0
         b.save(page, "browser-5-zoomed")
 
-        # Run animates stage after stage until Stop (at 20,000 vertices: at 212 a whole run
-        # ends in a fraction of a second, before a click on Stop could land)
+        # Run animates stage after stage until Stop (the server holds each stage 0.5 s: a whole
+        # run at 20,000 vertices ends in a fraction of a second, before a click could land)
         b.wait_idle(page)
         target = page.locator("#field-target input")
         target.fill("20000")

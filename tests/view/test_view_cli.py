@@ -56,6 +56,14 @@ def test_memory_budget_option_reads_sizes_and_refuses_nonsense():
             parser().parse_args([f"--memory-budget={bad}"])
 
 
+def test_run_pause_reads_seconds_and_refuses_nonsense():
+    assert parser().parse_args([]).run_pause == 0.0
+    assert parser().parse_args(["--run-pause", "0.5"]).run_pause == 0.5
+    for bad in ("-1", "nan", "61", "slow", "inf"):
+        with pytest.raises(SystemExit):
+            parser().parse_args([f"--run-pause={bad}"])
+
+
 def test_domain_and_s_options():
     args = parser().parse_args(["--domain", "L-shape", "--s", "exp(x) + y**2"])
     assert (args.domain, args.s_text) == ("L-shape", "exp(x) + y**2")
