@@ -37,6 +37,7 @@ import asyncio
 import functools
 import math
 import threading
+import time
 from concurrent.futures import ThreadPoolExecutor
 
 from trame.app import TrameApp, asynchronous
@@ -83,6 +84,9 @@ QUICK_FIRST = 20_000       # vertices up to which Step computes a stage's quick 
 MEASURE_AFTER = 0.1        # seconds from the pictures sent to the measurements started: the
 #                            browser shows them first (the status and chart updates that follow
 #                            the measurements made it decode the last picture later)
+FIRST_PICTURE = 0.25       # seconds: a Run (without a pause) draws nothing on its way before
+#                            this; one that ends sooner shows its last stage only (a picture on
+#                            the way would hold the last one back until it was drawn)
 
 
 def convergence_chart(series: dict, field: bool = False) -> dict:
@@ -156,6 +160,7 @@ class QmeshView(TrameApp):
         self._drawn = None                # (run, stage index) the views show
         self._drawer, self._wanted = None, None   # a run's drawing task and its newest stage
         self._drawing = threading.Event()  # set while that task draws (the worker meshes on)
+        self._run_started = 0.0           # time.monotonic() at the start of the last Run
         self._init_state()
         self.views.draw(self.session.current, self.session.anisotropy, **self._view_options())
         self._build_ui()
@@ -405,10 +410,12 @@ class QmeshView(TrameApp):
     async def _run_stage(self, outcome) -> None:
         """After each stage of a run: draw it while the mesher goes on (in the worker), and
         when the views are free again draw the newest stage, leaving out those meshed meanwhile
-        (they stay in the history). The run asks for the next stage as soon as this returns (no
-        pause of its own), before the drawing starts."""
+        (they stay in the history); none in a Run's first FIRST_PICTURE seconds unless it pauses.
+        The run asks for the next stage as soon as this returns, before the drawing starts."""
         c = self.session
         self._wanted = c.index
+        if not self.run_pause and time.monotonic() - self._run_started < FIRST_PICTURE:
+            return
         if self._drawer is None or self._drawer.done():
             self._drawing.set()
             self._drawer = asynchronous.create_task(self._draw_wanted())
@@ -492,6 +499,7 @@ class QmeshView(TrameApp):
             self.state.running = True
         measure = False
         self._drawer, self._wanted = None, None
+        self._run_started = time.monotonic()
         try:
             outcome = await self.session.run(self._run_stage, work=self._stage_work,
                                              pause=self.run_pause)
