@@ -84,6 +84,9 @@ QUICK_FIRST = 20_000       # vertices up to which Step computes a stage's quick 
 MEASURE_AFTER = 0.1        # seconds from the pictures sent to the measurements started: the
 #                            browser shows them first (the status and chart updates that follow
 #                            the measurements made it decode the last picture later)
+AHEAD_UP_TO = 5_000        # target vertices up to which the worker meshes a run's next stages
+#                            while the page is idle (Step and Run then show them at once; each
+#                            stage is a few milliseconds there, so a click waits for at most one)
 FIRST_PICTURE = 0.25       # seconds: a Run (without a pause) draws nothing on its way before
 #                            this; one that ends sooner shows its last stage only (a picture on
 #                            the way would hold the last one back until it was drawn)
@@ -161,10 +164,12 @@ class QmeshView(TrameApp):
         self._drawer, self._wanted = None, None   # a run's drawing task and its newest stage
         self._drawing = threading.Event()  # set while that task draws (the worker meshes on)
         self._run_started = 0.0           # time.monotonic() at the start of the last Run
+        self._ahead_task = None           # meshing the run's next stages while idle
         self._init_state()
         self.views.draw(self.session.current, self.session.anisotropy, **self._view_options())
         self._build_ui()
         self.server.controller.on_server_ready.add(self._fast_image_delivery)
+        self.server.controller.on_server_ready.add(lambda **_: self._mesh_ahead_soon())
         connect.answer_launcher(self.server)        # no 405 in the page's console
         self._link_cameras()
         for name in SLIDER_PARAMS:
@@ -315,7 +320,7 @@ class QmeshView(TrameApp):
             while (outcome.kind == "applied" and self._drawing.is_set() and c.running
                    and not c.stopping and not c.at_end):
                 outcome = action()
-            if outcome.ok:
+            if outcome.ok and (not c.running or c.at_end or not self._in_first_picture()):
                 c.controller.warm()        # a field's means of the stage drawn next, here
                 if figures or c.current.mesh.n_vertices <= QUICK_FIRST:
                     c.status(quick=True)
@@ -349,6 +354,24 @@ class QmeshView(TrameApp):
             with self.state:
                 self.state.busy = False
             self._redraw_changed_options()
+            self._mesh_ahead_soon()
+
+    def _mesh_ahead_soon(self) -> None:
+        """Once idle: mesh the shown run's next stages in the worker (`Controller.ahead`)."""
+        if self._ahead_task is None or self._ahead_task.done():
+            self._ahead_task = asynchronous.create_task(self._mesh_ahead())
+
+    async def _mesh_ahead(self) -> None:
+        """A small run's stages meshed one by one while nothing else is asked of the worker:
+        each stage is a separate task, so an action waits for at most one; a new run (a
+        changed parameter) or any work in hand ends it, and the next idle moment starts it
+        again."""
+        run = self.session.controller
+        if run.params.target_vertices > AHEAD_UP_TO:
+            return
+        while (run is self.session.controller and not self.state.busy
+               and not self.state.running and not run.all_meshed):
+            await self._work(run.ahead)
 
     def _redraw_changed_options(self) -> None:
         """Once the work in hand is done: redraw for a view option changed meanwhile."""
@@ -414,11 +437,15 @@ class QmeshView(TrameApp):
         The run asks for the next stage as soon as this returns, before the drawing starts."""
         c = self.session
         self._wanted = c.index
-        if not self.run_pause and time.monotonic() - self._run_started < FIRST_PICTURE:
+        if self._in_first_picture():
             return
         if self._drawer is None or self._drawer.done():
             self._drawing.set()
             self._drawer = asynchronous.create_task(self._draw_wanted())
+
+    def _in_first_picture(self) -> bool:
+        """True in a Run's first FIRST_PICTURE seconds (without a pause): no stage drawn yet."""
+        return not self.run_pause and time.monotonic() - self._run_started < FIRST_PICTURE
 
     async def _draw_wanted(self) -> None:
         """Draw the newest stage a run asked for until the views show it (`_drawing` set
@@ -529,6 +556,7 @@ class QmeshView(TrameApp):
                 with self.state:
                     self.state.busy = False
                 self._redraw_changed_options()       # a view option changed while measuring
+                self._mesh_ahead_soon()
 
     # ------------------------------------------------------------------ reactions
     @change("history_index")

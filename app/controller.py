@@ -19,6 +19,7 @@ import qmesh
 from qmesh import measure
 from qmesh.errors import QmeshError
 
+from .ahead import Ahead
 from .problem import (DISK, Q_MODES, S_PRESETS, default_target, element_means, field_text,
                       is_field_conductivity, make_anisotropy, make_domain, q_matrix, regions,
                       regions_text)
@@ -217,8 +218,9 @@ class Controller:
         p = self.params
         self._anisotropy = make_anisotropy(p)
         self._domain = make_domain(p, self.uploads)
-        self._gen = qmesh.iterate(self._domain, self._anisotropy,
-                                  target_vertices=p.target_vertices, alpha=p.alpha, seed=p.seed)
+        self._gen = Ahead(qmesh.iterate(self._domain, self._anisotropy,
+                                        target_vertices=p.target_vertices, alpha=p.alpha,
+                                        seed=p.seed))
         self.history: list[qmesh.Step] = []
         self._cache.clear()
         self._figures.clear()
@@ -271,6 +273,23 @@ class Controller:
             self.index += 1
             return True
         return False
+
+    def ahead(self) -> bool:
+        """Mesh the run's next stage before it is asked for (the app's worker, while the page is
+        idle): `step()` then shows it at once, with the warnings it raised. False when the
+        whole run is meshed. Not for large runs: every stage meshed ahead is kept."""
+        return not self.done and self._gen.ahead()
+
+    @property
+    def meshed_ahead(self) -> int:
+        """Stages (or the run's end) meshed ahead and not shown yet."""
+        return self._gen.kept
+
+    @property
+    def all_meshed(self) -> bool:
+        """True when nothing is left to mesh: the run has ended, or has been meshed ahead to its
+        end."""
+        return self.done or self._gen.exhausted
 
     def warm(self) -> None:
         """A field: compute the shown stage's element means now (the caller's thread: the app's
