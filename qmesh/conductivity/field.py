@@ -508,8 +508,8 @@ class TensorField:
         step = _m.CHUNK // 4
         for s in range(0, len(T), step):
             t = T[s:s + step]
-            kids = bound(*_m._children(P[t[:, 0]], P[t[:, 1]], P[t[:, 2]]))
-            out[s:s + step] = 0.25 * kids.reshape(4, -1).sum(axis=0)
+            out[s:s + step] = _m.children_bound(bound, *_m._children(P[t[:, 0]], P[t[:, 1]],
+                                                                      P[t[:, 2]]))
         return out
 
     @property

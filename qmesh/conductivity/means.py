@@ -213,6 +213,25 @@ def _bound_chunked(bound: Bound, A: Array, B: Array, C: Array) -> Array:
                            for s in range(0, len(A), CHUNK)])
 
 
+SUM_ROUND = 1e-10
+"""Relative widening of a sum of proven bounds (at most 4^BOUND_DEPTH · 4 terms a triangle, each
+sum's round-off below n·2^-53 of it): the sum stays an upper bound whatever the order."""
+
+
+def children_bound(bound: Bound, KA: Array, KB: Array, KC: Array) -> Array:
+    """The proven error of the fine average of k pieces, from their 4 midpoint children stacked
+    as `_children` stacks them (4k, 2): the fine average is the mean of the rule on each child,
+    a rule with positive weights, exact for degree 2, whose points lie in the child, so its error
+    is at most the mean of the children's `bound`s (∞ where one is). A piece's own box is about
+    twice a child's, so this is about 8 times tighter than `bound` of the piece for the cost of 4
+    enclosures, and it asks for no more samples than the fine average already took."""
+    k = len(KA) // 4
+    kids = _bound_chunked(bound, KA, KB, KC)
+    with np.errstate(all="ignore"):
+        out = 0.25 * (kids[:k] + kids[k:2 * k] + kids[2 * k:3 * k] + kids[3 * k:]) * (1.0 + SUM_ROUND)
+    return np.where(np.isnan(out), np.inf, out)
+
+
 def longest_edges(A: Array, B: Array, C: Array) -> Array:
     """The longest edge of each triangle (k,)."""
     return np.maximum(np.maximum(np.hypot(*(B - A).T), np.hypot(*(C - B).T)), np.hypot(*(A - C).T))
@@ -283,8 +302,9 @@ def adaptive_means(evaluate: Evaluate, A: Array, B: Array, C: Array, rtol: float
         if bound is not None:
             e = np.zeros(k)                   # a piece of a resolved one: resolved (see above)
             ask = np.flatnonzero(~known)
-            if len(ask):
-                e[ask] = _bound_chunked(bound, A[ask], B[ask], C[ask])
+            if len(ask):                      # its fine average's: its children's enclosures
+                rows = (np.arange(4)[:, None] * k + ask).ravel()
+                e[ask] = children_bound(bound, KA[rows], KB[rows], KC[rows])
             if level >= BOUND_DEPTH:          # unbounded this deep: a point the text divides by 0
                 e = np.where(np.isfinite(e), e, d)
             btol = bound_rtol * size + atol
@@ -316,7 +336,7 @@ def adaptive_means(evaluate: Evaluate, A: Array, B: Array, C: Array, rtol: float
         owner = np.tile(owner[split], 4)
         if bound is not None:
             known = np.tile(resolved[split], 4)
-    return total, (rule_err if bound is None else err)
+    return total, (rule_err if bound is None else err * (1.0 + SUM_ROUND))
 
 
 GAUSS_BOX_POINTS = 4
