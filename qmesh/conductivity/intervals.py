@@ -4,10 +4,13 @@ A quadrature that compares samples cannot see what lies between them (a jump no 
 straddles, a bump narrower than their spacing), so the error bound of a text formula's element
 means comes from here (`means.adaptive_means`'s `bound`). The checked form of a text
 (`expression.check`: numbers, x, y, + − * / **, unary −, the whitelisted functions) is evaluated
-on intervals [lo, hi], vectorised over boxes, in forward mode to second order: every node gives
-an enclosure of its value, its gradient and its Hessian over the box (an exact zero, the
-derivatives of a number or of x and y, is carried as None and costs nothing; a subexpression the
-forms share is enclosed once). Every result is widened outward — by at least one ulp after
+on intervals [lo, hi], vectorised over boxes, in forward mode to third order: every node gives
+an enclosure of its value, its gradient, its Hessian and its third derivatives over the box
+(`DERIVATIVES`; Leibniz's rule for products and quotients, Faà di Bruno's for functions; an exact
+zero, the derivatives of a number or of x and y, is carried as None and costs nothing; a
+subexpression the forms share is enclosed once). The third derivatives are what lets the error
+bound (`means.enclosure_bound`) subtract the cubic Taylor polynomial, which the degree-5 rule
+integrates exactly, so its remainder falls as the fourth power of a piece's size. Every result is widened outward — by at least one ulp after
 + − × ÷, by a few ulps plus the smallest normal after a function (NumPy's and
 `geometry.portable`'s functions agree with the true one to a few ulps) — so the enclosure holds
 whatever the CPU's last bits; the functions are `portable`'s, so the enclosure itself is the same
@@ -35,7 +38,7 @@ from qmesh.geometry import portable
 
 Array = NDArray[np.float64]
 Interval = tuple[Array, Array]
-Node = tuple[Interval, ...]     # value, ∂x, ∂y, ∂xx, ∂xy, ∂yy
+Node = tuple[Interval, ...]     # value, ∂x, ∂y, ∂xx, ∂xy, ∂yy[, ∂xxx, ∂xxy, ∂xyy, ∂yyy]
 Zeroable = Interval | None      # None: an exact 0 (a derivative of a number, ∂x/∂y, ...)
 
 ULPS = 1e-15          # relative widening after a function (4–9 ulps each side)
@@ -256,43 +259,48 @@ VALUES = {
 }
 
 
-def _slopes(name: str, u: Interval, value: Interval) -> tuple[Interval, Interval]:
-    """Enclosures of f'(u) and f''(u) over u, given f(u)'s (`value`); f'' is the whole line
-    where f has a kink in u (`abs` across 0: its second derivative is a Dirac mass there)."""
+def _slopes(name: str, u: Interval, value: Interval, order: int = 3) -> list[Zeroable]:
+    """Enclosures of f', f'' and f''' over u (the first `order` of them), given f(u)'s (`value`);
+    f'' and f''' are the whole line where f has a kink in u (`abs` across 0: its second
+    derivative is a Dirac mass there)."""
     shape = u[0].shape
     one, two = _const(1.0, shape), _const(2.0, shape)
+    d3: Zeroable = None
     if name == "exp":
-        return value, value
-    if name == "log":
-        d1 = div(one, u)
-        return d1, neg(whole_power(d1, 2))
-    if name == "log1p":
-        d1 = div(one, add(one, u))
-        return d1, neg(whole_power(d1, 2))
-    if name == "sqrt":
+        d1 = d2 = d3 = value
+    elif name in ("log", "log1p"):
+        d1 = div(one, u if name == "log" else add(one, u))
+        d2 = neg(whole_power(d1, 2))
+        if order > 2:
+            d3 = mul(two, whole_power(d1, 3))
+    elif name == "sqrt":
         d1 = div(_const(0.5, shape), value)
-        return d1, div(neg(d1), mul(two, u))
-    if name == "sin":
-        return cos(u), neg(value)
-    if name == "cos":
-        return neg(sin(u)), neg(value)
-    if name == "tan":
-        d1 = add(one, whole_power(value, 2))
-        return d1, mul(mul(two, value), d1)
-    if name == "sinh":
-        return cosh(u), value
-    if name == "cosh":
-        return VALUES["sinh"](u), value
-    if name == "tanh":
-        d1 = sub(one, whole_power(value, 2))
-        return d1, neg(mul(mul(two, value), d1))
-    if name in ("arctan", "atan"):
-        d1 = div(one, add(one, whole_power(u, 2)))
-        return d1, neg(mul(mul(two, u), whole_power(d1, 2)))
-    assert name == "abs"
-    z = _contains_zero(u)
-    d1 = np.where(z | (u[0] < 0), -1.0, 1.0), np.where(z | (u[1] > 0), 1.0, -1.0)
-    return d1, (np.where(z, -INF, 0.0), np.where(z, INF, 0.0))
+        d2 = div(neg(d1), mul(two, u))
+        if order > 2:                                   # (√u)''' = −(3/2) (√u)'' / u
+            d3 = mul(_const(-1.5, shape), div(d2, u))
+    elif name in ("sin", "cos"):
+        d1 = cos(u) if name == "sin" else neg(sin(u))
+        d2, d3 = neg(value), neg(d1)
+    elif name in ("tan", "tanh"):                       # f' = 1 ± f², f'' = ±2 f f',
+        sign = 1.0 if name == "tan" else -1.0           # f''' = ±2 (f'² + f f'')
+        d1 = (add if name == "tan" else sub)(one, whole_power(value, 2))
+        d2 = mul(_const(2.0 * sign, shape), mul(value, d1))
+        if order > 2:
+            d3 = mul(_const(2.0 * sign, shape), add(whole_power(d1, 2), mul(value, d2)))
+    elif name in ("sinh", "cosh"):
+        d1 = cosh(u) if name == "sinh" else VALUES["sinh"](u)
+        d2, d3 = value, d1
+    elif name in ("arctan", "atan"):                    # f' = 1/(1 + u²), f'' = −2u f'²,
+        d1 = div(one, add(one, whole_power(u, 2)))      # f''' = (6u² − 2) f'³
+        d2 = neg(mul(mul(two, u), whole_power(d1, 2)))
+        if order > 2:
+            d3 = mul(sub(mul(_const(6.0, shape), whole_power(u, 2)), two), whole_power(d1, 3))
+    else:
+        assert name == "abs"
+        z = _contains_zero(u)
+        d1 = np.where(z | (u[0] < 0), -1.0, 1.0), np.where(z | (u[1] > 0), 1.0, -1.0)
+        d2 = d3 = (np.where(z, -INF, 0.0), np.where(z, INF, 0.0))
+    return [d1, d2, d3][:order]
 
 
 def _sign_of(f: tuple) -> tuple | None:
@@ -312,51 +320,118 @@ def _sign_of(f: tuple) -> tuple | None:
     return None
 
 
-def _compose(v: Interval, d1: Interval, d2: Interval, u: Node) -> Node:
-    """f(u) from u's value and derivatives, f'(u) ∈ d1, f''(u) ∈ d2 (the chain rule to second
-    order: ∇f = f' ∇u, ∇²f = f'' ∇u ∇uᵀ + f' ∇²u)."""
-    _, gx, gy, hxx, hxy, hyy = u
-    return (v, mul(d1, gx), mul(d1, gy),
-            add(mul(d2, whole_power(gx, 2)), mul(d1, hxx)),
-            add(mul(d2, mul(gx, gy)), mul(d1, hxy)),
-            add(mul(d2, whole_power(gy, 2)), mul(d1, hyy)))
+def _compose(v: Interval, slopes: list[Zeroable], u: Node) -> Node:
+    """f(u) from u's value and derivatives, f^(k)(u) ∈ slopes[k − 1] (Faà di Bruno's formula to
+    the node's order: ∂_α f(u) = Σ over the partitions of α's directions into k blocks of
+    f^(k)(u) Π_blocks ∂_block u, e.g. ∇²f = f'' ∇u ∇uᵀ + f' ∇²u)."""
+    out = [v]
+    for terms in _FAA_DI_BRUNO[1:len(u)]:
+        total: Zeroable = None
+        for coef, k, factors in terms:
+            total = add(total, _scaled(coef, mul(slopes[k - 1], _product(u, factors))))
+        out.append(total)
+    return tuple(out)
 
 
 def _times(a: Node, b: Node) -> Node:
-    """a · b to second order."""
-    av, ax, ay, axx, axy, ayy = a
-    bv, bx, by, bxx, bxy, byy = b
-    return (mul(av, bv), add(mul(ax, bv), mul(av, bx)), add(mul(ay, bv), mul(av, by)),
-            add(add(mul(axx, bv), mul(_const(2.0, av[0].shape), mul(ax, bx))), mul(av, bxx)),
-            add(add(mul(axy, bv), add(mul(ax, by), mul(ay, bx))), mul(av, bxy)),
-            add(add(mul(ayy, bv), mul(_const(2.0, av[0].shape), mul(ay, by))), mul(av, byy)))
+    """a · b to the nodes' order (Leibniz: ∂_α(ab) = Σ_β≤α C(α, β) ∂_β a ∂_α−β b)."""
+    out = []
+    for terms in _LEIBNIZ[:len(a)]:
+        total: Zeroable = None
+        for coef, i, j in terms:
+            total = add(total, _scaled(coef, mul(a[i], b[j])))
+        out.append(total)
+    return tuple(out)
 
 
 def _over(a: Node, b: Node) -> Node:
-    """a / b to second order: q = a/b, ∇q = (∇a − q ∇b)/b,
-    ∇²q = (∇²a − q ∇²b − ∇q ∇bᵀ − ∇b ∇qᵀ)/b."""
-    av, ax, ay, axx, axy, ayy = a
-    bv, bx, by, bxx, bxy, byy = b
-    q = div(av, bv)
-    qx, qy = div(sub(ax, mul(q, bx)), bv), div(sub(ay, mul(q, by)), bv)
-    two = _const(2.0, av[0].shape)
-    return (q, qx, qy,
-            div(sub(sub(axx, mul(q, bxx)), mul(two, mul(qx, bx))), bv),
-            div(sub(sub(axy, mul(q, bxy)), add(mul(qx, by), mul(qy, bx))), bv),
-            div(sub(sub(ayy, mul(q, byy)), mul(two, mul(qy, by))), bv))
+    """q = a / b to the nodes' order, from a = q b by Leibniz, lowest orders first:
+    ∂_α q = (∂_α a − Σ_β<α C(α, β) ∂_β q ∂_α−β b) / b (∇q = (∇a − q ∇b)/b, ...)."""
+    q: list[Zeroable] = [div(a[0], b[0])]
+    for terms in _LEIBNIZ[1:len(a)]:
+        total = a[len(q)]
+        for coef, i, j in terms:
+            if i < len(q):                     # β < α: the term of ∂_α q itself is left out
+                total = sub(total, _scaled(coef, mul(q[i], b[j])))
+        q.append(div(total, b[0]))
+    return tuple(q)
 
 
-def evaluate(form: tuple, X: Interval, Y: Interval) -> Node:
-    """Enclosures of the value, the gradient (∂x, ∂y) and the Hessian (∂xx, ∂xy, ∂yy) of the
-    checked `form` over the boxes X × Y (each an interval of arrays of one shape)."""
-    return evaluate_all([form], X, Y)[0]
+def _scaled(c: int, a: Zeroable) -> Zeroable:
+    """c · a for a whole c ≥ 1."""
+    return a if c == 1 or a is None else mul(_const(float(c), a[0].shape), a)
 
 
-def evaluate_all(forms: list[tuple], X: Interval, Y: Interval) -> list[Node]:
+def _product(u: Node, factors: tuple[int, ...]) -> Zeroable:
+    """Π u[i] over `factors` (indices into u), a repeated one as a whole power (u_x² ≥ 0)."""
+    parts = [u[i] if factors.count(i) == 1 else whole_power(u[i], factors.count(i))
+             for i in sorted(set(factors))]
+    out = parts[0]
+    for p in parts[1:]:
+        out = mul(out, p)
+    return out
+
+
+DERIVATIVES = ((0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2), (3, 0), (2, 1), (1, 2), (0, 3))
+"""What a Node holds, as (times ∂x, times ∂y): the value, ∂x, ∂y, ∂xx, ∂xy, ∂yy, ∂xxx, ∂xxy,
+∂xyy, ∂yyy; a node of order 2 the first 6 of them."""
+ORDER = 3
+"""The order `evaluate_all` goes to by default: third derivatives (`means.enclosure_bound`'s
+cubic Taylor remainder)."""
+_AT = {d: i for i, d in enumerate(DERIVATIVES)}
+
+
+def _leibniz_terms() -> list[list[tuple[int, int, int]]]:
+    """For each derivative α: (C(α, β), index of β, index of α − β) over β ≤ α."""
+    return [[(math.comb(ax, bx) * math.comb(ay, by), _AT[(bx, by)], _AT[(ax - bx, ay - by)])
+             for bx in range(ax + 1) for by in range(ay + 1)] for ax, ay in DERIVATIVES]
+
+
+def _partitions(items: list[int]) -> list[list[list[int]]]:
+    """Every partition of `items` into non-empty blocks."""
+    if not items:
+        return [[]]
+    first, rest = items[0], items[1:]
+    out = []
+    for p in _partitions(rest):
+        out.append([[first]] + p)
+        for i in range(len(p)):
+            out.append(p[:i] + [[first] + p[i]] + p[i + 1:])
+    return out
+
+
+def _faa_di_bruno_terms() -> list[list[tuple[int, int, tuple[int, ...]]]]:
+    """For each derivative α: (how many partitions give it, k blocks, the blocks' derivative
+    indices) over the partitions of α's directions (x x y for ∂xxy) into k blocks."""
+    out = []
+    for ax, ay in DERIVATIVES:
+        directions = [0] * ax + [1] * ay
+        count: dict[tuple[int, tuple[int, ...]], int] = {}
+        for p in _partitions(list(range(ax + ay))) if ax + ay else []:
+            blocks = tuple(sorted(_AT[(sum(1 for i in b if directions[i] == 0),
+                                       sum(1 for i in b if directions[i] == 1))] for b in p))
+            count[(len(p), blocks)] = count.get((len(p), blocks), 0) + 1
+        out.append([(c, k, blocks) for (k, blocks), c in sorted(count.items())])
+    return out
+
+
+_LEIBNIZ = _leibniz_terms()
+_FAA_DI_BRUNO = _faa_di_bruno_terms()
+
+
+def evaluate(form: tuple, X: Interval, Y: Interval, order: int = ORDER) -> Node:
+    """Enclosures of the value, the gradient (∂x, ∂y), the Hessian (∂xx, ∂xy, ∂yy) and, to order
+    3, the third derivatives (∂xxx, ∂xxy, ∂xyy, ∂yyy) of the checked `form` over the boxes X × Y
+    (each an interval of arrays of one shape): `DERIVATIVES`' first 6 or 10."""
+    return evaluate_all([form], X, Y, order)[0]
+
+
+def evaluate_all(forms: list[tuple], X: Interval, Y: Interval, order: int = ORDER) -> list[Node]:
     """`evaluate` of each form, a subexpression they share (x² + y² in three components, the
     angle's cos and sin in a principal field's) enclosed once."""
     shape = X[0].shape
-    zero = None                       # an exact 0: the derivatives of numbers and of x, y
+    size = {2: 6, 3: 10}[order]
+    zeros = (None,) * (size - 3)      # an exact 0: the derivatives of numbers and of x, y
     one = _const(1.0, shape)
     seen: dict[tuple, Node] = {}
 
@@ -368,9 +443,9 @@ def evaluate_all(forms: list[tuple], X: Interval, Y: Interval) -> list[Node]:
     def _walk(f: tuple) -> Node:
         kind = f[0]
         if kind == "num":
-            return _const(f[1], shape), zero, zero, zero, zero, zero
+            return (_const(f[1], shape), None, None) + zeros
         if kind == "var":
-            return ((X, one, zero) if f[1] == "x" else (Y, zero, one)) + (zero, zero, zero)
+            return ((X, one, None) if f[1] == "x" else (Y, None, one)) + zeros
         if kind == "neg":
             return tuple(neg(a) for a in walk(f[1]))
         sign = _sign_of(f)
@@ -379,30 +454,30 @@ def evaluate_all(forms: list[tuple], X: Interval, Y: Interval) -> list[Node]:
             z = _contains_zero(v)
             val = (np.where(z | (v[0] < 0), -1.0, 1.0), np.where(z | (v[1] > 0), 1.0, -1.0))
             jump = (np.where(z, -INF, 0.0), np.where(z, INF, 0.0))
-            s = (val, jump, jump, jump, jump, jump)
+            s = (val,) + (jump,) * (size - 1)
             return s if sign[1] is None else _times(walk(sign[1]), s)
         if kind == "direction":                      # a polar angle mod π (principal_forms)
-            return _direction(walk(f[1]), walk(f[2]))
+            return _direction(walk(f[1]), walk(f[2]), order)
         if kind == "call":
             name = f[1]
             u = walk(f[2])
             v = VALUES[name](u[0])
-            return _compose(v, *_slopes(name, u[0], v), u)
+            return _compose(v, _slopes(name, u[0], v, order), u)
         if kind == "**" and f[2][0] == "num":
             u = walk(f[1])
             p = f[2][1]
             if p == 0:
-                return one, zero, zero, zero, zero, zero
-            if p == round(p) and abs(p) <= 64:
-                n = int(p)
-                v = whole_power(u[0], n)
-                d1 = mul(_const(p, shape), whole_power(u[0], n - 1))
-                d2 = mul(_const(p * (p - 1), shape), whole_power(u[0], n - 2))
-            else:
-                v = real_power(u[0], p)
-                d1 = mul(_const(p, shape), real_power(u[0], p - 1.0))
-                d2 = mul(_const(p * (p - 1), shape), real_power(u[0], p - 2.0))
-            return _compose(v, d1, d2, u)
+                return (one, None, None) + zeros
+            whole = p == round(p) and abs(p) <= 64
+
+            def power(k: int) -> Zeroable:           # p (p − 1) … (p − k + 1) u^(p − k)
+                c = math.prod(p - i for i in range(k))
+                if c == 0:                           # (u²)''' = 0: an exact 0, even at u = 0
+                    return None
+                uk = whole_power(u[0], int(p) - k) if whole else real_power(u[0], p - k)
+                return uk if k == 0 else mul(_const(c, shape), uk)
+
+            return _compose(power(0), [power(k) for k in range(1, order + 1)], u)
         if kind == "**":       # b ** e = exp(e · log b)
             return walk(("call", "exp", ("*", f[2], ("call", "log", f[1]))))
         a, b = walk(f[1]), walk(f[2])
@@ -463,18 +538,18 @@ def _directions(f: tuple, turns: float) -> tuple:
     return f
 
 
-def _direction(u: Node, v: Node) -> Node:
-    """atan(u/v) to second order, or sgn(u)·π/2 − atan(v/u) on the boxes where u keeps its sign
+def _direction(u: Node, v: Node, order: int = ORDER) -> Node:
+    """atan(u/v) to the nodes' order, or sgn(u)·π/2 − atan(v/u) on the boxes where u keeps its sign
     and stays farther from 0 than v does (v changing sign among them): equal modulo π, and the
     quotient by the one farther from 0 has the narrower enclosures, its derivatives (those of
     atan(u/v), continuous across v = 0) included."""
     flip = ~_contains_zero(u[0]) & (_contains_zero(v[0]) | (_least(u[0]) > _least(v[0])))
-    straight = _atan_of(_over(u, v))
+    straight = _atan_of(_over(u, v), order)
     if not flip.any():
         return straight
     shape = u[0][0].shape
     half = np.where(u[0][0] > 0, 0.5 * math.pi, -0.5 * math.pi)
-    turned = _atan_of(_over(v, u))
+    turned = _atan_of(_over(v, u), order)
     turned = (sub(_widen(half, half), turned[0]),) + tuple(neg(d) for d in turned[1:])
     out = []
     for a, b in zip(straight, turned):
@@ -489,7 +564,7 @@ def _least(a: Interval) -> Array:
     return np.where(_contains_zero(a), 0.0, np.minimum(np.abs(a[0]), np.abs(a[1])))
 
 
-def _atan_of(q: Node) -> Node:
-    """atan(q) to second order."""
+def _atan_of(q: Node, order: int = ORDER) -> Node:
+    """atan(q) to the node's order."""
     value = VALUES["atan"](q[0])
-    return _compose(value, *_slopes("atan", q[0], value), q)
+    return _compose(value, _slopes("atan", q[0], value, order), q)
