@@ -546,18 +546,46 @@ def _direction(u: Node, v: Node, order: int = ORDER) -> Node:
     quotient by the one farther from 0 has the narrower enclosures, its derivatives (those of
     atan(u/v), continuous across v = 0) included."""
     flip = ~_contains_zero(u[0]) & (_contains_zero(v[0]) | (_least(u[0]) > _least(v[0])))
-    straight = _atan_of(_over(u, v), order)
     if not flip.any():
-        return straight
+        return _atan_of(_over(u, v), order)
     shape = u[0][0].shape
-    half = np.where(u[0][0] > 0, 0.5 * math.pi, -0.5 * math.pi)
-    turned = _atan_of(_over(v, u), order)
+    if flip.all():
+        turned_at, straight_at = slice(None), np.zeros(0, np.intp)
+    else:                                    # each branch on its own boxes only
+        turned_at, straight_at = np.flatnonzero(flip), np.flatnonzero(~flip)
+    ut, vt = _take(u, turned_at), _take(v, turned_at)
+    half = np.where(ut[0][0] > 0, 0.5 * math.pi, -0.5 * math.pi)
+    turned = _atan_of(_over(vt, ut), order)
     turned = (sub(_widen(half, half), turned[0]),) + tuple(neg(d) for d in turned[1:])
+    if isinstance(turned_at, slice):
+        return turned
+    straight = _atan_of(_over(_take(u, straight_at), _take(v, straight_at)), order)
     out = []
     for a, b in zip(straight, turned):
-        a = _const(0.0, shape) if a is None else a
-        b = _const(0.0, shape) if b is None else b
-        out.append((np.where(flip, b[0], a[0]), np.where(flip, b[1], a[1])))
+        if a is None and b is None:
+            out.append(None)
+            continue
+        lo, hi = np.zeros(shape), np.zeros(shape)
+        for at, part in ((straight_at, a), (turned_at, b)):
+            if part is not None:
+                lo[at], hi[at] = part
+        out.append((lo, hi))
+    return tuple(out)
+
+
+def _take(node: Node, at: NDArray[np.intp] | slice) -> Node:
+    """The node on the boxes `at` (a point stays a point: `mul` tells it by its ends' identity)."""
+    if isinstance(at, slice):
+        return node
+    out = []
+    for e in node:
+        if e is None:
+            out.append(None)
+        elif e[0] is e[1]:
+            p = e[0][at]
+            out.append((p, p))
+        else:
+            out.append((e[0][at], e[1][at]))
     return tuple(out)
 
 
