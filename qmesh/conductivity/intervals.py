@@ -10,8 +10,8 @@ an enclosure of its value, its gradient, its Hessian and its third derivatives o
 zero, the derivatives of a number or of x and y, is carried as None and costs nothing; a
 subexpression the forms share is enclosed once). The third derivatives are what lets the error
 bound (`means.enclosure_bound`) subtract the cubic Taylor polynomial, which the degree-5 rule
-integrates exactly, so its remainder falls as the fourth power of a piece's size. Every result is widened outward — by at least one ulp after
-+ − × ÷, by a few ulps plus the smallest normal after a function (NumPy's and
+integrates exactly, so its remainder falls as the fourth power of a piece's size. Every result
+is widened outward — by at least one ulp after + − × ÷, by a few ulps plus the smallest normal after a function (NumPy's and
 `geometry.portable`'s functions agree with the true one to a few ulps) — so the enclosure holds
 whatever the CPU's last bits; the functions are `portable`'s, so the enclosure itself is the same
 on every CPU.
@@ -40,6 +40,14 @@ Array = NDArray[np.float64]
 Interval = tuple[Array, Array]
 Node = tuple[Interval, ...]     # value, ∂x, ∂y, ∂xx, ∂xy, ∂yy[, ∂xxx, ∂xxy, ∂xyy, ∂yyy]
 Zeroable = Interval | None      # None: an exact 0 (a derivative of a number, ∂x/∂y, ...)
+
+DERIVATIVES = ((0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2), (3, 0), (2, 1), (1, 2), (0, 3))
+"""What a Node holds, as (times ∂x, times ∂y): the value, ∂x, ∂y, ∂xx, ∂xy, ∂yy, ∂xxx, ∂xxy,
+∂xyy, ∂yyy; a node of order 2 the first 6 of them."""
+ORDER = 3
+"""The order `evaluate_all` goes to by default: third derivatives (`means.enclosure_bound`'s
+cubic Taylor remainder)."""
+_AT = {d: i for i, d in enumerate(DERIVATIVES)}
 
 ULPS = 1e-15          # relative widening after a function (4–9 ulps each side)
 TINY = 1e-300         # absolute widening after a function
@@ -275,7 +283,7 @@ VALUES = {
 }
 
 
-def _slopes(name: str, u: Interval, value: Interval, order: int = 3) -> list[Zeroable]:
+def _slopes(name: str, u: Interval, value: Interval, order: int = ORDER) -> list[Zeroable]:
     """Enclosures of f', f'' and f''' over u (the first `order` of them), given f(u)'s (`value`);
     f'' and f''' are the whole line where f has a kink in u (`abs` across 0: its second
     derivative is a Dirac mass there)."""
@@ -386,15 +394,6 @@ def _product(u: Node, factors: tuple[int, ...]) -> Zeroable:
     for p in parts[1:]:
         out = mul(out, p)
     return out
-
-
-DERIVATIVES = ((0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2), (3, 0), (2, 1), (1, 2), (0, 3))
-"""What a Node holds, as (times ∂x, times ∂y): the value, ∂x, ∂y, ∂xx, ∂xy, ∂yy, ∂xxx, ∂xxy,
-∂xyy, ∂yyy; a node of order 2 the first 6 of them."""
-ORDER = 3
-"""The order `evaluate_all` goes to by default: third derivatives (`means.enclosure_bound`'s
-cubic Taylor remainder)."""
-_AT = {d: i for i, d in enumerate(DERIVATIVES)}
 
 
 def _leibniz_terms() -> list[list[tuple[int, int, int]]]:

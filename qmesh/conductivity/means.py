@@ -135,8 +135,9 @@ BOUND_RTOL = 1e-2
 within this share of ‖Q̄_T‖ (the default of `bound_rtol` for a caller of
 `TensorField.means_with_error`), or `BOUND_DEPTH` is reached. What the enclosures prove shrinks
 as the fourth power of a piece's size (the third-order remainder), far slower than the rule's
-own error for a smooth field (the sixth power), so the repair does not prove every mean to one tolerance: it proves each to what
-its edges need (`fields.certify`), most with the enclosures of its 4 children alone."""
+own error for a smooth field (the sixth power), so the repair does not prove every mean to one
+tolerance: it proves each to what its edges need (`fields.certify`), most with the enclosures of
+its 4 children alone."""
 BOUND_DEPTH = 8
 """At most this many levels of subdivision for the bound (those of the rule, `MAX_DEPTH`): a jump
 line crossing a triangle keeps about 2^L of its 4^L pieces at level L, so what the line's pieces
@@ -154,8 +155,12 @@ every level: they would otherwise all go to BOUND_DEPTH)."""
 FIRST = 0.75       # ½ (½ + 1): the first-order bound's factor (`enclosure_bound`)
 SECOND = 0.3125    # ¼ (¼ + 1): the second-order one's (sup g − inf g gives 1 and ½)
 THIRD = 5.0 / 48.0  # (1/12) (¼ + 1): the third-order one's
-REACH_ULPS = 2.0 ** -49   # the centroid's round-off (c ≠ the exact one by a few ulps of |x|),
-                          # added to each reach r_i: 2δ for the moment about c, δ for r itself
+REACH_ULPS = 2.0 ** -49   # ≥ 3δ, δ ≤ 3·2^-53 |x| the rounded centroid's distance from the
+                          # exact one: added to each reach r_i, δ for r_i about the exact one,
+                          # 2δ more for the moment about c (r0²/4 + δ² ≤ (r0 + 2δ)²/4)
+SUM_ROUND = 1e-10
+"""Relative widening of a sum of proven bounds (at most 4^BOUND_DEPTH · 4 terms a triangle, each
+sum's round-off below n·2^-53 of it): the sum stays an upper bound whatever the order."""
 
 
 def enclosure_bound(forms: list[tuple]) -> Bound:
@@ -182,8 +187,8 @@ def enclosure_bound(forms: list[tuple]) -> Bound:
     - p the third-order Taylor polynomial at c with the midpoint third derivatives of their
       enclosure D (the same theorem one order up, its remainder (1/6) D³f(ξ)[d, d, d]):
       |g(x)| ≤ (1/12) Σ_ijk w(D_ijk) |d_i d_j d_k| over the 8 ordered triples (∂xxy thrice), so
-      |error| ≤ (1/12) Σ_ijk w(D_ijk) (r_i r_j r_k / 4 + r_i r_j r_k) = THIRD Σ_ijk w(D_ijk) r_i r_j r_k.
-      Its remainder falls as h⁴ with a piece's size h where the second order's falls as h³:
+      |error| ≤ (1/12) Σ_ijk w(D_ijk) (r_i r_j r_k / 4 + r_i r_j r_k)
+      = THIRD Σ_ijk w(D_ijk) r_i r_j r_k. Its remainder falls as h⁴ with a piece's size h where the second order's falls as h³:
       on the spiral and plasma fields of benchmarks/bench_fields.py the proof needs about a
       fifth of the pieces;
     plus a relative 1e-13 for the rule's own round-off, combined in the Frobenius norm and
@@ -233,11 +238,6 @@ def _bound_chunked(bound: Bound, A: Array, B: Array, C: Array) -> Array:
                            for s in range(0, len(A), CHUNK)])
 
 
-SUM_ROUND = 1e-10
-"""Relative widening of a sum of proven bounds (at most 4^BOUND_DEPTH · 4 terms a triangle, each
-sum's round-off below n·2^-53 of it): the sum stays an upper bound whatever the order."""
-
-
 def children_bound(bound: Bound, KA: Array, KB: Array, KC: Array) -> Array:
     """The proven error of the fine average of k pieces, from their 4 midpoint children stacked
     as `_children` stacks them (4k, 2): the fine average is the mean of the rule on each child,
@@ -248,7 +248,8 @@ def children_bound(bound: Bound, KA: Array, KB: Array, KC: Array) -> Array:
     k = len(KA) // 4
     kids = _bound_chunked(bound, KA, KB, KC)
     with np.errstate(all="ignore"):
-        out = 0.25 * (kids[:k] + kids[k:2 * k] + kids[2 * k:3 * k] + kids[3 * k:]) * (1.0 + SUM_ROUND)
+        out = 0.25 * (kids[:k] + kids[k:2 * k] + kids[2 * k:3 * k] + kids[3 * k:])
+        out *= 1.0 + SUM_ROUND
     return np.where(np.isnan(out), np.inf, out)
 
 
@@ -277,15 +278,15 @@ def adaptive_means(evaluate: Evaluate, A: Array, B: Array, C: Array, rtol: float
 
     With `bound` (a text formula: `enclosure_bound`), each piece's e_p, the mean of its 4
     children's bound(child) (`children_bound`), is a proven bound of the error of any rule on it
-    made of rules with positive weights, exact for degree 3, on each child: a piece
-    ends only when, beside the rule's test, it is resolved — e_p ≤ btol_T = bound_rtol ‖Q̄_T‖_F +
-    atol (`bound_rtol` a number or one per triangle), or its triangle's bound so far with every
-    live piece's 4^-L e_p is ≤ btol_T (then all of them are) — or at BOUND_DEPTH. A piece adds its 4^-L e_p
-    to the bound once: when it is resolved (its pieces are then resolved without a look: whatever
-    rules the quadrature ends with on them make one such rule on each child, within its e_p), or when it
-    ends unresolved (a jump crosses it); so the bound is proven, and a jump or a bump no sample
-    sees is in it. The one exception: a piece still unbounded at BOUND_DEPTH (the text divides by
-    zero at a point of it) adds the rule's estimate d_p.
+    made of rules with positive weights, exact for degree 3, on each child: a piece ends only
+    when, beside the rule's test, it is resolved — e_p ≤ btol_T = bound_rtol ‖Q̄_T‖_F + atol
+    (`bound_rtol` a number or one per triangle), or its triangle's bound so far with every live
+    piece's 4^-L e_p is ≤ btol_T (then all of them are) — or at BOUND_DEPTH. A piece adds its
+    4^-L e_p to the bound once: when it is resolved (its pieces are then resolved without a look:
+    whatever rules the quadrature ends with on them make one such rule on each child, within its
+    e_p), or when it ends unresolved (a jump crosses it); so the bound is proven, and a jump or a
+    bump no sample sees is in it. The one exception: a piece still unbounded at BOUND_DEPTH (the
+    text divides by zero at a point of it) adds the rule's estimate d_p.
 
     With `resolution` h (a callable, whose values between samples nothing bounds), a piece is
     split while its children's longest edge exceeds h, up to BOUND_DEPTH and outside the work
