@@ -55,12 +55,13 @@ INF = math.inf
 
 
 def _clean(lo: Array, hi: Array) -> Interval:
-    """NaN anywhere (∞ − ∞, 0 · ∞ of an unbounded operand): the whole line."""
+    """NaN anywhere (∞ − ∞, 0 · ∞ of an unbounded operand): the whole line. Each end's sum is
+    NaN only where it holds a NaN (or both infinities, never in a lower end unless overflowing),
+    so a whole line [−∞, ∞] met on the way does not send every later operation to the mask."""
     with np.errstate(all="ignore"):
-        both = lo + hi
-        if not np.isnan(np.add.reduce(both, axis=None)):   # no NaN in any row (one pass, no mask)
-            return lo, hi
-        bad = np.isnan(both)                # also where lo = −∞, hi = ∞ (the whole line anyway)
+        if not (np.isnan(np.add.reduce(lo, axis=None)) or np.isnan(np.add.reduce(hi, axis=None))):
+            return lo, hi                   # no NaN in any row (a pass an end, no mask)
+    bad = np.isnan(lo) | np.isnan(hi)
     if not bad.any():
         return lo, hi
     return np.where(bad, -INF, lo), np.where(bad, INF, hi)
@@ -150,13 +151,26 @@ def mul(a: Zeroable, b: Zeroable) -> Zeroable:
 
 def div(a: Zeroable, b: Interval) -> Zeroable:
     """a / b; the whole line where b holds 0 (an exact 0 over b elsewhere: an exact 0)."""
+    return _times_inverse(a, _inverse(b))
+
+
+def _inverse(b: Interval) -> tuple[Interval, NDArray[np.bool_], bool]:
+    """1/b rounded outward (1 where b holds 0), where b holds 0, and whether it does anywhere:
+    what `div` by b needs, computed once for the several numerators of a quotient's derivatives."""
     zero = (b[0] <= 0) & (b[1] >= 0)
-    if a is None:
-        return None if not zero.any() else (np.where(zero, -INF, 0.0), np.where(zero, INF, 0.0))
     with np.errstate(all="ignore"):
         inv = (np.where(zero, 1.0, 1.0 / b[1]), np.where(zero, 1.0, 1.0 / b[0]))
-    inv = _round(*inv)
+    return _round(*inv), zero, bool(zero.any())
+
+
+def _times_inverse(a: Zeroable, inverse: tuple[Interval, NDArray[np.bool_], bool]) -> Zeroable:
+    """a / b from b's `_inverse`."""
+    inv, zero, anywhere = inverse
+    if a is None:
+        return None if not anywhere else (np.where(zero, -INF, 0.0), np.where(zero, INF, 0.0))
     lo, hi = mul(a, inv)
+    if not anywhere:
+        return lo, hi
     return np.where(zero, -INF, lo), np.where(zero, INF, hi)
 
 
@@ -371,19 +385,25 @@ def _times(a: Node, b: Node) -> Node:
 def _over(a: Node, b: Node) -> Node:
     """q = a / b to the nodes' order, from a = q b by Leibniz, lowest orders first:
     ∂_α q = (∂_α a − Σ_β<α C(α, β) ∂_β q ∂_α−β b) / b (∇q = (∇a − q ∇b)/b, ...)."""
-    q: list[Zeroable] = [div(a[0], b[0])]
+    inverse = _inverse(b[0])
+    q: list[Zeroable] = [_times_inverse(a[0], inverse)]
     for terms in _LEIBNIZ[1:len(a)]:
         total = a[len(q)]
         for coef, i, j in terms:
             if i < len(q):                     # β < α: the term of ∂_α q itself is left out
                 total = sub(total, _scaled(coef, mul(q[i], b[j])))
-        q.append(div(total, b[0]))
+        q.append(_times_inverse(total, inverse))
     return tuple(q)
 
 
 def _scaled(c: int, a: Zeroable) -> Zeroable:
-    """c · a for a whole c ≥ 1."""
-    return a if c == 1 or a is None else mul(_const(float(c), a[0].shape), a)
+    """c · a for a whole c ≥ 1: both ends times c (c > 0 keeps their order), exact for a power of
+    two (an overflow to ±∞ only widens), else rounded outward."""
+    if c == 1 or a is None:
+        return a
+    with np.errstate(all="ignore"):
+        lo, hi = a[0] * float(c), a[1] * float(c)
+    return (lo, hi) if c & (c - 1) == 0 else _round(lo, hi)
 
 
 def _product(u: Node, factors: tuple[int, ...]) -> Zeroable:
