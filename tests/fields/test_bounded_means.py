@@ -77,9 +77,9 @@ def taylor_parts(f, x, y):
 
 
 def assert_enclosed(node, funcs, centre, half, rng, label, draws=6):
-    """Each of `funcs` (value, gradient, Hessian, third derivatives) at random points of the boxes centre ± half
-    lies in its enclosure in `node`, but for the reference's own round-off (SymPy's order of
-    operations: a relative 1e-9)."""
+    """Each of `funcs` (value, gradient, Hessian, third derivatives) at random points of the
+    boxes centre ± half lies in its enclosure in `node`, but for the reference's own round-off
+    (SymPy's order of operations: a relative 1e-9)."""
     k = len(centre)
     assert len(node) == len(funcs) == len(intervals.DERIVATIVES)
     for _ in range(draws):

@@ -17,7 +17,8 @@ from tests.fields.test_bounded_means import assert_enclosed, taylor_parts
 
 def _reference(k1, k2, angle):
     """For q11, q12, q22 of R diag(k1, k2) Rᵀ, R the rotation by the text `angle` in degrees:
-    their value, gradient, Hessian and third derivatives as functions, by SymPy (independent of `intervals`)."""
+    their value, gradient, Hessian and third derivatives as functions, by SymPy (independent of
+    `intervals`)."""
     theta, x, y = _to_sympy(check(angle, "angle"))
     t = sp.pi / 180 * theta
     c, s = sp.cos(t), sp.sin(t)
