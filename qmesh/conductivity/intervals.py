@@ -536,7 +536,8 @@ def principal_forms(k1: tuple, k2: tuple, angle_deg: tuple) -> list[tuple]:
     d = (k1 − k2)/2, t the angle in radians (k1 cos²t + k2 sin²t = m + d cos 2t, (k1 − k2) cos t
     sin t = d sin 2t: the function `TensorField.principal` evaluates, written with one cosine and
     one sine, whose enclosures do not multiply cos t and sin t as if they were independent — on
-    the spiral of benchmarks/bench_fields.py a fifth narrower, and fewer operations).
+    the spiral of benchmarks/bench_fields.py its pieces' bounds about 15% lower, and fewer
+    operations).
 
     Q depends on the angle modulo 180° only, so an arctangent of a quotient that the angle holds
     as a term of a whole number of half turns (`180/pi*atan(u/v)`, a polar angle as a direction)
