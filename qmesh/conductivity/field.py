@@ -496,7 +496,7 @@ class TensorField:
 
         Those means apply the degree-5 rule on each of the triangle's 4 midpoint children at
         least (`means.adaptive_means`), so on each child they are a rule with positive weights,
-        exact for degree 2, whose points lie in it, however far the child was refined: the
+        exact for degree 3, whose points lie in it, however far the child was refined: the
         error is at most the mean of the children's `means.enclosure_bound` (∞ where the text is
         unbounded on one). Four enclosures a triangle; the field is not evaluated."""
         bound = None if self._constant is not None else self._enclosure()
@@ -508,8 +508,8 @@ class TensorField:
         step = _m.CHUNK // 4
         for s in range(0, len(T), step):
             t = T[s:s + step]
-            kids = bound(*_m._children(P[t[:, 0]], P[t[:, 1]], P[t[:, 2]]))
-            out[s:s + step] = 0.25 * kids.reshape(4, -1).sum(axis=0)
+            out[s:s + step] = _m.children_bound(bound, *_m._children(P[t[:, 0]], P[t[:, 1]],
+                                                                      P[t[:, 2]]))
         return out
 
     @property

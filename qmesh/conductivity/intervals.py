@@ -4,11 +4,14 @@ A quadrature that compares samples cannot see what lies between them (a jump no 
 straddles, a bump narrower than their spacing), so the error bound of a text formula's element
 means comes from here (`means.adaptive_means`'s `bound`). The checked form of a text
 (`expression.check`: numbers, x, y, + − * / **, unary −, the whitelisted functions) is evaluated
-on intervals [lo, hi], vectorised over boxes, in forward mode to second order: every node gives
-an enclosure of its value, its gradient and its Hessian over the box (an exact zero, the
-derivatives of a number or of x and y, is carried as None and costs nothing; a subexpression the
-forms share is enclosed once). Every result is widened outward — by at least one ulp after
-+ − × ÷, by a few ulps plus the smallest normal after a function (NumPy's and
+on intervals [lo, hi], vectorised over boxes, in forward mode to third order: every node gives
+an enclosure of its value, its gradient, its Hessian and its third derivatives over the box
+(`DERIVATIVES`; Leibniz's rule for products and quotients, Faà di Bruno's for functions; an exact
+zero, the derivatives of a number or of x and y, is carried as None and costs nothing; a
+subexpression the forms share is enclosed once). The third derivatives are what lets the error
+bound (`means.enclosure_bound`) subtract the cubic Taylor polynomial, which the degree-5 rule
+integrates exactly, so its remainder falls as the fourth power of a piece's size. Every result
+is widened outward — by at least one ulp after + − × ÷, by a few ulps plus the smallest normal after a function (NumPy's and
 `geometry.portable`'s functions agree with the true one to a few ulps) — so the enclosure holds
 whatever the CPU's last bits; the functions are `portable`'s, so the enclosure itself is the same
 on every CPU.
@@ -35,8 +38,16 @@ from qmesh.geometry import portable
 
 Array = NDArray[np.float64]
 Interval = tuple[Array, Array]
-Node = tuple[Interval, ...]     # value, ∂x, ∂y, ∂xx, ∂xy, ∂yy
+Node = tuple[Interval, ...]     # value, ∂x, ∂y, ∂xx, ∂xy, ∂yy[, ∂xxx, ∂xxy, ∂xyy, ∂yyy]
 Zeroable = Interval | None      # None: an exact 0 (a derivative of a number, ∂x/∂y, ...)
+
+DERIVATIVES = ((0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2), (3, 0), (2, 1), (1, 2), (0, 3))
+"""What a Node holds, as (times ∂x, times ∂y): the value, ∂x, ∂y, ∂xx, ∂xy, ∂yy, ∂xxx, ∂xxy,
+∂xyy, ∂yyy; a node of order 2 the first 6 of them."""
+ORDER = 3
+"""The order `evaluate_all` goes to by default: third derivatives (`means.enclosure_bound`'s
+cubic Taylor remainder)."""
+_AT = {d: i for i, d in enumerate(DERIVATIVES)}
 
 ULPS = 1e-15          # relative widening after a function (4–9 ulps each side)
 TINY = 1e-300         # absolute widening after a function
@@ -44,12 +55,13 @@ INF = math.inf
 
 
 def _clean(lo: Array, hi: Array) -> Interval:
-    """NaN anywhere (∞ − ∞, 0 · ∞ of an unbounded operand): the whole line."""
+    """NaN anywhere (∞ − ∞, 0 · ∞ of an unbounded operand): the whole line. Each end's sum is
+    NaN only where it holds a NaN (or both infinities, never in a lower end unless overflowing),
+    so a whole line [−∞, ∞] met on the way does not send every later operation to the mask."""
     with np.errstate(all="ignore"):
-        both = lo + hi
-        if not np.isnan(np.add.reduce(both, axis=None)):   # no NaN in any row (one pass, no mask)
-            return lo, hi
-        bad = np.isnan(both)                # also where lo = −∞, hi = ∞ (the whole line anyway)
+        if not (np.isnan(np.add.reduce(lo, axis=None)) or np.isnan(np.add.reduce(hi, axis=None))):
+            return lo, hi                   # no NaN in any row (a pass an end, no mask)
+    bad = np.isnan(lo) | np.isnan(hi)
     if not bad.any():
         return lo, hi
     return np.where(bad, -INF, lo), np.where(bad, INF, hi)
@@ -77,10 +89,21 @@ def _outward(v: Array, move: np.ufunc) -> Array:
 
 
 def _widen(lo: Array, hi: Array) -> Interval:
-    """A few ulps outward: after a function accurate to a few ulps."""
+    """A few ulps outward: after a function accurate to a few ulps. Each end moves by
+    (ULPS + 2^-52)|v| + TINY: rounding the move loses at most half an ulp of it, so at least
+    ULPS|v| + TINY and half an ulp are left (as `np.nextafter` after ULPS|v| + TINY leaves,
+    in a third of its time)."""
     lo, hi = _clean(lo, hi)
-    return (np.nextafter(lo - ULPS * np.abs(lo) - TINY, -INF),
-            np.nextafter(hi + ULPS * np.abs(hi) + TINY, INF))
+    return _moved(lo, np.subtract), _moved(hi, np.add)
+
+
+def _moved(v: Array, move: np.ufunc) -> Array:
+    """v ∓ ((ULPS + 2^-52)|v| + TINY), in one buffer."""
+    t = np.empty_like(v)
+    np.abs(v, out=t)
+    np.multiply(t, ULPS + HALF_ULP, out=t)
+    np.add(t, TINY, out=t)
+    return move(v, t, out=t)
 
 
 def _const(c: float, shape: tuple) -> Interval:
@@ -128,13 +151,26 @@ def mul(a: Zeroable, b: Zeroable) -> Zeroable:
 
 def div(a: Zeroable, b: Interval) -> Zeroable:
     """a / b; the whole line where b holds 0 (an exact 0 over b elsewhere: an exact 0)."""
+    return _times_inverse(a, _inverse(b))
+
+
+def _inverse(b: Interval) -> tuple[Interval, NDArray[np.bool_], bool]:
+    """1/b rounded outward (1 where b holds 0), where b holds 0, and whether it does anywhere:
+    what `div` by b needs, computed once for the several numerators of a quotient's derivatives."""
     zero = (b[0] <= 0) & (b[1] >= 0)
-    if a is None:
-        return None if not zero.any() else (np.where(zero, -INF, 0.0), np.where(zero, INF, 0.0))
     with np.errstate(all="ignore"):
         inv = (np.where(zero, 1.0, 1.0 / b[1]), np.where(zero, 1.0, 1.0 / b[0]))
-    inv = _round(*inv)
+    return _round(*inv), zero, bool(zero.any())
+
+
+def _times_inverse(a: Zeroable, inverse: tuple[Interval, NDArray[np.bool_], bool]) -> Zeroable:
+    """a / b from b's `_inverse`."""
+    inv, zero, anywhere = inverse
+    if a is None:
+        return None if not anywhere else (np.where(zero, -INF, 0.0), np.where(zero, INF, 0.0))
     lo, hi = mul(a, inv)
+    if not anywhere:
+        return lo, hi
     return np.where(zero, -INF, lo), np.where(zero, INF, hi)
 
 
@@ -150,13 +186,18 @@ def whole_power(a: Zeroable, n: int) -> Zeroable:
         return _const(1.0, a[0].shape)
     if n < 0:
         return div(_const(1.0, a[0].shape), whole_power(a, -n))
+    if n == 1:
+        return a
     lo, hi = a
     with np.errstate(all="ignore"):
         if n % 2:
             return _widen(portable.power(lo, n), portable.power(hi, n))
         m = np.maximum(np.abs(lo), np.abs(hi))
         low = np.where(_contains_zero(a), 0.0, np.minimum(np.abs(lo), np.abs(hi)))
-        out_lo, out_hi = _widen(portable.power(low, n), portable.power(m, n))
+        if n == 2:                    # one correctly rounded product a side: `_round` covers it
+            out_lo, out_hi = _round(low * low, m * m)
+        else:
+            out_lo, out_hi = _widen(portable.power(low, n), portable.power(m, n))
     return np.maximum(out_lo, 0.0), out_hi
 
 
@@ -256,43 +297,48 @@ VALUES = {
 }
 
 
-def _slopes(name: str, u: Interval, value: Interval) -> tuple[Interval, Interval]:
-    """Enclosures of f'(u) and f''(u) over u, given f(u)'s (`value`); f'' is the whole line
-    where f has a kink in u (`abs` across 0: its second derivative is a Dirac mass there)."""
+def _slopes(name: str, u: Interval, value: Interval, order: int = ORDER) -> list[Zeroable]:
+    """Enclosures of f', f'' and f''' over u (the first `order` of them), given f(u)'s (`value`);
+    f'' and f''' are the whole line where f has a kink in u (`abs` across 0: its second
+    derivative is a Dirac mass there)."""
     shape = u[0].shape
     one, two = _const(1.0, shape), _const(2.0, shape)
+    d3: Zeroable = None
     if name == "exp":
-        return value, value
-    if name == "log":
-        d1 = div(one, u)
-        return d1, neg(whole_power(d1, 2))
-    if name == "log1p":
-        d1 = div(one, add(one, u))
-        return d1, neg(whole_power(d1, 2))
-    if name == "sqrt":
+        d1 = d2 = d3 = value
+    elif name in ("log", "log1p"):
+        d1 = div(one, u if name == "log" else add(one, u))
+        d2 = neg(whole_power(d1, 2))
+        if order > 2:
+            d3 = mul(two, whole_power(d1, 3))
+    elif name == "sqrt":
         d1 = div(_const(0.5, shape), value)
-        return d1, div(neg(d1), mul(two, u))
-    if name == "sin":
-        return cos(u), neg(value)
-    if name == "cos":
-        return neg(sin(u)), neg(value)
-    if name == "tan":
-        d1 = add(one, whole_power(value, 2))
-        return d1, mul(mul(two, value), d1)
-    if name == "sinh":
-        return cosh(u), value
-    if name == "cosh":
-        return VALUES["sinh"](u), value
-    if name == "tanh":
-        d1 = sub(one, whole_power(value, 2))
-        return d1, neg(mul(mul(two, value), d1))
-    if name in ("arctan", "atan"):
-        d1 = div(one, add(one, whole_power(u, 2)))
-        return d1, neg(mul(mul(two, u), whole_power(d1, 2)))
-    assert name == "abs"
-    z = _contains_zero(u)
-    d1 = np.where(z | (u[0] < 0), -1.0, 1.0), np.where(z | (u[1] > 0), 1.0, -1.0)
-    return d1, (np.where(z, -INF, 0.0), np.where(z, INF, 0.0))
+        d2 = div(neg(d1), mul(two, u))
+        if order > 2:                                   # (√u)''' = −(3/2) (√u)'' / u
+            d3 = mul(_const(-1.5, shape), div(d2, u))
+    elif name in ("sin", "cos"):
+        d1 = cos(u) if name == "sin" else neg(sin(u))
+        d2, d3 = neg(value), neg(d1)
+    elif name in ("tan", "tanh"):                       # f' = 1 ± f², f'' = ±2 f f',
+        sign = 1.0 if name == "tan" else -1.0           # f''' = ±2 (f'² + f f'')
+        d1 = (add if name == "tan" else sub)(one, whole_power(value, 2))
+        d2 = mul(_const(2.0 * sign, shape), mul(value, d1))
+        if order > 2:
+            d3 = mul(_const(2.0 * sign, shape), add(whole_power(d1, 2), mul(value, d2)))
+    elif name in ("sinh", "cosh"):
+        d1 = cosh(u) if name == "sinh" else VALUES["sinh"](u)
+        d2, d3 = value, d1
+    elif name in ("arctan", "atan"):                    # f' = 1/(1 + u²), f'' = −2u f'²,
+        d1 = div(one, add(one, whole_power(u, 2)))      # f''' = (6u² − 2) f'³
+        d2 = neg(mul(mul(two, u), whole_power(d1, 2)))
+        if order > 2:
+            d3 = mul(sub(mul(_const(6.0, shape), whole_power(u, 2)), two), whole_power(d1, 3))
+    else:
+        assert name == "abs"
+        z = _contains_zero(u)
+        d1 = np.where(z | (u[0] < 0), -1.0, 1.0), np.where(z | (u[1] > 0), 1.0, -1.0)
+        d2 = d3 = (np.where(z, -INF, 0.0), np.where(z, INF, 0.0))
+    return [d1, d2, d3][:order]
 
 
 def _sign_of(f: tuple) -> tuple | None:
@@ -312,51 +358,115 @@ def _sign_of(f: tuple) -> tuple | None:
     return None
 
 
-def _compose(v: Interval, d1: Interval, d2: Interval, u: Node) -> Node:
-    """f(u) from u's value and derivatives, f'(u) ∈ d1, f''(u) ∈ d2 (the chain rule to second
-    order: ∇f = f' ∇u, ∇²f = f'' ∇u ∇uᵀ + f' ∇²u)."""
-    _, gx, gy, hxx, hxy, hyy = u
-    return (v, mul(d1, gx), mul(d1, gy),
-            add(mul(d2, whole_power(gx, 2)), mul(d1, hxx)),
-            add(mul(d2, mul(gx, gy)), mul(d1, hxy)),
-            add(mul(d2, whole_power(gy, 2)), mul(d1, hyy)))
+def _compose(v: Interval, slopes: list[Zeroable], u: Node) -> Node:
+    """f(u) from u's value and derivatives, f^(k)(u) ∈ slopes[k − 1] (Faà di Bruno's formula to
+    the node's order: ∂_α f(u) = Σ over the partitions of α's directions into k blocks of
+    f^(k)(u) Π_blocks ∂_block u, e.g. ∇²f = f'' ∇u ∇uᵀ + f' ∇²u)."""
+    out = [v]
+    for terms in _FAA_DI_BRUNO[1:len(u)]:
+        total: Zeroable = None
+        for coef, k, factors in terms:
+            total = add(total, _scaled(coef, mul(slopes[k - 1], _product(u, factors))))
+        out.append(total)
+    return tuple(out)
 
 
 def _times(a: Node, b: Node) -> Node:
-    """a · b to second order."""
-    av, ax, ay, axx, axy, ayy = a
-    bv, bx, by, bxx, bxy, byy = b
-    return (mul(av, bv), add(mul(ax, bv), mul(av, bx)), add(mul(ay, bv), mul(av, by)),
-            add(add(mul(axx, bv), mul(_const(2.0, av[0].shape), mul(ax, bx))), mul(av, bxx)),
-            add(add(mul(axy, bv), add(mul(ax, by), mul(ay, bx))), mul(av, bxy)),
-            add(add(mul(ayy, bv), mul(_const(2.0, av[0].shape), mul(ay, by))), mul(av, byy)))
+    """a · b to the nodes' order (Leibniz: ∂_α(ab) = Σ_β≤α C(α, β) ∂_β a ∂_α−β b)."""
+    out = []
+    for terms in _LEIBNIZ[:len(a)]:
+        total: Zeroable = None
+        for coef, i, j in terms:
+            total = add(total, _scaled(coef, mul(a[i], b[j])))
+        out.append(total)
+    return tuple(out)
 
 
 def _over(a: Node, b: Node) -> Node:
-    """a / b to second order: q = a/b, ∇q = (∇a − q ∇b)/b,
-    ∇²q = (∇²a − q ∇²b − ∇q ∇bᵀ − ∇b ∇qᵀ)/b."""
-    av, ax, ay, axx, axy, ayy = a
-    bv, bx, by, bxx, bxy, byy = b
-    q = div(av, bv)
-    qx, qy = div(sub(ax, mul(q, bx)), bv), div(sub(ay, mul(q, by)), bv)
-    two = _const(2.0, av[0].shape)
-    return (q, qx, qy,
-            div(sub(sub(axx, mul(q, bxx)), mul(two, mul(qx, bx))), bv),
-            div(sub(sub(axy, mul(q, bxy)), add(mul(qx, by), mul(qy, bx))), bv),
-            div(sub(sub(ayy, mul(q, byy)), mul(two, mul(qy, by))), bv))
+    """q = a / b to the nodes' order, from a = q b by Leibniz, lowest orders first:
+    ∂_α q = (∂_α a − Σ_β<α C(α, β) ∂_β q ∂_α−β b) / b (∇q = (∇a − q ∇b)/b, ...)."""
+    inverse = _inverse(b[0])
+    q: list[Zeroable] = [_times_inverse(a[0], inverse)]
+    for terms in _LEIBNIZ[1:len(a)]:
+        total = a[len(q)]
+        for coef, i, j in terms:
+            if i < len(q):                     # β < α: the term of ∂_α q itself is left out
+                total = sub(total, _scaled(coef, mul(q[i], b[j])))
+        q.append(_times_inverse(total, inverse))
+    return tuple(q)
 
 
-def evaluate(form: tuple, X: Interval, Y: Interval) -> Node:
-    """Enclosures of the value, the gradient (∂x, ∂y) and the Hessian (∂xx, ∂xy, ∂yy) of the
-    checked `form` over the boxes X × Y (each an interval of arrays of one shape)."""
-    return evaluate_all([form], X, Y)[0]
+def _scaled(c: int, a: Zeroable) -> Zeroable:
+    """c · a for a whole c ≥ 1: both ends times c (c > 0 keeps their order), exact for a power of
+    two (an overflow to ±∞ only widens), else rounded outward."""
+    if c == 1 or a is None:
+        return a
+    with np.errstate(all="ignore"):
+        lo, hi = a[0] * float(c), a[1] * float(c)
+    return (lo, hi) if c & (c - 1) == 0 else _round(lo, hi)
 
 
-def evaluate_all(forms: list[tuple], X: Interval, Y: Interval) -> list[Node]:
+def _product(u: Node, factors: tuple[int, ...]) -> Zeroable:
+    """Π u[i] over `factors` (indices into u), a repeated one as a whole power (u_x² ≥ 0)."""
+    parts = [u[i] if factors.count(i) == 1 else whole_power(u[i], factors.count(i))
+             for i in sorted(set(factors))]
+    out = parts[0]
+    for p in parts[1:]:
+        out = mul(out, p)
+    return out
+
+
+def _leibniz_terms() -> list[list[tuple[int, int, int]]]:
+    """For each derivative α: (C(α, β), index of β, index of α − β) over β ≤ α."""
+    return [[(math.comb(ax, bx) * math.comb(ay, by), _AT[(bx, by)], _AT[(ax - bx, ay - by)])
+             for bx in range(ax + 1) for by in range(ay + 1)] for ax, ay in DERIVATIVES]
+
+
+def _partitions(items: list[int]) -> list[list[list[int]]]:
+    """Every partition of `items` into non-empty blocks."""
+    if not items:
+        return [[]]
+    first, rest = items[0], items[1:]
+    out = []
+    for p in _partitions(rest):
+        out.append([[first]] + p)
+        for i in range(len(p)):
+            out.append(p[:i] + [[first] + p[i]] + p[i + 1:])
+    return out
+
+
+def _faa_di_bruno_terms() -> list[list[tuple[int, int, tuple[int, ...]]]]:
+    """For each derivative α: (how many partitions give it, k blocks, the blocks' derivative
+    indices) over the partitions of α's directions (x x y for ∂xxy) into k blocks."""
+    out = []
+    for ax, ay in DERIVATIVES:
+        directions = [0] * ax + [1] * ay
+        count: dict[tuple[int, tuple[int, ...]], int] = {}
+        for p in _partitions(list(range(ax + ay))) if ax + ay else []:
+            blocks = tuple(sorted(_AT[(sum(1 for i in b if directions[i] == 0),
+                                       sum(1 for i in b if directions[i] == 1))] for b in p))
+            count[(len(p), blocks)] = count.get((len(p), blocks), 0) + 1
+        out.append([(c, k, blocks) for (k, blocks), c in sorted(count.items())])
+    return out
+
+
+_LEIBNIZ = _leibniz_terms()
+_FAA_DI_BRUNO = _faa_di_bruno_terms()
+
+
+def evaluate(form: tuple, X: Interval, Y: Interval, order: int = ORDER) -> Node:
+    """Enclosures of the value, the gradient (∂x, ∂y), the Hessian (∂xx, ∂xy, ∂yy) and, to order
+    3, the third derivatives (∂xxx, ∂xxy, ∂xyy, ∂yyy) of the checked `form` over the boxes X × Y
+    (each an interval of arrays of one shape): `DERIVATIVES`' first 6 or 10."""
+    return evaluate_all([form], X, Y, order)[0]
+
+
+def evaluate_all(forms: list[tuple], X: Interval, Y: Interval, order: int = ORDER) -> list[Node]:
     """`evaluate` of each form, a subexpression they share (x² + y² in three components, the
     angle's cos and sin in a principal field's) enclosed once."""
     shape = X[0].shape
-    zero = None                       # an exact 0: the derivatives of numbers and of x, y
+    size = {2: 6, 3: 10}[order]
+    zeros = (None,) * (size - 3)      # an exact 0: the derivatives of numbers and of x, y
     one = _const(1.0, shape)
     seen: dict[tuple, Node] = {}
 
@@ -368,9 +478,9 @@ def evaluate_all(forms: list[tuple], X: Interval, Y: Interval) -> list[Node]:
     def _walk(f: tuple) -> Node:
         kind = f[0]
         if kind == "num":
-            return _const(f[1], shape), zero, zero, zero, zero, zero
+            return (_const(f[1], shape), None, None) + zeros
         if kind == "var":
-            return ((X, one, zero) if f[1] == "x" else (Y, zero, one)) + (zero, zero, zero)
+            return ((X, one, None) if f[1] == "x" else (Y, None, one)) + zeros
         if kind == "neg":
             return tuple(neg(a) for a in walk(f[1]))
         sign = _sign_of(f)
@@ -379,30 +489,30 @@ def evaluate_all(forms: list[tuple], X: Interval, Y: Interval) -> list[Node]:
             z = _contains_zero(v)
             val = (np.where(z | (v[0] < 0), -1.0, 1.0), np.where(z | (v[1] > 0), 1.0, -1.0))
             jump = (np.where(z, -INF, 0.0), np.where(z, INF, 0.0))
-            s = (val, jump, jump, jump, jump, jump)
+            s = (val,) + (jump,) * (size - 1)
             return s if sign[1] is None else _times(walk(sign[1]), s)
         if kind == "direction":                      # a polar angle mod π (principal_forms)
-            return _direction(walk(f[1]), walk(f[2]))
+            return _direction(walk(f[1]), walk(f[2]), order)
         if kind == "call":
             name = f[1]
             u = walk(f[2])
             v = VALUES[name](u[0])
-            return _compose(v, *_slopes(name, u[0], v), u)
+            return _compose(v, _slopes(name, u[0], v, order), u)
         if kind == "**" and f[2][0] == "num":
             u = walk(f[1])
             p = f[2][1]
             if p == 0:
-                return one, zero, zero, zero, zero, zero
-            if p == round(p) and abs(p) <= 64:
-                n = int(p)
-                v = whole_power(u[0], n)
-                d1 = mul(_const(p, shape), whole_power(u[0], n - 1))
-                d2 = mul(_const(p * (p - 1), shape), whole_power(u[0], n - 2))
-            else:
-                v = real_power(u[0], p)
-                d1 = mul(_const(p, shape), real_power(u[0], p - 1.0))
-                d2 = mul(_const(p * (p - 1), shape), real_power(u[0], p - 2.0))
-            return _compose(v, d1, d2, u)
+                return (one, None, None) + zeros
+            whole = p == round(p) and abs(p) <= 64
+
+            def power(k: int) -> Zeroable:           # p (p − 1) … (p − k + 1) u^(p − k)
+                c = math.prod(p - i for i in range(k))
+                if c == 0:                           # (u²)''' = 0: an exact 0, even at u = 0
+                    return None
+                uk = whole_power(u[0], int(p) - k) if whole else real_power(u[0], p - k)
+                return uk if k == 0 else mul(_const(c, shape), uk)
+
+            return _compose(power(0), [power(k) for k in range(1, order + 1)], u)
         if kind == "**":       # b ** e = exp(e · log b)
             return walk(("call", "exp", ("*", f[2], ("call", "log", f[1]))))
         a, b = walk(f[1]), walk(f[2])
@@ -422,17 +532,20 @@ def evaluate_all(forms: list[tuple], X: Interval, Y: Interval) -> list[Node]:
 
 def principal_forms(k1: tuple, k2: tuple, angle_deg: tuple) -> list[tuple]:
     """The checked forms of q11, q12, q22 of R diag(k1, k2) Rᵀ, R the rotation by angle_deg
-    degrees (as `TensorField.principal` computes them, the squares as squares).
+    degrees, through the double angle: m ± d cos 2t and d sin 2t, m = (k1 + k2)/2,
+    d = (k1 − k2)/2, t the angle in radians (k1 cos²t + k2 sin²t = m + d cos 2t, (k1 − k2) cos t
+    sin t = d sin 2t: the function `TensorField.principal` evaluates, written with one cosine and
+    one sine, whose enclosures do not multiply cos t and sin t as if they were independent — on
+    the spiral of benchmarks/bench_fields.py its pieces' bounds about 15% lower, and fewer
+    operations).
 
     Q depends on the angle modulo 180° only, so an arctangent of a quotient that the angle holds
     as a term of a whole number of half turns (`180/pi*atan(u/v)`, a polar angle as a direction)
     is enclosed without its jump across v = 0 (`_direction`)."""
-    t = ("*", ("num", math.pi / 180.0), _directions(angle_deg, math.pi / 180.0))
-    c, s = ("call", "cos", t), ("call", "sin", t)
-    c2, s2 = ("**", c, ("num", 2.0)), ("**", s, ("num", 2.0))
-    return [("+", ("*", k1, c2), ("*", k2, s2)),
-            ("*", ("*", ("-", k1, k2), c), s),
-            ("+", ("*", k1, s2), ("*", k2, c2))]
+    twice = ("*", ("num", math.pi / 90.0), _directions(angle_deg, math.pi / 180.0))
+    c, s = ("call", "cos", twice), ("call", "sin", twice)
+    m, d = ("*", ("num", 0.5), ("+", k1, k2)), ("*", ("num", 0.5), ("-", k1, k2))
+    return [("+", m, ("*", d, c)), ("*", d, s), ("-", m, ("*", d, c))]
 
 
 def _directions(f: tuple, turns: float) -> tuple:
@@ -463,24 +576,52 @@ def _directions(f: tuple, turns: float) -> tuple:
     return f
 
 
-def _direction(u: Node, v: Node) -> Node:
-    """atan(u/v) to second order, or sgn(u)·π/2 − atan(v/u) on the boxes where u keeps its sign
+def _direction(u: Node, v: Node, order: int = ORDER) -> Node:
+    """atan(u/v) to the nodes' order, or sgn(u)·π/2 − atan(v/u) on the boxes where u keeps its sign
     and stays farther from 0 than v does (v changing sign among them): equal modulo π, and the
     quotient by the one farther from 0 has the narrower enclosures, its derivatives (those of
     atan(u/v), continuous across v = 0) included."""
     flip = ~_contains_zero(u[0]) & (_contains_zero(v[0]) | (_least(u[0]) > _least(v[0])))
-    straight = _atan_of(_over(u, v))
     if not flip.any():
-        return straight
+        return _atan_of(_over(u, v), order)
     shape = u[0][0].shape
-    half = np.where(u[0][0] > 0, 0.5 * math.pi, -0.5 * math.pi)
-    turned = _atan_of(_over(v, u))
+    if flip.all():
+        turned_at, straight_at = slice(None), np.zeros(0, np.intp)
+    else:                                    # each branch on its own boxes only
+        turned_at, straight_at = np.flatnonzero(flip), np.flatnonzero(~flip)
+    ut, vt = _take(u, turned_at), _take(v, turned_at)
+    half = np.where(ut[0][0] > 0, 0.5 * math.pi, -0.5 * math.pi)
+    turned = _atan_of(_over(vt, ut), order)
     turned = (sub(_widen(half, half), turned[0]),) + tuple(neg(d) for d in turned[1:])
+    if isinstance(turned_at, slice):
+        return turned
+    straight = _atan_of(_over(_take(u, straight_at), _take(v, straight_at)), order)
     out = []
     for a, b in zip(straight, turned):
-        a = _const(0.0, shape) if a is None else a
-        b = _const(0.0, shape) if b is None else b
-        out.append((np.where(flip, b[0], a[0]), np.where(flip, b[1], a[1])))
+        if a is None and b is None:
+            out.append(None)
+            continue
+        lo, hi = np.zeros(shape), np.zeros(shape)
+        for at, part in ((straight_at, a), (turned_at, b)):
+            if part is not None:
+                lo[at], hi[at] = part
+        out.append((lo, hi))
+    return tuple(out)
+
+
+def _take(node: Node, at: NDArray[np.intp] | slice) -> Node:
+    """The node on the boxes `at` (a point stays a point: `mul` tells it by its ends' identity)."""
+    if isinstance(at, slice):
+        return node
+    out = []
+    for e in node:
+        if e is None:
+            out.append(None)
+        elif e[0] is e[1]:
+            p = e[0][at]
+            out.append((p, p))
+        else:
+            out.append((e[0][at], e[1][at]))
     return tuple(out)
 
 
@@ -489,7 +630,7 @@ def _least(a: Interval) -> Array:
     return np.where(_contains_zero(a), 0.0, np.minimum(np.abs(a[0]), np.abs(a[1])))
 
 
-def _atan_of(q: Node) -> Node:
-    """atan(q) to second order."""
+def _atan_of(q: Node, order: int = ORDER) -> Node:
+    """atan(q) to the node's order."""
     value = VALUES["atan"](q[0])
-    return _compose(value, *_slopes("atan", q[0], value), q)
+    return _compose(value, _slopes("atan", q[0], value, order), q)

@@ -134,9 +134,10 @@ BOUND_RTOL = 1e-2
 """With a rigorous bound (text formulas): pieces are also split until their proven bound is
 within this share of ‖Q̄_T‖ (the default of `bound_rtol` for a caller of
 `TensorField.means_with_error`), or `BOUND_DEPTH` is reached. What the enclosures prove shrinks
-as the cube of a piece's size, far slower than the rule's own error for a smooth field (the
-sixth power), so the repair does not prove every mean to one tolerance: it proves each to what
-its edges need (`fields.certify`), most with the enclosures of its 4 children alone."""
+as the fourth power of a piece's size (the third-order remainder), far slower than the rule's
+own error for a smooth field (the sixth power), so the repair does not prove every mean to one
+tolerance: it proves each to what its edges need (`fields.certify`), most with the enclosures of
+its 4 children alone."""
 BOUND_DEPTH = 8
 """At most this many levels of subdivision for the bound (those of the rule, `MAX_DEPTH`): a jump
 line crossing a triangle keeps about 2^L of its 4^L pieces at level L, so what the line's pieces
@@ -153,51 +154,75 @@ every level: they would otherwise all go to BOUND_DEPTH)."""
 
 FIRST = 0.75       # ½ (½ + 1): the first-order bound's factor (`enclosure_bound`)
 SECOND = 0.3125    # ¼ (¼ + 1): the second-order one's (sup g − inf g gives 1 and ½)
+THIRD = 5.0 / 48.0  # (1/12) (¼ + 1): the third-order one's
+REACH_ULPS = 2.0 ** -49   # ≥ 3δ, δ ≤ 3·2^-53 |x| the rounded centroid's distance from the
+                          # exact one: added to each reach r_i, δ for r_i about the exact one,
+                          # 2δ more for the moment about c (r0²/4 + δ² ≤ (r0 + 2δ)²/4)
+SUM_ROUND = 1e-10
+"""Relative widening of a sum of proven bounds (at most 4^BOUND_DEPTH · 4 terms a triangle, each
+sum's round-off below n·2^-53 of it): the sum stays an upper bound whatever the order."""
 
 
 def enclosure_bound(forms: list[tuple]) -> Bound:
     """The rigorous error bound of the 7-point rule and its 4 children on a piece, from interval
-    enclosures (`intervals.evaluate`) of the components' checked forms, their gradients and
-    Hessians over the piece's box.
+    enclosures (`intervals.evaluate`) of the components' checked forms and of their first,
+    second and third derivatives over the piece's box.
 
     The rule and its children have positive weights and integrate polynomials of degree ≤ 5
-    exactly, so for any polynomial p of degree ≤ 2 the error of the mean of f is that of
+    exactly, so for any polynomial p of degree ≤ 3 the error of the mean of f is that of
     g = f − p: |error| ≤ sup g − inf g (both the exact mean and the rule's lie in g's range),
     and |error| ≤ mean_T |g| + max_T |g| (the rule's points lie in T). Per component, the least
-    of three such bounds, r_i = max_T |x_i − c_i| about the centroid c, whose mean over T is at
+    of four such bounds, r_i = max_T |x_i − c_i| about the centroid c, whose mean over T is at
     most r_i / 2 (the second moment of a triangle about its centroid is (1/12) Σ_k d_k d_kᵀ over
-    its corners' offsets d_k, so mean (x_i − c_i)² ≤ r_i² / 4; Cauchy–Schwarz for the rest):
+    its corners' offsets d_k, so mean (x_i − c_i)² ≤ r_i² / 4; Cauchy–Schwarz for the rest:
+    mean |d_i d_j| ≤ r_i r_j / 4, mean |d_i d_j d_k| ≤ r_i r_j r_k / 4):
     - p = 0: the width of f's enclosure (all a jump leaves);
     - p the tangent plane at c with the midpoint slope of the gradient's enclosure G (the
       mean-value theorem on the segment c → x, inside the box): |g(x)| ≤ ½ Σ_i w(G_i) |x_i − c_i|,
       so |error| ≤ ½ Σ_i w(G_i) (r_i / 2 + r_i) = FIRST Σ_i w(G_i) r_i;
     - p the second-order Taylor polynomial at c with the midpoint Hessian of its enclosure H
-      (Taylor's theorem with a remainder at a point of that segment): |g(x)| ≤
+      (Taylor's theorem with Lagrange's remainder at a point of that segment): |g(x)| ≤
       ¼ Σ_ij w(H_ij) |x_i − c_i| |x_j − c_j|, so |error| ≤ ¼ Σ_ij w(H_ij) (r_i r_j / 4 + r_i r_j)
       = SECOND Σ_ij w(H_ij) r_i r_j;
-    plus a relative 1e-13 for the rule's own round-off, combined in the Frobenius norm; ∞ where
-    every enclosure is unbounded or not finite."""
+    - p the third-order Taylor polynomial at c with the midpoint third derivatives of their
+      enclosure D (the same theorem one order up, its remainder (1/6) D³f(ξ)[d, d, d]):
+      |g(x)| ≤ (1/12) Σ_ijk w(D_ijk) |d_i d_j d_k| over the 8 ordered triples (∂xxy thrice), so
+      |error| ≤ (1/12) Σ_ijk w(D_ijk) (r_i r_j r_k / 4 + r_i r_j r_k)
+      = THIRD Σ_ijk w(D_ijk) r_i r_j r_k. Its remainder falls as h⁴ with a piece's size h where the second order's falls as h³:
+      on the spiral and plasma fields of benchmarks/bench_fields.py the proof needs about a
+      fifth of the pieces;
+    plus a relative 1e-13 for the rule's own round-off, combined in the Frobenius norm and
+    widened by SUM_ROUND; ∞ where every enclosure is unbounded or not finite. The expansion
+    point c is the rounded centroid clipped into the box (so every segment c → x lies in it),
+    each r_i widened by REACH_ULPS of the corners' magnitude for its distance from the exact
+    centroid."""
     from qmesh.conductivity import intervals   # imported here: only text fields need it
 
     def bound(A: Array, B: Array, C: Array) -> Array:
         lo, hi = np.minimum(np.minimum(A, B), C), np.maximum(np.maximum(A, B), C)
-        c = (A + B + C) / 3.0
+        c = np.clip((A + B + C) / 3.0, lo, hi)     # in the box: so is every segment c → x
         reach = np.maximum(np.maximum(np.abs(A - c), np.abs(B - c)), np.abs(C - c))   # (k, 2)
-        rx, ry = (reach * (1.0 + 1e-15)).T
+        far = np.maximum(np.maximum(np.abs(A), np.abs(B)), np.abs(C))
+        rx, ry = (reach * (1.0 + 1e-15) + REACH_ULPS * far).T
         X, Y = (lo[:, 0], hi[:, 0]), (lo[:, 1], hi[:, 1])
         e = np.zeros((len(A), 3))
         with np.errstate(all="ignore"):
             for i, node in enumerate(intervals.evaluate_all(forms, X, Y)):
-                (vl, vh), gx, gy, hxx, hxy, hyy = node
+                (vl, vh), gx, gy, hxx, hxy, hyy, txxx, txxy, txyy, tyyy = node
                 zeroth = vh - vl
                 first = FIRST * ((gx[1] - gx[0]) * rx + (gy[1] - gy[0]) * ry)
                 second = SECOND * ((hxx[1] - hxx[0]) * rx * rx + 2.0 * (hxy[1] - hxy[0]) * rx * ry
                                    + (hyy[1] - hyy[0]) * ry * ry)
-                first = np.where(np.isfinite(first), first, np.inf)
-                second = np.where(np.isfinite(second), second, np.inf)
+                third = THIRD * ((txxx[1] - txxx[0]) * rx * rx * rx
+                                 + 3.0 * (txxy[1] - txxy[0]) * rx * rx * ry
+                                 + 3.0 * (txyy[1] - txyy[0]) * rx * ry * ry
+                                 + (tyyy[1] - tyyy[0]) * ry * ry * ry)
+                least = zeroth
+                for b in (first, second, third):
+                    least = np.minimum(least, np.where(np.isfinite(b), b, np.inf))
                 size = np.maximum(np.abs(vl), np.abs(vh))
-                e[:, i] = np.minimum(np.minimum(zeroth, first), second) + 1e-13 * size
-            out = frobenius(e)
+                e[:, i] = least + 1e-13 * size
+            out = frobenius(e) * (1.0 + SUM_ROUND)
         return np.where(np.isfinite(out), out, np.inf)
 
     return bound
@@ -211,6 +236,21 @@ def _bound_chunked(bound: Bound, A: Array, B: Array, C: Array) -> Array:
         return bound(A, B, C)
     return np.concatenate([bound(A[s:s + CHUNK], B[s:s + CHUNK], C[s:s + CHUNK])
                            for s in range(0, len(A), CHUNK)])
+
+
+def children_bound(bound: Bound, KA: Array, KB: Array, KC: Array) -> Array:
+    """The proven error of the fine average of k pieces, from their 4 midpoint children stacked
+    as `_children` stacks them (4k, 2): the fine average is the mean of the rule on each child,
+    a rule with positive weights, exact for degree 3, whose points lie in the child, so its error
+    is at most the mean of the children's `bound`s (∞ where one is). A piece's own box is about
+    twice a child's, so this is about 8 times tighter than `bound` of the piece for the cost of 4
+    enclosures, and it asks for no more samples than the fine average already took."""
+    k = len(KA) // 4
+    kids = _bound_chunked(bound, KA, KB, KC)
+    with np.errstate(all="ignore"):
+        out = 0.25 * (kids[:k] + kids[k:2 * k] + kids[2 * k:3 * k] + kids[3 * k:])
+        out *= 1.0 + SUM_ROUND
+    return np.where(np.isnan(out), np.inf, out)
 
 
 def longest_edges(A: Array, B: Array, C: Array) -> Array:
@@ -236,16 +276,17 @@ def adaptive_means(evaluate: Evaluate, A: Array, B: Array, C: Array, rtol: float
     capped (MIN_BUDGET); at `max_depth`, or past the cap, pieces end as they are and the bound
     carries what is left.
 
-    With `bound` (a text formula: `enclosure_bound`), each piece's e_p = bound(p) is a proven
-    bound of the error of any rule with positive weights, exact for degree 2, on it: a piece
-    ends only when, beside the rule's test, it is resolved — e_p ≤ btol_T = bound_rtol ‖Q̄_T‖_F +
-    atol (`bound_rtol` a number or one per triangle), or its triangle's bound so far with every
-    live piece's 4^-L e_p is ≤ btol_T (then all of them are) — or at BOUND_DEPTH. A piece adds its 4^-L e_p
-    to the bound once: when it is resolved (its pieces are then resolved without a look: whatever
-    rules the quadrature ends with on them make one such rule on it, within its e_p), or when it
-    ends unresolved (a jump crosses it); so the bound is proven, and a jump or a bump no sample
-    sees is in it. The one exception: a piece still unbounded at BOUND_DEPTH (the text divides by
-    zero at a point of it) adds the rule's estimate d_p.
+    With `bound` (a text formula: `enclosure_bound`), each piece's e_p, the mean of its 4
+    children's bound(child) (`children_bound`), is a proven bound of the error of any rule on it
+    made of rules with positive weights, exact for degree 3, on each child: a piece ends only
+    when, beside the rule's test, it is resolved — e_p ≤ btol_T = bound_rtol ‖Q̄_T‖_F + atol
+    (`bound_rtol` a number or one per triangle), or its triangle's bound so far with every live
+    piece's 4^-L e_p is ≤ btol_T (then all of them are) — or at BOUND_DEPTH. A piece adds its
+    4^-L e_p to the bound once: when it is resolved (its pieces are then resolved without a look:
+    whatever rules the quadrature ends with on them make one such rule on each child, within its
+    e_p), or when it ends unresolved (a jump crosses it); so the bound is proven, and a jump or a
+    bump no sample sees is in it. The one exception: a piece still unbounded at BOUND_DEPTH (the
+    text divides by zero at a point of it) adds the rule's estimate d_p.
 
     With `resolution` h (a callable, whose values between samples nothing bounds), a piece is
     split while its children's longest edge exceeds h, up to BOUND_DEPTH and outside the work
@@ -283,8 +324,9 @@ def adaptive_means(evaluate: Evaluate, A: Array, B: Array, C: Array, rtol: float
         if bound is not None:
             e = np.zeros(k)                   # a piece of a resolved one: resolved (see above)
             ask = np.flatnonzero(~known)
-            if len(ask):
-                e[ask] = _bound_chunked(bound, A[ask], B[ask], C[ask])
+            if len(ask):                      # its fine average's: its children's enclosures
+                rows = (np.arange(4)[:, None] * k + ask).ravel()
+                e[ask] = children_bound(bound, KA[rows], KB[rows], KC[rows])
             if level >= BOUND_DEPTH:          # unbounded this deep: a point the text divides by 0
                 e = np.where(np.isfinite(e), e, d)
             btol = bound_rtol * size + atol
@@ -316,7 +358,7 @@ def adaptive_means(evaluate: Evaluate, A: Array, B: Array, C: Array, rtol: float
         owner = np.tile(owner[split], 4)
         if bound is not None:
             known = np.tile(resolved[split], 4)
-    return total, (rule_err if bound is None else err)
+    return total, (rule_err if bound is None else err * (1.0 + SUM_ROUND))
 
 
 GAUSS_BOX_POINTS = 4

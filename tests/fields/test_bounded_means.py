@@ -45,9 +45,10 @@ def _checked(text):
 
 
 def _derivatives(form):
-    """The value, gradient and Hessian of a checked form, by SymPy: independent of `intervals`."""
+    """The value, gradient, Hessian and third derivatives of a checked form, by SymPy:
+    independent of `intervals`."""
     f, x, y = _to_sympy(form)
-    parts = [f, sp.diff(f, x), sp.diff(f, y), sp.diff(f, x, x), sp.diff(f, x, y), sp.diff(f, y, y)]
+    parts = taylor_parts(f, x, y)
     # abs'' is a Dirac mass at the kink, sign' too: 0 at every point a random draw can hit
     parts = [p.replace(sp.DiracDelta, lambda *a: sp.Integer(0))
              .replace(lambda e: isinstance(e, sp.Derivative), lambda e: sp.Integer(0)) for p in parts]
@@ -67,11 +68,20 @@ def test_the_enclosure_holds_the_value_and_derivatives_at_every_point_of_the_box
     assert_enclosed(intervals.evaluate(form, X, Y), _derivatives(form), centre, half, rng, text)
 
 
+def taylor_parts(f, x, y):
+    """f's derivatives in the order of `intervals.DERIVATIVES`, each from the one before."""
+    d = {(0, 0): f}
+    for i, j in intervals.DERIVATIVES[1:]:
+        d[(i, j)] = sp.diff(d[(i, j - 1)], y) if j else sp.diff(d[(i - 1, j)], x)
+    return [d[k] for k in intervals.DERIVATIVES]
+
+
 def assert_enclosed(node, funcs, centre, half, rng, label, draws=6):
-    """Each of `funcs` (value, gradient, Hessian) at random points of the boxes centre ± half
-    lies in its enclosure in `node`, but for the reference's own round-off (SymPy's order of
-    operations: a relative 1e-9)."""
+    """Each of `funcs` (value, gradient, Hessian, third derivatives) at random points of the
+    boxes centre ± half lies in its enclosure in `node`, but for the reference's own round-off
+    (SymPy's order of operations: a relative 1e-9)."""
     k = len(centre)
+    assert len(node) == len(funcs) == len(intervals.DERIVATIVES)
     for _ in range(draws):
         u = rng.uniform(-1, 1, (k, 2))
         px, py = centre[:, 0] + u[:, 0] * half[:, 0], centre[:, 1] + u[:, 1] * half[:, 1]

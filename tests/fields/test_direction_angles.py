@@ -12,19 +12,19 @@ from hypothesis import strategies as st
 
 from qmesh.conductivity import intervals
 from qmesh.conductivity.expression import _to_sympy, check
-from tests.fields.test_bounded_means import assert_enclosed
+from tests.fields.test_bounded_means import assert_enclosed, taylor_parts
 
 
 def _reference(k1, k2, angle):
     """For q11, q12, q22 of R diag(k1, k2) Rᵀ, R the rotation by the text `angle` in degrees:
-    their value, gradient and Hessian as functions, by SymPy (independent of `intervals`)."""
+    their value, gradient, Hessian and third derivatives as functions, by SymPy (independent of
+    `intervals`)."""
     theta, x, y = _to_sympy(check(angle, "angle"))
     t = sp.pi / 180 * theta
     c, s = sp.cos(t), sp.sin(t)
     out = []
     for q in (k1 * c**2 + k2 * s**2, (k1 - k2) * c * s, k1 * s**2 + k2 * c**2):
-        parts = [q, sp.diff(q, x), sp.diff(q, y), sp.diff(q, x, x), sp.diff(q, x, y),
-                 sp.diff(q, y, y)]
+        parts = taylor_parts(q, x, y)
         out.append([sp.lambdify((x, y), p, "numpy") for p in parts])
     return out
 

@@ -1,6 +1,7 @@
 """The enclosures' speed-ups change no bit: a point [c, c] times an interval by two products is
-the four-corner product (0 · ∞ and infinite ends included), and a level's pieces bounded in
-chunks get each piece's own bound."""
+the four-corner product (0 · ∞ and infinite ends included), the NaN check sends exactly the rows
+holding a NaN to the whole line, and a level's pieces bounded in chunks get each piece's own
+bound; a whole multiple by its ends alone still holds the exact product."""
 
 import numpy as np
 from hypothesis import given, settings
@@ -45,3 +46,31 @@ def test_pieces_bounded_in_chunks_get_their_own_bounds():
     assert np.array_equal(chunked, bound(A, B, C))
     some = rng.choice(n, 50, replace=False)
     assert np.array_equal(chunked[some], bound(A[some], B[some], C[some]))
+
+
+@settings(max_examples=60, deadline=None)
+@given(ends=st.lists(st.tuples(ENDS | st.just(np.nan), ENDS | st.just(np.nan)), min_size=1,
+                     max_size=20))
+def test_only_a_row_holding_nan_becomes_the_whole_line(ends):
+    lo, hi = (np.array(v) for v in zip(*ends))
+    got = intervals._clean(lo, hi)
+    bad = np.isnan(lo) | np.isnan(hi)
+    assert np.array_equal(got[0], np.where(bad, -np.inf, lo))
+    assert np.array_equal(got[1], np.where(bad, np.inf, hi))
+
+
+@settings(max_examples=60, deadline=None)
+@given(c=st.integers(1, 6), ends=st.lists(st.tuples(ENDS, ENDS), min_size=1, max_size=20))
+def test_a_whole_multiple_holds_the_exact_product_and_is_no_wider_than_a_product(c, ends):
+    """`_scaled` (a Leibniz or Faà di Bruno coefficient) against the exact product of each end
+    in rationals, and within the four-corner product by the point [c, c]."""
+    from fractions import Fraction
+    lo, hi = (np.array(v) for v in zip(*((min(a, b), max(a, b)) for a, b in ends)))
+    got = intervals._scaled(c, (lo, hi))
+    wide = four_corners((np.full(lo.shape, float(c)), np.full(lo.shape, float(c))), (lo, hi))
+    for g, w, v, below in ((got[0], wide[0], lo, True), (got[1], wide[1], hi, False)):
+        assert np.all(g >= w) if below else np.all(g <= w)
+        for gi, vi in zip(g, v):
+            if np.isfinite(vi) and np.isfinite(gi):
+                exact = c * Fraction(float(vi))
+                assert (Fraction(float(gi)) <= exact) if below else (Fraction(float(gi)) >= exact)
