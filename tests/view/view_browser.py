@@ -110,10 +110,13 @@ def settled_status(page, old: str, timeout: float = 30.0) -> str:
 
 
 def wait_idle(page, timeout: float = 30.0) -> None:
-    """Wait until the busy bar is hidden (no mesher work running)."""
+    """Wait until the busy bar is hidden and no Run is going (its button reads Run, not Stop):
+    no mesher work running. A Run shows no busy bar, and the measures after it do."""
     page.wait_for_function(
         "() => { const b = document.querySelector('#busy');"
-        " return !b || getComputedStyle(b).display === 'none'; }", timeout=timeout * 1000)
+        " const r = document.querySelector('#btn-run');"
+        " return (!b || getComputedStyle(b).display === 'none')"
+        " && (!r || !r.innerText.includes('Stop')); }", timeout=timeout * 1000)
 
 
 def wait_view_change(page, name: str, old: np.ndarray, timeout: float = 20.0,
