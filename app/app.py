@@ -363,14 +363,12 @@ class QmeshView(TrameApp):
 
     async def _mesh_ahead(self) -> None:
         """A small run's stages meshed one by one while nothing else is asked of the worker:
-        each stage is a separate task, so an action waits for at most one; a new run (a
-        changed parameter) or any work in hand ends it, and the next idle moment starts it
-        again."""
-        run = self.session.controller
-        if run.params.target_vertices > AHEAD_UP_TO:
-            return
-        while (run is self.session.controller and not self.state.busy
-               and not self.state.running and not run.all_meshed):
+        each stage is a separate task, so an action waits for at most one; any work in hand
+        ends it, and the next idle moment starts it again (for the run then on screen)."""
+        while not self.state.busy and not self.state.running:
+            run = self.session.controller            # the one on screen now
+            if run.params.target_vertices > AHEAD_UP_TO or run.all_meshed:
+                return
             await self._work(run.ahead)
 
     def _redraw_changed_options(self) -> None:
