@@ -117,7 +117,10 @@ def _merge(st, t_in, t_out, new, ca, bc):
     st.Qbar, st.err, st.tight = st.Qbar[keep], st.err[keep], st.tight[keep]
     st.s, st.b = st.s[half], st.b[half]
     st.seen.edges = st.seen.edges[half]
+    if st.quality is not None:
+        st.quality = st.quality[keep]
     st.cut = st.twin if st.reg is None else st.cut         # merges are made without regions
+    st.stale()                                              # the half-edges renumbered
     st.refresh(row[t_in])
 
 

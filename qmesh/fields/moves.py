@@ -121,14 +121,20 @@ def in_line(P, v, before, after):
 
 def movers(T, twin, candidates, rng):
     """Candidate vertices no two of which touch one triangle or two neighbouring triangles, so
-    each edge's shares move with one vertex at most (random priorities, a Luby-style round)."""
-    prio = np.zeros(int(T.max()) + 1)
+    each edge's shares move with one vertex at most (random priorities, a Luby-style round).
+    Only the candidates' stars and their neighbours are looked at: a round costs what the
+    candidates touch, not the whole mesh."""
+    n = max(int(T.max()) + 1, int(candidates.max()) + 1 if len(candidates) else 0)
+    prio = np.zeros(n)
     prio[candidates] = 1.0 + rng.random(len(candidates))
-    tri = _max3(prio[T])
-    nb = np.where(twin >= 0, twin // 3, np.repeat(np.arange(len(T)), 3)).reshape(-1, 3)
-    wide = np.maximum(tri, _max3(tri[nb]))
-    best = np.zeros(len(prio))
-    np.maximum.at(best, T.ravel(), np.repeat(wide, 3))
+    star = np.flatnonzero(touching(T, prio > 0))       # the only triangles with a priority
+    tri = np.zeros(len(T))
+    tri[star] = _max3(prio[T[star]])
+    g = twin[(3 * star[:, None] + np.arange(3)).ravel()]
+    nb = np.where(g >= 0, g // 3, np.repeat(star, 3)).reshape(-1, 3)
+    wide = np.maximum(tri[star], _max3(tri[nb]))
+    best = np.zeros(n)
+    np.maximum.at(best, T[star].ravel(), np.repeat(wide, 3))
     return candidates[best[candidates] == prio[candidates]]
 
 
