@@ -90,6 +90,9 @@ class ElementMeans:
         self.computed = 0                            # triangles whose means were computed
         self.provable = bool(getattr(field, "means_bounded", False)) and not field.means_exact
         """A text: its rows are estimates until proven (`prove`, `refine`)."""
+        self.rough_exact = bool(getattr(field, "means_exact", False))
+        """`rough` gives the kept means themselves (a raster, a constant): a verdict on them
+        needs no second judgement."""
 
     def _compute(self, P, T, rtol, depth=_m.MAX_DEPTH, bound_rtol=None):
         self.computed += len(T)

@@ -266,12 +266,12 @@ def polish(st, movers, tangent=None, refused=None):
         D = _along(D, tangent[v])
     # every try judged on rough means (the degree-5 rule alone, `ElementMeans.rough`), the one
     # each mover would take judged again on the means it is kept with: the field's adaptive
-    # means for one try a mover, not for all of them
+    # means for one try a mover, not for all of them (a raster's rough means are its kept ones)
     ok, q1 = _judged(st, v, D, True, how="rough")
     q1 = np.where(ok, q1, -np.inf)
     best = np.argmax(q1, axis=0)
     take = np.isfinite(q1[best, np.arange(len(v))])
-    if take.any():
+    if take.any() and not _rough_exact(st):
         chosen = np.flatnonzero(take)
         take[chosen] = _judged(st, v[chosen], D[best[chosen], chosen][None], True)[0][0]
     if refused is not None:
@@ -307,8 +307,13 @@ def _accepted(st, d, moving, shape):
     out = np.zeros(len(st.P), bool)
     maybe = v[_judged(st, v, d[v][None], shape, how="rough")[0][0]]
     if len(maybe):
-        out[maybe] = _judged(st, maybe, d[maybe][None], shape)[0][0]
+        out[maybe] = True if _rough_exact(st) else _judged(st, maybe, d[maybe][None], shape)[0][0]
     return out
+
+
+def _rough_exact(st):
+    """The state's rough means are its kept ones (a raster's): a try judged on them is judged."""
+    return bool(getattr(st.field, "rough_exact", False))
 
 
 def _judged(st, v, D, shape, how="means_with_error"):

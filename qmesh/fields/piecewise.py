@@ -60,6 +60,11 @@ class RegionMeans:
         return any(c.provable for c in self._cached.values())
 
     @property
+    def rough_exact(self) -> bool:
+        """Every field region's `rough` means are its kept ones (`ElementMeans.rough_exact`)."""
+        return all(c.rough_exact for c in self._cached.values())
+
+    @property
     def computed(self) -> int:
         """Triangles whose means a field region computed (constants cost nothing)."""
         return sum(c.computed for c in self._cached.values())

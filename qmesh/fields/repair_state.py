@@ -133,7 +133,7 @@ class RepairState:
         t = done[:0]
         if len(done):
             t = np.concatenate([done // 3, self.twin[done] // 3])
-            self.T, self.twin = topology.flip(self.T, self.twin, done)
+            self.T, self.twin = topology.flip(self.T, self.twin, done, copy=False)   # its own
             self.cut = cut_interfaces(self.twin, self.reg)
             self.flips += len(done)
             self.dirty.append((3 * t[:, None] + np.arange(3)).ravel())
