@@ -119,8 +119,8 @@ def _merge(st, t_in, t_out, new, ca, bc):
     st.seen.edges = st.seen.edges[half]
     if st.quality is not None:
         st.quality = st.quality[keep]
+    st.renumber(half)
     st.cut = st.twin if st.reg is None else st.cut         # merges are made without regions
-    st.stale()                                              # the half-edges renumbered
     st.refresh(row[t_in])
 
 

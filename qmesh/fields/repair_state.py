@@ -79,11 +79,13 @@ class RepairState:
         Qbar, err = np.array(Qbar, dtype=float), np.array(err, dtype=float)
         s, b = shares(P, T, Qbar, err)
         h, q, _ = failing(s, b, cut)
+        fails = np.zeros(len(s), bool)
+        fails[h] = True
         return cls(P, T, twin, cut,
                    np.zeros(len(P), bool) if fixed is None else np.array(fixed),
                    np.full(len(P), -1, np.int64) if out is None else np.array(out),
                    reg, field, Qbar, err, s, b, np.zeros(len(T), bool), Judged(len(P), len(T)),
-                   h, q)
+                   h, q, fails=fails, examined=len(s))
 
     def means(self, how: str, P, T, tags=None):
         """`field`'s means and error bounds of triangles T over P (`shares.means_of`)."""
@@ -116,6 +118,21 @@ class RepairState:
             inner = g >= 0
             self.h, self.q = h, s[h] + np.where(inner, s[np.where(inner, g, 0)], 0.0)
         self.dirty = []
+
+    def renumber(self, half: Index) -> None:
+        """The half-edges renumbered, the new k the old half[k] (a merge removed triangles): the
+        failing edges and what changed since the last `fail` follow; the removed half-edges'
+        twins are the merged triangles' sides, which the merge brings up to date."""
+        size = max([len(half) and int(half.max()) + 1] + [int(d.max()) + 1 for d in self.dirty
+                                                          if len(d)])
+        if self.fails is not None:
+            if len(self.fails) < size:
+                self.fails = np.concatenate([self.fails, np.zeros(size - len(self.fails), bool)])
+            self.fails = self.fails[half]
+        where = np.full(size, -1, np.int64)
+        where[half] = np.arange(len(half))
+        moved = [where[d] for d in self.dirty]
+        self.dirty = [d[d >= 0] for d in moved]
 
     def stale(self) -> None:
         """The shares or the half-edges' numbering changed everywhere (the proof's bounds, a

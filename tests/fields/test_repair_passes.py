@@ -1,0 +1,84 @@
+"""What a repair round looks at (qmesh/fields/repair_state.py, moves.movers): the failing edges
+are judged again only where a step changed the shares or the twins, so a certify pass judges
+every edge once and then only what its rounds changed, however many rounds it takes and however
+large the mesh; the movers are picked from the candidates' stars alone, the same ones a pass
+over the whole mesh picks."""
+
+import numpy as np
+from hypothesis import given, settings, strategies as st
+
+import qmesh
+from qmesh.fields import flips, moves, repair_state, splits
+from qmesh.fields.cache import ElementMeans
+from qmesh.fields.certify import certify
+from qmesh.fields.repair_state import RepairState
+from qmesh.fields.shares import failing
+from tests.fields.test_certify import random_raster, square_mesh
+from tests.fields.test_field_mesh import UNIT
+
+
+def raster_state(seed, n, cells):
+    P, T = square_mesh(seed, n)
+    edges, k1, k2, angle = random_raster(seed, cells, 3.0)
+    field = qmesh.TensorField.from_raster(edges, edges, k1, k2, angle)
+    return RepairState.of(P, T, ElementMeans(field))
+
+
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), n=st.sampled_from([60, 600, 3000]),
+       cells=st.integers(2, 8))
+def test_a_round_judges_only_the_edges_its_steps_changed(seed, n, cells):
+    """After flips and a split, `fail` judges the half-edges of the triangles they changed and
+    the twins across them (at most 6 a triangle, whatever the mesh's size) and finds the
+    failing edges, and their q_ij, a whole-mesh pass finds."""
+    state = raster_state(seed, n, cells)
+    for step in ("flips", "split"):
+        if step == "flips":
+            t = state.flip(flips.mending_flips(state, state.h))
+        elif len(state.h):
+            t = splits.split_failing(state, state.h, state.q)
+        else:
+            continue
+        state.refresh(t)
+        before = state.examined
+        state.fail()
+        assert state.examined - before <= 6 * len(np.unique(t))
+        h, q, _ = failing(state.s, state.b, state.cut)
+        assert np.array_equal(state.h, h) and np.array_equal(state.q, q)
+
+
+def test_certify_judges_every_edge_once_however_many_rounds(monkeypatch):
+    """A certify pass of many rounds on a raster judges the whole mesh's edges once, when its
+    state is made; each round after that only the edges its flips, splits and moves changed
+    (a whole-mesh pass each round made the rounds' cost grow with the mesh)."""
+    passes = []
+    whole = repair_state.failing
+    monkeypatch.setattr(repair_state, "failing",
+                        lambda *a, **k: passes.append(len(a[0])) or whole(*a, **k))
+    edges, k1, k2, angle = random_raster(5, 24, 2.0)
+    field = qmesh.TensorField.from_raster(edges, edges, k1, k2, angle)
+    start = qmesh.mesh(UNIT, qmesh.Anisotropy.constant(np.eye(2)), target_vertices=800)
+    mesh, cert = certify(start, field)
+    assert cert.remaining == 0 and cert.rounds >= 5
+    assert len(passes) == 1
+
+
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), n=st.integers(20, 400), share=st.floats(0.01, 1.0))
+def test_movers_from_the_candidates_stars_are_the_whole_mesh_s(seed, n, share):
+    """`moves.movers` looks only at the candidates' stars and their neighbours and picks the
+    vertices the rule over the whole mesh picks (random priorities, each the highest within
+    two triangles)."""
+    P, T = square_mesh(seed, n)
+    twin = repair_state.topology.twins(T)
+    rng = np.random.default_rng(seed)
+    candidates = np.flatnonzero(rng.random(len(P)) < share)
+    picked = moves.movers(T, twin, candidates, np.random.default_rng(seed))
+    prio = np.zeros(len(P))                       # the whole mesh's rule, written out
+    prio[candidates] = 1.0 + np.random.default_rng(seed).random(len(candidates))
+    tri = prio[T].max(axis=1)
+    nb = np.where(twin >= 0, twin // 3, np.repeat(np.arange(len(T)), 3)).reshape(-1, 3)
+    wide = np.maximum(tri, tri[nb].max(axis=1))
+    best = np.zeros(len(P))
+    np.maximum.at(best, T.ravel(), np.repeat(wide, 3))
+    assert np.array_equal(picked, candidates[best[candidates] == prio[candidates]])
