@@ -12,7 +12,9 @@ passes by more than the bound the means carry (FIELDS.md §3), and an edge that 
 bound has the means of its triangles computed again at the field's tolerance (`tighten`). Split
 candidates and the polish's tries are ranked on `rough` means (the degree-5 rule alone, 7 points
 a triangle, never kept): the split taken and the try kept are then computed in full. Rasters and
-constant fields keep their own exact means.
+constant fields keep their own exact means; their tries' means are computed without a look-up
+(a try's triangles are new) and only the tries taken are kept (`keep`): most tries are refused,
+and keeping them all made the cache hold several times the mesh's triangles.
 
 For a text formula those bounds are the rule's estimates, which a jump or a bump between its
 samples fools; `prove` replaces them by proven ones (`TensorField.enclosure_errors`: one enclosure
@@ -201,6 +203,15 @@ class ElementMeans:
         self._proven[row] = True
         return self._q[row], self._err[row]
 
+    def keep(self, P, T, Q, e):
+        """Keep the means Q and bounds e of the triangles T over P, computed by `rough` for
+        tries (exact fields): the tries taken are looked up when the mesh takes them, with the
+        bits they were judged on; a triangle kept already keeps its row."""
+        P, T = np.asarray(P, dtype=float), np.asarray(T, dtype=np.int64).reshape(-1, 3)
+        if len(T):
+            C = _canonical(P[T])
+            self._store(_hash(C), C, np.asarray(Q, dtype=float), np.asarray(e, dtype=float))
+
     def rough(self, P, T):
         """Means good enough to rank candidates, not kept: the degree-5 rule alone, 7 points a
         triangle (`TensorField.rule_means`), error 0 (exact for rasters and constants). Nothing is
@@ -211,8 +222,8 @@ class ElementMeans:
         against its four children (35 points) changed kept their N, their certificate and
         their minimum quality."""
         P, T = np.asarray(P, dtype=float), np.asarray(T, dtype=np.int64).reshape(-1, 3)
-        if self.field.means_exact:
-            return self.means_with_error(P, T)
+        if self.field.means_exact:                   # the exact means, neither looked up nor
+            return self._compute(P, T, self.rtol)    # kept: `keep` keeps the tries taken
         rule = getattr(self.field, "rule_means", None)
         if rule is None:                             # a field without the rule alone
             return self._compute(P, T, np.inf, depth=0)

@@ -271,7 +271,11 @@ def polish(st, movers, tangent=None, refused=None):
     q1 = np.where(ok, q1, -np.inf)
     best = np.argmax(q1, axis=0)
     take = np.isfinite(q1[best, np.arange(len(v))])
-    if take.any() and not _rough_exact(st):
+    if _rough_exact(st):                       # judged on the means it is kept with
+        kept = np.zeros(q1.shape, bool)
+        kept[best[take], np.flatnonzero(take)] = True
+        _keep(st, kept)
+    elif take.any():
         chosen = np.flatnonzero(take)
         take[chosen] = _judged(st, v[chosen], D[best[chosen], chosen][None], True)[0][0]
     if refused is not None:
@@ -305,15 +309,35 @@ def _accepted(st, d, moving, shape):
     on its own star: the same verdict among fewer movers)."""
     v = np.flatnonzero(moving)
     out = np.zeros(len(st.P), bool)
-    maybe = v[_judged(st, v, d[v][None], shape, how="rough")[0][0]]
-    if len(maybe):
-        out[maybe] = True if _rough_exact(st) else _judged(st, maybe, d[maybe][None], shape)[0][0]
+    ok = _judged(st, v, d[v][None], shape, how="rough")[0][0]
+    maybe = v[ok]
+    if _rough_exact(st):                       # judged on the means it is kept with
+        _keep(st, ok[None])
+        out[maybe] = True
+    elif len(maybe):
+        out[maybe] = _judged(st, maybe, d[maybe][None], shape)[0][0]
     return out
 
 
 def _rough_exact(st):
     """The state's rough means are its kept ones (a raster's): a try judged on them is judged."""
     return bool(getattr(st.field, "rough_exact", False))
+
+
+def _keep(st, kept):
+    """Keep the means of the tries `kept` ((K, k): try, mover) of the last rough `_judged` of a
+    field whose rough means are exact (computed, not kept, by `ElementMeans.rough`): the moves
+    taken find them when the mesh takes them, with the bits they were judged on."""
+    tried, st.tried = st.tried, None
+    if tried is None or not kept.any():
+        return
+    pts, tri, Qn, en, tags, mover = tried
+    K, m = len(kept), len(mover)
+    rows = np.flatnonzero(kept[np.repeat(np.arange(K), m), np.tile(mover, K)])
+    if tags is None:
+        st.field.keep(pts, tri[rows], Qn[rows], en[rows])
+    else:
+        st.field.keep(pts, tri[rows], Qn[rows], en[rows], tags[rows])
 
 
 def _judged(st, v, D, shape, how="means_with_error"):
@@ -324,6 +348,7 @@ def _judged(st, v, D, shape, how="means_with_error"):
     own means."""
     P, T, twin, Qbar, s, b, reg = st.P, st.T, st.cut, st.Qbar, st.s, st.b, st.reg
     n, (K, k) = len(P), D.shape[:2]
+    st.tried = None
     mask = np.zeros(n, bool)
     mask[v] = True
     star = np.flatnonzero(touching(T, mask))
@@ -348,6 +373,7 @@ def _judged(st, v, D, shape, how="means_with_error"):
     tags = None if reg is None else np.tile(reg[star], K)
     Qn, en = _try_means(st, how, pts, tri, tags, star, mover,
                         flat | (np.hypot(D[..., 0], D[..., 1]) == 0))
+    st.tried = (pts, tri, Qn, en, tags, mover) if how == "rough" and _rough_exact(st) else None
     sn, bn = (x.reshape(K, 3 * m) for x in shares(pts, tri, Qn, en))
     he = (3 * star[:, None] + np.arange(3)).ravel()
     local = np.full(len(T), -1, np.int64)

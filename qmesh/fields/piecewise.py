@@ -105,3 +105,11 @@ class RegionMeans:
 
     def rough(self, P: Any, T: Any, tags: Any) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         return self._each("rough", P, T, tags)
+
+    def keep(self, P: Any, T: Any, Q: Any, e: Any, tags: Any) -> None:
+        T = np.asarray(T, dtype=np.int64).reshape(-1, 3)
+        tags = np.asarray(tags, dtype=np.int64)
+        for r in self._cached:
+            at = np.flatnonzero(tags == r)
+            if len(at):
+                self._cached[r].keep(P, T[at], np.asarray(Q)[at], np.asarray(e)[at])

@@ -44,7 +44,9 @@ class RepairState:
     find again: `fails`, the half-edge (the lower of the two) of each failing edge, brought up to
     date by `fail` on the half-edges `refresh` and `flip` changed (`dirty`) and the twins across
     them (`examined` counts the half-edges it judged), and once `track_quality` is called each
-    triangle's metric quality (2.94) in its own means, `quality`, updated by `refresh`."""
+    triangle's metric quality (2.94) in its own means, `quality`, updated by `refresh`. `tried`
+    holds the last tries of moves judged on a raster's means (moves.py), until the ones taken
+    are kept."""
 
     P: Array
     T: Index
@@ -65,8 +67,9 @@ class RepairState:
     flips: int = 0
     quality: Array | None = None
     fails: NDArray[np.bool_] | None = None
-    dirty: list = _field(default_factory=list)
+    dirty: list[Index] = _field(default_factory=list)
     examined: int = 0
+    tried: Any = None
 
     @classmethod
     def of(cls, P, T, field, *, fixed=None, out=None, reg=None) -> "RepairState":
