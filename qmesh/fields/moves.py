@@ -372,7 +372,7 @@ def _judged(st, v, D, shape, how="means_with_error"):
     pts = X.reshape(-1, 2)
     tags = None if reg is None else np.tile(reg[star], K)
     Qn, en = _try_means(st, how, pts, tri, tags, star, mover,
-                        flat | (np.hypot(D[..., 0], D[..., 1]) == 0))
+                        flat | (np.hypot(D[..., 0], D[..., 1]) == 0), corner)
     st.tried = (pts, tri, Qn, en, tags, mover) if how == "rough" and _rough_exact(st) else None
     sn, bn = (x.reshape(K, 3 * m) for x in shares(pts, tri, Qn, en))
     he = (3 * star[:, None] + np.arange(3)).ravel()
@@ -414,17 +414,22 @@ def _judged(st, v, D, shape, how="means_with_error"):
     return take & (np.hypot(D[..., 0], D[..., 1]) > 0) & ~flat, q1
 
 
-def _try_means(st, how, pts, tri, tags, star, mover, still):
-    """The means and error bounds of the K tries' stars (K m triangles `tri` over `pts`), the
-    stars of the tries `still` ((K, k): refused on geometry alone, a triangle flattened or no
-    move) left unmoved. Rough means are asked for the moved stars only, and the unmoved ones
-    take the state's own: a refused try's means decide nothing (stars two triangles apart
-    share no edge), and each other triangle's rough mean is its own, whatever the batch. Other
-    means come from the cache (`cache.ElementMeans`), where an unmoved star is already kept."""
+def _try_means(st, how, pts, tri, tags, star, mover, still, corner):
+    """The means and error bounds of the K tries' stars (K m triangles `tri` over `pts`, the
+    mover at `corner` of each star triangle), the stars of the tries `still` ((K, k): refused
+    on geometry alone, a triangle flattened or no move) left unmoved. Rough means are asked
+    for the moved stars only, and the unmoved ones take the state's own: a refused try's means
+    decide nothing (stars two triangles apart share no edge), and each other triangle's rough
+    mean is its own, whatever the batch. Other means come from the cache
+    (`cache.ElementMeans`), where an unmoved star is already kept."""
     if how != "rough" or not still.any():
+        if how == "rough" and _rough_exact(st):
+            pts, tri = _far_sides_shared(pts, len(still), corner)
         Qn, en = st.means(how, pts, tri, tags)
         return np.asarray(Qn, dtype=float), np.asarray(en, dtype=float)
     K, m = len(still), len(star)
+    if _rough_exact(st):
+        pts, tri = _far_sides_shared(pts, K, corner)
     kept = still[:, mover].ravel()                           # (K m,): unmoved triangles
     Qn, en = np.empty((K * m, 2, 2)), np.empty(K * m)
     Qn[kept], en[kept] = np.tile(st.Qbar[star], (K, 1, 1))[kept], np.tile(st.err[star], K)[kept]
@@ -433,6 +438,26 @@ def _try_means(st, how, pts, tri, tags, star, mover, still):
         Qa, ea = st.means(how, pts, tri[ask], None if tags is None else tags[ask])
         Qn[ask], en[ask] = Qa, ea
     return Qn, en
+
+
+def _far_sides_shared(pts, K, corner):
+    """The K tries' star triangles (K m, 3) over points of their own (`pts`, three a triangle)
+    renumbered so that the corners a try does not move are one point in every try: a raster's
+    means (`means.raster_means`) integrate each side two triangles share once, so a star
+    triangle's far side, the same in every try, is integrated once instead of K times. Each
+    triangle's corners keep their order of numbers (the mover's number lies between those of
+    the corners before and after it), so each side is integrated in the same direction and
+    every mean comes out as over points of its own, bit for bit."""
+    m = len(corner)
+    j = np.arange(3)[None, None, :]
+    c = corner[None, :, None]
+    base = (K + 2) * np.arange(m)[None, :, None]
+    idx = np.where(j < c, base + j, np.where(j == c, base + c + np.arange(K)[:, None, None],
+                                             base + K + j - 1))
+    idx = np.broadcast_to(idx, (K, m, 3)).reshape(-1, 3)
+    shared = np.empty(((K + 2) * m, 2))
+    shared[idx.ravel()] = pts
+    return shared, idx
 
 
 def _own_metric(H):

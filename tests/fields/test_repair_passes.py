@@ -82,3 +82,26 @@ def test_movers_from_the_candidates_stars_are_the_whole_mesh_s(seed, n, share):
     best = np.zeros(len(P))
     np.maximum.at(best, T.ravel(), np.repeat(wide, 3))
     assert np.array_equal(picked, candidates[best[candidates] == prio[candidates]])
+
+
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), K=st.integers(1, 16), m=st.integers(1, 12),
+       cells=st.integers(1, 40))
+def test_tries_sharing_their_far_sides_have_a_raster_s_means_bit_for_bit(seed, K, m, cells):
+    """K tries at moving one corner of each of m triangles, renumbered so that the corners no
+    try moves are shared (`moves._far_sides_shared`): the raster's means are those over points
+    of their own, bit for bit, and each far side is one segment in all the tries."""
+    rng = np.random.default_rng(seed)
+    edges, k1, k2, angle = random_raster(seed, cells, 3.0)
+    field = qmesh.TensorField.from_raster(edges, edges, k1, k2, angle)
+    X = np.repeat(rng.uniform(0.0, 1.0, (1, m, 3, 2)), K, axis=0)
+    corner = rng.integers(0, 3, m)
+    X[:, np.arange(m), corner] = rng.uniform(0.0, 1.0, (K, m, 2))   # the mover's places
+    pts, tri = X.reshape(-1, 2), np.arange(3 * K * m).reshape(-1, 3)
+    shared, stri = moves._far_sides_shared(pts, K, corner)
+    assert np.array_equal(shared[stri], pts[tri])
+    assert np.all(np.diff(stri, axis=1) > 0)      # each triangle's corners in the same order
+    assert len(shared) == (K + 2) * m
+    Q, e = field.means_with_error(pts, tri)
+    Qs, es = field.means_with_error(shared, stri)
+    assert np.array_equal(Q, Qs) and np.array_equal(e, es)
