@@ -15,8 +15,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from qmesh.fields.moves import Judged
 from qmesh.conductivity.anisotropy import shape_metric
+from qmesh.fields.moves import Judged
 from qmesh.fields.shares import ROUND, cut_interfaces, failing, means_of, shares
 from qmesh.geometry import topology
 from qmesh.geometry.triangles import metric_quality
@@ -96,7 +96,7 @@ class RepairState:
 
     def fail(self) -> None:
         """The failing edges `h` and their `q` from the shares as they are: the edges of the
-        half-edges changed since the last call judged again (all of them the first time and
+        half-edges changed since the last call and of their twins judged again (all of them
         after `stale`), the same edges in the same order as `shares.failing` finds."""
         s, b, cut = self.s, self.b, self.cut
         if self.fails is None:
@@ -126,8 +126,7 @@ class RepairState:
         """The half-edges renumbered, the new k the old half[k] (a merge removed triangles): the
         failing edges and what changed since the last `fail` follow; the removed half-edges'
         twins are the merged triangles' sides, which the merge brings up to date."""
-        size = max([len(half) and int(half.max()) + 1] + [int(d.max()) + 1 for d in self.dirty
-                                                          if len(d)])
+        size = max([int(x.max()) + 1 for x in (half, *self.dirty) if len(x)], default=0)
         if self.fails is not None:
             if len(self.fails) < size:
                 self.fails = np.concatenate([self.fails, np.zeros(size - len(self.fails), bool)])
@@ -138,8 +137,8 @@ class RepairState:
         self.dirty = [d[d >= 0] for d in moved]
 
     def stale(self) -> None:
-        """The shares or the half-edges' numbering changed everywhere (the proof's bounds, a
-        merge's renumbering): the next `fail` judges every edge."""
+        """The shares changed everywhere (the proof's bounds): the next `fail` judges every
+        edge."""
         self.fails = None
         self.dirty = []
 
