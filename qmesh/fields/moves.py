@@ -306,7 +306,8 @@ def _accepted(st, d, moving, shape):
     """Which `moving` vertices (two triangles apart) `relax` takes moved by d: their stars'
     edges and shapes judged first on rough means (`ElementMeans.rough`, 7 points a triangle),
     and the moves that pass judged again on the means at the new places (each mover is judged
-    on its own star: the same verdict among fewer movers)."""
+    on its own star: the same verdict among fewer movers) unless the rough means are those
+    (a raster's: the moves taken keep them, `_keep`)."""
     v = np.flatnonzero(moving)
     out = np.zeros(len(st.P), bool)
     ok = _judged(st, v, d[v][None], shape, how="rough")[0][0]
