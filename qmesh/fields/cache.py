@@ -120,7 +120,7 @@ class ElementMeans:
         keys, first = keys[fresh], first[fresh]
         k = len(keys)
         if self._n + k > len(self._err):
-            size = max(2 * len(self._err), self._n + k)
+            size = max(len(self._err) + len(self._err) // 2, self._n + k)   # 1.5×: less spare
             self._corners = np.resize(self._corners, (size, 6))
             self._q = np.resize(self._q, (size, 2, 2))
             self._err = np.resize(self._err, size)
