@@ -184,6 +184,8 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
         st.seen = Judged(len(st.P), len(st.T))  # judged again on the proven bounds
         fewest, since = np.inf, 0
     compact(st)                                # the vertices the merges removed
+    st.field = means = None                    # the means' cache: its memory back before the
+                                               # whole mesh is assembled once more
     P, T, twin, tc, fixed, out = st.P, st.T, st.twin, st.cut, st.fixed, st.out
     Qbar, err, flips, reg = st.Qbar, st.err, st.flips, st.reg
     s, b = shares(P, T, Qbar, err)             # what is said is assembled afresh

@@ -93,7 +93,7 @@ def _merge(st, t_in, t_out, new, ca, bc):
     """Make rows t_in the merged triangles `new` (a, b, c), their sides' twins those of c → a
     (`ca`) and b → c (`bc`), delete rows t_out (`topology.remove_triangles`, whose row moves the
     state's per-triangle arrays follow), and bring the merged triangles' means up to date."""
-    T, twin = st.T.copy(), st.twin.copy()
+    T, twin = st.T, st.twin                                 # the state's own: rewritten
     g_bc, g_ca = twin[bc], twin[ca]
     T[t_in] = new
     twin[3 * t_out[:, None] + np.arange(3)] = -1           # t_out leaves no link behind

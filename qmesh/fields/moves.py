@@ -23,6 +23,8 @@ STEPS = (1.0, 0.5, 0.25)   # a refused shape move is tried at these shares of it
 IN_LINE = 1e-9      # a boundary vertex this near the line of its neighbours (sine) slides along it
 PATTERN = 12        # directions of the polish's places around a vertex ...
 REACH = (0.3, 0.1)  # ... at these shares of its height over its worst triangle's far edge
+POLISH_MOVERS = 4096    # movers whose tries the polish judges at once (27 tries of a star
+                        # each: the tries' arrays of a run are some tens of MB)
 
 
 class Judged:
@@ -267,15 +269,18 @@ def polish(st, movers, tangent=None, refused=None):
     # every try judged on rough means (the degree-5 rule alone, `ElementMeans.rough`), the one
     # each mover would take judged again on the means it is kept with: the field's adaptive
     # means for one try a mover, not for all of them (a raster's rough means are its kept ones)
-    ok, q1 = _judged(st, v, D, True, how="rough")
-    q1 = np.where(ok, q1, -np.inf)
-    best = np.argmax(q1, axis=0)
-    take = np.isfinite(q1[best, np.arange(len(v))])
-    if _rough_exact(st):                       # judged on the means it is kept with
-        kept = np.zeros(q1.shape, bool)
-        kept[best[take], np.flatnonzero(take)] = True
-        _keep(st, kept)
-    elif take.any():
+    best, take = np.zeros(len(v), np.int64), np.zeros(len(v), bool)
+    for c in range(0, len(v), POLISH_MOVERS):  # the same verdicts: each on its own star
+        at = slice(c, c + POLISH_MOVERS)
+        ok, q1 = _judged(st, v[at], D[:, at], True, how="rough")
+        q1 = np.where(ok, q1, -np.inf)
+        best[at] = np.argmax(q1, axis=0)
+        take[at] = np.isfinite(q1[best[at], np.arange(q1.shape[1])])
+        if _rough_exact(st):                   # judged on the means it is kept with
+            kept = np.zeros(q1.shape, bool)
+            kept[best[at][take[at]], np.flatnonzero(take[at])] = True
+            _keep(st, kept)
+    if take.any() and not _rough_exact(st):
         chosen = np.flatnonzero(take)
         take[chosen] = _judged(st, v[chosen], D[best[chosen], chosen][None], True)[0][0]
     if refused is not None:
