@@ -1,13 +1,17 @@
-"""What a repair round looks at (qmesh/fields/repair_state.py, moves.movers): the failing edges
-are judged again only where a step changed the shares or the twins, so a certify pass judges
-every edge once and then only what its rounds changed, however many rounds it takes and however
-large the mesh; the movers are picked from the candidates' stars alone, the same ones a pass
-over the whole mesh picks."""
+"""What a repair round looks at and holds (qmesh/fields/repair_state.py, moves.py, the raster's
+means): the failing edges are judged again only where a step changed the shares or the twins,
+so a certify pass judges every edge once and then only what its rounds changed, however many
+rounds it takes and however large the mesh; the movers are picked from the candidates' stars
+alone, the same ones a pass over the whole mesh picks; a raster's tries share their far sides,
+its means are taken a run of triangles at a time and the polish's tries a run of movers at a
+time, each to the same bits as all at once."""
 
 import numpy as np
+import pytest
 from hypothesis import given, settings, strategies as st
 
 import qmesh
+from qmesh.conductivity import means as _m
 from qmesh.fields import flips, moves, repair_state, splits
 from qmesh.fields.cache import ElementMeans
 from qmesh.fields.certify import certify
@@ -105,3 +109,46 @@ def test_tries_sharing_their_far_sides_have_a_raster_s_means_bit_for_bit(seed, K
     Q, e = field.means_with_error(pts, tri)
     Qs, es = field.means_with_error(shared, stri)
     assert np.array_equal(Q, Qs) and np.array_equal(e, es)
+
+
+@settings(max_examples=8, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), n=st.integers(30, 400), run=st.integers(1, 64))
+def test_raster_means_a_run_of_triangles_at_a_time_are_the_whole_mesh_s(seed, n, run):
+    """`means.raster_means` takes MEAN_TRIANGLES triangles at a time (its memory that of a run):
+    the means and bounds are those of the whole mesh at once, bit for bit, and a flat triangle
+    is named by its number in the mesh."""
+    P, T = square_mesh(seed, n)
+    edges, k1, k2, angle = random_raster(seed, 9, 3.0)
+    R = qmesh.TensorField.from_raster(edges, edges, k1, k2, angle)._raster
+    whole = _m.raster_means(R, P, T)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(_m, "MEAN_TRIANGLES", run)
+        runs = _m.raster_means(R, P, T)
+        assert all(np.array_equal(a, b) for a, b in zip(whole, runs))
+        flat = T.copy()
+        k = len(T) - 1
+        flat[k] = [flat[k, 0], flat[k, 0], flat[k, 1]]
+        with pytest.raises(qmesh.QmeshError, match=f"triangle {k} "):
+            _m.raster_means(R, P, flat)
+
+
+def test_the_polish_judges_its_movers_a_run_at_a_time_to_the_same_moves(monkeypatch):
+    """The polish judges POLISH_MOVERS movers' tries at a time (the tries of a million-vertex
+    mesh's movers at once held GBs): the same moves as all at once."""
+    edges, k1, k2, angle = random_raster(11, 24, 2.0)
+    field = qmesh.TensorField.from_raster(edges, edges, k1, k2, angle)
+    judged, calls = moves._judged, []
+    tries = len(moves.STEPS) + moves.PATTERN * len(moves.REACH)
+
+    def counted(st_, v, D, *a, **k):
+        calls.append(len(v)) if len(D) == tries else None
+        return judged(st_, v, D, *a, **k)
+    monkeypatch.setattr(moves, "_judged", counted)
+    whole = qmesh.mesh(UNIT, field, target_vertices=1500)
+    most = max(calls)
+    monkeypatch.setattr(moves, "POLISH_MOVERS", 3)
+    calls.clear()
+    runs = qmesh.mesh(UNIT, field, target_vertices=1500)
+    assert most > 3 and max(calls) <= 3           # the runs were cut
+    assert np.array_equal(whole.points, runs.points)
+    assert np.array_equal(whole.triangles, runs.triangles)
