@@ -17,11 +17,13 @@ from qmesh.fields.cache import ElementMeans
 from qmesh.fields.certify import certify
 from qmesh.fields.repair_state import RepairState
 from qmesh.fields.shares import failing
+from qmesh.geometry import topology
 from tests.fields.test_certify import random_raster, square_mesh
 from tests.fields.test_field_mesh import UNIT
 
 
 def raster_state(seed, n, cells):
+    """The repair state of a random mesh of the unit square under a random raster."""
     P, T = square_mesh(seed, n)
     edges, k1, k2, angle = random_raster(seed, cells, 3.0)
     field = qmesh.TensorField.from_raster(edges, edges, k1, k2, angle)
@@ -74,7 +76,7 @@ def test_movers_from_the_candidates_stars_are_the_whole_mesh_s(seed, n, share):
     vertices the rule over the whole mesh picks (random priorities, each the highest within
     two triangles)."""
     P, T = square_mesh(seed, n)
-    twin = repair_state.topology.twins(T)
+    twin = topology.twins(T)
     rng = np.random.default_rng(seed)
     candidates = np.flatnonzero(rng.random(len(P)) < share)
     picked = moves.movers(T, twin, candidates, np.random.default_rng(seed))
