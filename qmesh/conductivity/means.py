@@ -610,7 +610,25 @@ def raster_means(R: Raster, points: Array, triangles: NDArray[np.intp]) -> tuple
     by two triangles is integrated once. The round-off bound is that of the edges' integrals
     (`raster_edge_integrals`) over |T|: ∮ G dy cancels the large part of G that is constant
     along the boundary, so the error grows with the raster's size over the triangle's.
-    Coordinates are taken relative to the raster's corner."""
+    Coordinates are taken relative to the raster's corner. MEAN_TRIANGLES triangles at a time
+    (an edge two of them share, in two runs, is integrated in each, to the same bits): the
+    memory is that of a run, not of the whole mesh's edges."""
+    M = len(triangles)
+    q, bound = np.empty((M, 3)), np.empty(M)
+    for s in range(0, M, MEAN_TRIANGLES):
+        part = slice(s, min(s + MEAN_TRIANGLES, M))
+        q[part], bound[part] = _raster_means(R, points, triangles[part], s)
+    return q, bound
+
+
+MEAN_TRIANGLES = 1 << 16
+"""Triangles whose raster means `raster_means` computes at once: their edges' temporaries are a
+few tens of MB."""
+
+
+def _raster_means(R: Raster, points: Array, triangles: NDArray[np.intp],
+                  first: int) -> tuple[Array, Array]:
+    """`raster_means` of one run of triangles, the first numbered `first` in the mesh."""
     M = len(triangles)
     a, b = triangles[:, [0, 1, 2]].ravel(), triangles[:, [1, 2, 0]].ravel()
     lo, hi = np.minimum(a, b), np.maximum(a, b)
@@ -627,8 +645,8 @@ def raster_means(R: Raster, points: Array, triangles: NDArray[np.intp]) -> tuple
     flat = np.flatnonzero(area == 0)
     if len(flat):
         t = flat[0]
-        raise QmeshError(f"triangle {t} (vertices {points[triangles[t]].tolist()}) has zero area: "
-                         "its mean over raster cells is not defined")
+        raise QmeshError(f"triangle {first + t} (vertices {points[triangles[t]].tolist()}) has "
+                         "zero area: its mean over raster cells is not defined")
     return integral / area[:, None], bound / np.abs(area)
 
 

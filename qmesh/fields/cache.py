@@ -12,7 +12,9 @@ passes by more than the bound the means carry (FIELDS.md §3), and an edge that 
 bound has the means of its triangles computed again at the field's tolerance (`tighten`). Split
 candidates and the polish's tries are ranked on `rough` means (the degree-5 rule alone, 7 points
 a triangle, never kept): the split taken and the try kept are then computed in full. Rasters and
-constant fields keep their own exact means.
+constant fields keep their own exact means; their tries' means are computed without a look-up
+(a try's triangles are new) and only the tries taken are kept (`keep`): most tries are refused,
+and keeping them all made the cache hold several times the mesh's triangles.
 
 For a text formula those bounds are the rule's estimates, which a jump or a bump between its
 samples fools; `prove` replaces them by proven ones (`TensorField.enclosure_errors`: one enclosure
@@ -90,6 +92,9 @@ class ElementMeans:
         self.computed = 0                            # triangles whose means were computed
         self.provable = bool(getattr(field, "means_bounded", False)) and not field.means_exact
         """A text: its rows are estimates until proven (`prove`, `refine`)."""
+        self.rough_exact = bool(getattr(field, "means_exact", False))
+        """`rough` gives the kept means themselves (a raster, a constant): a verdict on them
+        needs no second judgement."""
 
     def _compute(self, P, T, rtol, depth=_m.MAX_DEPTH, bound_rtol=None):
         self.computed += len(T)
@@ -115,7 +120,7 @@ class ElementMeans:
         keys, first = keys[fresh], first[fresh]
         k = len(keys)
         if self._n + k > len(self._err):
-            size = max(2 * len(self._err), self._n + k)
+            size = max(len(self._err) + len(self._err) // 2, self._n + k)   # 1.5×: less spare
             self._corners = np.resize(self._corners, (size, 6))
             self._q = np.resize(self._q, (size, 2, 2))
             self._err = np.resize(self._err, size)
@@ -198,6 +203,15 @@ class ElementMeans:
         self._proven[row] = True
         return self._q[row], self._err[row]
 
+    def keep(self, P, T, Q, e):
+        """Keep the means Q and bounds e of the triangles T over P, computed by `rough` for
+        tries (exact fields): the tries taken are looked up when the mesh takes them, with the
+        bits they were judged on; a triangle kept already keeps its row."""
+        P, T = np.asarray(P, dtype=float), np.asarray(T, dtype=np.int64).reshape(-1, 3)
+        if len(T):
+            C = _canonical(P[T])
+            self._store(_hash(C), C, np.asarray(Q, dtype=float), np.asarray(e, dtype=float))
+
     def rough(self, P, T):
         """Means good enough to rank candidates, not kept: the degree-5 rule alone, 7 points a
         triangle (`TensorField.rule_means`), error 0 (exact for rasters and constants). Nothing is
@@ -208,8 +222,8 @@ class ElementMeans:
         against its four children (35 points) changed kept their N, their certificate and
         their minimum quality."""
         P, T = np.asarray(P, dtype=float), np.asarray(T, dtype=np.int64).reshape(-1, 3)
-        if self.field.means_exact:
-            return self.means_with_error(P, T)
+        if self.field.means_exact:                   # the exact means, neither looked up nor
+            return self._compute(P, T, self.rtol)    # kept: `keep` keeps the tries taken
         rule = getattr(self.field, "rule_means", None)
         if rule is None:                             # a field without the rule alone
             return self._compute(P, T, np.inf, depth=0)

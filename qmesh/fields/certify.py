@@ -31,7 +31,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from qmesh.conductivity.anisotropy import shape_metric
 from qmesh.errors import QmeshError
 from qmesh.fields.cache import ElementMeans
 from qmesh.fields.flips import mending_flips, quality_flips
@@ -44,7 +43,6 @@ from qmesh.fields.shares import FLOOR, by_bound, failing, shares
 from qmesh.fields.splits import longer, split_failing, split_failing_medium
 from qmesh.geometry import topology
 from qmesh.geometry.portable import eigvalsh2
-from qmesh.geometry.triangles import metric_quality
 from qmesh.mesher import budget
 from qmesh.triangle_mesh import Mesh
 
@@ -154,8 +152,10 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
             tan = _tangents(st)
             st.seen = Judged(len(st.P), len(st.T))  # judged afresh: the moves are judged otherwise
             short = []                             # the shortfall below FLOOR before each round
+            if st.quality is None:
+                st.track_quality()                 # each round: only what it changed
             for _ in range(POLISH):                # the worst shapes, each in its own means
-                quality = metric_quality(st.P, st.T, shape_metric(st.Qbar))
+                quality = st.quality
                 low = quality < FLOOR
                 short.append(float(np.sum(FLOOR - quality[low])))
                 if len(short) > PATIENCE and short[-1] >= (1.0 - PROGRESS) * short[-1 - PATIENCE]:
@@ -167,7 +167,7 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
                 t = polish(st, movers(st.T, st.twin, poor, rng), tangent=tan,
                            refused=st.seen.vertices)
                 st.refresh(t)
-                low = np.flatnonzero(metric_quality(st.P, st.T, shape_metric(st.Qbar)) < FLOOR)
+                low = np.flatnonzero(st.quality < FLOOR)
                 done = quality_flips(st, (3 * low[:, None] + np.arange(3)).ravel())
                 if len(done):
                     st.refresh(st.flip(done))
@@ -184,6 +184,8 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
         st.seen = Judged(len(st.P), len(st.T))  # judged again on the proven bounds
         fewest, since = np.inf, 0
     compact(st)                                # the vertices the merges removed
+    st.field = means = None                    # the means' cache: its memory back before the
+                                               # whole mesh is assembled once more
     P, T, twin, tc, fixed, out = st.P, st.T, st.twin, st.cut, st.fixed, st.out
     Qbar, err, flips, reg = st.Qbar, st.err, st.flips, st.reg
     s, b = shares(P, T, Qbar, err)             # what is said is assembled afresh
@@ -255,6 +257,7 @@ def _prove(st: RepairState) -> None:
     P, T, tags = st.P, st.T, () if st.reg is None else (st.reg,)
     st.Qbar, st.err = st.field.prove(P, T, *tags)
     st.s, st.b = shares(P, T, st.Qbar, st.err)
+    st.stale()
     asked = np.full(len(T), np.inf)
     for _ in range(REFINE):
         st.fail()
@@ -277,6 +280,8 @@ def _prove(st: RepairState) -> None:
         asked[t] = rtol[t]
         st.Qbar[t], st.err[t] = st.field.refine(P, T[t], *(v[t] for v in tags), rtol[t])
         st.s, st.b = shares(P, T, st.Qbar, st.err)
+        st.stale()
+    st.quality = None                          # the means changed: measured again when asked
     st.fail()
 
 

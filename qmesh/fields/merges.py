@@ -93,7 +93,7 @@ def _merge(st, t_in, t_out, new, ca, bc):
     """Make rows t_in the merged triangles `new` (a, b, c), their sides' twins those of c → a
     (`ca`) and b → c (`bc`), delete rows t_out (`topology.remove_triangles`, whose row moves the
     state's per-triangle arrays follow), and bring the merged triangles' means up to date."""
-    T, twin = st.T.copy(), st.twin.copy()
+    T, twin = st.T, st.twin                                 # the state's own: rewritten
     g_bc, g_ca = twin[bc], twin[ca]
     T[t_in] = new
     twin[3 * t_out[:, None] + np.arange(3)] = -1           # t_out leaves no link behind
@@ -117,6 +117,9 @@ def _merge(st, t_in, t_out, new, ca, bc):
     st.Qbar, st.err, st.tight = st.Qbar[keep], st.err[keep], st.tight[keep]
     st.s, st.b = st.s[half], st.b[half]
     st.seen.edges = st.seen.edges[half]
+    if st.quality is not None:
+        st.quality = st.quality[keep]
+    st.renumber(half)
     st.cut = st.twin if st.reg is None else st.cut         # merges are made without regions
     st.refresh(row[t_in])
 

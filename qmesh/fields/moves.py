@@ -23,6 +23,8 @@ STEPS = (1.0, 0.5, 0.25)   # a refused shape move is tried at these shares of it
 IN_LINE = 1e-9      # a boundary vertex this near the line of its neighbours (sine) slides along it
 PATTERN = 12        # directions of the polish's places around a vertex ...
 REACH = (0.3, 0.1)  # ... at these shares of its height over its worst triangle's far edge
+POLISH_MOVERS = 4096    # movers whose tries the polish judges at once (27 tries of a star
+                        # each: the tries' arrays of a run are some tens of MB)
 
 
 class Judged:
@@ -121,14 +123,20 @@ def in_line(P, v, before, after):
 
 def movers(T, twin, candidates, rng):
     """Candidate vertices no two of which touch one triangle or two neighbouring triangles, so
-    each edge's shares move with one vertex at most (random priorities, a Luby-style round)."""
-    prio = np.zeros(int(T.max()) + 1)
+    each edge's shares move with one vertex at most (random priorities, a Luby-style round).
+    Only the candidates' stars and their neighbours are looked at: a round costs what the
+    candidates touch, not the whole mesh."""
+    n = max(int(T.max()) + 1, int(candidates.max()) + 1 if len(candidates) else 0)
+    prio = np.zeros(n)
     prio[candidates] = 1.0 + rng.random(len(candidates))
-    tri = _max3(prio[T])
-    nb = np.where(twin >= 0, twin // 3, np.repeat(np.arange(len(T)), 3)).reshape(-1, 3)
-    wide = np.maximum(tri, _max3(tri[nb]))
-    best = np.zeros(len(prio))
-    np.maximum.at(best, T.ravel(), np.repeat(wide, 3))
+    star = np.flatnonzero(touching(T, prio > 0))       # the only triangles with a priority
+    tri = np.zeros(len(T))
+    tri[star] = _max3(prio[T[star]])
+    g = twin[(3 * star[:, None] + np.arange(3)).ravel()]
+    nb = np.where(g >= 0, g // 3, np.repeat(star, 3)).reshape(-1, 3)
+    wide = np.maximum(tri[star], _max3(tri[nb]))
+    best = np.zeros(n)
+    np.maximum.at(best, T[star].ravel(), np.repeat(wide, 3))
     return candidates[best[candidates] == prio[candidates]]
 
 
@@ -260,12 +268,19 @@ def polish(st, movers, tangent=None, refused=None):
         D = _along(D, tangent[v])
     # every try judged on rough means (the degree-5 rule alone, `ElementMeans.rough`), the one
     # each mover would take judged again on the means it is kept with: the field's adaptive
-    # means for one try a mover, not for all of them
-    ok, q1 = _judged(st, v, D, True, how="rough")
-    q1 = np.where(ok, q1, -np.inf)
-    best = np.argmax(q1, axis=0)
-    take = np.isfinite(q1[best, np.arange(len(v))])
-    if take.any():
+    # means for one try a mover, not for all of them (a raster's rough means are its kept ones)
+    best, take = np.zeros(len(v), np.int64), np.zeros(len(v), bool)
+    for c in range(0, len(v), POLISH_MOVERS):  # the same verdicts: each on its own star
+        at = slice(c, c + POLISH_MOVERS)
+        ok, q1 = _judged(st, v[at], D[:, at], True, how="rough")
+        q1 = np.where(ok, q1, -np.inf)
+        best[at] = np.argmax(q1, axis=0)
+        take[at] = np.isfinite(q1[best[at], np.arange(q1.shape[1])])
+        if _rough_exact(st):                   # judged on the means it is kept with
+            kept = np.zeros(q1.shape, bool)
+            kept[best[at][take[at]], np.flatnonzero(take[at])] = True
+            _keep(st, kept)
+    if take.any() and not _rough_exact(st):
         chosen = np.flatnonzero(take)
         take[chosen] = _judged(st, v[chosen], D[best[chosen], chosen][None], True)[0][0]
     if refused is not None:
@@ -296,13 +311,39 @@ def _accepted(st, d, moving, shape):
     """Which `moving` vertices (two triangles apart) `relax` takes moved by d: their stars'
     edges and shapes judged first on rough means (`ElementMeans.rough`, 7 points a triangle),
     and the moves that pass judged again on the means at the new places (each mover is judged
-    on its own star: the same verdict among fewer movers)."""
+    on its own star: the same verdict among fewer movers) unless the rough means are those
+    (a raster's: the moves taken keep them, `_keep`)."""
     v = np.flatnonzero(moving)
     out = np.zeros(len(st.P), bool)
-    maybe = v[_judged(st, v, d[v][None], shape, how="rough")[0][0]]
-    if len(maybe):
+    ok = _judged(st, v, d[v][None], shape, how="rough")[0][0]
+    maybe = v[ok]
+    if _rough_exact(st):                       # judged on the means it is kept with
+        _keep(st, ok[None])
+        out[maybe] = True
+    elif len(maybe):
         out[maybe] = _judged(st, maybe, d[maybe][None], shape)[0][0]
     return out
+
+
+def _rough_exact(st):
+    """The state's rough means are its kept ones (a raster's): a try judged on them is judged."""
+    return bool(getattr(st.field, "rough_exact", False))
+
+
+def _keep(st, kept):
+    """Keep the means of the tries `kept` ((K, k): try, mover) of the last rough `_judged` of a
+    field whose rough means are exact (computed, not kept, by `ElementMeans.rough`): the moves
+    taken find them when the mesh takes them, with the bits they were judged on."""
+    tried, st.tried = st.tried, None
+    if tried is None or not kept.any():
+        return
+    pts, tri, Qn, en, tags, mover = tried
+    K, m = len(kept), len(mover)
+    rows = np.flatnonzero(kept[np.repeat(np.arange(K), m), np.tile(mover, K)])
+    if tags is None:
+        st.field.keep(pts, tri[rows], Qn[rows], en[rows])
+    else:
+        st.field.keep(pts, tri[rows], Qn[rows], en[rows], tags[rows])
 
 
 def _judged(st, v, D, shape, how="means_with_error"):
@@ -313,6 +354,7 @@ def _judged(st, v, D, shape, how="means_with_error"):
     own means."""
     P, T, twin, Qbar, s, b, reg = st.P, st.T, st.cut, st.Qbar, st.s, st.b, st.reg
     n, (K, k) = len(P), D.shape[:2]
+    st.tried = None
     mask = np.zeros(n, bool)
     mask[v] = True
     star = np.flatnonzero(touching(T, mask))
@@ -336,7 +378,8 @@ def _judged(st, v, D, shape, how="means_with_error"):
     pts = X.reshape(-1, 2)
     tags = None if reg is None else np.tile(reg[star], K)
     Qn, en = _try_means(st, how, pts, tri, tags, star, mover,
-                        flat | (np.hypot(D[..., 0], D[..., 1]) == 0))
+                        flat | (np.hypot(D[..., 0], D[..., 1]) == 0), corner)
+    st.tried = (pts, tri, Qn, en, tags, mover) if how == "rough" and _rough_exact(st) else None
     sn, bn = (x.reshape(K, 3 * m) for x in shares(pts, tri, Qn, en))
     he = (3 * star[:, None] + np.arange(3)).ravel()
     local = np.full(len(T), -1, np.int64)
@@ -377,17 +420,22 @@ def _judged(st, v, D, shape, how="means_with_error"):
     return take & (np.hypot(D[..., 0], D[..., 1]) > 0) & ~flat, q1
 
 
-def _try_means(st, how, pts, tri, tags, star, mover, still):
-    """The means and error bounds of the K tries' stars (K m triangles `tri` over `pts`), the
-    stars of the tries `still` ((K, k): refused on geometry alone, a triangle flattened or no
-    move) left unmoved. Rough means are asked for the moved stars only, and the unmoved ones
-    take the state's own: a refused try's means decide nothing (stars two triangles apart
-    share no edge), and each other triangle's rough mean is its own, whatever the batch. Other
-    means come from the cache (`cache.ElementMeans`), where an unmoved star is already kept."""
+def _try_means(st, how, pts, tri, tags, star, mover, still, corner):
+    """The means and error bounds of the K tries' stars (K m triangles `tri` over `pts`, the
+    mover at `corner` of each star triangle), the stars of the tries `still` ((K, k): refused
+    on geometry alone, a triangle flattened or no move) left unmoved. Rough means are asked
+    for the moved stars only, and the unmoved ones take the state's own: a refused try's means
+    decide nothing (stars two triangles apart share no edge), and each other triangle's rough
+    mean is its own, whatever the batch. Other means come from the cache
+    (`cache.ElementMeans`), where an unmoved star is already kept."""
     if how != "rough" or not still.any():
+        if how == "rough" and _rough_exact(st):
+            pts, tri = _far_sides_shared(pts, len(still), corner)
         Qn, en = st.means(how, pts, tri, tags)
         return np.asarray(Qn, dtype=float), np.asarray(en, dtype=float)
     K, m = len(still), len(star)
+    if _rough_exact(st):
+        pts, tri = _far_sides_shared(pts, K, corner)
     kept = still[:, mover].ravel()                           # (K m,): unmoved triangles
     Qn, en = np.empty((K * m, 2, 2)), np.empty(K * m)
     Qn[kept], en[kept] = np.tile(st.Qbar[star], (K, 1, 1))[kept], np.tile(st.err[star], K)[kept]
@@ -396,6 +444,26 @@ def _try_means(st, how, pts, tri, tags, star, mover, still):
         Qa, ea = st.means(how, pts, tri[ask], None if tags is None else tags[ask])
         Qn[ask], en[ask] = Qa, ea
     return Qn, en
+
+
+def _far_sides_shared(pts, K, corner):
+    """The K tries' star triangles (K m, 3) over points of their own (`pts`, three a triangle)
+    renumbered so that the corners a try does not move are one point in every try: a raster's
+    means (`means.raster_means`) integrate each side two triangles share once, so a star
+    triangle's far side, the same in every try, is integrated once instead of K times. Each
+    triangle's corners keep their order of numbers (the mover's number lies between those of
+    the corners before and after it), so each side is integrated in the same direction and
+    every mean comes out as over points of its own, bit for bit."""
+    m = len(corner)
+    j = np.arange(3)[None, None, :]
+    c = corner[None, :, None]
+    base = (K + 2) * np.arange(m)[None, :, None]
+    idx = np.where(j < c, base + j, np.where(j == c, base + c + np.arange(K)[:, None, None],
+                                             base + K + j - 1))
+    idx = np.broadcast_to(idx, (K, m, 3)).reshape(-1, 3)
+    shared = np.empty(((K + 2) * m, 2))
+    shared[idx.ravel()] = pts
+    return shared, idx
 
 
 def _own_metric(H):

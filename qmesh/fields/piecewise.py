@@ -60,6 +60,11 @@ class RegionMeans:
         return any(c.provable for c in self._cached.values())
 
     @property
+    def rough_exact(self) -> bool:
+        """Every field region's `rough` means are its kept ones (`ElementMeans.rough_exact`)."""
+        return all(c.rough_exact for c in self._cached.values())
+
+    @property
     def computed(self) -> int:
         """Triangles whose means a field region computed (constants cost nothing)."""
         return sum(c.computed for c in self._cached.values())
@@ -100,3 +105,11 @@ class RegionMeans:
 
     def rough(self, P: Any, T: Any, tags: Any) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         return self._each("rough", P, T, tags)
+
+    def keep(self, P: Any, T: Any, Q: Any, e: Any, tags: Any) -> None:
+        T = np.asarray(T, dtype=np.int64).reshape(-1, 3)
+        tags = np.asarray(tags, dtype=np.int64)
+        for r in self._cached:
+            at = np.flatnonzero(tags == r)
+            if len(at):
+                self._cached[r].keep(P, T[at], np.asarray(Q)[at], np.asarray(e)[at])

@@ -1,7 +1,7 @@
 """The repair's one state (qmesh/fields/repair_state.py): after its steps change the mesh — flips,
 splits of a field's and of a medium's edges, moves — `refresh` of the triangles they report
-leaves the twins, means, shares and failing edges exactly as a state made afresh from the new
-mesh has them (each round assembles only what changed)."""
+leaves the twins, means, shares, failing edges and qualities exactly as a state made afresh from
+the new mesh has them (each round assembles only what changed)."""
 
 import numpy as np
 from hypothesis import given, settings, strategies as st
@@ -22,6 +22,8 @@ def assert_as_made_afresh(state):
         assert np.array_equal(getattr(state, name), getattr(fresh, name)), name
     state.fail()
     assert np.array_equal(state.h, fresh.h) and np.array_equal(state.q, fresh.q)
+    fresh.track_quality()
+    assert np.array_equal(state.quality, fresh.quality, equal_nan=True)
 
 
 @settings(max_examples=10, deadline=None)
@@ -41,6 +43,7 @@ def test_each_step_then_refresh_leaves_the_state_a_fresh_one_would_have(seed, n,
     fixed = np.zeros(len(P), bool)
     fixed[:4] = True
     state = RepairState.of(P, T, means, fixed=fixed, reg=reg)
+    state.track_quality()                        # kept up to date by each refresh
     state.refresh(state.flip(flips.mending_flips(state, state.h)))
     assert_as_made_afresh(state)
     if len(state.h):
