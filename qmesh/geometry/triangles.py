@@ -191,15 +191,21 @@ def rounded(x: np.ndarray, bits: int = 32) -> np.ndarray:
     return np.ldexp(np.round(m * 2.0**bits) / 2.0**bits, e)
 
 
-def metric_measures(P: np.ndarray, T: np.ndarray, H: np.ndarray):
+def metric_measures(P: np.ndarray, T: np.ndarray, H: np.ndarray, rounding: bool = False):
     """metric_areas, metric_quality and metric_edge_lengths2 of every triangle, CHUNK triangles
     at a time, from one gather of the corners per block (each value exactly what the
-    whole-array functions give: the same operations in the same order)."""
+    whole-array functions give: the same operations in the same order). `rounding`: each of
+    the three `rounded` (the quality from the unrounded ones), a block at a time: rounding the
+    whole arrays afterwards made five temporaries of their size each, and took as long as
+    measuring."""
     area, quality, L2 = np.empty(len(T)), np.empty(len(T)), np.empty(T.shape)
     xy = columns(P)
     for c in chunks(len(T)):
         F = Frame(xy, T[c])
-        area[c] = _metric_areas(_signed_areas(F.x, F.y), H[c])
-        L2[c] = _edge_lengths2(F, H[c])
-        quality[c] = _quality(area[c], L2[c])
+        a = _metric_areas(_signed_areas(F.x, F.y), H[c])
+        l2 = _edge_lengths2(F, H[c])
+        q = _quality(a, l2)
+        if rounding:
+            a, q, l2 = rounded(a), rounded(q), rounded(l2)
+        area[c], quality[c], L2[c] = a, q, l2
     return area, quality, L2
