@@ -131,9 +131,14 @@ def insert(P, T, twin, anisotropy, *, area_threshold, boundary_length, corner_ed
     tri = np.concatenate([tri, g_host])
     edge_b = corner_edge[T[hb // 3, hb % 3]]
     k0, k1 = n + len(hb), n + len(hb) + len(hi)
-    T, twin = topology.split_boundary_edges(T, twin, hb, n + np.arange(len(hb)))
-    T, twin = topology.split_edges(T, twin, hi, k0 + np.arange(len(hi)))
-    T, twin = topology.split_triangles(T, twin, tri, k1 + np.arange(len(tri)))
+    # one copy of T and twin with room for every new triangle, which the splits fill in order
+    m0, m1, m2 = len(T), len(T) + len(hb), len(T) + len(hb) + 2 * len(hi)
+    T, twin = topology.grow(T, twin, len(hb) + 2 * len(hi) + 2 * len(tri))
+    T, twin = topology.split_boundary_edges(T, twin, hb, n + np.arange(len(hb)),
+                                            rows=np.arange(m0, m1))
+    T, twin = topology.split_edges(T, twin, hi, k0 + np.arange(len(hi)), rows=np.arange(m1, m2))
+    T, twin = topology.split_triangles(T, twin, tri, k1 + np.arange(len(tri)),
+                                       rows=np.arange(m2, len(T)))
     return Insertion(T, twin, np.concatenate([new_b, new_e, new_c]),
                      np.concatenate([edge_b, np.full(len(hi) + len(tri), -1)]))
 
