@@ -567,7 +567,8 @@ def _split_in_place(P, T, twin, hs, n, anisotropy):
     mark = np.zeros(len(P), bool)
     mark[p] = True
     rows = np.flatnonzero(topology.touching(T, mark))
-    T, twin, _ = restore(P, T, twin, anisotropy, candidates=(3 * rows[:, None] + np.arange(3)).ravel())
+    T, twin, _ = restore(P, T, twin, anisotropy, candidates=(3 * rows[:, None] + np.arange(3)).ravel(),
+                         owned=len(hs) > 0)          # the splits made T and twin anew
     return T, twin
 
 
@@ -700,7 +701,8 @@ def restore_conformity(P, T, twin, edge_id, fixed, pinned, anisotropy,
         touched = np.concatenate([hb // 3, len(T) - len(hb) + np.arange(len(hb))])
         cand = (3 * touched[:, None] + np.arange(3)).ravel()
         rows = [touched]
-        T, twin, f = restore(P, T, twin, anisotropy, candidates=cand, rewritten=rows)
+        T, twin, f = restore(P, T, twin, anisotropy, candidates=cand, rewritten=rows,
+                             owned=len(hb) > 0)      # the splits made T and twin anew
         flips += f
         check = _changed(rows, left)
     return Conformed(P, T, twin, edge_id, fixed, pinned, np.arange(n0, len(P)), flips)
