@@ -602,9 +602,10 @@ def _push_out(P, a, b, c, anisotropy):
 
 
 def _kept_pushes(P, T, k, c, to):
-    """The pushes k (apexes c[k] sent to `to`) that keep every triangle of their stars, and P
-    with them applied. Checked again after each refusal: a triangle with two pushed corners
-    was judged with both moved, and may fold when only one of them moves."""
+    """The pushes k (apexes c[k] sent to `to`) that keep every triangle of their stars, P with
+    them applied (a copy, where any is kept), and those stars (rows of T). Checked again after
+    each refusal: a triangle with two pushed corners was judged with both moved, and may fold
+    when only one of them moves."""
     while len(k):
         Pn = P.copy()
         Pn[c[k]] = to
@@ -614,9 +615,9 @@ def _kept_pushes(P, T, k, c, to):
         bad_v[T[star[~ok_t]].ravel()] = True
         keep = ~bad_v[c[k]]
         if keep.all():
-            return k, Pn
+            return k, Pn, star
         k, to = k[keep], to[keep]
-    return k, P
+    return k, P, np.empty(0, np.int64)
 
 
 def _stars(T, v, n):
@@ -644,7 +645,6 @@ def restore_conformity(P, T, twin, edge_id, fixed, pinned, anisotropy,
     sharp = None if domain is None else corners.sharp_seeds(domain, anisotropy)
     corner = edge_id.copy()
     corner[fixed] = np.flatnonzero(fixed)                   # seed k starts segment k
-    P0 = P
     check = None          # the boundary half-edges a round tests (None: all of them)
     for rounds in range(MAX_ROUNDS):
         hb = np.flatnonzero(twin < 0) if check is None else check[twin[check] < 0]
@@ -663,13 +663,11 @@ def restore_conformity(P, T, twin, edge_id, fixed, pinned, anisotropy,
             k = np.flatnonzero(free)
             _, first = np.unique(c[k], return_index=True)
             k = k[first]
-            k, Pn = _kept_pushes(P, T, k, c, _push_out(P, a[k], b[k], c[k], anisotropy))
+            k, Pn, stars = _kept_pushes(P, T, k, c, _push_out(P, a[k], b[k], c[k], anisotropy))
             if len(k):
-                P = P.copy() if P is P0 else P
-                P[c[k]] = Pn[c[k]]
+                P = Pn                           # a copy: the caller's P stays as it was
                 moved[k] = True
                 moved |= np.isin(c, c[k])
-                stars = _stars(T, c[k], len(P))
                 cand = (3 * stars[:, None] + np.arange(3)).ravel()
                 rows = [stars]
                 T, twin, f = restore(P, T, twin, anisotropy, candidates=cand, rewritten=rows)
