@@ -59,8 +59,8 @@ def newton_rhs(P, T, anisotropy):
     The per-corner terms are computed CHUNK triangles at a time and added onto the vertices
     as they come (np.add.at, block after block: the additions of a bincount over the whole
     mesh, in its order, so the sums are bit for bit those of one pass): neither a whole-mesh
-    Frame nor the (M, 3) arrays of the terms are ever made (at 1e6 vertices they were the
-    mesher's peak memory, and writing them half of this pass's time)."""
+    Frame nor the (M, 3) arrays of the terms are made (writing those, and the areas repeated for
+    a bincount, took about 40% of this pass at 1e6 vertices)."""
     n = len(P)
     star, bx, by = np.zeros(n), np.zeros(n), np.zeros(n)
     s_at = grad_at = None

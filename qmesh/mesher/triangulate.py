@@ -348,7 +348,8 @@ def _violation_chunk(xy, T, twin, h, anisotropy, s, g):
     b = np.take(Tf, g2 - e2 + topology.PRV[e2])
     e1 = h % 3
     base1 = h - e1
-    cols = (np.take(Tf, h), np.take(Tf, base1 + topology.NXT[e1]), np.take(Tf, base1 + topology.PRV[e1]))
+    cols = (np.take(Tf, h), np.take(Tf, base1 + topology.NXT[e1]),
+            np.take(Tf, base1 + topology.PRV[e1]))
     Px, Py = xy
     xb, yb = np.take(Px, b), np.take(Py, b)
     dx = [np.take(Px, c) - xb for c in cols]                              # u, v, a
