@@ -5,9 +5,10 @@
 
 For a machine shared with other work, where wall seconds say more about the others than about
 qmesh: each measurement runs in its own process, the two checkouts one after the other in every
-round, and the best of the rounds is kept. Per checkout and size: the CPU seconds (user + system)
-of `qmesh.iterate` on Q = diag(0.1, 10) over Disk(512), stage by stage, with a hash of the mesh's
-points and triangles (a rewrite that should change nothing must keep it); and the whole
+round, and the best of the rounds is kept (peak memory: the least and the most of the rounds).
+Per checkout and size: the CPU seconds (user + system) of `qmesh.iterate` on Q = diag(0.1, 10)
+over Disk(512), stage by stage, with a hash of the mesh's points and triangles (a rewrite that
+should change nothing must keep it) and the process's peak RSS; and the whole
 `qmesh mesh --Q 0.1 0 10 --disk 512 --target-vertices N -o x.msh` command: wall and CPU seconds
 and peak RSS of its process. Triangle's CPU seconds on the same disk (pq30a, its area calibrated
 by one probe run, as bench_mesher.py does) are the yardstick. Prints a Markdown table; writes no
@@ -109,11 +110,13 @@ def main(argv=None) -> int:
         p.error("--other is required")
     checkouts = {"this": HERE, "other": args.other.resolve()}
     print(f"this: {HERE}; other: {checkouts['other']}; best of {args.runs} interleaved rounds")
-    print("| N | checkout | meshing CPU s | stages (CPU s) | mesh hash | command wall s | "
-          "command CPU s | command peak MB | meshing / Triangle | command CPU / Triangle |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print("| N | checkout | meshing CPU s | stages (CPU s) | mesh hash | meshing peak MB | "
+          "command wall s | command CPU s | command peak MB | meshing / Triangle | "
+          "command CPU / Triangle |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for n in (int(s) for s in args.sizes):
         best: dict[tuple[str, str], dict] = {}
+        peaks: dict[tuple[str, str], list[float]] = {}
         for _ in range(args.runs):
             for name, root in checkouts.items():
                 runs = [("mesh", lambda: _child("mesh", n, root))]
@@ -121,6 +124,7 @@ def main(argv=None) -> int:
                     runs.append(("command", lambda: _command(n, root)))
                 for kind, run in runs:
                     r = run()
+                    peaks.setdefault((name, kind), []).append(r["peak_mb"])
                     old = best.get((name, kind))
                     if old is None or r["cpu"] < old["cpu"]:
                         best[(name, kind)] = r
@@ -129,17 +133,20 @@ def main(argv=None) -> int:
                 if "triangle" not in best or r["cpu"] < best["triangle"]["cpu"]:
                     best["triangle"] = r
         tri = best.get("triangle", {}).get("cpu")
+
+        def span(key):
+            return f"{min(peaks[key]):,.0f}–{max(peaks[key]):,.0f}"
         for name in checkouts:
             m, c = best[(name, "mesh")], best.get((name, "command"))
             stages = ", ".join(f"{k} {v:.2f}" for k, v in m["stages"].items())
-            cells = [f"{n:,}", name, f"{m['cpu']:.2f}", stages, m["hash"],
+            cells = [f"{n:,}", name, f"{m['cpu']:.2f}", stages, m["hash"], span((name, "mesh")),
                      *(["", "", ""] if c is None else
-                       [f"{c['wall']:.2f}", f"{c['cpu']:.2f}", f"{c['peak_mb']:,.0f}"]),
+                       [f"{c['wall']:.2f}", f"{c['cpu']:.2f}", span((name, "command"))]),
                      "" if tri is None else f"{m['cpu'] / tri:.1f}",
                      "" if tri is None or c is None else f"{c['cpu'] / tri:.1f}"]
             print("| " + " | ".join(cells) + " |", flush=True)
         if tri is not None:
-            print(f"| {n:,} | Triangle (pq30a) | {tri:.2f} |  |  |  |  |  |  |  |", flush=True)
+            print(f"| {n:,} | Triangle (pq30a) | {tri:.2f} |" + "  |" * 8, flush=True)
     return 0
 
 
