@@ -83,7 +83,9 @@ def _command(n: int, checkout: Path) -> dict:
                "--target-vertices", str(n), "-o", os.path.join(tmp, "x.msh")]
         with open(os.path.join(tmp, "stderr"), "w+") as err:
             start = time.perf_counter()
-            proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=err)
+            # run from the temporary folder: `python -m` puts the working directory first on
+            # sys.path, so from a checkout's root it would import that checkout's qmesh
+            proc = subprocess.Popen(cmd, env=env, cwd=tmp, stdout=subprocess.DEVNULL, stderr=err)
             _, status, usage = os.wait4(proc.pid, 0)
             wall = time.perf_counter() - start
             proc.returncode = os.waitstatus_to_exitcode(status)       # reaped here, not by Popen
