@@ -15,6 +15,7 @@ from scipy.spatial import cKDTree
 from qmesh.geometry.orientation import orient
 from qmesh.geometry.portable import arctan2, ceil_log2
 from qmesh.geometry.topology import sorted_unique
+from qmesh.geometry.triangles import extent
 
 MAX_PAIRS = 262_144     # candidate pairs handled at once (~150 bytes each: bounds the temporary memory)
 
@@ -142,8 +143,9 @@ def _grid(P: np.ndarray, A: np.ndarray, B: np.ndarray, reach: float):
     those cells (reg_cell sorted, reg_seg: the segment): a segment within `reach` of a point
     has a sample within 1.5c + c/4 of it, at most two cells away, so it is registered in the
     point's cell `cell`. reg_cell is None where the registrations would be too many."""
-    lo = np.minimum(P.min(axis=0), np.minimum(A.min(axis=0), B.min(axis=0)))
-    hi = np.maximum(P.max(axis=0), np.maximum(A.max(axis=0), B.max(axis=0)))
+    (p_lo, p_hi), (a_lo, a_hi), (b_lo, b_hi) = extent(P), extent(A), extent(B)
+    lo = np.minimum(p_lo, np.minimum(a_lo, b_lo))
+    hi = np.maximum(p_hi, np.maximum(a_hi, b_hi))
     ext = hi - lo
     n = len(P) + len(A)          # the grid's budget: cells, samples, registrations per item
     c = max(reach / 1.5, float(np.sqrt(ext[0] * ext[1] / (2 * n))), float(ext.max()) / (4 * n))

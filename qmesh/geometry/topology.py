@@ -182,35 +182,64 @@ def flip(T: np.ndarray, twin: np.ndarray, h: np.ndarray,
     return T, new
 
 
-def split_triangles(T: np.ndarray, twin: np.ndarray, t: np.ndarray, p: np.ndarray):
-    """Split triangles `t` = (a, b, c) at new vertices `p` into (a,b,p), (b,c,p), (c,a,p)."""
-    M, k = len(T), len(t)
-    t1 = M + np.arange(k)
-    t2 = M + k + np.arange(k)
+def grow(T: np.ndarray, twin: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """Copies of T and twin with room for k more triangles (rows of -1), for splits that write
+    their new triangles into given `rows`: one copy for a stage's splits instead of one per
+    kind of split (each copied T and twin, 96 MB at 1e6 vertices)."""
+    M = len(T)
+    T2 = np.empty((M + k, 3), np.int64)
+    T2[:M] = T
+    T2[M:] = -1
+    tw = np.empty(3 * (M + k), np.int64)
+    tw[:3 * M] = twin
+    tw[3 * M:] = -1
+    return T2, tw
+
+
+def _placed(T: np.ndarray, rows: np.ndarray | None, k: int, *blocks: np.ndarray):
+    """T with the (k, 3) `blocks` as new triangles, and their row numbers: appended to a copy of
+    T, or, with `rows` (len(blocks)·k free rows of T, from `grow`), written into T itself."""
+    if rows is None:
+        rows = len(T) + np.arange(len(blocks) * k)
+        return np.concatenate([T, *blocks]), rows
+    for j, block in enumerate(blocks):
+        T[rows[j * k:(j + 1) * k]] = block
+    return T, rows
+
+
+def split_triangles(T: np.ndarray, twin: np.ndarray, t: np.ndarray, p: np.ndarray,
+                    rows: np.ndarray | None = None):
+    """Split triangles `t` = (a, b, c) at new vertices `p` into (a,b,p), (b,c,p), (c,a,p).
+
+    The new triangles are appended to copies of T and twin, or, with `rows` (2 len(t) free rows
+    that `grow` made), written into T and twin themselves."""
+    k = len(t)
     a, b, c = T[t, 0], T[t, 1], T[t, 2]
-    T = np.concatenate([T, np.column_stack([b, c, p]), np.column_stack([c, a, p])])
+    T, new_rows = _placed(T, rows, k, np.column_stack([b, c, p]), np.column_stack([c, a, p]))
+    t1, t2 = new_rows[:k], new_rows[k:]
     T[t] = np.column_stack([a, b, p])
     new = _moved(twin, np.concatenate([3 * t + 1, 3 * t + 2]),       # b→c, c→a
-                 np.concatenate([3 * t1, 3 * t2]), 3 * len(T))
+                 np.concatenate([3 * t1, 3 * t2]), 3 * len(T), copy=rows is None)
     for x, y in ((3 * t + 1, 3 * t1 + 2), (3 * t + 2, 3 * t2 + 1), (3 * t1 + 1, 3 * t2 + 2)):
         new[x] = y
         new[y] = x
     return T, new
 
 
-def split_boundary_edges(T: np.ndarray, twin: np.ndarray, h: np.ndarray, p: np.ndarray):
+def split_boundary_edges(T: np.ndarray, twin: np.ndarray, h: np.ndarray, p: np.ndarray,
+                         rows: np.ndarray | None = None):
     """Split boundary half-edges `h` (u→v, at most one per triangle) at new vertices `p`.
 
-    The triangle (u, v, w) becomes (u, p, w) and (p, v, w).
+    The triangle (u, v, w) becomes (u, p, w) and (p, v, w); the new ones are appended, or
+    written into `rows` (as `split_triangles`).
     """
-    M, k = len(T), len(h)
+    k = len(h)
     t, e = np.divmod(h, 3)
-    t1 = M + np.arange(k)
     u, v, w = T[t, e], T[t, NXT[e]], T[t, PRV[e]]
-    T = np.concatenate([T, np.column_stack([p, v, w])])
+    T, t1 = _placed(T, rows, k, np.column_stack([p, v, w]))
     T[t] = np.column_stack([u, p, w])
     new = _moved(twin, np.concatenate([3 * t + NXT[e], 3 * t + PRV[e]]),   # v→w, w→u
-                 np.concatenate([3 * t1 + 1, 3 * t + 2]), 3 * len(T))
+                 np.concatenate([3 * t1 + 1, 3 * t + 2]), 3 * len(T), copy=rows is None)
     new[3 * t] = -1                           # u→p is on the boundary
     new[3 * t + 1] = 3 * t1 + 2               # p→w ↔ w→p
     new[3 * t1 + 2] = 3 * t + 1
@@ -241,25 +270,27 @@ def remove_triangles(T: np.ndarray, twin: np.ndarray, t: np.ndarray):
     return T[:M - k], _moved(twin, src, dst, 3 * (M - k))
 
 
-def split_edges(T: np.ndarray, twin: np.ndarray, h: np.ndarray, p: np.ndarray):
+def split_edges(T: np.ndarray, twin: np.ndarray, h: np.ndarray, p: np.ndarray,
+                rows: np.ndarray | None = None):
     """Split interior edges (half-edges `h`, no two touching one triangle) at new vertices `p`.
 
     t1 = (u, v, a) ∋ h and t2 = (v, u, b) ∋ twin[h] become (u, p, a), (p, v, a), (v, p, b)
-    and (p, u, b); the first and third keep the rows of t1 and t2.
+    and (p, u, b); the first and third keep the rows of t1 and t2, the others are appended or
+    written into `rows` (as `split_triangles`).
     """
-    M, k = len(T), len(h)
+    k = len(h)
     g = twin[h]
     t1, e1 = np.divmod(h, 3)
     t2, e2 = np.divmod(g, 3)
-    n1, n2 = M + np.arange(k), M + k + np.arange(k)
     u, v, a = T[t1, e1], T[t1, NXT[e1]], T[t1, PRV[e1]]
     b = T[t2, PRV[e2]]
-    T = np.concatenate([T, np.column_stack([p, v, a]), np.column_stack([p, u, b])])
+    T, new_rows = _placed(T, rows, k, np.column_stack([p, v, a]), np.column_stack([p, u, b]))
+    n1, n2 = new_rows[:k], new_rows[k:]
     T[t1] = np.column_stack([u, p, a])
     T[t2] = np.column_stack([v, p, b])
     src = np.concatenate([3 * t1 + NXT[e1], 3 * t1 + PRV[e1], 3 * t2 + NXT[e2], 3 * t2 + PRV[e2]])
     dst = np.concatenate([3 * n1 + 1, 3 * t1 + 2, 3 * n2 + 1, 3 * t2 + 2])  # v→a a→u u→b b→v
-    new = _moved(twin, src, dst, 3 * len(T))
+    new = _moved(twin, src, dst, 3 * len(T), copy=rows is None)
     for x, y in ((3 * t1, 3 * n2), (3 * t1 + 1, 3 * n1 + 2), (3 * n1, 3 * t2),
                  (3 * t2 + 1, 3 * n2 + 2)):
         new[x] = y

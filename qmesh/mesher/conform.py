@@ -202,7 +202,14 @@ def _canonical_order(T: np.ndarray, twin: np.ndarray, rows: np.ndarray):
     del Tr, c
     n = int(max(c.max() for c in cols)) + 1 if m else 0
     if n * n * n < 2 ** 63:        # one int64 key per triangle: a third of lexsort's time, same order
-        order = np.argsort((cols[0] * n + cols[1]) * n + cols[2], kind="stable")
+        key = (cols[0] * n + cols[1]) * n + cols[2]
+        # distinct triangles have distinct keys, so any sort gives the stable order: NumPy's
+        # default one is a quarter of its stable one's time; equal keys (never seen) take that
+        order = np.argsort(key)
+        ordered = key[order]
+        if not np.all(ordered[1:] > ordered[:-1]):
+            order = np.argsort(key, kind="stable")
+        del key, ordered
     else:
         order = np.lexsort((cols[2], cols[1], cols[0]))
     out = np.empty((m, 3), np.int64)
@@ -567,7 +574,8 @@ def _split_in_place(P, T, twin, hs, n, anisotropy):
     mark = np.zeros(len(P), bool)
     mark[p] = True
     rows = np.flatnonzero(topology.touching(T, mark))
-    T, twin, _ = restore(P, T, twin, anisotropy, candidates=(3 * rows[:, None] + np.arange(3)).ravel())
+    T, twin, _ = restore(P, T, twin, anisotropy, candidates=(3 * rows[:, None] + np.arange(3)).ravel(),
+                         owned=len(hs) > 0)          # the splits made T and twin anew
     return T, twin
 
 
@@ -601,9 +609,10 @@ def _push_out(P, a, b, c, anisotropy):
 
 
 def _kept_pushes(P, T, k, c, to):
-    """The pushes k (apexes c[k] sent to `to`) that keep every triangle of their stars, and P
-    with them applied. Checked again after each refusal: a triangle with two pushed corners
-    was judged with both moved, and may fold when only one of them moves."""
+    """The pushes k (apexes c[k] sent to `to`) that keep every triangle of their stars, P with
+    them applied (a copy, where any is kept), and those stars (rows of T). Checked again after
+    each refusal: a triangle with two pushed corners was judged with both moved, and may fold
+    when only one of them moves."""
     while len(k):
         Pn = P.copy()
         Pn[c[k]] = to
@@ -613,9 +622,9 @@ def _kept_pushes(P, T, k, c, to):
         bad_v[T[star[~ok_t]].ravel()] = True
         keep = ~bad_v[c[k]]
         if keep.all():
-            return k, Pn
+            return k, Pn, star
         k, to = k[keep], to[keep]
-    return k, P
+    return k, P, np.empty(0, np.int64)
 
 
 def _stars(T, v, n):
@@ -643,7 +652,6 @@ def restore_conformity(P, T, twin, edge_id, fixed, pinned, anisotropy,
     sharp = None if domain is None else corners.sharp_seeds(domain, anisotropy)
     corner = edge_id.copy()
     corner[fixed] = np.flatnonzero(fixed)                   # seed k starts segment k
-    P0 = P
     check = None          # the boundary half-edges a round tests (None: all of them)
     for rounds in range(MAX_ROUNDS):
         hb = np.flatnonzero(twin < 0) if check is None else check[twin[check] < 0]
@@ -662,13 +670,11 @@ def restore_conformity(P, T, twin, edge_id, fixed, pinned, anisotropy,
             k = np.flatnonzero(free)
             _, first = np.unique(c[k], return_index=True)
             k = k[first]
-            k, Pn = _kept_pushes(P, T, k, c, _push_out(P, a[k], b[k], c[k], anisotropy))
+            k, Pn, stars = _kept_pushes(P, T, k, c, _push_out(P, a[k], b[k], c[k], anisotropy))
             if len(k):
-                P = P.copy() if P is P0 else P
-                P[c[k]] = Pn[c[k]]
+                P = Pn                           # a copy: the caller's P stays as it was
                 moved[k] = True
                 moved |= np.isin(c, c[k])
-                stars = _stars(T, c[k], len(P))
                 cand = (3 * stars[:, None] + np.arange(3)).ravel()
                 rows = [stars]
                 T, twin, f = restore(P, T, twin, anisotropy, candidates=cand, rewritten=rows)
@@ -700,7 +706,8 @@ def restore_conformity(P, T, twin, edge_id, fixed, pinned, anisotropy,
         touched = np.concatenate([hb // 3, len(T) - len(hb) + np.arange(len(hb))])
         cand = (3 * touched[:, None] + np.arange(3)).ravel()
         rows = [touched]
-        T, twin, f = restore(P, T, twin, anisotropy, candidates=cand, rewritten=rows)
+        T, twin, f = restore(P, T, twin, anisotropy, candidates=cand, rewritten=rows,
+                             owned=len(hb) > 0)      # the splits made T and twin anew
         flips += f
         check = _changed(rows, left)
     return Conformed(P, T, twin, edge_id, fixed, pinned, np.arange(n0, len(P)), flips)

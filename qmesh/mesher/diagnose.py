@@ -21,7 +21,8 @@ from qmesh.conductivity.anisotropy import Anisotropy
 from qmesh.errors import QmeshWarning
 from qmesh.geometry.portable import cholesky2, times2
 from qmesh.geometry.rings import convex_width
-from qmesh.geometry.triangles import metric_areas, metric_hessians, metric_quality, worst_metric_quality
+from qmesh.geometry.triangles import (extent, metric_areas, metric_hessians, metric_quality,
+                                      worst_metric_quality)
 from qmesh.mesher.sizing import equilateral_area, vertices_from_counts
 
 if TYPE_CHECKING:
@@ -99,7 +100,7 @@ def thin_domain(mesh: Mesh, anisotropy: Anisotropy, region: bool = False) -> str
     Hs = metric_hessians(anisotropy, X, T)
     # lengths in units of the mesh's extent (a domain 1e300 across overflows its areas);
     # every test below compares ratios, and sizes are reported back in the user's units
-    lo, hi = X.min(axis=0), X.max(axis=0)
+    lo, hi = extent(X)
     unit = float((hi - lo).max()) or 1.0
     P = (X - (0.5 * lo + 0.5 * hi)) / unit
     areas = metric_areas(P, T, Hs)

@@ -30,7 +30,7 @@ from scipy.spatial import cKDTree
 
 from qmesh.geometry import topology
 from qmesh.geometry.portable import eigvalsh2
-from qmesh.geometry.triangles import metric_hessians, metric_measures, rounded
+from qmesh.geometry.triangles import chunks, metric_hessians, metric_measures, rounded
 
 GROSS = 4.0             # above this multiple of the threshold, neighbours may be refined together
 GRADE_QUALITY = 0.35    # below this metric quality, a triangle whose shortest edge is a boundary
@@ -61,7 +61,7 @@ def insert(P, T, twin, anisotropy, *, area_threshold, boundary_length, corner_ed
     if budget <= 0:
         return none
     Hm = metric_hessians(anisotropy, P, T)
-    area, quality, L2 = map(rounded, metric_measures(P, T, Hm))  # L2: edge opposite each corner
+    area, quality, L2 = metric_measures(P, T, Hm, rounding=True)  # L2: edge opposite each corner
     At = area_threshold
     cand = (area > At) | ((quality < quality_threshold) & (area > min_area))
     # badly shaped triangles first (they have a budget only while N is below its target),
@@ -70,16 +70,15 @@ def insert(P, T, twin, anisotropy, *, area_threshold, boundary_length, corner_ed
                        + np.where(quality < quality_threshold, 10.0, 0.0))
 
     # the longest metric edge of each triangle, as a half-edge (edge opposite corner c is c+1→c+2)
-    c = np.argmax(L2, axis=1)
+    c, short = _longest_shortest(L2)
     longest = 3 * np.arange(len(T)) + topology.NXT[c]
     on_boundary = twin[longest] < 0
     # boundary half-edges long in metric space are refined whatever their triangle
-    he_len2 = L2[:, topology.PRV].ravel()                      # half-edge 3t+e is opposite corner e+2
     long_bnd = np.zeros(len(T), bool)
     if refine_boundary:
-        bnd = twin < 0
-        too_long = bnd & (he_len2 > boundary_length ** 2)
-        long_bnd[np.flatnonzero(too_long) // 3] = True
+        bnd = np.flatnonzero(twin < 0)
+        too_long = _half_edge_lengths2(L2, bnd) > boundary_length ** 2
+        long_bnd[bnd[too_long] // 3] = True
     else:
         # a point inside a triangle standing on a boundary edge that may not be split would
         # only make thinner triangles on that edge: such triangles get none
@@ -91,8 +90,7 @@ def insert(P, T, twin, anisotropy, *, area_threshold, boundary_length, corner_ed
     # circumcentre (Ruppert's point), which grades the mesh down to the boundary spacing; these
     # are not bound by min_area and come first in the budget. (At a sharp corner the shortest
     # edge faces the corner's small angle, which no point can widen: those are left alone.)
-    shortest = 3 * np.arange(len(T)) + topology.NXT[np.argmin(L2, axis=1)]
-    del L2                                                     # (48 MB at 1e6 vertices)
+    shortest = 3 * np.arange(len(T)) + topology.NXT[short]
     grade = (twin[shortest] < 0) & (quality < GRADE_QUALITY) & ~long_bnd
     g_tri, g_pts, g_host = _grading_points(P, T, twin, Hm, quality, grade, budget)
     budget -= len(g_tri)
@@ -108,7 +106,7 @@ def insert(P, T, twin, anisotropy, *, area_threshold, boundary_length, corner_ed
     # each chosen triangle splits an edge: its longest one, or its longest boundary edge when
     # that one is too long; grossly oversized triangles are split at their centroid instead
     tri_he = (3 * idx[:, None] + np.arange(3))
-    bnd_len = np.where(twin[tri_he] < 0, he_len2[tri_he], -1.0)
+    bnd_len = np.where(twin[tri_he] < 0, _half_edge_lengths2(L2, tri_he), -1.0)
     longest_bnd = tri_he[np.arange(len(idx)), np.argmax(bnd_len, axis=1)]
     edge = np.where(long_bnd[idx] & ~on_boundary[idx], longest_bnd, longest[idx])
     by_edge = ~gross[idx]
@@ -124,7 +122,7 @@ def insert(P, T, twin, anisotropy, *, area_threshold, boundary_length, corner_ed
     if len(hb) + len(hi) + len(tri) + len(g_host) == 0:
         return none
     # the per-triangle arrays are not needed any more: free them before the splits copy T
-    del Hm, area, quality, cand, priority, longest, on_boundary, he_len2, long_bnd, shortest
+    del Hm, area, quality, L2, cand, priority, longest, on_boundary, long_bnd, shortest
     del grade, want, prio, gross, chosen, hosted, touched
 
     new_b = _midpoints(P, T, hb)
@@ -133,11 +131,40 @@ def insert(P, T, twin, anisotropy, *, area_threshold, boundary_length, corner_ed
     tri = np.concatenate([tri, g_host])
     edge_b = corner_edge[T[hb // 3, hb % 3]]
     k0, k1 = n + len(hb), n + len(hb) + len(hi)
-    T, twin = topology.split_boundary_edges(T, twin, hb, n + np.arange(len(hb)))
-    T, twin = topology.split_edges(T, twin, hi, k0 + np.arange(len(hi)))
-    T, twin = topology.split_triangles(T, twin, tri, k1 + np.arange(len(tri)))
+    # one copy of T and twin with room for every new triangle, which the splits fill in order
+    m0, m1, m2 = len(T), len(T) + len(hb), len(T) + len(hb) + 2 * len(hi)
+    T, twin = topology.grow(T, twin, len(hb) + 2 * len(hi) + 2 * len(tri))
+    T, twin = topology.split_boundary_edges(T, twin, hb, n + np.arange(len(hb)),
+                                            rows=np.arange(m0, m1))
+    T, twin = topology.split_edges(T, twin, hi, k0 + np.arange(len(hi)), rows=np.arange(m1, m2))
+    T, twin = topology.split_triangles(T, twin, tri, k1 + np.arange(len(tri)),
+                                       rows=np.arange(m2, len(T)))
     return Insertion(T, twin, np.concatenate([new_b, new_e, new_c]),
                      np.concatenate([edge_b, np.full(len(hi) + len(tri), -1)]))
+
+
+def _half_edge_lengths2(L2, h):
+    """The squared metric length of half-edges h, from the lengths L2 (M, 3) of the edges
+    opposite each corner: half-edge 3t + e is opposite corner e + 2."""
+    return L2[h // 3, topology.PRV[h % 3]]
+
+
+def _longest_shortest(L2):
+    """np.argmax(L2, axis=1) and np.argmin(L2, axis=1) — the corner facing each triangle's
+    longest and shortest edge, the first of equals — by two comparisons per row, CHUNK rows
+    at a time (NumPy's reductions along a row of three took a fifth of the stage at 1e6);
+    a block holding NaN takes NumPy's (which picks the first NaN)."""
+    longest, shortest = np.empty(len(L2), np.int64), np.empty(len(L2), np.int64)
+    for c in chunks(len(L2)):
+        L = L2[c]
+        if np.isnan(L).any():
+            longest[c], shortest[c] = np.argmax(L, axis=1), np.argmin(L, axis=1)
+            continue
+        a, b, e = L[:, 0], L[:, 1], L[:, 2]
+        for out, better in ((longest, np.greater), (shortest, np.less)):
+            one = better(b, a)
+            out[c] = np.where(better(e, np.where(one, b, a)), 2, one)
+    return longest, shortest
 
 
 def metric_circumcentres(P, T, Hm):
@@ -248,11 +275,16 @@ def _independent(T, twin, h, prio):
 
 
 def _local_max(T, twin, prio):
-    """Triangles whose priority is finite and at least that of each edge-neighbour."""
+    """Triangles whose priority is finite and at least that of each edge-neighbour (CHUNK
+    triangles at a time: the whole mesh's neighbour rows were six temporaries of twin's size)."""
     ext = np.append(prio, -np.inf)              # the -1 of a boundary half-edge reads -inf
-    nb = twin.reshape(-1, 3) // 3
-    return ((prio >= ext[nb[:, 0]]) & (prio >= ext[nb[:, 1]]) & (prio >= ext[nb[:, 2]])
-            & np.isfinite(prio))
+    out = np.empty(len(T), bool)
+    for c in chunks(len(T)):
+        nb = twin[3 * c.start:3 * c.stop].reshape(-1, 3) // 3
+        p = prio[c]
+        out[c] = ((p >= ext[nb[:, 0]]) & (p >= ext[nb[:, 1]]) & (p >= ext[nb[:, 2]])
+                  & np.isfinite(p))
+    return out
 
 
 def relocate_degree3(P, T, twin, anisotropy, on_boundary):

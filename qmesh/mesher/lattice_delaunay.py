@@ -82,41 +82,51 @@ def _deep_triangles(lattice, place: np.ndarray, deep: np.ndarray) -> tuple[np.nd
         table = np.full(size, -1, np.int64)
         table[key] = np.arange(len(on))
 
-        def find(du, dr):
-            return table[key + (dr * width + du)]
+        def find(du, dr, at=None):
+            """Position in `on` of the point (du, dr) from each anchor (those `at`), or -1."""
+            return table[(key if at is None else key[at]) + (dr * width + du)]
     else:                                           # a long thin lattice: by a sort
         order = np.argsort(key)
         sorted_key = key[order]
 
-        def find(du, dr):
-            want = key + dr * width + du
+        def find(du, dr, at=None):
+            want = (key if at is None else key[at]) + dr * width + du
             pos = np.minimum(np.searchsorted(sorted_key, want), len(sorted_key) - 1)
             return np.where(sorted_key[pos] == want, order[pos], -1)
 
     # the anchor (u, row) of every triangle is a deep point: "up" (u, row), (u + 2, row),
     # (u + 1, row + 1); "down" (u + 2, row), (u + 3, row + 1), (u + 1, row + 1); by position in `on`
-    right, above, above_right = find(2, 0), find(1, 1), find(3, 1)
+    right, above = find(2, 0), find(1, 1)
     is_up = (right >= 0) & (above >= 0)
-    is_down = is_up & (above_right >= 0)
-    n_up = int(np.count_nonzero(is_up))
-    up_id = np.where(is_up, np.cumsum(is_up) - 1, -1)                  # each anchor's row in D
-    down_id = np.where(is_down, n_up + np.cumsum(is_down) - 1, -1)
-    pt = np.append(on, -1)                                             # position -1 reads -1
-    up = np.column_stack([on, pt[right], pt[above]])[is_up]
-    down = np.column_stack([pt[right], pt[above_right], pt[above]])[is_down]
-    T = np.concatenate([up, down])
+    ups = np.flatnonzero(is_up)                                        # the up triangles' anchors
+    above_right = find(3, 1, ups)
+    downs = ups[above_right >= 0]                                      # the down ones'
+    above_right = above_right[above_right >= 0]
+    up_id = np.full(len(on) + 1, -1, np.int64)                         # each anchor's row in D
+    up_id[ups] = np.arange(len(ups))                                   # (position -1 reads -1)
+    down_id = np.full(len(on) + 1, -1, np.int64)
+    down_id[downs] = len(ups) + np.arange(len(downs))
+    T = np.empty((len(ups) + len(downs), 3), np.int64)                 # up rows, then down rows
+    T[:len(ups), 0] = on[ups]
+    T[:len(ups), 1] = on[right[ups]]
+    T[:len(ups), 2] = on[above[ups]]
+    T[len(ups):, 0] = on[right[downs]]
+    T[len(ups):, 1] = on[above_right]
+    T[len(ups):, 2] = on[above[downs]]
     # the neighbours: up's edges 0, 1, 2 face the down triangles anchored at (u − 1, row − 1)
     # (its edge 1), (u, row) (edge 2) and (u − 2, row) (edge 0); down's face the up ones
     # anchored at (u + 2, row) (edge 2), (u + 1, row + 1) (edge 0) and (u, row) (edge 1)
-    up_at, down_at = np.append(up_id, -1), np.append(down_id, -1)
 
     def half(rows, e):
         return np.where(rows >= 0, 3 * rows + e, -1)
-    twin = np.concatenate([
-        np.column_stack([half(down_at[find(-1, -1)], 1), half(down_id, 2),
-                         half(down_at[find(-2, 0)], 0)])[is_up],
-        np.column_stack([half(up_at[right], 2), half(up_at[above], 0),
-                         half(up_id, 1)])[is_down]]).ravel()
+    twin = np.empty((len(T), 3), np.int64)
+    twin[:len(ups), 0] = half(down_id[find(-1, -1, ups)], 1)
+    twin[:len(ups), 1] = half(down_id[ups], 2)
+    twin[:len(ups), 2] = half(down_id[find(-2, 0, ups)], 0)
+    twin[len(ups):, 0] = half(up_id[right[downs]], 2)
+    twin[len(ups):, 1] = half(up_id[above[downs]], 0)
+    twin[len(ups):, 2] = half(up_id[downs], 1)
+    twin = twin.ravel()
     if det2(lattice.frame) < 0:       # the frame maps the domain reversed: (a, c, b)
         T = T[:, [0, 2, 1]]
         swap = np.array([2, 1, 0])          # edge e of (a, b, c) is edge 2 − e of (a, c, b)
