@@ -11,8 +11,8 @@ over Disk(512), stage by stage, with a hash of the mesh's points and triangles (
 should change nothing must keep it) and the process's peak RSS; and the whole
 `qmesh mesh --Q 0.1 0 10 --disk 512 --target-vertices N -o x.msh` command: wall and CPU seconds
 and peak RSS of its process. Triangle's CPU seconds on the same disk (pq30a, its area calibrated
-by one probe run, as bench_mesher.py does) are the yardstick. Prints a Markdown table; writes no
-page (the figures belong to the pair of checkouts compared).
+by one probe run, as bench_mesher.py does) are the yardstick. Prints a Markdown table and
+writes it to docs/benchmarks/cpu_against.md (unless --no-page), naming both checkouts' commits.
 """
 
 from __future__ import annotations
@@ -28,6 +28,12 @@ import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import report_page  # noqa: E402 — beside this script
+
+HEADERS = ["N", "checkout", "meshing CPU s", "stages (CPU s)", "mesh hash", "meshing peak MB",
+           "command wall s", "command CPU s", "command peak MB", "meshing / Triangle",
+           "command CPU / Triangle"]
 
 
 def child_mesh(n: int) -> dict:
@@ -103,6 +109,7 @@ def main(argv=None) -> int:
     p.add_argument("--no-command", action="store_true", help="time the meshing only")
     p.add_argument("--no-triangle", action="store_true", help="leave Triangle out")
     p.add_argument("--child", nargs=2, metavar=("KIND", "N"), help=argparse.SUPPRESS)
+    report_page.add_option(p)
     args = p.parse_args(argv)
     if args.child:
         kind, n = args.child[0], int(float(args.child[1]))
@@ -112,10 +119,9 @@ def main(argv=None) -> int:
         p.error("--other is required")
     checkouts = {"this": HERE, "other": args.other.resolve()}
     print(f"this: {HERE}; other: {checkouts['other']}; best of {args.runs} interleaved rounds")
-    print("| N | checkout | meshing CPU s | stages (CPU s) | mesh hash | meshing peak MB | "
-          "command wall s | command CPU s | command peak MB | meshing / Triangle | "
-          "command CPU / Triangle |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    print("| " + " | ".join(HEADERS) + " |")
+    print("|" + "---|" * len(HEADERS))
+    rows = []
     for n in (int(s) for s in args.sizes):
         best: dict[tuple[str, str], dict] = {}
         peaks: dict[tuple[str, str], list[float]] = {}
@@ -145,11 +151,27 @@ def main(argv=None) -> int:
                        [f"{c['wall']:.2f}", f"{c['cpu']:.2f}", span((name, "command"))]),
                      "" if tri is None else f"{m['cpu'] / tri:.1f}",
                      "" if tri is None or c is None else f"{c['cpu'] / tri:.1f}"]
+            rows.append(cells)
             print("| " + " | ".join(cells) + " |", flush=True)
         if ("Triangle", "mesh") in best:
+            rows.append([f"{n:,}", "Triangle (pq30a)", f"{best[('Triangle', 'mesh')]['cpu']:.2f}"])
             print(f"| {n:,} | Triangle (pq30a) | {best[('Triangle', 'mesh')]['cpu']:.2f} |"
                   + "  |" * 8, flush=True)
+    if not args.no_page:
+        names = {name: _commit(root) for name, root in checkouts.items()}
+        report_page.write_page(
+            __file__, sys.argv, "The chapter's case: this checkout against another, CPU seconds",
+            __doc__.split("\n\n", 2)[2].strip(),
+            tables=[report_page.Table(HEADERS, rows, f"Best of {args.runs} interleaved rounds: "
+                                      f"this = {names['this']}, other = {names['other']}")])
     return 0
+
+
+def _commit(root: Path) -> str:
+    """The checkout's commit (short), or its folder when it is not a git checkout."""
+    out = subprocess.run(["git", "-C", str(root), "rev-parse", "--short", "HEAD"],
+                         capture_output=True, text=True)
+    return out.stdout.strip() or str(root)
 
 
 if __name__ == "__main__":
