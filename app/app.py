@@ -165,6 +165,8 @@ class QmeshView(TrameApp):
         self._drawing = threading.Event()  # set while that task draws (the worker meshes on)
         self._run_started = 0.0           # time.monotonic() at the start of the last Run
         self._ahead_task = None           # meshing the run's next stages while idle
+        self._wanted_stage = None         # the history slider moved while busy: show it next
+        self._echo = False                # writing the slider's value (`_show`)
         self._init_state()
         self.views.draw(self.session.current, self.session.anisotropy, **self._view_options())
         self._build_ui()
@@ -251,11 +253,16 @@ class QmeshView(TrameApp):
         """
         c = self.session
         i = c.index if index is None else index
-        with self.state:
-            self.state.history_length = len(c.history)
-            self.state.history_index = i
-            self.state.at_end = c.at_end and i == c.index
-            self.state.status_line = status_text(c.status(i, quick=True, bare=True))
+        self._echo = True                     # the slider's own change: not the user's
+        try:
+            with self.state:
+                self.state.history_length = len(c.history)
+                if self._wanted_stage is None:    # else the slider stays where the user put it
+                    self.state.history_index = i
+                self.state.at_end = c.at_end and i == c.index
+                self.state.status_line = status_text(c.status(i, quick=True, bare=True))
+        finally:
+            self._echo = False
         if draw:
             self._redraw(push, i)
             self._drawn = (c.controller, i)
@@ -351,10 +358,22 @@ class QmeshView(TrameApp):
         finally:
             if then is not None:
                 then()
-            with self.state:
-                self.state.busy = False
+            wanted = self._stage_wanted()
+            with self.state:                          # busy on into the scrub: never idle between
+                self.state.busy = wanted is not None
             self._redraw_changed_options()
-            self._mesh_ahead_soon()
+            if wanted is None:
+                self._mesh_ahead_soon()
+            else:
+                asynchronous.create_task(self._act(lambda: self.session.scrub(wanted)))
+
+    def _stage_wanted(self) -> int | None:
+        """The stage the history slider was moved to while busy, if not the one shown (its
+        last position: keys pressed fast on the slider are never lost), to show next."""
+        wanted, self._wanted_stage = self._wanted_stage, None
+        if wanted is None or self.state.running or wanted == self.session.index:
+            return None
+        return wanted
 
     def _mesh_ahead_soon(self) -> None:
         """Once idle: mesh the shown run's next stages in the worker (`Controller.ahead`)."""
@@ -523,7 +542,7 @@ class QmeshView(TrameApp):
         with self.state:
             self.state.running = True
         measure = False
-        self._drawer, self._wanted = None, None
+        self._drawer, self._wanted, self._wanted_stage = None, None, None
         self._run_started = time.monotonic()
         try:
             outcome = await self.session.run(self._run_stage, work=self._stage_work,
@@ -559,8 +578,16 @@ class QmeshView(TrameApp):
     # ------------------------------------------------------------------ reactions
     @change("history_index")
     def on_history_index(self, history_index, **_):
-        if self.state.busy or self.state.running or int(history_index) == self.session.index:
+        """Show the stage the slider points at; while busy, remember it for when idle."""
+        if self.state.running or self._echo:
             return
+        if self.state.busy:
+            self._wanted_stage = int(history_index)
+            return
+        if int(history_index) == self.session.index:
+            return
+        with self.state:
+            self.state.busy = True                # the next key press waits its turn
         asynchronous.create_task(self._act(lambda: self.session.scrub(history_index)))
 
     @change("z_scale", "colour_by", "q_sign_edges", "edges", "isotropic")
@@ -850,7 +877,7 @@ class QmeshView(TrameApp):
                     slider("history_index", None, 0, ("history_length - 1",), 1,
                            shown="history_index + ' / ' + (history_length - 1)",
                            aria="stage shown, from the history of the run",
-                           disabled=("busy || running",))
+                           disabled=("running",))
             self.html_views = {}
             with html.Div(id="views", classes="mt-1",
                           style=("{display: 'grid', gap: '6px', resize: 'vertical',"

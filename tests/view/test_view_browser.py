@@ -175,6 +175,47 @@ def test_vb_past_the_target_and_a_refused_target_never_wedge_the_controls():
         b.save(page, "browser-vb-recovered")
 
 
+
+@pytest.mark.slow
+def test_keys_pressed_fast_on_the_history_slider_are_never_lost():
+    """A person steps through a run's stages by pressing arrow keys faster than a stage is drawn
+    and measured: the app ends on the stage the slider was last moved to, and shows it."""
+    with b.qmesh_view_server() as url, b.chromium_page(url) as page:
+        b.wait_drawn(page)
+        b.wait_idle(page)
+        page.get_by_role("button", name="Run", exact=True).click()
+        b.until(lambda: "converged" in b.status(page) or None, 120, "the run to converge")
+        b.wait_idle(page)
+        last = int(_slider_value(page, "history_index").split(" / ")[1])
+        assert last >= 6
+        thumb = page.locator("#slider-history_index .v-slider-thumb")
+        thumb.focus()
+        page.keyboard.press("Home")
+        b.until(lambda: _iteration_stage(b.status(page))[:2] == (0, "triangulate") or None,
+                30, "the first stage")
+        b.wait_idle(page)
+        for _ in range(3):                       # 0 -> 3: iteration 1's adjust, insert, triangulate
+            page.keyboard.press("ArrowRight")
+            page.wait_for_timeout(60)
+        b.until(lambda: _iteration_stage(b.status(page))[:2] == (1, "triangulate") or None,
+                30, "the stage the slider was moved to")
+        b.wait_idle(page)
+        assert _slider_value(page, "history_index") == f"3 / {last}"
+        assert _iteration_stage(b.status(page))[:2] == (1, "triangulate")
+        page.keyboard.press("End")                # and back down from the end, as fast
+        for _ in range(2):
+            page.wait_for_timeout(60)
+            page.keyboard.press("ArrowLeft")
+        b.until(lambda: _slider_value(page, "history_index") == f"{last - 2} / {last}" or None,
+                30, "the slider to rest two stages before the end")
+        b.wait_idle(page)
+        page.wait_for_timeout(500)
+        assert _slider_value(page, "history_index") == f"{last - 2} / {last}"
+        at_end = b.status(page)
+        assert "converged" not in at_end         # not the last stage
+        assert all(drawn(img) for img in b.views(page).values())
+        b.save(page, "browser-history-keys")
+
 @pytest.mark.slow
 def test_choosing_l_shape_and_uploading_a_polygon_file(tmp_path):
     with b.qmesh_view_server() as url, b.chromium_page(url) as page:
