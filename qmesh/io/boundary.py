@@ -44,8 +44,15 @@ def boundary_of(mesh) -> tuple[np.ndarray, np.ndarray, dict[int, str]]:
 
 
 def _oriented(T: np.ndarray, E: np.ndarray, n: int) -> np.ndarray:
-    """Edges turned so each runs as in its (counter-clockwise) triangle: Ω on the left."""
-    half = np.sort(T.ravel() * np.int64(n) + T[:, [1, 2, 0]].ravel())
+    """Edges turned so each runs as in its (counter-clockwise) triangle: Ω on the left.
+
+    Only the half-edges between two of the edges' vertices can match one: those are sorted,
+    not the mesh's 3M."""
+    on = np.zeros(max(n, 1), bool)
+    on[E.ravel()] = True
+    a, b = T.ravel(), T[:, [1, 2, 0]].ravel()
+    near = on[a] & on[b]
+    half = np.sort(a[near] * np.int64(n) + b[near])
     key = E[:, 0] * np.int64(n) + E[:, 1]
     at = np.minimum(np.searchsorted(half, key), max(len(half) - 1, 0))
     backwards = ~(half[at] == key) if len(half) else np.ones(len(E), bool)
