@@ -28,7 +28,7 @@ for _ in range(_K):
 _POW10 = np.array(_POW10, dtype=np.longdouble)
 _LOW, _HIGH = -11, 42                              # the decimal exponents of the fast route
 _MARGIN = 1 / 64                                   # fraction this close to 1/2: Python decides
-_WIDTH = 43                                        # columns of a float's characters
+_WIDTH = 28                                        # columns of a float's characters
 
 
 def _group_tables() -> tuple[np.ndarray, np.ndarray]:
@@ -51,8 +51,8 @@ def _float_layouts() -> tuple[np.ndarray, np.ndarray]:
     """For each decimal exponent X in [_LOW, _HIGH] and count of significant digits u (17 at
     most, trailing zeros dropped), row (X - _LOW)·17 + u - 1: the characters `%.17g` puts
     around the digits (sign aside), and which of the 17 digits it writes. Columns: sign | "0." |
-    three zeros | d0 p0 d1 p1 … d15 p15 d16 (digit i at 6 + 2i, a point after it at 7 + 2i) |
-    "e" ± and two exponent digits."""
+    three zeros | d0, a point, d1 … d16 | "e" ± and two exponent digits; a number of 1 or more
+    in fixed notation has its point after digit X (`_BIG_ORDER`)."""
     template = np.zeros(((_HIGH - _LOW + 1) * 17, _WIDTH), np.uint8)
     keep = np.zeros((len(template), 17), np.uint8)
     for X in range(_LOW, _HIGH + 1):
@@ -64,16 +64,16 @@ def _float_layouts() -> tuple[np.ndarray, np.ndarray]:
                 keep[row, :used] = 1
             elif 0 <= X < 17:                      # ddd.ddd, or ddd
                 keep[row, :max(used, X + 1)] = 1
-                if used > X + 1:
-                    t[7 + 2 * X] = ord(".")
             else:                                  # d.ddde±XX
                 keep[row, :used] = 1
                 if used > 1:
                     t[7] = ord(".")
-                t[39:43] = np.frombuffer(f"e{X:+03d}".encode(), np.uint8)
+                t[24:28] = np.frombuffer(f"e{X:+03d}".encode(), np.uint8)
     return template, keep
 
 
+_BIG_ORDER = np.array([list(range(X + 1)) + [17] + list(range(X + 1, 17)) for X in range(17)])
+"""Columns 6…23 of a number ≥ 1 in fixed notation: digits 0…X, the point (17), the others."""
 _TEMPLATE, _KEEP = _float_layouts()
 
 
@@ -100,7 +100,8 @@ def int_chars(a: np.ndarray) -> np.ndarray:
     if a.size and a.min() == np.iinfo(np.int64).min:       # |v| does not fit: Python's text
         return _python_chars(a, "%d")
     rest = np.abs(a)
-    groups = -(-len(str(int(rest.max()))) // 4) if a.size else 1    # 4-digit groups
+    width = len(str(int(rest.max()))) if a.size else 1
+    groups = -(-width // 4)                                # 4-digit groups
     out = np.empty((len(a), 1 + 4 * groups), np.uint8)
     out[:, 0] = (a < 0) * ord("-")
     for g in range(groups - 1, -1, -1):                    # the last group first
@@ -108,7 +109,8 @@ def int_chars(a: np.ndarray) -> np.ndarray:
         index = rest - above * 10_000 + (above == 0) * 10_000    # the number's first group: no zeros ahead
         out[:, 1 + 4 * g:5 + 4 * g] = np.take(_LAST if g == groups - 1 else _INNER, index, axis=0)
         rest = above
-    return out
+    # without the columns no row uses: the sign's when none is negative, leading NULs
+    return out if a.size and a.min() < 0 else out[:, 1 + 4 * groups - width:]
 
 
 def float17_chars(x: np.ndarray) -> np.ndarray:
@@ -149,7 +151,14 @@ def float17_chars(x: np.ndarray) -> np.ndarray:
     layout = (np.minimum(np.maximum(X, _LOW), _HIGH) - _LOW) * 17 + used - 1
     out = np.take(_TEMPLATE, layout, axis=0)
     out[:, 0] = np.signbit(x) * ord("-")
-    out[:, 6:39:2] = digits * np.take(_KEEP, layout, axis=0)
+    digits *= np.take(_KEEP, layout, axis=0)
+    out[:, 6] = digits[:, 0]
+    out[:, 8:24] = digits[:, 1:]
+    rows = np.flatnonzero(fast & (X >= 0) & (X < 17))      # ddd.ddd: the point after digit X
+    if len(rows):
+        point = np.where(used[rows] > X[rows] + 1, ord("."), 0).astype(np.uint8)
+        body = np.concatenate([digits[rows], point[:, None]], axis=1)
+        out[rows, 6:24] = np.take_along_axis(body, _BIG_ORDER[X[rows]], axis=1)
     zero = np.flatnonzero(x == 0)                          # "0", "-0": common enough to be quick
     out[zero, 1:] = 0
     out[zero, 6] = ord("0")
