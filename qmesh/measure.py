@@ -374,10 +374,10 @@ def _edge_weights(mesh: Mesh, anisotropy: Resolved, with_edges: bool = True
     _refuse_zero_areas(zero)
     q_part = q_part.ravel()
     pairs = _edge_pairs(T, mesh.n_vertices)
-    # summed per (i, j) by a sparse matrix (a counting sort), in the order of sorted (i, j): q in
-    # the real part, the triangles of the edge in the imaginary one (1 + 1, exact), one matrix
-    edges, (sums,) = _sum_per_edge(pairs, mesh.n_vertices, q_part + 1j, with_edges=with_edges)
-    return edges, sums.real.copy(), sums.imag == 2                    # q_ij = −K_ij (2.67)
+    # summed per (i, j) by a sparse matrix (a counting sort), in the order of sorted (i, j)
+    edges, (q, count) = _sum_per_edge(pairs, mesh.n_vertices, q_part, np.ones(len(q_part), np.int8),
+                                      with_edges=with_edges)
+    return edges, q, count == 2                                       # q_ij = −K_ij (2.67)
 
 
 EdgeKind = Literal["interior", "interface", "boundary"]

@@ -67,3 +67,19 @@ def test_boundary_edges_oriented_as_their_triangle(seed, vb):
     E = np.where(rng.random(len(E))[:, None] < 0.5, E, E[:, ::-1])        # half of them turned
     got = boundary._oriented(m.triangles, E, m.n_vertices)
     np.testing.assert_array_equal(got, _oriented_by_every_half_edge(m.triangles, E, m.n_vertices))
+
+
+def test_mesh_command_loads_only_what_a_msh_needs(tmp_path):
+    """`qmesh mesh -o x.msh` for one constant Q, stderr no terminal: neither the fields nor the
+    media, the FEM adapters, MODFLOW's writer nor xml's quoting (urllib, http) are imported."""
+    import subprocess
+    import sys
+    code = ("import sys, qmesh.cli; "
+            f"code = qmesh.cli.main(['mesh', '--target-vertices', '150', '-o', {str(tmp_path / 'x.msh')!r}]); "
+            "print(' '.join(sorted(sys.modules)))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    loaded = set(out.stdout.split())
+    assert "qmesh.io.gmsh22" in loaded and "qmesh.mesher.loop" in loaded
+    for name in ("qmesh.fields", "qmesh.media", "qmesh.io.adapters", "qmesh.io.modflow6", "xml.sax.saxutils",
+                 "urllib.request", "qmesh.io.vtu_raw"):
+        assert name not in loaded, name
