@@ -44,17 +44,18 @@ def _group_tables() -> tuple[np.ndarray, np.ndarray]:
 
 
 _INNER, _LAST = _group_tables()
+_INNER32, _LAST32 = _INNER.view(np.uint32).ravel(), _LAST.view(np.uint32).ravel()
 _TRAILING = np.array([4 - len(f"{g:04d}".rstrip("0")) for g in range(10_000)], np.int64)
 
 
 def _float_layouts() -> tuple[np.ndarray, np.ndarray]:
     """For each decimal exponent X in [_LOW, _HIGH] and count of significant digits u (17 at
     most, trailing zeros dropped), row (X - _LOW)·17 + u - 1: the characters `%.17g` puts
-    around the digits (sign aside), and which of the 17 digits it writes. Columns: sign | "0." |
+    around the digits (sign aside), and which of digits 1…16 it writes. Columns: sign | "0." |
     three zeros | d0, a point, d1 … d16 | "e" ± and two exponent digits; a number of 1 or more
     in fixed notation has its point after digit X (`_BIG_ORDER`)."""
     template = np.zeros(((_HIGH - _LOW + 1) * 17, _WIDTH), np.uint8)
-    keep = np.zeros((len(template), 17), np.uint8)
+    keep = np.zeros((len(template), 17), np.uint8)         # digit 0 is always written
     for X in range(_LOW, _HIGH + 1):
         for used in range(1, 18):
             row, t = (X - _LOW) * 17 + used - 1, template[(X - _LOW) * 17 + used - 1]
@@ -69,7 +70,7 @@ def _float_layouts() -> tuple[np.ndarray, np.ndarray]:
                 if used > 1:
                     t[7] = ord(".")
                 t[24:28] = np.frombuffer(f"e{X:+03d}".encode(), np.uint8)
-    return template, keep
+    return template, keep[:, 1:].copy()
 
 
 _BIG_ORDER = np.array([list(range(X + 1)) + [17] + list(range(X + 1, 17)) for X in range(17)])
@@ -101,16 +102,20 @@ def int_chars(a: np.ndarray) -> np.ndarray:
         return _python_chars(a, "%d")
     rest = np.abs(a)
     width = len(str(int(rest.max()))) if a.size else 1
-    groups = -(-width // 4)                                # 4-digit groups
-    out = np.empty((len(a), 1 + 4 * groups), np.uint8)
-    out[:, 0] = (a < 0) * ord("-")
+    if width < 10:
+        rest = rest.astype(np.int32)                       # the same digits, quicker arithmetic
+    groups = -(-width // 4)                                # 4-digit groups, 4 characters a uint32
+    out = np.empty((len(a), groups), np.uint32)
     for g in range(groups - 1, -1, -1):                    # the last group first
         above = rest // 10_000
         index = rest - above * 10_000 + (above == 0) * 10_000    # the number's first group: no zeros ahead
-        out[:, 1 + 4 * g:5 + 4 * g] = np.take(_LAST if g == groups - 1 else _INNER, index, axis=0)
+        out[:, g] = np.take(_LAST32 if g == groups - 1 else _INNER32, index)
         rest = above
-    # without the columns no row uses: the sign's when none is negative, leading NULs
-    return out if a.size and a.min() < 0 else out[:, 1 + 4 * groups - width:]
+    # without the leading columns no row uses
+    chars = out.view(np.uint8)[:, 4 * groups - width:]
+    if a.size and a.min() < 0:
+        return np.concatenate([((a < 0) * ord("-")).astype(np.uint8)[:, None], chars], axis=1)
+    return chars
 
 
 def float17_chars(x: np.ndarray) -> np.ndarray:
@@ -130,15 +135,16 @@ def float17_chars(x: np.ndarray) -> np.ndarray:
     r = whole + (frac > 0.5)
     fast &= (np.abs(frac - 0.5) > _MARGIN) & (whole >= 10 ** 16) & (r < 10 ** 17)
     r = np.where(fast, r, 10 ** 16)
-    # the 17 digits: the first, then four groups of four, the last group first
-    digits = np.empty((n, 17), np.uint8)
+    # the 17 digits: the first, then four groups of four (a uint32 of characters each)
     groups = np.empty((n, 4), np.int64)
-    for g in range(3, -1, -1):
+    tail = np.empty((n, 4), np.uint32)
+    for g in range(3, -1, -1):                             # the last group first
         above = r // 10_000
         groups[:, g] = r - above * 10_000
-        digits[:, 1 + 4 * g:5 + 4 * g] = np.take(_INNER, groups[:, g], axis=0)
+        tail[:, g] = np.take(_INNER32, groups[:, g])
         r = above
-    digits[:, 0] = r + ord("0")
+    first = (r + ord("0")).astype(np.uint8)
+    tail = tail.view(np.uint8)                             # (n, 16): digits 1…16
     # the significant digits up to the last nonzero one: the last group's zeros, and for the
     # few numbers whose last group is 0000, the groups before it
     used = 17 - np.take(_TRAILING, groups[:, 3])
@@ -151,13 +157,12 @@ def float17_chars(x: np.ndarray) -> np.ndarray:
     layout = (np.minimum(np.maximum(X, _LOW), _HIGH) - _LOW) * 17 + used - 1
     out = np.take(_TEMPLATE, layout, axis=0)
     out[:, 0] = np.signbit(x) * ord("-")
-    digits *= np.take(_KEEP, layout, axis=0)
-    out[:, 6] = digits[:, 0]
-    out[:, 8:24] = digits[:, 1:]
+    out[:, 6] = first                                      # every number has its first digit
+    out[:, 8:24] = tail * np.take(_KEEP, layout, axis=0)
     rows = np.flatnonzero(fast & (X >= 0) & (X < 17))      # ddd.ddd: the point after digit X
     if len(rows):
         point = np.where(used[rows] > X[rows] + 1, ord("."), 0).astype(np.uint8)
-        body = np.concatenate([digits[rows], point[:, None]], axis=1)
+        body = np.concatenate([first[rows, None], out[rows, 8:24], point[:, None]], axis=1)
         out[rows, 6:24] = np.take_along_axis(body, _BIG_ORDER[X[rows]], axis=1)
     zero = np.flatnonzero(x == 0)                          # "0", "-0": common enough to be quick
     out[zero, 1:] = 0
