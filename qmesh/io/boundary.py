@@ -106,10 +106,22 @@ def regions_of(mesh) -> tuple[np.ndarray, dict[int, str]]:
 def region_offset(tags: np.ndarray, regions: np.ndarray) -> int:
     """What to add to a region tag to make it a file's cell tag: 0 when every region tag is
     already ≥ 1 and differs from every boundary tag, else one past the largest boundary tag."""
-    used = np.unique(regions)
+    used = distinct(regions)
     if len(used) and used.min() >= 1 and not np.isin(used, tags).any():
         return 0
     return int(tags.max(initial=0)) + 1 - (int(used.min()) if len(used) else 0)
+
+
+def distinct(tags: np.ndarray) -> np.ndarray:
+    """`np.unique(tags)` of integer tags; over a range of values no longer than the array, by
+    counting (the regions of a million triangles: no sort)."""
+    tags = np.asarray(tags).ravel()
+    if not len(tags) or tags.dtype.kind not in "iu":
+        return np.unique(tags)
+    low, high = int(tags.min()), int(tags.max())
+    if high - low > len(tags):
+        return np.unique(tags)
+    return (np.flatnonzero(np.bincount(tags - low, minlength=1)) + low).astype(tags.dtype)
 
 
 def identifier(name: str, fallback: str) -> str:
@@ -124,7 +136,7 @@ def file_names(tags, names: dict[int, str], kind: str) -> dict[int, str]:
     """{tag: identifier} for every tag in `tags`: the user's name made an identifier, or
     `kind`_tag; a name that two tags would share gets its tag appended."""
     out, seen = {}, set()
-    for t in np.unique(np.asarray(tags, dtype=np.int64)).tolist():       # sorted, distinct
+    for t in distinct(np.asarray(tags, dtype=np.int64)).tolist():       # sorted, distinct
         name = identifier(names[t], f"{kind}_{t}") if t in names else f"{kind}_{t}"
         if name in seen:
             name = f"{name}_{t}"

@@ -83,3 +83,12 @@ def test_mesh_command_loads_only_what_a_msh_needs(tmp_path):
     for name in ("qmesh.fields", "qmesh.media", "qmesh.io.adapters", "qmesh.io.modflow6", "xml.sax.saxutils",
                  "urllib.request", "qmesh.io.vtu_raw"):
         assert name not in loaded, name
+
+
+@given(st.lists(st.integers(-2**40, 2**40), max_size=60) | st.lists(st.integers(0, 9), max_size=200))
+@settings(max_examples=200, deadline=None)
+def test_distinct_tags_are_numpy_unique(values):
+    a = np.array(values, dtype=np.int64)
+    got = boundary.distinct(a)
+    np.testing.assert_array_equal(got, np.unique(a))
+    assert got.dtype == np.unique(a).dtype
