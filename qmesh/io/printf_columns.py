@@ -9,8 +9,9 @@ the matrix without its NULs is the text: the SAME text as `"%d" % v` and `"%.17g
 double (64-bit mantissa), y = |v|·10^k (10^k exact for |k| ≤ 27) carries a relative error
 below 2^-64, under 0.006 at y < 10^17; its nearest integer is those 17 digits unless y's
 fraction lies within 1/64 of one half, y lies outside [10^16, 10^17) or rounds up to 10^17
-(v near a power of ten, where log10 may miss the exponent by one). Those numbers, non-finite ones and those outside [1e-11, 1e43), and every number
-where long double has no 64-bit mantissa, are formatted by Python's `%` and put in their rows.
+(v near a power of ten, where log10 may miss the exponent by one). Those numbers, non-finite
+ones, those outside [1e-11, 1e43), and every number where long double has no 64-bit mantissa
+are formatted by Python's `%` and put in their rows.
 """
 
 from __future__ import annotations
@@ -92,6 +93,8 @@ def write_rows(f, parts, n: int) -> None:
 def _chars(a: np.ndarray) -> np.ndarray:
     """The characters of each number of `a` as a row of a uint8 matrix, NUL where none."""
     if a.dtype.kind in "iub":
+        if a.dtype.kind == "u" and a.size and a.max() > np.iinfo(np.int64).max:
+            return _python_chars(a, "%d")                  # beyond int64: Python's text
         return int_chars(a.astype(np.int64))
     return float17_chars(a.astype(np.float64))
 

@@ -60,6 +60,13 @@ def test_integers_are_printf_d(a):
     assert _texts(printf_columns.int_chars(a)) == ["%d" % v for v in a.tolist()]
 
 
+def test_unsigned_beyond_int64_are_printf_d():
+    a = np.array([0, 7, 2**63, 2**64 - 1], dtype=np.uint64)
+    f = io.BytesIO()
+    printf_columns.write_rows(f, [a, b"\n"], len(a))
+    assert f.getvalue().decode() == "".join("%d\n" % v for v in a.tolist())
+
+
 def test_rows_join_parts_in_order_across_chunks(monkeypatch):
     monkeypatch.setattr(printf_columns, "CHUNK", 7)
     rng = np.random.default_rng(3)
