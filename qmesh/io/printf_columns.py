@@ -6,12 +6,12 @@ matrix (one column per possible character, unused ones NUL), a chunk of rows at 
 the matrix without its NULs is the text: the SAME text as `"%d" % v` and `"%.17g" % v`.
 
 `%.17g` is the exact binary value rounded to 17 significant digits. With an x87 80-bit long
-double (64-bit mantissa), y = |v|·10^k (10^k exact for |k| ≤ 27) carries a relative error
-below 2^-64, under 0.006 at y < 10^17; its nearest integer is those 17 digits unless y's
-fraction lies within 1/64 of one half, y lies outside [10^16, 10^17) or rounds up to 10^17
-(v near a power of ten, where log10 may miss the exponent by one). Those numbers, non-finite
-ones, those outside [1e-11, 1e43), and every number where long double has no 64-bit mantissa
-are formatted by Python's `%` and put in their rows.
+double (64-bit mantissa), y = |v|·10^k (10^k exact for |k| ≤ 27) is rounded once, by at most
+half a unit in its last place: 2^-8 at y < 10^17 < 2^57. Its nearest integer is those 17
+digits unless y's fraction lies within 1/128 of one half, or y lies outside [10^16, 10^17) or
+rounds up to 10^17 (v near a power of ten, where log10 may miss the exponent by one). Those
+numbers, non-finite ones, those outside [1e-11, 1e43), and every number where long double has
+no 64-bit mantissa are formatted by Python's `%` and put in their rows.
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ for _ in range(_K):
     _POW10.append(_POW10[-1] * 10)                 # each product exact: no rounding on the way
 _POW10 = np.array(_POW10, dtype=np.longdouble)
 _LOW, _HIGH = -11, 42                              # the decimal exponents of the fast route
-_MARGIN = 1 / 64                                   # fraction this close to 1/2: Python decides
+_MARGIN = 1 / 128                                  # fraction this close to 1/2: Python decides
 _WIDTH = 28                                        # columns of a float's characters
 
 
@@ -138,16 +138,17 @@ def float17_chars(x: np.ndarray) -> np.ndarray:
     r = whole + (frac > 0.5)
     fast &= (np.abs(frac - 0.5) > _MARGIN) & (whole >= 10 ** 16) & (r < 10 ** 17)
     r = np.where(fast, r, 10 ** 16)
-    # the 17 digits: the first, then four groups of four (a uint32 of characters each)
-    groups = np.empty((n, 4), np.int64)
-    tail = np.empty((n, 4), np.uint32)
-    for g in range(3, -1, -1):                             # the last group first
-        above = r // 10_000
-        groups[:, g] = r - above * 10_000
-        tail[:, g] = np.take(_INNER32, groups[:, g])
-        r = above
-    first = (r + ord("0")).astype(np.uint8)
-    tail = tail.view(np.uint8)                             # (n, 16): digits 1…16
+    # the 17 digits: the first, then four groups of four (a uint32 of characters each), from
+    # two int32 halves of 9 and 8 digits
+    high = r // 10 ** 8
+    low = (r - high * 10 ** 8).astype(np.int32)
+    high = high.astype(np.int32)
+    first = (high // 10 ** 8 + ord("0")).astype(np.uint8)
+    high = high % 10 ** 8
+    groups = np.empty((n, 4), np.int32)
+    groups[:, 0], groups[:, 1] = high // 10_000, high % 10_000
+    groups[:, 2], groups[:, 3] = low // 10_000, low % 10_000
+    tail = np.take(_INNER32, groups).view(np.uint8)        # (n, 16): digits 1…16
     # the significant digits up to the last nonzero one: the last group's zeros, and for the
     # few numbers whose last group is 0000, the groups before it
     used = 17 - np.take(_TRAILING, groups[:, 3])
