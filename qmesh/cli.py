@@ -155,7 +155,10 @@ stderr is a terminal (disable=None), so a log or a pipe gets nothing."""
 
 
 def _progress_bar(out):
-    """A tqdm bar on `out` that counts the stages; `_advance` moves it on by one Step."""
+    """A tqdm bar on `out` that counts the stages; `_advance` moves it on by one Step. None where
+    tqdm would disable itself (`out` is no terminal): tqdm is then not imported."""
+    if BAR.get("disable", False) is None and not (hasattr(out, "isatty") and out.isatty()):
+        return None
     from tqdm import tqdm
     return tqdm(file=out, desc="qmesh mesh", unit=" stages", leave=False, dynamic_ncols=True, **BAR)
 

@@ -357,8 +357,10 @@ def edge_weights(mesh: Mesh, anisotropy: Given
     return _edge_weights(mesh, _resolve(mesh, anisotropy))
 
 
-def _edge_weights(mesh: Mesh, anisotropy: Resolved
-                  ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.bool_]]:
+def _edge_weights(mesh: Mesh, anisotropy: Resolved, with_edges: bool = True
+                  ) -> tuple[NDArray[np.int64] | None, NDArray[np.float64], NDArray[np.bool_]]:
+    """As `edge_weights`; without `with_edges` the (k, 2) edges are not built (None): the shares
+    of q_ij ≥ 0 need q and the interior flags alone."""
     T = mesh.triangles
     # −K_T[a, b] for the three corner pairs only, CHUNK triangles at a time (the (M, 3, 3)
     # element matrices of a whole mesh would be the largest array of `qmesh mesh`'s summary at 1e6)
@@ -373,7 +375,8 @@ def _edge_weights(mesh: Mesh, anisotropy: Resolved
     q_part = q_part.ravel()
     pairs = _edge_pairs(T, mesh.n_vertices)
     # summed per (i, j) by a sparse matrix (a counting sort), in the order of sorted (i, j)
-    edges, (q, count) = _sum_per_edge(pairs, mesh.n_vertices, q_part, np.ones(len(q_part), np.int8))
+    edges, (q, count) = _sum_per_edge(pairs, mesh.n_vertices, q_part, np.ones(len(q_part), np.int8),
+                                      with_edges=with_edges)
     return edges, q, count == 2                                       # q_ij = −K_ij (2.67)
 
 
@@ -412,11 +415,14 @@ def _edge_pairs(T: NDArray[np.int64], n: int) -> NDArray[np.signedinteger]:
     return np.stack([np.minimum(a, b).ravel(), np.maximum(a, b).ravel()], axis=1)
 
 
-def _sum_per_edge(pairs: NDArray[np.signedinteger], n: int,
-                  *values: NDArray[Any]) -> tuple[NDArray[np.int64], list[NDArray[Any]]]:
-    """The distinct rows (i, j) of `pairs`, sorted, and each of `values` summed over them."""
+def _sum_per_edge(pairs: NDArray[np.signedinteger], n: int, *values: NDArray[Any],
+                  with_edges: bool = True) -> tuple[NDArray[np.int64] | None, list[NDArray[Any]]]:
+    """The distinct rows (i, j) of `pairs`, sorted (None without `with_edges`), and each of
+    `values` summed over them."""
     shape = (n, n)
     sums = [sp.csr_matrix((v, (pairs[:, 0], pairs[:, 1])), shape=shape) for v in values]
+    if not with_edges:
+        return None, [m.data for m in sums]
     first = sums[0]
     rows = np.repeat(np.arange(n, dtype=np.int64), np.diff(first.indptr))
     return np.stack([rows, first.indices.astype(np.int64)], axis=1), [m.data for m in sums]
@@ -438,7 +444,7 @@ def _relative_q(mesh: Mesh, anisotropy: Resolved,
                 split: bool = False) -> tuple[NDArray[np.float64], ...]:
     """Interior and boundary q_ij, each divided by max |q| over all edges; with `split`, the
     interior ones apart from the interface ones: (interior, boundary, interface)."""
-    _, q, interior = _edge_weights(mesh, anisotropy)
+    _, q, interior = _edge_weights(mesh, anisotropy, with_edges=False)
     scale = np.abs(q).max() if len(q) else 1.0
     r = q / (scale if scale > 0 else 1.0)
     if not split:

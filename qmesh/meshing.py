@@ -14,8 +14,6 @@ from contextlib import contextmanager
 from functools import wraps
 from typing import Any, Union
 
-from qmesh import fields, media
-from qmesh.media import field_regions
 from qmesh.conductivity.anisotropy import Anisotropy
 from qmesh.conductivity.field import TensorField
 from qmesh.domain.domain import as_domain
@@ -37,6 +35,23 @@ def _field_domain(domain: Any, field: TensorField) -> Any:
     domain = as_domain(domain)
     field.check_covers(domain.bounds)
     return domain
+
+
+def _route(domain: Any, conductivity: Any) -> tuple[Any, Any]:
+    """The module that meshes this case — `qmesh.fields`, `qmesh.media.field_regions`,
+    `qmesh.media`, or the loop of Algorithm 2.1 — and the domain it gets. Each module is
+    imported here, when a case needs it: one constant Q on a domain loads neither the fields
+    nor the media."""
+    if isinstance(conductivity, TensorField) and not getattr(domain, "regions", ()):
+        from qmesh import fields
+        return fields, _field_domain(domain, conductivity)
+    if not _heterogeneous(domain, conductivity):
+        return loop, domain
+    from qmesh.media import field_regions
+    if field_regions.holds_fields(domain, conductivity):
+        return field_regions, domain
+    from qmesh import media
+    return media, domain
 
 
 @contextmanager
@@ -63,13 +78,8 @@ def mesh(domain: Any, anisotropy: Conductivity, **options: Any) -> Mesh:
 
 
 def _mesh(domain: Any, anisotropy: Conductivity, **options: Any) -> Mesh:
-    if isinstance(anisotropy, TensorField) and not getattr(domain, "regions", ()):
-        return fields.mesh(_field_domain(domain, anisotropy), anisotropy, **options)
-    if field_regions.holds_fields(domain, anisotropy):
-        return field_regions.mesh(domain, anisotropy, **options)
-    if _heterogeneous(domain, anisotropy):
-        return media.mesh(domain, anisotropy, **options)
-    return loop.mesh(domain, anisotropy, **options)
+    route, domain = _route(domain, anisotropy)
+    return route.mesh(domain, anisotropy, **options)
 
 
 @wraps(loop.iterate)
@@ -79,13 +89,8 @@ def iterate(domain: Any, anisotropy: Conductivity, **options: Any) -> Iterator[S
 
 
 def _iterate(domain: Any, anisotropy: Conductivity, **options: Any) -> Iterator[Step]:
-    if isinstance(anisotropy, TensorField) and not getattr(domain, "regions", ()):
-        return fields.iterate(_field_domain(domain, anisotropy), anisotropy, **options)
-    if field_regions.holds_fields(domain, anisotropy):
-        return field_regions.iterate(domain, anisotropy, **options)
-    if _heterogeneous(domain, anisotropy):
-        return media.iterate(domain, anisotropy, **options)
-    return loop.iterate(domain, anisotropy, **options)
+    route, domain = _route(domain, anisotropy)
+    return route.iterate(domain, anisotropy, **options)
 
 
 mesh.__doc__ = (loop.mesh.__doc__ or "") + """

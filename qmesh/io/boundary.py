@@ -44,8 +44,15 @@ def boundary_of(mesh) -> tuple[np.ndarray, np.ndarray, dict[int, str]]:
 
 
 def _oriented(T: np.ndarray, E: np.ndarray, n: int) -> np.ndarray:
-    """Edges turned so each runs as in its (counter-clockwise) triangle: Ω on the left."""
-    half = np.sort(T.ravel() * np.int64(n) + T[:, [1, 2, 0]].ravel())
+    """Edges turned so each runs as in its (counter-clockwise) triangle: Ω on the left.
+
+    Only the half-edges between two of the edges' vertices can match one: those are sorted,
+    not the mesh's 3M."""
+    on = np.zeros(max(n, 1), bool)
+    on[E.ravel()] = True
+    a, b = T.ravel(), T[:, [1, 2, 0]].ravel()
+    near = on[a] & on[b]
+    half = np.sort(a[near] * np.int64(n) + b[near])
     key = E[:, 0] * np.int64(n) + E[:, 1]
     at = np.minimum(np.searchsorted(half, key), max(len(half) - 1, 0))
     backwards = ~(half[at] == key) if len(half) else np.ones(len(E), bool)
@@ -99,10 +106,22 @@ def regions_of(mesh) -> tuple[np.ndarray, dict[int, str]]:
 def region_offset(tags: np.ndarray, regions: np.ndarray) -> int:
     """What to add to a region tag to make it a file's cell tag: 0 when every region tag is
     already ≥ 1 and differs from every boundary tag, else one past the largest boundary tag."""
-    used = np.unique(regions)
+    used = distinct(regions)
     if len(used) and used.min() >= 1 and not np.isin(used, tags).any():
         return 0
     return int(tags.max(initial=0)) + 1 - (int(used.min()) if len(used) else 0)
+
+
+def distinct(tags: np.ndarray) -> np.ndarray:
+    """`np.unique(tags)` of integer tags; over a range of values no longer than the array, by
+    counting (the regions of a million triangles: no sort)."""
+    tags = np.asarray(tags).ravel()
+    if not len(tags) or tags.dtype.kind not in "iu":
+        return np.unique(tags)
+    low, high = int(tags.min()), int(tags.max())
+    if high - low > len(tags):
+        return np.unique(tags)
+    return (np.flatnonzero(np.bincount(tags - low, minlength=1)) + low).astype(tags.dtype)
 
 
 def identifier(name: str, fallback: str) -> str:
@@ -117,7 +136,7 @@ def file_names(tags, names: dict[int, str], kind: str) -> dict[int, str]:
     """{tag: identifier} for every tag in `tags`: the user's name made an identifier, or
     `kind`_tag; a name that two tags would share gets its tag appended."""
     out, seen = {}, set()
-    for t in np.unique(np.asarray(tags, dtype=np.int64)).tolist():       # sorted, distinct
+    for t in distinct(np.asarray(tags, dtype=np.int64)).tolist():       # sorted, distinct
         name = identifier(names[t], f"{kind}_{t}") if t in names else f"{kind}_{t}"
         if name in seen:
             name = f"{name}_{t}"

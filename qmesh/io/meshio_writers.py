@@ -24,12 +24,11 @@ from __future__ import annotations
 import importlib
 
 from pathlib import Path
-from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
 from qmesh.errors import QmeshError
-from qmesh.io import metadata, vtu_raw
+from qmesh.io import metadata
 from qmesh.io.boundary import filler
 
 VERTEX_DATA = "qmesh:vertex"
@@ -64,6 +63,7 @@ def vtk_family(fmt: str):
         cell_data["region"] = [p.regions.astype(np.int32), np.zeros(k, np.int32)]
         cell_data["gmsh:physical"] = [p.cell_tags, p.tags.astype(np.int32)]
         if fmt == "vtu" and ZLIB_MAX < len(p.points) <= RAW_MAX:
+            from qmesh.io import vtu_raw      # here: it imports xml's quoting, which imports urllib
             vtu_raw.write(tmp, _xyz(p.points), _compact(p.triangles), _compact(p.edges),
                           {"fixed": p.fixed, **p.point_data}, cell_data, p.meta,
                           _field_data(p.field_data()))
@@ -88,6 +88,7 @@ def _compact(cells: np.ndarray) -> np.ndarray:
 
 def _field_data(groups: dict) -> str:
     """A VTK `<FieldData>` block {name: [tag, dim]}."""
+    from xml.sax.saxutils import quoteattr        # here: it imports urllib and http; VTK files only
     arrays = "".join(f'<DataArray type="Int32" Name={quoteattr(name)} NumberOfTuples="2" '
                      f'format="ascii">{v[0]} {v[1]}</DataArray>'
                      for name, v in groups.items())

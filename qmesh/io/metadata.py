@@ -23,7 +23,6 @@ import os
 import shutil
 import xml.etree.ElementTree as ET
 from pathlib import Path
-from xml.sax.saxutils import quoteattr
 
 from qmesh.errors import QmeshError
 
@@ -80,6 +79,7 @@ def _add_section(data: bytes, text: str) -> bytes:
 
 
 def _add_root(data: bytes, text: str) -> bytes:
+    from xml.sax.saxutils import quoteattr        # here: it imports urllib and http; VTK files only
     start = data.index(b"<VTKFile")
     end = data.index(b">", start)
     return data[:end] + f" {ATTRIBUTE}={quoteattr(text)}".encode("ascii") + data[end:]

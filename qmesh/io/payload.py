@@ -36,7 +36,7 @@ class Payload:
     tag_ids: dict               # {boundary tag: identifier}
     region_ids: dict            # {region tag: identifier}
     point_data: dict            # {name: (N, …)}
-    cell_data: dict             # {name: (M, …)} per triangle
+    cell_data: Mapping          # {name: (M, …)} per triangle; "quality" measured when read
     meta: str                   # qmesh's metadata line (JSON)
     has_conductivity: bool
     means: dict                 # {"Q11": (M,), "Q12": (M,), "Q22": (M,)} float64, or {} without element means
@@ -65,8 +65,9 @@ def payload(mesh, anisotropy=None, point_data=None, cell_data=None) -> Payload:
         raise QmeshError(f"data names {sorted(reserved)} are reserved for qmesh's own fields")
     E, tags, tag_names = boundary.boundary_of(mesh)
     regions, region_names = boundary.regions_of(mesh)
-    if anisotropy is not None:
-        cdata["quality"] = _quality(mesh, anisotropy, regions)  # (2.94)
+    if anisotropy is not None:      # (2.94), measured when a writer reads it (.msh 2.2 does not)
+        _check_regions(anisotropy, regions)
+        cdata = _WithQuality(cdata, lambda: _quality(mesh, anisotropy, regions))
     offset = boundary.region_offset(tags, regions)
     doc = {"tag_names": {str(k): v for k, v in sorted(tag_names.items())},
            "region_names": {str(k): v for k, v in sorted(region_names.items())}, "region_offset": offset}
@@ -80,6 +81,25 @@ def payload(mesh, anisotropy=None, point_data=None, cell_data=None) -> Payload:
                    region_ids=boundary.file_names(regions, region_names, "region"),
                    point_data=pdata, cell_data=cdata, meta=metadata.dumps(doc),
                    has_conductivity=stored is not None, means=means_of(mesh))
+
+
+class _WithQuality(Mapping):
+    """The caller's cell data and "quality", computed on first reading and kept: a format that
+    keeps no cell data never pays for the pass over the triangles."""
+
+    def __init__(self, data: dict, quality) -> None:
+        self._data, self._quality = dict(data), quality
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        if name == "quality" and callable(self._quality):
+            self._quality = self._quality()
+        return self._quality if name == "quality" else self._data[name]
+
+    def __iter__(self):
+        return iter([*self._data, "quality"])
+
+    def __len__(self) -> int:
+        return len(self._data) + 1
 
 
 def means_of(mesh: Mesh) -> dict[str, np.ndarray]:
@@ -104,13 +124,18 @@ def _quality(mesh, anisotropy, regions) -> np.ndarray:
     """Metric quality (2.94) of each triangle in its own region's metric."""
     if not isinstance(anisotropy, Mapping):
         return quality(mesh, anisotropy)
-    missing = sorted(set(np.unique(regions).tolist()) - set(int(k) for k in anisotropy))
-    if missing:
-        raise QmeshError(f"anisotropy: no conductivity for region tags {missing} of the mesh")
     q = np.empty(mesh.n_triangles)
     for tag, a in anisotropy.items():
         q[regions == tag] = quality(mesh, a)[regions == tag]
     return q
+
+
+def _check_regions(anisotropy, regions) -> None:
+    """A conductivity per region must name every region of the mesh (checked before any file)."""
+    if isinstance(anisotropy, Mapping):
+        missing = sorted(set(np.unique(regions).tolist()) - set(int(k) for k in anisotropy))
+        if missing:
+            raise QmeshError(f"anisotropy: no conductivity for region tags {missing} of the mesh")
 
 
 def _per_item(data, n: int, what: str) -> dict[str, np.ndarray]:

@@ -40,6 +40,6 @@ def _columns(draw):
 @given(_columns())
 @settings(max_examples=200, deadline=None)
 def test_integer_rows_are_every_number_formatted(columns):
-    f = io.StringIO()
+    f = io.BytesIO()
     gmsh22._int_rows(f, columns)
-    assert f.getvalue() == _every_number(columns)
+    assert f.getvalue().decode("ascii") == _every_number(columns)
