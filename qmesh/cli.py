@@ -31,6 +31,7 @@ from contextlib import nullcontext
 from typing import TYPE_CHECKING
 
 from qmesh import CHAPTER_Q, __version__
+from qmesh.allocator import keep_freed_memory
 from qmesh.errors import QmeshError, QmeshWarning
 
 if TYPE_CHECKING:
@@ -525,7 +526,12 @@ def _asks_version(argv) -> bool:
 
 
 def main(argv=None) -> int:
-    """Run the command line; returns the exit status (2 for bad input, with one error line)."""
+    """Run the command line; returns the exit status (2 for bad input, with one error line).
+
+    Run as the program (`argv` None: the `qmesh` command, `python -m qmesh`), it owns its process
+    and keeps freed memory for reuse (`qmesh.allocator`); called with `argv`, nothing changes."""
+    if argv is None:
+        keep_freed_memory()
     if _asks_version(sys.argv[1:] if argv is None else argv):
         print(f"qmesh {__version__}")
         return 0
