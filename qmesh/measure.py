@@ -357,10 +357,18 @@ def edge_weights(mesh: Mesh, anisotropy: Given
     return _edge_weights(mesh, _resolve(mesh, anisotropy))
 
 
-def _edge_weights(mesh: Mesh, anisotropy: Resolved, with_edges: bool = True
-                  ) -> tuple[NDArray[np.int64] | None, NDArray[np.float64], NDArray[np.bool_]]:
-    """As `edge_weights`; without `with_edges` the (k, 2) edges are not built (None): the shares
-    of q_ij ≥ 0 need q and the interior flags alone."""
+def _edge_weights(mesh: Mesh, anisotropy: Resolved
+                  ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.bool_]]:
+    """As `edge_weights`."""
+    pattern, q, interior = _q_per_edge(mesh, anisotropy)
+    return _edges_of(pattern), q, interior
+
+
+def _q_per_edge(mesh: Mesh, anisotropy: Resolved
+                ) -> tuple[sp.csr_matrix, NDArray[np.float64], NDArray[np.bool_]]:
+    """q_ij and whether the edge is interior, in the order of sorted (i, j), and the sparse
+    pattern that holds that order (`_edges_of`: the edges themselves, which the shares of
+    q_ij ≥ 0 do without)."""
     T = mesh.triangles
     # −K_T[a, b] for the three corner pairs only, CHUNK triangles at a time (the (M, 3, 3)
     # element matrices of a whole mesh would be the largest array of `qmesh mesh`'s summary at 1e6)
@@ -375,9 +383,8 @@ def _edge_weights(mesh: Mesh, anisotropy: Resolved, with_edges: bool = True
     q_part = q_part.ravel()
     pairs = _edge_pairs(T, mesh.n_vertices)
     # summed per (i, j) by a sparse matrix (a counting sort), in the order of sorted (i, j)
-    edges, (q, count) = _sum_per_edge(pairs, mesh.n_vertices, q_part, np.ones(len(q_part), np.int8),
-                                      with_edges=with_edges)
-    return edges, q, count == 2                                       # q_ij = −K_ij (2.67)
+    summed_q, count = _per_edge(pairs, mesh.n_vertices, q_part, np.ones(len(q_part), np.int8))
+    return summed_q, summed_q.data, count.data == 2                   # q_ij = −K_ij (2.67)
 
 
 EdgeKind = Literal["interior", "interface", "boundary"]
@@ -415,17 +422,17 @@ def _edge_pairs(T: NDArray[np.int64], n: int) -> NDArray[np.signedinteger]:
     return np.stack([np.minimum(a, b).ravel(), np.maximum(a, b).ravel()], axis=1)
 
 
-def _sum_per_edge(pairs: NDArray[np.signedinteger], n: int, *values: NDArray[Any],
-                  with_edges: bool = True) -> tuple[NDArray[np.int64] | None, list[NDArray[Any]]]:
-    """The distinct rows (i, j) of `pairs`, sorted (None without `with_edges`), and each of
-    `values` summed over them."""
-    shape = (n, n)
-    sums = [sp.csr_matrix((v, (pairs[:, 0], pairs[:, 1])), shape=shape) for v in values]
-    if not with_edges:
-        return None, [m.data for m in sums]
-    first = sums[0]
-    rows = np.repeat(np.arange(n, dtype=np.int64), np.diff(first.indptr))
-    return np.stack([rows, first.indices.astype(np.int64)], axis=1), [m.data for m in sums]
+def _per_edge(pairs: NDArray[np.signedinteger], n: int, *values: NDArray[Any]
+              ) -> list[sp.csr_matrix]:
+    """Each of `values` summed over the distinct rows (i, j) of `pairs`: sparse matrices of one
+    pattern, their `data` in the order of sorted (i, j)."""
+    return [sp.csr_matrix((v, (pairs[:, 0], pairs[:, 1])), shape=(n, n)) for v in values]
+
+
+def _edges_of(summed: sp.csr_matrix) -> NDArray[np.int64]:
+    """The rows (i, j) of `_per_edge`'s pattern, sorted: its data's edges."""
+    rows = np.repeat(np.arange(summed.shape[0], dtype=np.int64), np.diff(summed.indptr))
+    return np.stack([rows, summed.indices.astype(np.int64)], axis=1)
 
 
 def interface_edges(mesh: Mesh) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
@@ -436,15 +443,15 @@ def interface_edges(mesh: Mesh) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
     rank = np.unique(mesh.region_tags, return_inverse=True)[1].ravel().astype(float)   # 0, 1, …
     r = np.tile(rank, 3)
     # two triangles' regions a, b differ iff 2(a² + b²) > (a + b)² (exact: small integers)
-    edges, (count, total, squares) = _sum_per_edge(pairs, mesh.n_vertices, np.ones(len(r)), r, r * r)
-    return edges, (count == 2) & (2.0 * squares > total * total)
+    count, total, squares = _per_edge(pairs, mesh.n_vertices, np.ones(len(r)), r, r * r)
+    return _edges_of(count), (count.data == 2) & (2.0 * squares.data > total.data ** 2)
 
 
 def _relative_q(mesh: Mesh, anisotropy: Resolved,
                 split: bool = False) -> tuple[NDArray[np.float64], ...]:
     """Interior and boundary q_ij, each divided by max |q| over all edges; with `split`, the
     interior ones apart from the interface ones: (interior, boundary, interface)."""
-    _, q, interior = _edge_weights(mesh, anisotropy, with_edges=False)
+    _, q, interior = _q_per_edge(mesh, anisotropy)
     scale = np.abs(q).max() if len(q) else 1.0
     r = q / (scale if scale > 0 else 1.0)
     if not split:
