@@ -127,7 +127,30 @@ def shape_step(P, T, anisotropy, movable, on_boundary=None):
     T = T[touching(T, movable)]                               # the stars of the movable vertices
     if not len(T):
         return np.zeros((len(P), 2))
-    F = Frame(P, T)
+    parts = np.empty((5, len(T), 3))       # ∂/∂x, ∂/∂y and the Hessian's 00, 01, 11 per corner
+    xy = columns(P)
+    for c in chunks(len(T)):               # by blocks: see newton_rhs (each row on its own)
+        _star_terms(xy, T[c], anisotropy, None if on_boundary is None else on_boundary[T[c]],
+                    parts[:, c])
+    idx = np.flatnonzero(movable)
+    local = np.full(len(P), len(idx), np.int64)              # corners not movable: one spare bin
+    local[idx] = np.arange(len(idx))
+    li = local[T.ravel()]
+    gx, gy, k00, k01, k11 = (np.bincount(li, x.ravel(), minlength=len(idx) + 1)[:-1] for x in parts)
+    det = k00 * k11 - k01 * k01
+    ok = det > 0                                              # the star's Hessian (convex sum)
+    det = np.where(ok, det, 1.0)
+    d = np.zeros((len(P), 2))
+    d[idx] = np.where(ok[:, None], -np.column_stack([k11 * gx - k01 * gy, k00 * gy - k01 * gx])
+                      / det[:, None], 0.0)
+    return d
+
+
+def _star_terms(xy, T, anisotropy, ob, out):
+    """shape_step's per-corner terms of the triangles T into out (5, M, 3): the gradient of
+    w_T S/Ã in the corner's position and its Hessian's entries 00, 01, 11; `ob` the triangles'
+    corners on the boundary (None: every w_T = 1)."""
+    F = Frame(xy, T)
     ex, ey = F.ex, F.ey                                       # the edge opposite each corner
     if anisotropy.is_constant:
         (h00_, h01_), (h10_, h11_) = anisotropy.H
@@ -141,10 +164,9 @@ def shape_step(P, T, anisotropy, movable, on_boundary=None):
     A = sq * F.A[:, None]                                     # metric areas (M, 1)
     S = l2.sum(axis=1)[:, None]                               # Σ l̃² (2.94)
     wt = None
-    if on_boundary is not None and FAN_WEIGHT != 1:
+    if ob is not None and FAN_WEIGHT != 1:
         # a triangle with two boundary corners adds l̃²_b/Ã of its boundary edge b to the trace:
         # weight it by that share of S/3 (equilateral: 1), but at least FAN_WEIGHT
-        ob = on_boundary[T]
         fan = ob.sum(axis=1) == 2
         lb2 = l2[np.arange(len(T)), np.argmin(ob, axis=1)]
         wt = np.where(fan, np.clip(3.0 * lb2 / S[:, 0], FAN_WEIGHT, 1.0), 1.0)[:, None]
@@ -154,27 +176,14 @@ def shape_step(P, T, anisotropy, movable, on_boundary=None):
     ax, ay = sq * F.gx, sq * F.gy                             # ∂Ã/∂x_c
     ia = 1.0 / A
     sa = S * ia * ia
-    gx, gy = sx * ia - sa * ax, sy * ia - sa * ay             # ∂(S/Ã)/∂x_c
-    # its Hessian 4H/Ã − (∇S ∇Ãᵀ + ∇Ã ∇Sᵀ)/Ã² + 2S ∇Ã ∇Ãᵀ/Ã³, entries 00, 01, 11
     c1, c2 = 2.0 * S * (ia * ia * ia), ia * ia
-    k00 = 4.0 * h00_ * ia - 2.0 * c2 * sx * ax + c1 * ax * ax
-    k11 = 4.0 * h11_ * ia - 2.0 * c2 * sy * ay + c1 * ay * ay
-    k01 = 4.0 * h01_ * ia - c2 * (sx * ay + sy * ax) + c1 * ax * ay
-    parts = (gx, gy, k00, k01, k11)
+    # ∂(S/Ã)/∂x_c, and its Hessian 4H/Ã − (∇S ∇Ãᵀ + ∇Ã ∇Sᵀ)/Ã² + 2S ∇Ã ∇Ãᵀ/Ã³, entries 00, 01, 11
+    out[0], out[1] = sx * ia - sa * ax, sy * ia - sa * ay
+    out[2] = 4.0 * h00_ * ia - 2.0 * c2 * sx * ax + c1 * ax * ax
+    out[3] = 4.0 * h01_ * ia - c2 * (sx * ay + sy * ax) + c1 * ax * ay
+    out[4] = 4.0 * h11_ * ia - 2.0 * c2 * sy * ay + c1 * ay * ay
     if wt is not None:
-        parts = tuple(x * wt for x in parts)
-    idx = np.flatnonzero(movable)
-    local = np.full(len(P), len(idx), np.int64)              # corners not movable: one spare bin
-    local[idx] = np.arange(len(idx))
-    li = local[T.ravel()]
-    gx, gy, k00, k01, k11 = (np.bincount(li, x.ravel(), minlength=len(idx) + 1)[:-1] for x in parts)
-    det = k00 * k11 - k01 * k01
-    ok = det > 0                                              # the star's Hessian (convex sum)
-    det = np.where(ok, det, 1.0)
-    d = np.zeros((len(P), 2))
-    d[idx] = np.where(ok[:, None], -np.column_stack([k11 * gx - k01 * gy, k00 * gy - k01 * gx])
-                      / det[:, None], 0.0)
-    return d
+        out *= wt
 
 
 def boundary_layer(T, on_boundary, rings):
