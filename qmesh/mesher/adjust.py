@@ -21,8 +21,8 @@ import numpy as np
 
 from qmesh.geometry.portable import inv2, solve2, times2
 from qmesh.geometry.topology import NXT, PRV, touching
-from qmesh.geometry.triangles import (Frame, area_gradients, chunks, columns, metric_hessians,
-                                      quadratic_form, quadratic_form_xy, signed_areas)
+from qmesh.geometry.triangles import (Frame, area_gradients, chunks, columns, quadratic_form_xy,
+                                      signed_areas)
 
 STAR_SHRINK = 0.5      # largest fraction of a triangle's area one vertex's move may remove
 FAN_WEIGHT = 0.15     # shape_step's weight of triangles with two boundary corners (see there)
