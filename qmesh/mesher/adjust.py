@@ -21,8 +21,8 @@ import numpy as np
 
 from qmesh.geometry.portable import inv2, solve2, times2
 from qmesh.geometry.topology import NXT, PRV, touching
-from qmesh.geometry.triangles import (Frame, area_gradients, chunks, columns, metric_hessians,
-                                      quadratic_form, quadratic_form_xy, signed_areas)
+from qmesh.geometry.triangles import (Frame, area_gradients, chunks, columns, quadratic_form_xy,
+                                      signed_areas)
 
 STAR_SHRINK = 0.5      # largest fraction of a triangle's area one vertex's move may remove
 FAN_WEIGHT = 0.15     # shape_step's weight of triangles with two boundary corners (see there)
@@ -127,47 +127,16 @@ def shape_step(P, T, anisotropy, movable, on_boundary=None):
     T = T[touching(T, movable)]                               # the stars of the movable vertices
     if not len(T):
         return np.zeros((len(P), 2))
-    F = Frame(P, T)
-    Hm = metric_hessians(anisotropy, P, T)
-    sq = np.sqrt(Hm[:, 0, 0] * Hm[:, 1, 1] - Hm[:, 0, 1] * Hm[:, 1, 0])
-    E = F.E                                                   # (M, 3, 2) edge opposite each corner
-    A = sq * F.A                                              # metric areas
-    l2 = quadratic_form(E, Hm)
-    S = l2.sum(axis=1)                                        # Σ l̃² (2.94)
-    wt = None
-    if on_boundary is not None and FAN_WEIGHT != 1:
-        # a triangle with two boundary corners adds l̃²_b/Ã of its boundary edge b to the trace:
-        # weight it by that share of S/3 (equilateral: 1), but at least FAN_WEIGHT
-        ob = on_boundary[T]
-        fan = ob.sum(axis=1) == 2
-        lb2 = l2[np.arange(len(T)), np.argmin(ob, axis=1)]
-        wt = np.where(fan, np.clip(3.0 * lb2 / S, FAN_WEIGHT, 1.0), 1.0)[:, None]
-    U = E[:, NXT] - E[:, PRV]                                 # (x_c − x_a) + (x_c − x_b) per corner
-    if Hm.strides[0] == 0:
-        dS = 2.0 * times2(U, Hm[0].T)
-    else:
-        dS = 2.0 * np.einsum("mij,mcj->mci", Hm, U)
-    dA = sq[:, None, None] * np.stack([F.gx, F.gy], axis=-1)  # ∂Ã/∂x_c
-    iA = 1.0 / A[:, None, None]
-    g = dS * iA - (S[:, None, None] * iA * iA) * dA          # ∂(S/Ã)/∂x_c
-    # its Hessian 4H/Ã − (∇S ∇Ãᵀ + ∇Ã ∇Sᵀ)/Ã² + 2S ∇Ã ∇Ãᵀ/Ã³, entries 00, 01, 11
-    ia = iA[:, :, 0]
-    c1, c2 = 2.0 * S[:, None] * (ia * ia * ia), ia * ia
-    (sx, sy), (ax, ay) = np.moveaxis(dS, -1, 0), np.moveaxis(dA, -1, 0)
-    h00 = 4.0 * Hm[:, None, 0, 0] * ia - 2.0 * c2 * sx * ax + c1 * ax * ax
-    h11 = 4.0 * Hm[:, None, 1, 1] * ia - 2.0 * c2 * sy * ay + c1 * ay * ay
-    h01 = 4.0 * Hm[:, None, 0, 1] * ia - c2 * (sx * ay + sy * ax) + c1 * ax * ay
-    if wt is not None:
-        g, h00, h01, h11 = g * wt[..., None], h00 * wt, h01 * wt, h11 * wt
-    v = T.ravel()
-    on = movable[v]
+    parts = np.empty((5, len(T), 3))       # ∂/∂x, ∂/∂y and the Hessian's 00, 01, 11 per corner
+    xy = columns(P)
+    for c in chunks(len(T)):               # by blocks: see newton_rhs (each row on its own)
+        _star_terms(xy, T[c], anisotropy, None if on_boundary is None else on_boundary[T[c]],
+                    parts[:, c])
     idx = np.flatnonzero(movable)
-    local = np.full(len(P), -1, np.int64)
+    local = np.full(len(P), len(idx), np.int64)              # corners not movable: one spare bin
     local[idx] = np.arange(len(idx))
-    li = local[v[on]]
-    sums = [np.bincount(li, x.ravel()[on], minlength=len(idx))
-            for x in (g[..., 0], g[..., 1], h00, h01, h11)]
-    gx, gy, k00, k01, k11 = sums
+    li = local[T.ravel()]
+    gx, gy, k00, k01, k11 = (np.bincount(li, x.ravel(), minlength=len(idx) + 1)[:-1] for x in parts)
     det = k00 * k11 - k01 * k01
     ok = det > 0                                              # the star's Hessian (convex sum)
     det = np.where(ok, det, 1.0)
@@ -175,6 +144,46 @@ def shape_step(P, T, anisotropy, movable, on_boundary=None):
     d[idx] = np.where(ok[:, None], -np.column_stack([k11 * gx - k01 * gy, k00 * gy - k01 * gx])
                       / det[:, None], 0.0)
     return d
+
+
+def _star_terms(xy, T, anisotropy, ob, out):
+    """shape_step's per-corner terms of the triangles T into out (5, M, 3): the gradient of
+    w_T S/Ã in the corner's position and its Hessian's entries 00, 01, 11; `ob` the triangles'
+    corners on the boundary (None: every w_T = 1)."""
+    F = Frame(xy, T)
+    ex, ey = F.ex, F.ey                                       # the edge opposite each corner
+    if anisotropy.is_constant:
+        (h00_, h01_), (h10_, h11_) = anisotropy.H
+        l2 = quadratic_form_xy(ex, ey, anisotropy.H)
+    else:                       # at the centroids, from this Frame's corners (metric_hessians)
+        Hm = np.asarray(anisotropy.hessian(np.column_stack([F.x.mean(axis=1), F.y.mean(axis=1)])),
+                        dtype=float)
+        h00_, h01_, h10_, h11_ = (Hm[:, i, j, None] for i, j in ((0, 0), (0, 1), (1, 0), (1, 1)))
+        l2 = ((ex * h00_ * ex + ex * h01_ * ey) + ey * h10_ * ex) + ey * h11_ * ey   # quadratic_form
+    sq = np.sqrt(h00_ * h11_ - h01_ * h10_)
+    A = sq * F.A[:, None]                                     # metric areas (M, 1)
+    S = l2.sum(axis=1)[:, None]                               # Σ l̃² (2.94)
+    wt = None
+    if ob is not None and FAN_WEIGHT != 1:
+        # a triangle with two boundary corners adds l̃²_b/Ã of its boundary edge b to the trace:
+        # weight it by that share of S/3 (equilateral: 1), but at least FAN_WEIGHT
+        fan = ob.sum(axis=1) == 2
+        lb2 = l2[np.arange(len(T)), np.argmin(ob, axis=1)]
+        wt = np.where(fan, np.clip(3.0 * lb2 / S[:, 0], FAN_WEIGHT, 1.0), 1.0)[:, None]
+    ux, uy = ex[:, NXT] - ex[:, PRV], ey[:, NXT] - ey[:, PRV]  # (x_c − x_a) + (x_c − x_b) per corner
+    sx = 2.0 * (h00_ * ux + h01_ * uy)                        # ∂S/∂x_c = 2 H u
+    sy = 2.0 * (h10_ * ux + h11_ * uy)
+    ax, ay = sq * F.gx, sq * F.gy                             # ∂Ã/∂x_c
+    ia = 1.0 / A
+    sa = S * ia * ia
+    c1, c2 = 2.0 * S * (ia * ia * ia), ia * ia
+    # ∂(S/Ã)/∂x_c, and its Hessian 4H/Ã − (∇S ∇Ãᵀ + ∇Ã ∇Sᵀ)/Ã² + 2S ∇Ã ∇Ãᵀ/Ã³, entries 00, 01, 11
+    out[0], out[1] = sx * ia - sa * ax, sy * ia - sa * ay
+    out[2] = 4.0 * h00_ * ia - 2.0 * c2 * sx * ax + c1 * ax * ax
+    out[3] = 4.0 * h01_ * ia - c2 * (sx * ay + sy * ax) + c1 * ax * ay
+    out[4] = 4.0 * h11_ * ia - 2.0 * c2 * sy * ay + c1 * ay * ay
+    if wt is not None:
+        out *= wt
 
 
 def boundary_layer(T, on_boundary, rings):

@@ -175,8 +175,9 @@ def _displacements(st: State, alpha: float, boundary_refinement: bool):
         d = alpha * shape_step(P0, T0, anisotropy, ~on_boundary, on_boundary)
     keep = None
     if boundary_refinement:
-        layer = boundary_layer(T0, on_boundary, SHAPE_RINGS)
-        d[layer] = alpha * shape_step(P0, T0, anisotropy, layer, on_boundary)[layer]
+        if anisotropy.potential:   # without s every interior vertex took this very step above
+            layer = boundary_layer(T0, on_boundary, SHAPE_RINGS)
+            d[layer] = alpha * shape_step(P0, T0, anisotropy, layer, on_boundary)[layer]
         snap = snap_to_boundary(P0, T0, st.twin, d, on_boundary, st.corner_edge(), anisotropy)
         if len(snap.vertices):
             st.join_boundary(snap)
