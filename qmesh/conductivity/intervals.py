@@ -291,10 +291,12 @@ VALUES = {
 }
 
 
-def _slopes(name: str, u: Interval, value: Interval, order: int = ORDER) -> list[Zeroable]:
+def _slopes(name: str, u: Interval, value: Interval, order: int = ORDER,
+            values: dict | None = None) -> list[Zeroable]:
     """Enclosures of f', f'' and f''' over u (the first `order` of them), given f(u)'s (`value`);
     f'' and f''' are the whole line where f has a kink in u (`abs` across 0: its second
-    derivative is a Dirac mass there)."""
+    derivative is a Dirac mass there). `values`: the functions' values over u enclosed so far,
+    by name (a sine's slope is the cosine of the same argument), kept for the next."""
     shape = u[0].shape
     one, two = _const(1.0, shape), _const(2.0, shape)
     d3: Zeroable = None
@@ -311,7 +313,11 @@ def _slopes(name: str, u: Interval, value: Interval, order: int = ORDER) -> list
         if order > 2:                                   # (√u)''' = −(3/2) (√u)'' / u
             d3 = mul(_const(-1.5, shape), div(d2, u))
     elif name in ("sin", "cos"):
-        d1 = cos(u) if name == "sin" else neg(sin(u))
+        other = "cos" if name == "sin" else "sin"
+        values = {} if values is None else values
+        if other not in values:
+            values[other] = VALUES[other](u)
+        d1 = values[other] if name == "sin" else neg(values[other])
         d2, d3 = neg(value), neg(d1)
     elif name in ("tan", "tanh"):                       # f' = 1 ± f², f'' = ±2 f f',
         sign = 1.0 if name == "tan" else -1.0           # f''' = ±2 (f'² + f f'')
@@ -352,15 +358,20 @@ def _sign_of(f: tuple) -> tuple | None:
     return None
 
 
-def _compose(v: Interval, slopes: list[Zeroable], u: Node) -> Node:
+def _compose(v: Interval, slopes: list[Zeroable], u: Node, products: dict | None = None) -> Node:
     """f(u) from u's value and derivatives, f^(k)(u) ∈ slopes[k − 1] (Faà di Bruno's formula to
     the node's order: ∂_α f(u) = Σ over the partitions of α's directions into k blocks of
-    f^(k)(u) Π_blocks ∂_block u, e.g. ∇²f = f'' ∇u ∇uᵀ + f' ∇²u)."""
+    f^(k)(u) Π_blocks ∂_block u, e.g. ∇²f = f'' ∇u ∇uᵀ + f' ∇²u). `products`: the products
+    of u's derivatives formed so far, by their factors (the sine and the cosine of one argument
+    share them), kept for the next."""
+    products = {} if products is None else products
     out = [v]
     for terms in _FAA_DI_BRUNO[1:len(u)]:
         total: Zeroable = None
         for coef, k, factors in terms:
-            total = add(total, _scaled(coef, mul(slopes[k - 1], _product(u, factors))))
+            if factors not in products:
+                products[factors] = _product(u, factors)
+            total = add(total, _scaled(coef, mul(slopes[k - 1], products[factors])))
         out.append(total)
     return tuple(out)
 
@@ -462,6 +473,8 @@ def evaluate_all(forms: list[tuple], X: Interval, Y: Interval, order: int = ORDE
     zeros = (None,) * (size - 3)      # an exact 0: the derivatives of numbers and of x, y
     one = _const(1.0, shape)
     seen: dict[tuple, Node] = {}
+    shared: dict[int, tuple[dict, dict]] = {}   # by a node's id: its functions' values and the
+                                                # products of its derivatives (`_compose`)
 
     def walk(f: tuple) -> Node:
         if f not in seen:
@@ -489,8 +502,11 @@ def evaluate_all(forms: list[tuple], X: Interval, Y: Interval, order: int = ORDE
         if kind == "call":
             name = f[1]
             u = walk(f[2])
-            v = VALUES[name](u[0])
-            return _compose(v, _slopes(name, u[0], v, order), u)
+            values, products = shared.setdefault(id(u), ({}, {}))   # u is kept in `seen`
+            if name not in values:
+                values[name] = VALUES[name](u[0])
+            v = values[name]
+            return _compose(v, _slopes(name, u[0], v, order, values), u, products)
         if kind == "**" and f[2][0] == "num":
             u = walk(f[1])
             p = f[2][1]
@@ -505,7 +521,8 @@ def evaluate_all(forms: list[tuple], X: Interval, Y: Interval, order: int = ORDE
                 uk = whole_power(u[0], int(p) - k) if whole else real_power(u[0], p - k)
                 return uk if k == 0 else mul(_const(c, shape), uk)
 
-            return _compose(power(0), [power(k) for k in range(1, order + 1)], u)
+            return _compose(power(0), [power(k) for k in range(1, order + 1)], u,
+                            shared.setdefault(id(u), ({}, {}))[1])
         if kind == "**":       # b ** e = exp(e · log b)
             return walk(("call", "exp", ("*", f[2], ("call", "log", f[1]))))
         a, b = walk(f[1]), walk(f[2])
