@@ -73,7 +73,7 @@ def _clean(lo: Array, hi: Array) -> Interval:
     return np.where(bad, -INF, lo), np.where(bad, INF, hi)
 
 
-_LEAST = np.minimum.reduce
+_LEAST = np.minimum.reduce   # NaN where a NaN is met (`_clean`)
 HALF_ULP = 2.0 ** -52      # twice a normal float's half-ulp (relative)
 DENORMAL = 5e-324          # the smallest subnormal
 
