@@ -174,7 +174,7 @@ def relax(st, metric, movers, shape, tangent=None, refused=None):
     for frac in (STEPS if shape else STEPS[:1]):   # a shape move refused is tried shorter
         if not moving.any():
             break
-        ok = _accepted(st, frac * d, moving, shape, within=star)
+        ok = _accepted(st, frac * d, moving, shape, within=(star, near))
         d[ok] *= frac
         take |= ok
         moving &= ~ok
@@ -272,7 +272,7 @@ def polish(st, movers, tangent=None, refused=None):
     best, take = np.zeros(len(v), np.int64), np.zeros(len(v), bool)
     for c in range(0, len(v), POLISH_MOVERS):  # the same verdicts: each on its own star
         at = slice(c, c + POLISH_MOVERS)
-        ok, q1 = _judged(st, v[at], D[:, at], True, how="rough", within=star)
+        ok, q1 = _judged(st, v[at], D[:, at], True, how="rough", within=(star, near))
         q1 = np.where(ok, q1, -np.inf)
         best[at] = np.argmax(q1, axis=0)
         take[at] = np.isfinite(q1[best[at], np.arange(q1.shape[1])])
@@ -283,17 +283,17 @@ def polish(st, movers, tangent=None, refused=None):
     if take.any() and not _rough_exact(st):
         chosen = np.flatnonzero(take)
         take[chosen] = _judged(st, v[chosen], D[best[chosen], chosen][None], True,
-                               within=star)[0][0]
+                               within=(star, near))[0][0]
     if refused is not None:
         refused[v] = ~take
     if not take.any():
         return np.empty(0, np.int64)
-    return _moved(st, v[take], D[best[take], np.flatnonzero(take)], within=star)
+    return _moved(st, v[take], D[best[take], np.flatnonzero(take)], within=(star, near))
 
 
 def _moved(st, v, d, within=None):
     """Move the vertices v of `st.P` by d; the triangles that changed (their stars, looked for
-    among the triangles `within` when given, `_judged`'s)."""
+    among the triangles `within` when given, `_star`'s)."""
     P = st.P.copy()
     P[v] += d
     st.P = P
@@ -303,14 +303,15 @@ def _moved(st, v, d, within=None):
 
 
 def _star(T, mask, within=None):
-    """The triangles (sorted) with a corner in the vertex `mask`, looked for among `within` (sorted
-    triangles holding all of them: a caller's star of more vertices) when given, else in the
-    whole mesh: a round's moves judged in chunks and kept look at their stars, not at every
-    triangle each time (at 1e6 vertices, a pass over the mesh is 20 ms, and a repair made some
-    300 of them)."""
+    """The triangles (sorted) with a corner in the vertex `mask`, looked for among `within`
+    when given — (star, T[star]): sorted triangles holding all of them, a caller's star of more
+    vertices, and their corners — else in the whole mesh: a round's moves judged in chunks and
+    kept look at their stars, not at every triangle each time (at 1e6 vertices, a pass over the
+    mesh is 20 ms, and a repair made some 300 of them)."""
     if within is None:
         return np.flatnonzero(touching(T, mask))
-    return within[touching(T[within], mask)]
+    star, near = within
+    return star[touching(near, mask)]
 
 
 def _along(d, t):
