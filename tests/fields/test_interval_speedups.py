@@ -82,9 +82,9 @@ def test_the_nan_check_passes_empty_rows_and_lower_ends_at_infinity_untouched():
 def test_an_enclosure_sets_numpys_error_state_once_and_lets_no_warning_out(monkeypatch):
     """A text dividing by zero, a logarithm and a root reaching 0, an ∞ − ∞ (each of them a
     warning from NumPy if it were on) enclosed over boxes across them: one `np.errstate` of
-    the interval module's for the whole walk (the old code entered one in each operation,
-    thousands a piece; `geometry.portable`'s functions keep their own), no warning, and the
-    whole line where nothing bounds the text."""
+    the interval module's for the whole walk (not one in each operation, thousands a piece;
+    `geometry.portable`'s functions keep their own), no warning, and the whole line where
+    nothing bounds the text."""
     entered = []
     errstate = np.errstate
 

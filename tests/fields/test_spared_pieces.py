@@ -62,8 +62,8 @@ def test_a_triangle_splits_only_the_pieces_its_tolerance_needs(seed):
 
 def test_spiral_triangles_enclose_fewer_pieces_than_every_one_above_the_tolerance():
     """40 such triangles 16 to 40 times above their tolerance (after their children's pieces,
-    within a few times it): a fifth fewer pieces enclosed at least (the old proof split every
-    piece above the tolerance)."""
+    within a few times it): a fifth fewer pieces enclosed at least than splitting every piece
+    above the tolerance."""
     F, P, rtol = _spiral_triangles(np.random.default_rng(11), 40, (16, 40))
     _, _, spared = _proven(F, P, rtol, spare=True)
     _, _, every = _proven(F, P, rtol, spare=False)

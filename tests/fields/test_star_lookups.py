@@ -39,8 +39,8 @@ def _whole_mesh_passes(monkeypatch, M):
 
 def test_a_polish_round_passes_over_the_mesh_once(monkeypatch):
     """Judged in chunks of 16 movers, its kept tries' stars found too: one pass over the whole
-    mesh (the old code made one more for each chunk, one for the kept tries and one for the
-    moved stars), the same moves."""
+    mesh (not one more for each chunk, one for the kept tries and one for the moved stars),
+    the same moves."""
     P, T, v = _movers(3, 400)
     want = _state(P, T)
     moves.polish(want, v)
@@ -54,7 +54,7 @@ def test_a_polish_round_passes_over_the_mesh_once(monkeypatch):
 
 def test_a_relax_round_passes_over_the_mesh_once(monkeypatch):
     """Its rough and adaptive judgements and the stars it moved: one pass over the whole mesh
-    (the old code made three at least), the same moves."""
+    (not three or more), the same moves."""
     P, T, v = _movers(5, 400)
     metric = None
     want = _state(P, T)
