@@ -161,10 +161,10 @@ def relax(st, metric, movers, shape, tangent=None, refused=None):
         return np.empty(0, np.int64)
     mask = np.zeros(n, bool)
     mask[movers] = True
-    star0 = touching(T, mask)
-    near = T[star0]                            # the movers' stars: all a move can change
+    star = np.flatnonzero(touching(T, mask))   # the movers' stars: all a move can change, and
+    near = T[star]                             # the only triangles the moves are looked for in
     if metric is None:                         # each triangle's own H_T = adj Q̄_T / √det Q̄_T
-        metric = _own_metric(shape_metric(Qbar[star0]))
+        metric = _own_metric(shape_metric(Qbar[star]))
     d = shape_step(P, near, metric, mask)
     if tangent is not None:                    # boundary vertices: the step's share along it
         d = _along(d, tangent)
@@ -174,7 +174,7 @@ def relax(st, metric, movers, shape, tangent=None, refused=None):
     for frac in (STEPS if shape else STEPS[:1]):   # a shape move refused is tried shorter
         if not moving.any():
             break
-        ok = _accepted(st, frac * d, moving, shape)
+        ok = _accepted(st, frac * d, moving, shape, within=(star, near))
         d[ok] *= frac
         take |= ok
         moving &= ~ok
@@ -184,7 +184,7 @@ def relax(st, metric, movers, shape, tangent=None, refused=None):
         return np.empty(0, np.int64)
     st.P = P.copy()
     st.P[take] += d[take]
-    return np.flatnonzero(touching(T, take))
+    return star[touching(near, take)]
 
 
 def isosceles(st, h, tangent, rng, refused=None):
@@ -272,7 +272,7 @@ def polish(st, movers, tangent=None, refused=None):
     best, take = np.zeros(len(v), np.int64), np.zeros(len(v), bool)
     for c in range(0, len(v), POLISH_MOVERS):  # the same verdicts: each on its own star
         at = slice(c, c + POLISH_MOVERS)
-        ok, q1 = _judged(st, v[at], D[:, at], True, how="rough")
+        ok, q1 = _judged(st, v[at], D[:, at], True, how="rough", within=(star, near))
         q1 = np.where(ok, q1, -np.inf)
         best[at] = np.argmax(q1, axis=0)
         take[at] = np.isfinite(q1[best[at], np.arange(q1.shape[1])])
@@ -282,22 +282,36 @@ def polish(st, movers, tangent=None, refused=None):
             _keep(st, kept)
     if take.any() and not _rough_exact(st):
         chosen = np.flatnonzero(take)
-        take[chosen] = _judged(st, v[chosen], D[best[chosen], chosen][None], True)[0][0]
+        take[chosen] = _judged(st, v[chosen], D[best[chosen], chosen][None], True,
+                               within=(star, near))[0][0]
     if refused is not None:
         refused[v] = ~take
     if not take.any():
         return np.empty(0, np.int64)
-    return _moved(st, v[take], D[best[take], np.flatnonzero(take)])
+    return _moved(st, v[take], D[best[take], np.flatnonzero(take)], within=(star, near))
 
 
-def _moved(st, v, d):
-    """Move the vertices v of `st.P` by d; the triangles that changed (their stars)."""
+def _moved(st, v, d, within=None):
+    """Move the vertices v of `st.P` by d; the triangles that changed (their stars, looked for
+    among the triangles `within` when given, `_star`'s)."""
     P = st.P.copy()
     P[v] += d
     st.P = P
     moved = np.zeros(len(P), bool)
     moved[v] = True
-    return np.flatnonzero(touching(st.T, moved))
+    return _star(st.T, moved, within)
+
+
+def _star(T, mask, within=None):
+    """The triangles (sorted) with a corner in the vertex `mask`, looked for among `within`
+    when given — (star, T[star]): sorted triangles holding all of them, a caller's star of more
+    vertices, and their corners — else in the whole mesh: a round's moves judged in chunks and
+    kept look at their stars, not at every triangle each time (at 1e6 vertices a pass over the
+    mesh is 20 ms; the 512² raster's repair there asks for some 300 stars)."""
+    if within is None:
+        return np.flatnonzero(touching(T, mask))
+    star, near = within
+    return star[touching(near, mask)]
 
 
 def _along(d, t):
@@ -307,21 +321,21 @@ def _along(d, t):
     return t * np.einsum("...i,...i->...", d, t)[..., None] + np.where(slide, 0.0, d)
 
 
-def _accepted(st, d, moving, shape):
+def _accepted(st, d, moving, shape, within=None):
     """Which `moving` vertices (two triangles apart) `relax` takes moved by d: their stars'
     edges and shapes judged first on rough means (`ElementMeans.rough`, 7 points a triangle),
     and the moves that pass judged again on the means at the new places (each mover is judged
     on its own star: the same verdict among fewer movers) unless the rough means are those
-    (a raster's: the moves taken keep them, `_keep`)."""
+    (a raster's: the moves taken keep them, `_keep`). `within`: as `_judged`'s."""
     v = np.flatnonzero(moving)
     out = np.zeros(len(st.P), bool)
-    ok = _judged(st, v, d[v][None], shape, how="rough")[0][0]
+    ok = _judged(st, v, d[v][None], shape, how="rough", within=within)[0][0]
     maybe = v[ok]
     if _rough_exact(st):                       # judged on the means it is kept with
         _keep(st, ok[None])
         out[maybe] = True
     elif len(maybe):
-        out[maybe] = _judged(st, maybe, d[maybe][None], shape)[0][0]
+        out[maybe] = _judged(st, maybe, d[maybe][None], shape, within=within)[0][0]
     return out
 
 
@@ -346,18 +360,18 @@ def _keep(st, kept):
         st.field.keep(pts, tri[rows], Qn[rows], en[rows], tags[rows])
 
 
-def _judged(st, v, D, shape, how="means_with_error"):
+def _judged(st, v, D, shape, how="means_with_error", within=None):
     """K tries D (K, k, 2) at moving the vertices v (k,) of the state `st`, two triangles apart,
     judged at once (one call for the means of all their stars, `how`: see `shares.means_of`;
     the shares from beyond the stars as `st.cut` has them): which each takes ((K, k):
     `_accepted`'s rule) and the worst quality of its star after the move, each triangle in its
-    own means."""
+    own means. The stars are looked for among the triangles `within` (`_star`) when given."""
     P, T, twin, Qbar, s, b, reg = st.P, st.T, st.cut, st.Qbar, st.s, st.b, st.reg
     n, (K, k) = len(P), D.shape[:2]
     st.tried = None
     mask = np.zeros(n, bool)
     mask[v] = True
-    star = np.flatnonzero(touching(T, mask))
+    star = _star(T, mask, within)
     if not len(star):
         return np.zeros((K, k), bool), np.full((K, k), -np.inf)
     Ts, m = T[star], len(star)
