@@ -52,8 +52,8 @@ RELAX = 3           # rounds of shape steps mending edges before the next split
 SMOOTH = 4          # shape steps of the vertices the splits added, once every edge passes
 POLISH = 60         # then rounds of polish (moves.polish), in each triangle's own means, of
                     # the corners of triangles below FLOOR, at most ...
-PATIENCE = 12       # ... while the last this many lowered the shortfall below FLOOR,
-PROGRESS = 0.01     # Σ max(0, FLOOR − quality), by this share at least
+IDLE = 6            # ... while the last this many raised the worst quality or lowered the
+PROGRESS = 0.05     # shortfall below FLOOR, Σ max(0, FLOOR − quality), by this share at least
 PROOF_ROUNDS = 8    # times the repair runs again on edges its proven bounds fail (texts)
 REFINE = 3          # refinements of the proven bounds beside such edges before they go back
 MARGIN = 0.9        # ... each asking for bounds within this share of the edge's q_ij
@@ -151,14 +151,15 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
         if shaping and not len(st.h):
             tan = _tangents(st)
             st.seen = Judged(len(st.P), len(st.T))  # judged afresh: the moves are judged otherwise
-            short = []                             # the shortfall below FLOOR before each round
-            if st.quality is None:
+            worst, short = [], []                  # the worst quality and the shortfall below
+            if st.quality is None:                 # FLOOR before each round
                 st.track_quality()                 # each round: only what it changed
             for _ in range(POLISH):                # the worst shapes, each in its own means
                 quality = st.quality
                 low = quality < FLOOR
+                worst.append(float(quality.min()) if len(quality) else 1.0)
                 short.append(float(np.sum(FLOOR - quality[low])))
-                if len(short) > PATIENCE and short[-1] >= (1.0 - PROGRESS) * short[-1 - PATIENCE]:
+                if not paying(worst, short):
                     break                          # moves that only trade shapes among the poor
                 poor = free(st.T, st.cut, st.fixed, st.T[low].ravel(), tan)
                 poor = poor[~st.seen.vertices[poor]]   # none left: all refused, nothing changed since
@@ -198,6 +199,17 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
     done_mesh = Mesh(P, T, fixed, E, out[E[:, 0]], mesh.tag_names, conductivity=Qbar,
                      means_sampled_at=sampled_at(given, P, T, reg), **regions)
     return done_mesh, Certificate(total, flips, added, len(h), worst)
+
+
+def paying(worst: list[float], short: list[float]) -> bool:
+    """Whether the polish's rounds still pay, given the worst quality and the shortfall below
+    FLOOR before each round so far: the last IDLE rounds raised the worst quality or lowered the
+    shortfall by PROGRESS of itself. Rounds that do neither only trade shapes among the poor:
+    on a field whose worst triangle is held by a corner or a seed they would run to POLISH,
+    each round a pass over the mesh, for nothing the worst quality or the shortfall shows."""
+    if len(worst) <= IDLE:
+        return True
+    return worst[-1] > worst[-1 - IDLE] or short[-1] < (1.0 - PROGRESS) * short[-1 - IDLE]
 
 
 def sampled_at(field, P, T, reg) -> float | None:
