@@ -482,8 +482,13 @@ def _far_sides_shared(pts, K, corner):
 
 def _own_metric(H):
     """The metric of the triangles of a star, each its own H (in the order `shape_step` asks for
-    them: its triangles are the star's, in order): what the quality (2.94) is measured in."""
+    them: its triangles are the star's, in order, block after block of `triangles.chunks`, so
+    each call is served the next rows): what the quality (2.94) is measured in."""
+    served = [0]
+
     def hessian(X):
-        assert len(X) == len(H)
-        return H
+        start = served[0]
+        assert start + len(X) <= len(H)
+        served[0] = (start + len(X)) % len(H)  # the last block served: the star's start again
+        return H[start:start + len(X)]
     return Anisotropy.metric_only(hessian, "element means")
