@@ -151,15 +151,15 @@ def certify(mesh: Mesh, field, max_rounds: int = MAX_ROUNDS,
         if shaping and not len(st.h):
             tan = _tangents(st)
             st.seen = Judged(len(st.P), len(st.T))  # judged afresh: the moves are judged otherwise
-            worst, short = [], []                  # the worst quality and the shortfall below
+            lowest, short = [], []                 # the worst quality and the shortfall below
             if st.quality is None:                 # FLOOR before each round
                 st.track_quality()                 # each round: only what it changed
             for _ in range(POLISH):                # the worst shapes, each in its own means
                 quality = st.quality
                 low = quality < FLOOR
-                worst.append(float(quality.min()) if len(quality) else 1.0)
+                lowest.append(float(quality.min()) if len(quality) else 1.0)
                 short.append(float(np.sum(FLOOR - quality[low])))
-                if not paying(worst, short):
+                if not paying(lowest, short):
                     break                          # moves that only trade shapes among the poor
                 poor = free(st.T, st.cut, st.fixed, st.T[low].ravel(), tan)
                 poor = poor[~st.seen.vertices[poor]]   # none left: all refused, nothing changed since
