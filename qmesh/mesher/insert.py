@@ -322,11 +322,14 @@ def relocate_degree3(P, T, twin, anisotropy, on_boundary, relocated_before):
     Hm = metric_hessians(anisotropy, P, T)
     area, quality, _ = metric_measures(P, T, Hm)
     size = rounded(area / np.maximum(quality, 1e-3))
-    left = _hole_sizes(P, T, Hm, v, star)
     size[star.ravel()] = -np.inf
     target = np.argsort(-size, kind="stable")[:len(v)]
-    go = ~relocated_before[v] | (size[target] > RELOCATE_GAIN * left)
-    v, star, target = v[go], star[go], target[go]
+    again = np.flatnonzero(relocated_before[v])
+    if len(again):
+        go = np.ones(len(v), bool)
+        go[again] = size[target[again]] > RELOCATE_GAIN * _hole_sizes(P, T, Hm, v[again],
+                                                                      star[again])
+        v, star, target = v[go], star[go], target[go]
     if not len(v):
         return T, twin, P, v
     P = P.copy()
