@@ -352,4 +352,3 @@ def _hole_sizes(P, T, Hm, v, star):
          / np.maximum(w.sum(axis=1), np.finfo(float).tiny)[:, None, None])
     area, quality, _ = metric_measures(P, hole, H)
     return rounded(area / np.maximum(quality, 1e-3))
-
