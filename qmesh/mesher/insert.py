@@ -30,16 +30,13 @@ from scipy.spatial import cKDTree
 
 from qmesh.geometry import topology
 from qmesh.geometry.portable import eigvalsh2
-from qmesh.geometry.triangles import (chunks, metric_hessians, metric_measures, rounded,
-                                      signed_areas)
+from qmesh.geometry.triangles import chunks, metric_hessians, metric_measures, rounded
 
 GROSS = 4.0             # above this multiple of the threshold, neighbours may be refined together
 GRADE_QUALITY = 0.35    # below this metric quality, a triangle whose shortest edge is a boundary
                         # edge gets its metric circumcentre
 DUPLICATE = 1e-6        # a grading point this close to a vertex (in circumradii) is that vertex
 LOCATE_STEPS = 16       # walk at most this many triangles from a bad triangle to its circumcentre
-RELOCATE_GAIN = 1.5     # a vertex relocated before moves again only into a triangle this many
-                        # times the size of the hole it leaves (else it comes back to fill it)
 
 
 @dataclass
@@ -290,20 +287,13 @@ def _local_max(T, twin, prio):
     return out
 
 
-def relocate_degree3(P, T, twin, anisotropy, on_boundary, relocated_before):
+def relocate_degree3(P, T, twin, anisotropy, on_boundary):
     """Move interior vertices with only three neighbours to the largest triangles.
 
     Such a vertex sits inside the triangle of its neighbours and adds nothing there; held by
     the energy near a boundary it can leave a sliver of quality ~0.1 that the vertex step
     never removes (seen on the chapter's case). Removing it and inserting it at the centroid
-    of the largest metric triangle keeps N and the triangle count.
-
-    A vertex that `relocated_before` (a flag per vertex) marks moves again only into a triangle
-    RELOCATE_GAIN times the size (metric area / quality) of the triangle its three neighbours
-    make without it. Otherwise, where the metric keeps it at degree 3 wherever it lands, the
-    hole it left is the largest triangle of the next round: it went back and forth between two
-    spots every round, and the loop never saw a round that changed nothing. Returns
-    (T, twin, P, moved).
+    of the largest metric triangle keeps N and the triangle count. Returns (T, twin, P, moved).
     """
     deg = np.bincount(T.ravel(), minlength=len(P))
     lonely = (deg == 3) & ~on_boundary
@@ -324,31 +314,7 @@ def relocate_degree3(P, T, twin, anisotropy, on_boundary, relocated_before):
     size = rounded(area / np.maximum(quality, 1e-3))
     size[star.ravel()] = -np.inf
     target = np.argsort(-size, kind="stable")[:len(v)]
-    again = np.flatnonzero(relocated_before[v])
-    if len(again):
-        go = np.ones(len(v), bool)
-        go[again] = size[target[again]] > RELOCATE_GAIN * _hole_sizes(P, T, Hm, v[again],
-                                                                      star[again])
-        v, star, target = v[go], star[go], target[go]
-    if not len(v):
-        return T, twin, P, v
     P = P.copy()
     P[v] = P[T[target]].mean(axis=1)
     T, twin = topology.relocate_vertices(T, twin, v, star, target)
     return T, twin, P, v
-
-
-def _hole_sizes(P, T, Hm, v, star):
-    """The size (metric area / quality) of the triangle the three neighbours of each degree-3
-    vertex v make without it, in the area-weighted mean metric of its star (no new
-    evaluation of the field)."""
-    local = np.argmax(T[star] == v[:, None, None], axis=2)           # v's corner in each row
-    a = T[star[:, 0], topology.NXT[local[:, 0]]]                    # (v, a, b) counter-clockwise
-    b = T[star[:, 0], topology.PRV[local[:, 0]]]
-    c = T[star, topology.NXT[local]].sum(axis=1) - a - b            # the third neighbour
-    hole = np.column_stack([a, b, c])
-    w = np.abs(signed_areas(P, T[star.ravel()])).reshape(-1, 3)
-    H = (np.einsum("kj,kjab->kab", w, Hm[star])
-         / np.maximum(w.sum(axis=1), np.finfo(float).tiny)[:, None, None])
-    area, quality, _ = metric_measures(P, hole, H)
-    return rounded(area / np.maximum(quality, 1e-3))

@@ -100,14 +100,12 @@ def add_new_points(plan: Plan, st: State, it: int) -> Step:
     """Add new points near badly shaped (metric quality (2.94) below the threshold) or
     oversized triangles, within the run's vertex budget. Vertices with three neighbours are
     first moved to the largest triangles (insert.relocate_degree3: not in the chapter; they
-    leave slivers the vertex step never removes), a vertex moved before only into a triangle
-    clearly larger than the hole it leaves (else it goes back and forth every round)."""
+    leave slivers the vertex step never removes)."""
     t0 = time.perf_counter()
     o, n_old = plan.options, len(st.P)
     threshold, budget = _insertion_budget(plan, st)
-    T, twin, P, relocated = relocate_degree3(st.P, st.T, st.twin, st.anisotropy, st.on_boundary(),
-                                             st.relocated_before())
-    st.relocate(T, twin, P, relocated)
+    T, twin, P, relocated = relocate_degree3(st.P, st.T, st.twin, st.anisotropy, st.on_boundary())
+    st.relocate(T, twin, P)
     ins = insert(st.P, st.T, st.twin, st.anisotropy, area_threshold=threshold,
                  boundary_length=BOUNDARY_FACTOR * sizing.size_of_area(threshold),
                  corner_edge=st.corner_edge(), quality_threshold=o.quality_threshold,

@@ -28,7 +28,6 @@ class State:
         self.fixed[:len(self.domain.seeds)] = True
         self.pinned = built.pinned
         self._seen_P = self._seen_T = None
-        self._relocated = np.empty(0, np.int64)
         self.mesh = self.snapshot()
 
     # ------------------------------------------------------------------ what the stages read
@@ -45,12 +44,6 @@ class State:
     def on_boundary(self) -> np.ndarray:
         """Boundary vertices: the seeds and the vertices sliding on the segments."""
         return self.fixed | (self.edge_id >= 0)
-
-    def relocated_before(self) -> np.ndarray:
-        """Per vertex: moved to another triangle by an earlier insert stage."""
-        flag = np.zeros(len(self.P), bool)
-        flag[self._relocated] = True
-        return flag
 
     def corner_edge(self) -> np.ndarray:
         """Segment that starts at each boundary vertex (seed k starts segment k)."""
@@ -72,10 +65,9 @@ class State:
         self.edge_id = self.edge_id.copy()
         self.edge_id[snap.vertices] = snap.edge_id
 
-    def relocate(self, T: np.ndarray, twin: np.ndarray, P: np.ndarray, moved: np.ndarray) -> None:
-        """Vertices `moved` to other triangles with the connectivity that goes with it."""
+    def relocate(self, T: np.ndarray, twin: np.ndarray, P: np.ndarray) -> None:
+        """Vertices moved to other triangles with the connectivity that goes with it."""
         self.P, self.T, self.twin = P, T, twin
-        self._relocated = np.union1d(self._relocated, moved)
 
     def add(self, T: np.ndarray, twin: np.ndarray, points: np.ndarray, edge_id: np.ndarray) -> None:
         """New free points (interior, or sliding on segment `edge_id`) and the triangulation
