@@ -139,8 +139,7 @@ def main(argv=None) -> None:
                 rows.append([case, n, name, *(f"{r['cpu'][p]:.3f}" for p in PARTS),
                              f"{r['total']:.3f}", r["rounds"], r["N"], r["hash"], m["positive"],
                              f"{m['min_q']:.3f}", f"{m['mean_q']:.3f}"])
-    table = "\n".join("| " + " | ".join(str(c) for c in row) + " |"
-                      for row in [headers, ["---"] * len(headers)] + rows)
+    table = report_page.markdown_table(headers, rows)
     print(table)
     if not args.no_page:
         report_page.write_page(

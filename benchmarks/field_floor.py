@@ -75,8 +75,7 @@ def main(argv=None) -> None:
                "one enclosure pass CPU s", "both CPU s", "Anisotropy.constant(Q̄) whole run CPU s",
                "both / constant"]
     rows = [floor(name, n, args.runs) for name in args.cases for n in args.n]
-    table = "\n".join("| " + " | ".join(str(c) for c in row) + " |"
-                      for row in [headers, ["---"] * len(headers)] + rows)
+    table = report_page.markdown_table(headers, rows)
     print(table)
     if not args.no_page:
         report_page.write_page(
