@@ -358,14 +358,19 @@ class QmeshView(TrameApp):
         finally:
             if then is not None:
                 then()
-            wanted = self._stage_wanted()
-            with self.state:                          # busy on into the scrub: never idle between
-                self.state.busy = wanted is not None
-            self._redraw_changed_options()
-            if wanted is None:
-                self._mesh_ahead_soon()
-            else:
-                asynchronous.create_task(self._act(lambda: self.session.scrub(wanted)))
+            self._end_busy()
+
+    def _end_busy(self) -> None:
+        """The work in hand is done: idle (the run's next stages meshed ahead meanwhile), or on
+        into the stage the history slider was moved to while busy, never idle in between."""
+        wanted = self._stage_wanted()
+        with self.state:
+            self.state.busy = wanted is not None
+        self._redraw_changed_options()
+        if wanted is None:
+            self._mesh_ahead_soon()
+        else:
+            asynchronous.create_task(self._act(lambda: self.session.scrub(wanted)))
 
     def _stage_wanted(self) -> int | None:
         """The stage the history slider was moved to while busy, if not the one shown (its
@@ -570,10 +575,7 @@ class QmeshView(TrameApp):
                 self.session.action_messages = [describe(e)]
                 self._messages()
             finally:
-                with self.state:
-                    self.state.busy = False
-                self._redraw_changed_options()       # a view option changed while measuring
-                self._mesh_ahead_soon()
+                self._end_busy()
 
     # ------------------------------------------------------------------ reactions
     @change("history_index")
@@ -584,6 +586,7 @@ class QmeshView(TrameApp):
         if self.state.busy:
             self._wanted_stage = int(history_index)
             return
+        self._wanted_stage = None                 # this move is the latest
         if int(history_index) == self.session.index:
             return
         with self.state:

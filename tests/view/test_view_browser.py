@@ -188,6 +188,8 @@ def test_keys_pressed_fast_on_the_history_slider_are_never_lost():
         b.wait_idle(page)
         last = int(_slider_value(page, "history_index").split(" / ")[1])
         assert last >= 6
+        b.until(lambda: page.locator("#slider-history_index .v-input--disabled").count() == 0
+                or None, 10, "the stage slider enabled after the Run")
         thumb = page.locator("#slider-history_index .v-slider-thumb")
         thumb.focus()
         page.keyboard.press("Home")
