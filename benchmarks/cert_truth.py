@@ -82,7 +82,7 @@ def main(argv=None) -> None:
     report_page.add_option(ap)
     args = ap.parse_args(argv)
     rng = np.random.default_rng(args.seed)
-    cases = [hf.issue_case()] + [hf.draw(kind, rng, f"{kind} {d + 1}")
+    cases = [hf.fooled_jump()] + [hf.draw(kind, rng, f"{kind} {d + 1}")
                                  for kind in hf.KINDS for d in range(args.draws)]
     with report_page.capture() as out:
         rows, verdicts, refused = [], [], 0

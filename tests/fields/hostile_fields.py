@@ -171,7 +171,7 @@ def draw(kind: str, rng: np.random.Generator, name: str | None = None) -> Case:
     raise ValueError(kind)
 
 
-def issue_case() -> Case:
+def fooled_jump() -> Case:
     """The jump a sampled rule certified falsely: 0° above x + 0.3 y = 0.537, 90° below."""
     line = (1.0, 0.3, 0.537)
     return Case("0° | 90° across x + 0.3y = 0.537", "angle jump",

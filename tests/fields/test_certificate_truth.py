@@ -77,7 +77,7 @@ def test_the_text_and_the_numpy_form_of_each_kind_agree(kind):
 def test_the_jump_a_sampled_rule_certified_falsely_passes_with_the_exact_means():
     """0° | 90° at 100 : 1 across x + 0.3y = 0.537: with means blind to the jump an interior
     edge had exact q_ij / Σ|q_ij^T| = −0.886 at 1 500 vertices."""
-    _, v = truth.mesh_and_check(hf.issue_case(), 300)
+    _, v = truth.mesh_and_check(hf.fooled_jump(), 300)
     assert v.remaining == 0 and v.false_interior == v.false_boundary == 0 and v.outside == 0
 
 
@@ -122,11 +122,11 @@ def _grid(k):
 
 
 def test_the_check_finds_the_means_a_sample_missed_and_passes_the_proven_ones():
-    """On one grid, the jump of `hf.issue_case` as a callable (its means sampled: the rule
+    """On one grid, the jump of `hf.fooled_jump` as a callable (its means sampled: the rule
     against its 4 children, which agree where no sample crosses the line) and as its text (the
     means proven): the exact means fall outside the callable's stated bounds on some triangle,
     and within the text's on every one."""
-    case = hf.issue_case()
+    case = hf.fooled_jump()
     P, T = _grid(24)
 
     def sampled(x, y):
