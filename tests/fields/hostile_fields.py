@@ -3,15 +3,16 @@
 Jumps written with abs(u)/u (a sign; a Heaviside step is (1 + sign)/2) along lines at any
 position and angle — principal fields whose angle jumps by 90°, on constant or turning pieces,
 two crossing jumps, a step between two tensors — narrow ramps written with abs (min and max: a
-kink at each side), Gaussian bumps (two a field) and ridges 0.003–0.03 wide; anisotropy 10–1e3. Each `Case`
-holds the text field qmesh meshes and, written again with NumPy, Q between its jump lines with
-the lines themselves, and its bumps and ridges as Q = Q_base + Σ g_k M_k: `exact_means` needs
-nothing of qmesh to compute its element means (`means`). The parser has no sign, Heaviside,
-min, max or floor: abs spells them all but floor."""
+kink at each side), Gaussian bumps (two a field) and ridges 0.003–0.03 wide; anisotropy
+10–1e3. Each `Case` holds the text field qmesh meshes and, written again with NumPy, Q between
+its jump lines with the lines themselves, and its bumps and ridges as Q = Q_base + Σ g_k M_k:
+`exact_means` needs nothing of qmesh to compute its element means (`means`). The parser has no
+sign, Heaviside, min, max or floor: abs spells them all but floor."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import dataclasses
+from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
@@ -36,9 +37,9 @@ class Case:
     kind: str
     make: Callable[[], qmesh.TensorField]
     base: Callable[[np.ndarray, np.ndarray], np.ndarray]
-    lines: list = field(default_factory=list)
-    bumps: list = field(default_factory=list)
-    ridges: list = field(default_factory=list)
+    lines: list = dataclasses.field(default_factory=list)
+    bumps: list = dataclasses.field(default_factory=list)
+    ridges: list = dataclasses.field(default_factory=list)
 
     def field(self) -> qmesh.TensorField:
         return self.make()
@@ -111,20 +112,21 @@ def draw(kind: str, rng: np.random.Generator, name: str | None = None) -> Case:
     name = name or kind
     if kind == "angle jump":            # the angle theta on one side, theta + 90 on the other
         line, u = _line(rng)
-        return Case(name, kind, lambda: qmesh.TensorField.principal(K, 1, f"{theta!r} + 45 - 45*{_sign(u)}"),
+        text = f"{theta!r} + 45 - 45*{_sign(u)}"
+        return Case(name, kind, lambda: qmesh.TensorField.principal(K, 1, text),
                     lambda x, y: principal(K, 1.0, theta + np.where(_u(line, x, y) > 0, 0.0, 90.0)),
                     [line])
     if kind == "turning angle jump":    # the same, on pieces whose angle turns
         line, u = _line(rng)
         r = _num(rng.uniform(-60, 60))
-        return Case(name, kind,
-                    lambda: qmesh.TensorField.principal(K, 1, f"{theta!r} + {r!r}*x*y + 45 - 45*{_sign(u)}"),
+        text = f"{theta!r} + {r!r}*x*y + 45 - 45*{_sign(u)}"
+        return Case(name, kind, lambda: qmesh.TensorField.principal(K, 1, text),
                     lambda x, y: principal(K, 1.0, theta + r * x * y
                                            + np.where(_u(line, x, y) > 0, 0.0, 90.0)), [line])
     if kind == "crossing jumps":        # four quadrants, 90° apart across each line: sign(u1 u2)
         (l1, u1), (l2, u2) = _line(rng), _line(rng)
-        return Case(name, kind,
-                    lambda: qmesh.TensorField.principal(K, 1, f"{theta!r} + 45 - 45*{_sign(f'({u1}*{u2})')}"),
+        text = f"{theta!r} + 45 - 45*{_sign(f'({u1}*{u2})')}"
+        return Case(name, kind, lambda: qmesh.TensorField.principal(K, 1, text),
                     lambda x, y: principal(K, 1.0, theta + np.where(
                         (_u(l1, x, y) > 0) == (_u(l2, x, y) > 0), 0.0, 90.0)), [l1, l2])
     if kind == "tensor step":           # Q1 where u < 0, Q2 where u > 0: (1 + sign)/2
@@ -151,22 +153,24 @@ def draw(kind: str, rng: np.random.Generator, name: str | None = None) -> Case:
         def k2(x, y):
             v = _u(line, x, y)
             return K - _num(K - 1) * (np.abs(v) - np.abs(v - w) + w) / (2 * w)
-        return Case(name, kind,
-                    lambda: qmesh.TensorField.principal(K, f"{K!r} - {_num(K - 1)!r}*{ramp}", theta),
+        text = f"{K!r} - {_num(K - 1)!r}*{ramp}"
+        return Case(name, kind, lambda: qmesh.TensorField.principal(K, text, theta),
                     lambda x, y: principal(K, k2(x, y), theta), [line, (a, b, c + w)])
     base = (lambda x, y: np.broadcast_to(principal(K, 1.0, theta), (len(x), 2, 2)))
     across = _num(K - 1) * principal(0.0, 1.0, theta)       # k2's direction: what a bump adds
     if kind == "bumps":                 # two, k2 from 1 to K at each centre (three: 119 nodes)
-        bumps = [(np.array([_num(v) for v in rng.uniform(0.05, 0.95, 2)]), _width(rng)) for _ in range(2)]
+        bumps = [(np.array([_num(v) for v in rng.uniform(0.05, 0.95, 2)]), _width(rng))
+                 for _ in range(2)]
         g = " + ".join(f"exp(-((x - {float(c[0])!r})**2 + (y - {float(c[1])!r})**2)/{_num(w * w)!r})"
                       for c, w in bumps)
-        return Case(name, kind, lambda: qmesh.TensorField.principal(K, f"1 + {_num(K - 1)!r}*({g})", theta),
+        text = f"1 + {_num(K - 1)!r}*({g})"
+        return Case(name, kind, lambda: qmesh.TensorField.principal(K, text, theta),
                     base, bumps=[(c, np.sqrt(_num(w * w)), across) for c, w in bumps])
     if kind == "ridge":                 # k2 from 1 to K along a line
         (a, b, c), u = _line(rng)
         w = _width(rng)
-        return Case(name, kind,
-                    lambda: qmesh.TensorField.principal(K, f"1 + {_num(K - 1)!r}*exp(-{u}**2/{_num(w * w)!r})", theta),
+        text = f"1 + {_num(K - 1)!r}*exp(-{u}**2/{_num(w * w)!r})"
+        return Case(name, kind, lambda: qmesh.TensorField.principal(K, text, theta),
                     base, ridges=[(np.array([a, b]), c, np.sqrt(_num(w * w)), across)])
     raise ValueError(kind)
 
@@ -174,6 +178,7 @@ def draw(kind: str, rng: np.random.Generator, name: str | None = None) -> Case:
 def fooled_jump() -> Case:
     """The jump a sampled rule certified falsely: 0° above x + 0.3 y = 0.537, 90° below."""
     line = (1.0, 0.3, 0.537)
+    text = "45 - 45*abs(x + 0.3*y - 0.537)/(x + 0.3*y - 0.537)"
     return Case("0° | 90° across x + 0.3y = 0.537", "angle jump",
-                lambda: qmesh.TensorField.principal(100, 1, "45 - 45*abs(x + 0.3*y - 0.537)/(x + 0.3*y - 0.537)"),
+                lambda: qmesh.TensorField.principal(100, 1, text),
                 lambda x, y: principal(100.0, 1.0, np.where(_u(line, x, y) > 0, 0.0, 90.0)), [line])
