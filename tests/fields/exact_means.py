@@ -165,7 +165,7 @@ def _ramp_integral(p, q, u0, w):
 
 
 def ridge_means(P, T, normal, u0, w):
-    """The mean of g = exp(−(n·x − u0)² / w²) over each triangle (M,), n the unit `normal`: in
+    """The mean of g = exp(−(n·x − u0)² / w²) over each triangle (M,), n the `normal`: in
     closed form, ∫_T g = ∫ g(u) L(u) du with L the triangle's chord along u = const, 0 at its
     lowest and highest corner and linear between them and the middle one."""
     u = P[T] @ np.asarray(normal, float)                                     # (M, 3)
