@@ -8,8 +8,9 @@ random positions and angles: a principal field whose angle jumps by 90° across 
 (`abs(u)/u`; on constant pieces, and on pieces whose angle turns), two crossing jumps, a step
 between two tensors (`(1 + abs(u)/u)/2`, a Heaviside), a narrow ramp of k2 written with `abs`
 (min and max: a kink at each side of a band 0.003–0.03 wide), two Gaussian bumps of k2 and a
-Gaussian ridge of k2 0.003–0.03 wide; and the jump a sampled rule once certified falsely
-(0° | 90° across x + 0.3y = 0.537). `--draws` fields of each kind, each meshed by `qmesh.mesh` at
+Gaussian ridge of k2 0.003–0.03 wide; the jump a sampled rule once certified falsely
+(0° | 90° across x + 0.3y = 0.537), and one along the diagonal x + y = 1, where the mesher's
+samples fall on the line. `--draws` fields of each kind, each meshed by `qmesh.mesh` at
 each target N. The exact means (tests/fields/exact_means.py): each triangle cut exactly along
 the lines where Q jumps or kinks and a collapsed Gauss rule (another family than the mesher's)
 on each smooth piece; bumps by a one-dimensional Gauss rule along each edge in polar
@@ -82,8 +83,8 @@ def main(argv=None) -> None:
     report_page.add_option(ap)
     args = ap.parse_args(argv)
     rng = np.random.default_rng(args.seed)
-    cases = [hf.fooled_jump()] + [hf.draw(kind, rng, f"{kind} {d + 1}")
-                                 for kind in hf.KINDS for d in range(args.draws)]
+    cases = [hf.fooled_jump(), hf.diagonal_jump()] + [hf.draw(kind, rng, f"{kind} {d + 1}")
+                                                      for kind in hf.KINDS for d in range(args.draws)]
     with report_page.capture() as out:
         rows, verdicts, refused = [], [], 0
         for case in cases:

@@ -182,3 +182,12 @@ def fooled_jump() -> Case:
     return Case("0° | 90° across x + 0.3y = 0.537", "angle jump",
                 lambda: qmesh.TensorField.principal(100, 1, text),
                 lambda x, y: principal(100.0, 1.0, np.where(_u(line, x, y) > 0, 0.0, 90.0)), [line])
+
+
+def diagonal_jump() -> Case:
+    """0° above the unit square's diagonal x + y = 1, 90° below: the mesher's points are
+    symmetric about it, so samples fall on the line (where abs(u)/u is 0/0)."""
+    text = "45 - 45*abs(x + y - 1)/(x + y - 1)"
+    return Case("0° | 90° across x + y = 1", "angle jump",
+                lambda: qmesh.TensorField.principal(100, 1, text),
+                lambda x, y: principal(100.0, 1.0, np.where(x + y > 1, 0.0, 90.0)), [(1.0, 1.0, 1.0)])

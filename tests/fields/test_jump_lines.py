@@ -6,11 +6,9 @@ the line the sides' values exactly."""
 import numpy as np
 import pytest
 
-import qmesh
 from qmesh.conductivity.expression import parse_function
 from tests.fields import hostile_fields as hf
 from tests.fields import truth
-from tests.fields.reference import principal
 
 
 @pytest.mark.parametrize("text, on, below, above", [
@@ -27,9 +25,5 @@ def test_a_jump_is_finite_on_its_line_and_each_side_s_value_off_it(text, on, bel
 def test_a_jump_along_the_square_s_diagonal_meshes_certified_and_true():
     """The mesher's samples lie on x + y = 1 (its points are symmetric about it): the field
     was refused ("angle … is nan at (x, y) = …: not finite")."""
-    line = (1.0, 1.0, 1.0)
-    case = hf.Case("0° | 90° across x + y = 1", "angle jump",
-                   lambda: qmesh.TensorField.principal(100, 1, "45 - 45*abs(x + y - 1)/(x + y - 1)"),
-                   lambda x, y: principal(100.0, 1.0, np.where(x + y > 1, 0.0, 90.0)), [line])
-    _, v = truth.mesh_and_check(case, 300)
+    _, v = truth.mesh_and_check(hf.diagonal_jump(), 300)
     assert v.remaining == 0 and v.false_interior == v.false_boundary == v.outside == 0
