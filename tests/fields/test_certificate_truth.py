@@ -31,7 +31,7 @@ def _scalar(g):
 @pytest.mark.parametrize("seed", range(4))
 def test_the_bump_and_ridge_references_agree_with_a_fine_subdivision(seed):
     """The bump's polar integral and the ridge's closed form against 4^6 pieces of an 8 × 8
-    Gauss rule, on a triangle about the feature, 1–10 widths from it."""
+    Gauss rule, on a triangle about 4 widths across centred within a width of the feature."""
     rng = np.random.default_rng(seed)
     w = 10 ** rng.uniform(np.log10(0.003), np.log10(0.03))
     c = rng.uniform(0.3, 0.7, 2)
