@@ -19,6 +19,7 @@ from typing import Callable
 
 import numpy as np
 
+from qmesh.conductivity.intervals import _sign_of, _step_of
 from qmesh.errors import QmeshError
 
 MAX_LENGTH = 500    # characters
@@ -185,8 +186,14 @@ _FLOAT_OPS = {"+": lambda a, b: a + b, "-": lambda a, b: a - b, "*": lambda a, b
 
 # --------------------------------------------------------------------------- SymPy
 
-def _to_sympy(form: tuple):
-    """The checked form as a SymPy expression in the real symbols x, y: (expression, x, y)."""
+def _to_sympy(form: tuple, jumps: bool = False):
+    """The checked form as a SymPy expression in the real symbols x, y: (expression, x, y).
+
+    `jumps`: a jump the enclosures take as one (`intervals._sign_of`, `intervals._step_of`:
+    c·abs(u)/u, a step (α·abs(u) + β·u)/(m·u)) made c·sign(u) and a Piecewise of its two sides,
+    the mean of the two on u = 0: a field's value there, where the quotient is 0/0, is then
+    finite (a sample on the jump line does not refuse the field; a line has no area, so no
+    element mean depends on it), and exactly ±c or a side's value off it."""
     import sympy as sp  # lazily: `import qmesh` stays fast
 
     x, y = sp.Symbol("x", real=True), sp.Symbol("y", real=True)
@@ -200,6 +207,15 @@ def _to_sympy(form: tuple):
             return symbols[f[1]]
         if kind == "neg":
             return -to_sympy(f[1])
+        sign = _sign_of(f) if jumps else None
+        if sign is not None:
+            s = sp.sign(to_sympy(sign[0]))
+            return s if sign[1] is None else to_sympy(sign[1]) * s
+        step = _step_of(f) if jumps else None
+        if step is not None:
+            u, below, above = to_sympy(step[0]), step[1], step[2]
+            return sp.Piecewise((sp.Float(below), u < 0), (sp.Float(above), u > 0),
+                                (sp.Float(0.5 * below + 0.5 * above), True))
         if kind == "call":
             name = FUNCTIONS[f[1]][0]
             arg = to_sympy(f[2])
@@ -254,7 +270,7 @@ def function_of_xy(text: str, name: str, form: tuple | None = None
     points each time costs as much as the text). `form`: the text already `check`ed."""
     import sympy as sp  # lazily: `import qmesh` stays fast
 
-    f, x, y = _to_sympy(check(text, name) if form is None else form)
+    f, x, y = _to_sympy(check(text, name) if form is None else form, jumps=True)
     if f.has(sp.zoo, sp.oo, -sp.oo, sp.nan):
         raise QmeshError(f"{name} = {_quote(text)} is not finite")
     f_val = _lambdify(x, y, f)

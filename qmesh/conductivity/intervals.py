@@ -25,7 +25,9 @@ reaching 0, `tan` across a pole give [−∞, ∞]. Where a function is not diff
 gradient enclosure is the Clarke one (`abs`: [−1, 1] across 0, its Hessian unbounded there),
 valid for the mean-value inequality since `abs` is Lipschitz; `c·abs(u)/u` and `u/abs(u)` (a
 sign, a jump) are recognised: their value lies in c·[−1, 1] and their derivatives are unbounded
-across u = 0. A principal field's angle matters modulo 180° only: an arctangent of a quotient
+across u = 0; so are steps spelled (α·abs(u) + β·u)/(m·u) for numbers α, β, m (a Heaviside
+(u + abs(u))/(2*u); abs(u) also as sqrt(u**2)), whose value lies between the two sides'
+(`_step_of`). A principal field's angle matters modulo 180° only: an arctangent of a quotient
 that it holds as a whole number of half turns (`180/pi*atan(y/x)`, a polar angle as a direction)
 is enclosed on each box by the branch whose quotient is bounded there (`principal_forms`).
 """
@@ -358,6 +360,49 @@ def _sign_of(f: tuple) -> tuple | None:
     return None
 
 
+def _step_of(f: tuple) -> tuple | None:
+    """(u, a, b) when f is (α·abs(u) + β·u) / (m·u) for numbers α ≠ 0, β, m (in any order of
+    sums and factors): a step, a = (β − α)/m where u < 0 and b = (α + β)/m where u > 0 — the
+    Heaviside (u + abs(u))/(2*u), abs(u)/(2*u); else None (`_sign_of` takes c·abs(u)/u)."""
+    if f[0] != "/":
+        return None
+    u, m = f[2], 1.0
+    if u[0] == "*":
+        for c, d in ((u[1], u[2]), (u[2], u[1])):
+            if c[0] == "num":
+                u, m = d, c[1]
+                break
+    linear = _linear_in(f[1], u)
+    if linear is None or linear[0] == 0 or m == 0:
+        return None
+    alpha, beta = linear
+    return u, (beta - alpha) / m, (alpha + beta) / m
+
+
+def _linear_in(f: tuple, u: tuple) -> tuple[float, float] | None:
+    """(α, β) when f is α·abs(u) + β·u for numbers α, β (abs(u) also spelled sqrt(u**2)), else
+    None."""
+    if f == ("call", "abs", u) or f == ("call", "sqrt", ("**", u, ("num", 2.0))):
+        return 1.0, 0.0
+    if f == u:
+        return 0.0, 1.0
+    if f[0] == "neg":
+        inner = _linear_in(f[1], u)
+        return None if inner is None else (-inner[0], -inner[1])
+    if f[0] in ("+", "-"):
+        a, b = _linear_in(f[1], u), _linear_in(f[2], u)
+        if a is None or b is None:
+            return None
+        k = 1.0 if f[0] == "+" else -1.0
+        return a[0] + k * b[0], a[1] + k * b[1]
+    if f[0] == "*":
+        for c, d in ((f[1], f[2]), (f[2], f[1])):
+            if c[0] == "num":
+                inner = _linear_in(d, u)
+                return None if inner is None else (c[1] * inner[0], c[1] * inner[1])
+    return None
+
+
 def _compose(v: Interval, slopes: list[Zeroable], u: Node, products: dict | None = None) -> Node:
     """f(u) from u's value and derivatives, f^(k)(u) ∈ slopes[k − 1] (Faà di Bruno's formula to
     the node's order: ∂_α f(u) = Σ over the partitions of α's directions into k blocks of
@@ -497,6 +542,16 @@ def evaluate_all(forms: list[tuple], X: Interval, Y: Interval, order: int = ORDE
             jump = (np.where(z, -INF, 0.0), np.where(z, INF, 0.0))
             s = (val,) + (jump,) * (size - 1)
             return s if sign[1] is None else _times(walk(sign[1]), s)
+        step = _step_of(f)
+        if step is not None:                         # a where u < 0, b where u > 0
+            v = walk(step[0])[0]
+            z = _contains_zero(v)
+            a, b = step[1], step[2]
+            below = v[1] < 0
+            val = _widen(np.where(z, min(a, b), np.where(below, a, b)),
+                         np.where(z, max(a, b), np.where(below, a, b)))
+            jump = (np.where(z, -INF, 0.0), np.where(z, INF, 0.0))
+            return (val,) + (jump,) * (size - 1)
         if kind == "direction":                      # a polar angle mod π (principal_forms)
             return _direction(walk(f[1]), walk(f[2]), order)
         if kind == "call":
