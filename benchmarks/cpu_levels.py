@@ -45,7 +45,7 @@ import report_page  # noqa: E402 — beside this script; the run's start time is
 
 CELL_SIZES = (25, 50)           # bench_media's page of cell maps: --cells 25 50
 SLOW = 60.0                     # a case slower than this (seconds, default setting) is skipped
-SKIPPED = [("fields", "raster512 at 1000000", "bench_fields --big: 98 s on its page")]
+SKIPPED = [("fields", "raster512 at 1000000", "98 s on the bench_fields page (--big)")]
 NOT_MESHES = ("bench_regions' `Domain.from_cells` on 50², 100² and 200² cells and the "
               "overlapping inclusions build (or refuse) a domain and mesh nothing")
 
