@@ -17,7 +17,7 @@ inputs (a builder that itself calls a CPU-dependent function, such as a raster d
 `np.exp`, would otherwise hand each setting another input); each subprocess also builds every
 case itself, and the page marks a case whose own input came out different ("input differs").
 
-    python benchmarks/cpu_levels.py [--groups fields media ...] [--settings default nudge ...]
+    python benchmarks/cpu_levels.py [--groups fields media ...] [--settings default "one ulp" ...]
                                     [--jobs 1] [--no-page]
 """
 
