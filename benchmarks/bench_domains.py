@@ -28,6 +28,7 @@ from qmesh.compare import metric_peers, peers
 import report_page
 
 DOMAINS = ("L-shape", "notched square", "square with hole", "annulus", "plate with holes")
+N, SEED = 1000, 0               # the target N and the seed (--n, --seed)
 ANISOTROPIES = {
     "diag(0.1, 10)": qmesh.Anisotropy.constant(qmesh.CHAPTER_Q),
     "k 100, 1 at 30°": qmesh.Anisotropy.principal(100.0, 1.0, 30.0),
@@ -95,8 +96,8 @@ def summary(rows: list[dict]) -> str:
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--n", type=int, default=1000, help="target vertex count")
-    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--n", type=int, default=N, help="target vertex count")
+    ap.add_argument("--seed", type=int, default=SEED)
     ap.add_argument("--domains", nargs="+", default=list(DOMAINS), choices=list(qmesh.domains.NAMED))
     report_page.add_option(ap)
     args = ap.parse_args(argv)

@@ -578,6 +578,8 @@ def peak_rss_kb() -> int:
     return int(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)
 
 
+NS = (2_000, 20_000)   # the target N of every case (--n)
+BIG = (200_000, 1_000_000)   # raster512 alone also at these (--big)
 REPEATS = ((2_000, 5), (20_000, 2))   # qmesh's and the constant Q's runs, each timed this many
                         # times in its process up to this N, once above (the least CPU seconds: the
                         # first run also pays one-time set-ups, and other processes sharing the
@@ -971,8 +973,8 @@ def main(argv=None) -> None:
         return
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cases", nargs="+", choices=list(CASES), default=list(CASES))
-    ap.add_argument("--n", type=int, nargs="+", default=[2000, 20000])
-    ap.add_argument("--big", type=int, nargs="*", default=[200_000, 1_000_000],
+    ap.add_argument("--n", type=int, nargs="+", default=list(NS))
+    ap.add_argument("--big", type=int, nargs="*", default=list(BIG),
                     help="more N for raster512 alone (none: --big with no value)")
     ap.add_argument("--no-mmg", action="store_true")
     report_page.add_option(ap)

@@ -56,6 +56,8 @@ SHORT = {"fvca4": media_cases.fvca4, "fvca6": media_cases.fvca6, "fvca7": media_
          "fvca6_test5": media_cases.fvca6_test5,
          "layered": media_cases.layered, "inclusion": media_cases.inclusion}
 NAMES = {v: k for k, v in media_cases.CASES.items()}
+NS = (2000, 8000)
+"""The target N of every case (--n)."""
 EXACT = {media_cases.fvca6_test5: (media_cases.fvca6_test5_exact, media_cases.fvca6_test5_source)}
 """Cases with a source and an exact solution: (u(x, y, tag), f(x, y, tag))."""
 
@@ -237,21 +239,30 @@ def cell_maps(n: int) -> dict:
             "all differ": (k1, k1 / 10 ** rng.random((n, n)), np.zeros((n, n)))}
 
 
+VERTICES_PER_CELL = 8
+"""The target N of an n × n cell map: 8 n²."""
+
+
+def cell_edges(n: int) -> np.ndarray:
+    """The n + 1 cell edges along each side of the unit square."""
+    return np.linspace(0.0, 1.0, n + 1)
+
+
 def cells_timing(sizes: list[int]) -> list[list]:
     """CPU seconds of `Domain.from_cells` and of `qmesh.mesh` at N = 8 n² on `cell_maps(n)`."""
     rows = []
     for n in sizes:
-        x = np.linspace(0.0, 1.0, n + 1)
+        x = cell_edges(n)
         for kind, (k1, k2, angle) in cell_maps(n).items():
             t0 = time.process_time()
             domain, cond = qmesh.Domain.from_cells(x, x, k1, k2, angle)
             t1 = time.process_time()
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", qmesh.QmeshWarning)
-                m = qmesh.mesh(domain, cond, target_vertices=8 * n * n)
+                m = qmesh.mesh(domain, cond, target_vertices=VERTICES_PER_CELL * n * n)
             t2 = time.process_time()
             share = min(measure.q_nonnegative_fractions(m, cond).values())
-            rows.append([f"{n} × {n}", kind, len(cond), 8 * n * n, m.n_vertices, f"{share:.4f}",
+            rows.append([f"{n} × {n}", kind, len(cond), VERTICES_PER_CELL * n * n, m.n_vertices, f"{share:.4f}",
                          f"{t1 - t0:.2f}", f"{t2 - t1:.1f}"])
             print(*rows[-1], sep=" | ", flush=True)
     return rows
@@ -266,7 +277,7 @@ def main(argv=None) -> None:
     ap.add_argument("--figure", metavar="PNG", help="only draw the figure of the inclusion case")
     ap.add_argument("--timing", type=int, metavar="N", help="only time the layered box at N")
     ap.add_argument("--cells", type=int, nargs="+", metavar="n", help="only time n × n cell maps")
-    ap.add_argument("--n", type=int, nargs="+", default=[2000, 8000])
+    ap.add_argument("--n", type=int, nargs="+", default=list(NS))
     ap.add_argument("--cases", nargs="+", choices=sorted(SHORT), default=list(SHORT))
     ap.add_argument("--no-mmg", action="store_true")
     report_page.add_option(ap)

@@ -32,6 +32,7 @@ from collections import defaultdict
 import report_page
 
 CHAPTER_Q = [[0.1, 0.0], [0.0, 10.0]]
+VB, SIZES, BIG = 512, (1e5,), (1e5, 1e6)      # the defaults of --vb, --sizes, and with --big
 
 
 def _rss_mb() -> float:
@@ -176,7 +177,7 @@ def main(argv=None) -> int:
     p.add_argument("--sizes", type=float, nargs="+", default=None,
                    help="target vertex counts (default 1e5; with --big also 1e6)")
     p.add_argument("--big", action="store_true", help="add the ~1e6-vertex case")
-    p.add_argument("--vb", type=int, default=512, help="boundary seed points of the disk")
+    p.add_argument("--vb", type=int, default=VB, help="boundary seed points of the disk")
     p.add_argument("--no-mmg", action="store_true", help="time qmesh only")
     p.add_argument("--domains", action="store_true",
                    help="also time qmesh on holed and non-convex domains at the same N")
@@ -191,7 +192,7 @@ def main(argv=None) -> int:
                  "command": lambda: child_command(n, int(vb))}[kind]
         print(json.dumps(child()))
         return 0
-    sizes = args.sizes or ([1e5, 1e6] if args.big else [1e5])
+    sizes = args.sizes or list(BIG if args.big else SIZES)
     if args.big and args.sizes:
         sizes = sorted(set(sizes) | {1e6})
     with report_page.capture() as printed:

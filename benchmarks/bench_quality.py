@@ -29,11 +29,14 @@ CHAPTER = {32: (101, 1.13e-2, 3.43e-1, 6.0), 45: (131, 1.01e-2, 3.11e-1, 6.7),
            512: (2312, 4.83e-4, 6.56e-2, 132)}
 
 
+SEED, ALPHA = 0, 0.5            # the defaults of --seed, --alpha
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--vb", type=int, nargs="+", default=sorted(CHAPTER))
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--alpha", type=float, default=0.5)
+    ap.add_argument("--seed", type=int, default=SEED)
+    ap.add_argument("--alpha", type=float, default=ALPHA)
     ap.add_argument("--max-iterations", type=int, default=None)
     report_page.add_option(ap)
     args = ap.parse_args(argv)

@@ -25,6 +25,8 @@ import qmesh
 
 P = qmesh.Anisotropy.principal
 INSIDE, OUTSIDE = P(10.0, 1.0, 30.0), P(1.0, 4.0, -20.0)
+INCLUSIONS, TARGETS = (100, 300, 1000), (5000, 5000, 20000)    # the defaults of --inclusions, --n
+FEW = 6     # vertices per inclusion: a target below the input points, refused
 
 
 def hexagons(n: int, overlap: bool = False) -> list[np.ndarray]:
@@ -60,10 +62,15 @@ def box(regions):
     return qmesh.Domain([(0, 0), (1, 0), (1, 1), (0, 1)], regions=regions)
 
 
+def conductivity(n: int) -> dict:
+    """OUTSIDE for region 0, INSIDE for each of n inclusions."""
+    return {0: OUTSIDE, **{k: INSIDE for k in range(1, n + 1)}}
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--inclusions", type=int, nargs="+", default=[100, 300, 1000])
-    ap.add_argument("--n", type=int, nargs="+", default=[5000, 5000, 20000],
+    ap.add_argument("--inclusions", type=int, nargs="+", default=list(INCLUSIONS))
+    ap.add_argument("--n", type=int, nargs="+", default=list(TARGETS),
                     help="target vertices, one per --inclusions entry")
     ap.add_argument("--cells", type=int, nargs="+", default=[50, 100, 200])
     ap.add_argument("--no-mesh", action="store_true", help="only build and refuse domains")
@@ -74,15 +81,14 @@ def main(argv=None):
     for n, N in zip(args.inclusions, args.n):
         t_dom, d = timed(lambda: box(hexagons(n)))
         t_bad, err = timed(lambda: box(hexagons(n, overlap=True)))
-        t_few, err2 = timed(lambda: qmesh.mesh(d, {0: OUTSIDE, **{k: INSIDE for k in range(1, n + 1)}},
-                                               target_vertices=6 * n))
-        rows_dom.append([n, 6 * n, f"{t_dom:.2f}", f"{t_bad:.2f}", f"{t_few:.2f}",
+        t_few, err2 = timed(lambda: qmesh.mesh(d, conductivity(n), target_vertices=FEW * n))
+        rows_dom.append([n, FEW * n, f"{t_dom:.2f}", f"{t_bad:.2f}", f"{t_few:.2f}",
                          str(err).split(":")[0][:60]])
         print(f"{n} inclusions: domain {t_dom:.2f} s, overlap refused {t_bad:.2f} s, "
-              f"target {6 * n} refused {t_few:.2f} s ({str(err2)[:70]})", flush=True)
+              f"target {FEW * n} refused {t_few:.2f} s ({str(err2)[:70]})", flush=True)
         if args.no_mesh:
             continue
-        cond = {0: OUTSIDE, **{k: INSIDE for k in range(1, n + 1)}}
+        cond = conductivity(n)
         t_m, m = timed(lambda: qmesh.mesh(d, cond, target_vertices=N), args.repeat)
         t_b, b = timed(lambda: qmesh.mesh(qmesh.Polygon([(0, 0), (1, 0), (1, 1), (0, 1)]), OUTSIDE,
                                           target_vertices=N), args.repeat)

@@ -34,6 +34,9 @@ EXPRESSIONS = (
 )
 
 
+NS, DOMAIN, SEED = (500, 2000), "disk", 0      # the defaults of --n, --domain, --seed
+
+
 def measure_row(expr: str, mesher: str, mesh, seconds: float, A) -> dict:
     r = measure.report(mesh, A)
     return {"s": expr, "mesher": mesher, "N": mesh.n_vertices, "kappa2": r["kappa2"],
@@ -89,10 +92,10 @@ def summary(rows: list[dict]) -> str:
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--n", type=int, nargs="+", default=[500, 2000], help="target vertex counts")
-    ap.add_argument("--domain", default="disk", choices=list(qmesh.domains.NAMED),
+    ap.add_argument("--n", type=int, nargs="+", default=list(NS), help="target vertex counts")
+    ap.add_argument("--domain", default=DOMAIN, choices=list(qmesh.domains.NAMED),
                     help="a named domain (disk: the chapter's 64-gon)")
-    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--seed", type=int, default=SEED)
     ap.add_argument("--expr", nargs="+", default=list(EXPRESSIONS), help="expressions s(x, y)")
     report_page.add_option(ap)
     args = ap.parse_args(argv)

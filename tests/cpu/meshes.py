@@ -57,10 +57,22 @@ def digest(mesh) -> str:
     return h.hexdigest()[:16]
 
 
+def _islands(x, y):
+    """A user's callable (magnetic islands, 1000 : 1 along the level lines of
+    ψ = (y − ½)²/2 − 0.05 sin 2πx): NumPy arithmetic and cos, the same bits on every CPU."""
+    bx, by = y - 0.5, 0.1 * np.pi * np.cos(2 * np.pi * x)
+    b2 = bx * bx + by * by
+    e = 1e-3
+    q11, q12, q22 = e + (1 - e) * bx * bx / b2, (1 - e) * bx * by / b2, e + (1 - e) * by * by / b2
+    return np.stack([np.stack([q11, q12], -1), np.stack([q12, q22], -1)], -2)
+
+
 def cases():
     """(name, function → Mesh): a constant Q, s as text, principal axes, a formula field, a raster
-    field, a medium, a grid of cells each its own Q, a field region."""
+    field, a medium, a grid of cells each its own Q, a field region, a callable field, a power of
+    a field, a corner under half a degree (alone and as a region), a strip a few elements wide."""
     import qmesh
+    from qmesh.conductivity.power import power
 
     A = qmesh.Anisotropy.constant(qmesh.CHAPTER_Q)
     square = qmesh.Polygon([(0, 0), (1, 0), (1, 1), (0, 1)])
@@ -76,6 +88,8 @@ def cases():
     cells, by_cell = qmesh.Domain.from_cells(np.linspace(0, 1, 5), np.linspace(0, 1, 5),
                                              np.arange(1.0, 17.0).reshape(4, 4), 1.0,
                                              np.arange(16.0).reshape(4, 4) * 11.0)
+    sharp = [(0, 0), (1, 0), (1, 1), (0.5, 0.004)]        # 0.46° at the origin
+    around = qmesh.Domain([(-0.5, -0.5), (1.5, -0.5), (1.5, 1.5), (-0.5, 1.5)], regions=[sharp])
     return [
         ("disk", lambda: qmesh.mesh(qmesh.Disk(64), A, target_vertices=2000)),
         ("s_text", lambda: qmesh.mesh(qmesh.domains.lshape(), qmesh.Anisotropy.from_expression(
@@ -90,6 +104,14 @@ def cases():
         ("cells", lambda: qmesh.mesh(cells, by_cell, target_vertices=800)),
         ("field_region", lambda: qmesh.mesh(halves, {0: qmesh.Anisotropy.constant([[1, 0], [0, 1]]),
                                                      1: fvca5}, target_vertices=600)),
+        ("callable", lambda: qmesh.mesh(square, qmesh.TensorField(_islands), target_vertices=600)),
+        ("power", lambda: qmesh.mesh(square, power(fvca5, 0.5), target_vertices=600)),
+        ("sharp_corner", lambda: qmesh.mesh(qmesh.Polygon(sharp), qmesh.Anisotropy.principal(1, 30, 20),
+                                            target_vertices=600)),
+        ("corner_region", lambda: qmesh.mesh(around, {0: qmesh.Anisotropy.principal(1, 5, 70),
+                                                      1: qmesh.Anisotropy.principal(1, 30, 20)}, target_vertices=800)),
+        ("thin", lambda: qmesh.mesh(qmesh.Polygon([(0, 0), (1, 0), (1, 0.005), (0, 0.005)]),
+                                    qmesh.Anisotropy.principal(1, 1000, 30), target_vertices=8000)),
     ]
 
 

@@ -35,7 +35,7 @@ def _levels_above_baseline() -> list[str]:
 
 
 def test_the_cases_differ_from_each_other(default_hashes):
-    assert len(set(default_hashes.values())) == len(default_hashes) == 9
+    assert len(set(default_hashes.values())) == len(default_hashes) == 14
 
 
 @pytest.mark.parametrize("keep", range(len(_levels_above_baseline())))
