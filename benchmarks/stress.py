@@ -60,6 +60,8 @@ def parse_args(argv=None):
     p.add_argument("--media", type=int, default=0, help="random media of 1-3 regions (default 0)")
     p.add_argument("--polygons", type=int, default=0,
                    help="random simple polygons with sharp corners, constant Q or a field (default 0)")
+    p.add_argument("--reproducers", metavar="FILE",
+                   help="append each defective case's defects and whole reproducer to FILE")
     p.add_argument("--time-limit", type=float, default=60.0,
                    help="seconds after which a case is a defect (default 60)")
     p.add_argument("--seed", type=int, default=1,
@@ -128,6 +130,9 @@ def run_cases(args, name: str, cases: int, strategy) -> dict:
             found["warned_off_target"] += 1
         if out.defects:
             found["bad"] += 1
+            if args.reproducers:
+                with open(args.reproducers, "a", encoding="utf-8") as fh:
+                    fh.write("\n".join([f"# {name}", *out.defects, case.reproducer(), ""]) + "\n")
             found["bad_by_kind"][case.domain.kind] += 1
             cats = {invariants.category(d) for d in out.defects}
             if cats - {"q_ij-boundary"}:

@@ -1,4 +1,4 @@
-"""K1–K22: every minimal reproducer the property suite has found, kept as regression tests.
+"""K1–K23: every minimal reproducer the property suite has found, kept as regression tests.
 
 Each entry is meshed and checked with the property suite's evaluator (`invariants.run`: no
 broken invariant, no exception, no warning other than a QmeshWarning, a QmeshError only when it
@@ -42,6 +42,14 @@ def principal(k1, k2, angle=0.0) -> ConductivitySpec:
 def constant(Q) -> ConductivitySpec:
     Q = np.asarray(Q, dtype=float)
     return ConductivitySpec(f"qmesh.Anisotropy.constant({Q.tolist()})", lambda: qmesh.Anisotropy.constant(Q), Q)
+
+
+def text_field(k1, k2, angle) -> ConductivitySpec:
+    """TensorField.principal of texts; its Q at points (the evaluator's corner angles) is the
+    field's own."""
+    build = (lambda: qmesh.TensorField.principal(k1, k2, angle))
+    return ConductivitySpec(f"qmesh.TensorField.principal({k1!r}, {k2!r}, {angle!r})", build, None,
+                            {0: lambda P: np.asarray(build()(P))})
 
 
 def expression(text: str) -> ConductivitySpec:
@@ -134,6 +142,10 @@ MESHED = {
                           [0.7305775823153211, -0.42120340792655375]]), principal(1.0, 100.0, 0.0),
                  dict(target_vertices=1000, alpha=0.5, quality_threshold=0.5, seed=0,
                       boundary_refinement=False))),
+    "K23": ("a field text exp(1000·(y − 13448.1345)) on a disk there: SymPy split it into "
+            "exp(−13448134.5)·exp(1000·y), 0·∞, refused as 'nan at (x, y) = …: not finite'",
+            Case(disk(8, 1e-3, (0.0, 13448.1345)), text_field(1.0, "exp(1000*(y - 13448.1345))", 30.0),
+                 dict(target_vertices=100))),
 }
 
 STIFF = Case(disk(32), principal(1, 1000, 0), dict(target_vertices=200))
@@ -154,10 +166,10 @@ K12 = ("invalid calls that raised something else than a QmeshError naming the ar
        "io.write to a path that is neither str nor Path, iterate() checking nothing before the "
        "first next(), ...)")
 
-ORDER = [f"K{k}" for k in range(1, 23)]
+ORDER = [f"K{k}" for k in range(1, 24)]
 
 
-def test_the_entries_are_k1_to_k22():
+def test_the_entries_are_k1_to_k23():
     assert sorted([*MESHED, *INVARIANT, "K12"], key=ORDER.index) == ORDER
 
 
