@@ -194,7 +194,17 @@ def _face_steps(plan: MediaPlan, faces: list, dom: Any, options: dict, said: lis
             break
         except QmeshError as e:          # a group's: meshed one by one instead (`_run`)
             if len(faces) > 1 or k == FINER or ("too large" not in str(e) and "target_vertices" not in str(e)):
-                raise plan.too_small(i) or QmeshError(f"{plan.face_name(i)}: {e}") from None
+                raise plan.too_small(i) or QmeshError(f"{plan.face_name(i)}: {_as_asked(plan, e)}") from None
+
+
+def _as_asked(plan: MediaPlan, e: QmeshError) -> str:
+    """A face run's refusal in the terms the user asked in: its run was sized by the medium's
+    plan (`size = …`), which a user who gave target_vertices never gave."""
+    text = str(e)
+    if plan.target is None or not text.startswith("size = ") or ": " not in text:
+        return text
+    why = text.split(": ", 1)[1].replace("ask for more vertices (a smaller size)", "ask for more vertices")
+    return f"target_vertices = {plan.target} is too few for it: {why}"
 
 
 def _share(plan: MediaPlan, meshes: FaceMeshes, mesh: Mesh, extra: dict, options: dict, redone: set) -> list:

@@ -1,4 +1,4 @@
-"""K1–K23: every minimal reproducer the property suite has found, kept as regression tests.
+"""K1–K24: every minimal reproducer the property suite has found, kept as regression tests.
 
 Each entry is meshed and checked with the property suite's evaluator (`invariants.run`: no
 broken invariant, no exception, no warning other than a QmeshWarning, a QmeshError only when it
@@ -42,6 +42,13 @@ def principal(k1, k2, angle=0.0) -> ConductivitySpec:
 def constant(Q) -> ConductivitySpec:
     Q = np.asarray(Q, dtype=float)
     return ConductivitySpec(f"qmesh.Anisotropy.constant({Q.tolist()})", lambda: qmesh.Anisotropy.constant(Q), Q)
+
+
+def medium(outline, regions) -> DomainSpec:
+    outline, regions = np.asarray(outline, dtype=float), tuple(np.asarray(r, dtype=float) for r in regions)
+    return DomainSpec("media", f"qmesh.Domain({outline.tolist()}, [], regions={[r.tolist() for r in regions]})",
+                      lambda: qmesh.Domain(outline, [], regions=list(regions)),
+                      len(outline) + sum(map(len, regions)), (outline,), regions=regions)
 
 
 def text_field(k1, k2, angle) -> ConductivitySpec:
@@ -146,6 +153,11 @@ MESHED = {
             "exp(−13448134.5)·exp(1000·y), 0·∞, refused as 'nan at (x, y) = …: not finite'",
             Case(disk(8, 1e-3, (0.0, 13448.1345)), text_field(1.0, "exp(1000*(y - 13448.1345))", 30.0),
                  dict(target_vertices=100))),
+    "K24": ("a rectangle with a triangle standing on its side, one field in both regions, target 8: "
+            "refused as 'region 1: size = 0.303 is too large', an option the user never gave",
+            Case(medium([[-6.32, -2.59], [8.32, -2.59], [8.32, 2.59], [-6.32, 2.59]],
+                        [[[-2.18, -2.59], [3.42, -2.59], [3.55, -1.47]]]),
+                 text_field(863.0, 1.6, "91.5 + 0.6*sin(y/15)"), dict(target_vertices=8))),
 }
 
 STIFF = Case(disk(32), principal(1, 1000, 0), dict(target_vertices=200))
@@ -166,10 +178,10 @@ K12 = ("invalid calls that raised something else than a QmeshError naming the ar
        "io.write to a path that is neither str nor Path, iterate() checking nothing before the "
        "first next(), ...)")
 
-ORDER = [f"K{k}" for k in range(1, 24)]
+ORDER = [f"K{k}" for k in range(1, 25)]
 
 
-def test_the_entries_are_k1_to_k23():
+def test_the_entries_are_k1_to_k24():
     assert sorted([*MESHED, *INVARIANT, "K12"], key=ORDER.index) == ORDER
 
 
