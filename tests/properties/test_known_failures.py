@@ -1,4 +1,4 @@
-"""K1–K24: every minimal reproducer the property suite has found, kept as regression tests.
+"""K1–K25: every minimal reproducer the property suite has found, kept as regression tests.
 
 Each entry is meshed and checked with the property suite's evaluator (`invariants.run`: no
 broken invariant, no exception, no warning other than a QmeshWarning, a QmeshError only when it
@@ -63,6 +63,25 @@ def expression(text: str) -> ConductivitySpec:
     return ConductivitySpec(f"qmesh.Anisotropy.from_expression({text!r})",
                             lambda: qmesh.Anisotropy.from_expression(text))
 
+
+def expressions_per_region(texts: dict) -> ConductivitySpec:
+    """{tag: TensorField.from_expressions(*texts[tag])}."""
+    def build():
+        return {t: qmesh.TensorField.from_expressions(*q) for t, q in texts.items()}
+    fields = build()
+    code = "{" + ", ".join(f"{t}: qmesh.TensorField.from_expressions{q!r}" for t, q in texts.items()) + "}"
+    return ConductivitySpec(code, build, None, {t: (lambda P, f=f: np.asarray(f(P))) for t, f in fields.items()})
+
+
+K25_OUTLINE = [[-1.423318954422863, -1.43109811878279], [1.9345389743169232, -0.37427395804549785],
+               [1.4102470015998292, 1.2915641472590862], [-1.947610927139957, 0.2347399865217939]]
+K25_TRIANGLE = [[0.18084398751203734, -0.9262172718934535], [0.6697458211582702, -0.7723443919232112],
+                [-0.4290760390192471, -0.681522370322582]]
+_U, _V = "((x + 0.0065359764115169175)/1.760119823784643)", "((y + 0.06976698576185199)/1.760119823784643)"
+K25_FIELDS = {0: (f"1 + 0.9696634117474656*{_U}**2", f"14.58790843420034*tanh({_U}*{_V})",
+                  f"951.2486812167652*(1 + 0.6931471803691238*{_V}**2)"),
+              1: (f"1 + 0.9696634117474656*{_U}**2", f"0.015335536040418572*tanh({_U}*{_V})",
+                  f"0.0010512498148442905*(1 + 0.6931471803691238*{_V}**2)")}
 
 # --------------------------------------------------------------------------- the entries
 
@@ -158,6 +177,12 @@ MESHED = {
             Case(medium([[-6.32, -2.59], [8.32, -2.59], [8.32, 2.59], [-6.32, 2.59]],
                         [[[-2.18, -2.59], [3.42, -2.59], [3.55, -1.47]]]),
                  text_field(863.0, 1.6, "91.5 + 0.6*sin(y/15)"), dict(target_vertices=8))),
+    "K25": ("a quadrilateral with a triangle standing on its side, a from_expressions field in "
+            "each region, target 946: both faces split beside the triangle's corner and put their "
+            "own point a few ulps apart ('two face meshes put vertices … a round-off apart')",
+            Case(medium(K25_OUTLINE, [K25_TRIANGLE]), expressions_per_region(K25_FIELDS),
+                 dict(target_vertices=946, alpha=0.4826270115570559, quality_threshold=0.4826270115570559,
+                      seed=84384492))),
 }
 
 STIFF = Case(disk(32), principal(1, 1000, 0), dict(target_vertices=200))
@@ -178,10 +203,10 @@ K12 = ("invalid calls that raised something else than a QmeshError naming the ar
        "io.write to a path that is neither str nor Path, iterate() checking nothing before the "
        "first next(), ...)")
 
-ORDER = [f"K{k}" for k in range(1, 25)]
+ORDER = [f"K{k}" for k in range(1, 26)]
 
 
-def test_the_entries_are_k1_to_k24():
+def test_the_entries_are_k1_to_k25():
     assert sorted([*MESHED, *INVARIANT, "K12"], key=ORDER.index) == ORDER
 
 
