@@ -76,6 +76,10 @@ def parse_args(argv=None):
     return p.parse_args(argv)
 
 
+SHARP_BANDS = (3.0, 1.0, 0.1)
+"""Degrees: the cases whose sharpest corner in the metric is below each, and how they ended."""
+
+
 def _names(text: str, known, what: str) -> list[str]:
     names = [k.strip() for k in text.split(",") if k.strip()]
     unknown = [k for k in names if k not in known]
@@ -101,7 +105,8 @@ def run_cases(args, name: str, cases: int, strategy) -> dict:
     found = {"name": name, "n": 0, "bad": 0, "refused": [], "seconds": [], "by_kind": Counter(),
              "bad_by_kind": Counter(), "categories": Counter(), "examples": defaultdict(list),
              "slowest": (0.0, ""), "bad_not_boundary_q": 0, "refinement_off": Counter(),
-             "messages": Counter(), "reasons": Counter(), "corners": [], "warned_off_target": 0}
+             "messages": Counter(), "reasons": Counter(), "corners": [], "warned_off_target": 0,
+             "sharp": Counter()}
 
     @seed(args.seed)
     @settings(max_examples=cases, phases=[Phase.generate], database=None, deadline=None,
@@ -119,8 +124,14 @@ def run_cases(args, name: str, cases: int, strategy) -> dict:
         found["by_kind"][case.domain.kind] += 1
         if out.seconds > found["slowest"][0]:
             found["slowest"] = (out.seconds, case.reproducer())
-        if out.error is not None:
+        if out.error is not None and not out.defects:
             found["reasons"][invariants.refusal_reason(out.error)] += 1
+        if out.sharpest is not None:
+            end = ("a defect" if out.defects else "meshed" if out.mesh is not None
+                   else "refused for the corner" if out.corner is not None else "refused otherwise")
+            for floor in SHARP_BANDS:
+                if out.sharpest < floor:
+                    found["sharp"][floor, end] += 1
         if out.corner is not None:
             found["corners"].append((*out.corner, case.reproducer()))
         if out.error is not None and not out.defects:
@@ -167,6 +178,10 @@ def report(found: dict, args) -> None:
         print(f"    {msg[:160]}")
     if found["warned_off_target"]:
         print(f"meshes more than 10% off the target, with a warning saying why: {found['warned_off_target']}")
+    for floor in SHARP_BANDS:
+        ends = {e: c for (f, e), c in found["sharp"].items() if f == floor}
+        print(f"sharpest corner under {floor:g}° in the metric: {sum(ends.values())} cases"
+              + (" (" + ", ".join(f"{e} {c}" for e, c in sorted(ends.items())) + ")" if ends else ""))
     if found["corners"]:
         print("corner refusals (the angle qmesh states, the smallest metric angle at that corner "
               "measured by the evaluator, in degrees):")

@@ -23,8 +23,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-import field_invariants
 import qmesh
+
+if __package__:                 # imported as tests.properties.invariants (tests/fields)
+    from . import field_invariants
+else:                           # from this folder, on sys.path (the suite, benchmarks/stress.py)
+    import field_invariants
 
 EPS = np.finfo(float).eps
 REL = 1e-9
@@ -254,6 +258,9 @@ class Outcome:
     corner: tuple | None = None
     """A corner refusal: (the angle qmesh states, the smallest metric angle at that corner
     measured here), degrees."""
+    sharpest: float | None = None
+    """The smallest corner angle of the domain and its regions in the metric, degrees (None for
+    a varying s)."""
 
 
 def _with_memory_cap(f):
@@ -360,9 +367,10 @@ def _run(case, time_limit) -> Outcome:
             res.warned.append(str(w.message))
     rings = case.domain.rings if case.domain.rings is not None else _rings_of(domain)
     Q_of, Q = case.conductivity.Q_of, case.conductivity.Q
-    if res.error is not None and field_invariants.refused_corner(res.error):
-        at = Q_of if Q is None else {0: lambda X: np.broadcast_to(np.asarray(Q, float), (len(X), 2, 2))}
-        if at is not None:
+    at = Q_of if Q is None else {0: lambda X: np.broadcast_to(np.asarray(Q, float), (len(X), 2, 2))}
+    if at is not None:
+        res.sharpest = field_invariants.sharpest_corner(rings, case.domain.regions, at)
+        if res.error is not None and field_invariants.refused_corner(res.error):
             _judge_corner(res, rings, case.domain.regions, at)
     if res.mesh is not None:
         target = case.options.get("target_vertices")
