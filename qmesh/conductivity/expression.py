@@ -254,9 +254,9 @@ def _portable_namespace() -> dict:
     """The names a lambdified formula calls, bound to `geometry.portable`'s functions where
     NumPy's give different last bits on different CPUs (sin, cos, sqrt, abs are the same)."""
     from qmesh.geometry import portable
-    return {"exp": portable.exp, "qmesh_exp": portable.exp, "log": portable.log, "tan": portable.tan, "sinh": portable.sinh,
-            "cosh": portable.cosh, "tanh": portable.tanh, "arctan": portable.arctan,
-            "qmesh_power": portable.power}
+    return {"exp": portable.exp, "qmesh_exp": portable.exp, "log": portable.log,
+            "tan": portable.tan, "sinh": portable.sinh, "cosh": portable.cosh,
+            "tanh": portable.tanh, "arctan": portable.arctan, "qmesh_power": portable.power}
 
 
 def _lambdify(x, y, e, cse: bool = False):

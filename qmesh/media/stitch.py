@@ -50,15 +50,19 @@ def _merged(U, vid, pairs, face_of):
     for v, f in zip(vid[at].tolist(), face_of[at].tolist()):
         held.setdefault(v, set()).add(f)
     rep = np.arange(len(U))
+
+    def root(v: int) -> int:
+        while rep[v] != v:
+            v = int(rep[v])
+        return v
+
     for a, b in sorted(map(tuple, np.sort(pairs, axis=1).tolist())):
         if held[a] & held[b]:
             raise QmeshError(f"two face meshes put vertices {U[a].tolist()} and {U[b].tolist()} a "
                              "round-off apart: the interface does not match")
-        while rep[a] != a:
-            a = int(rep[a])
-        rep[b] = a
-    for v in np.unique(pairs)[::-1].tolist():      # each merged vertex to its root
-        while rep[rep[v]] != rep[v]:
-            rep[v] = rep[rep[v]]
+        ra, rb = root(a), root(b)
+        rep[max(ra, rb)] = min(ra, rb)
+    for v in np.unique(pairs).tolist():            # each merged vertex to its root
+        rep[v] = root(v)
     keep = rep == np.arange(len(U))
     return U[keep], (np.cumsum(keep) - 1)[rep[vid]]

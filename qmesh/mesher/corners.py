@@ -88,7 +88,7 @@ def sharp_seeds(domain, anisotropy) -> np.ndarray:
     at the apex (decided on the cosine, so that no CPU-dispatched function reads the decision's
     last bits). A reflex corner (a slit's tip) has Ω on the far side of its small angle: it is
     not one."""
-    if anisotropy.potential and not anisotropy.is_constant or not len(domain.segments):
+    if (anisotropy.potential and not anisotropy.is_constant) or not len(domain.segments):
         return np.zeros(len(domain.seeds), bool)
     a, b = _sides(domain)
     convex = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0] < 0          # Ω on the left: a left turn
@@ -96,7 +96,8 @@ def sharp_seeds(domain, anisotropy) -> np.ndarray:
     # splits: matched, their small triangles raised κ2 of the inclusion preset by half)
     # a field's metric (no s: its shape, smooth near the apex): only under SHARP_SHARED too, the
     # corners whose ordinary splits crowd past any target (0.12° in 1 : 900 needed 13 500 vertices)
-    limit = COS_SHARP_SHARED if getattr(domain, "media_face", False) or not anisotropy.is_constant else COS_SHARP
+    shared = getattr(domain, "media_face", False) or not anisotropy.is_constant
+    limit = COS_SHARP_SHARED if shared else COS_SHARP
     return convex & (corner_cosines(domain, anisotropy) > limit)
 
 

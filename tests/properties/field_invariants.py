@@ -96,10 +96,9 @@ def triangle_conductivity(mesh, Q_of: dict) -> np.ndarray:
     tags = np.asarray(mesh.region_tags)
     Q = np.empty((len(T), 2, 2))
     centroids = P[T].mean(axis=1)
-    for tag, f in Q_of.items():
+    for tag in np.unique(tags).tolist():
         at = tags == tag
-        if at.any():
-            Q[at] = f(centroids[at])
+        Q[at] = (Q_of[tag] if tag in Q_of else Q_of[0])(centroids[at])    # {0: Q}: in every region
     return Q
 
 
@@ -109,7 +108,7 @@ def _point_in_ring(X: np.ndarray, R: np.ndarray) -> np.ndarray:
     A, B = R, np.roll(R, -1, axis=0)
     y0, y1 = A[None, :, 1], B[None, :, 1]
     crosses = (y0 > X[:, None, 1]) != (y1 > X[:, None, 1])
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(all="ignore"):                  # a horizontal edge: no crossing
         xc = A[None, :, 0] + (X[:, None, 1] - y0) * (B[None, :, 0] - A[None, :, 0]) / (y1 - y0)
     return (np.sum(crosses & (X[:, None, 0] < xc), axis=1) % 2) == 1
 
@@ -148,7 +147,8 @@ def corner_angles(p, rings, regions, Q_of: dict) -> list[tuple[float, int]]:
         if not _point_in_ring(X, rings[0])[0] or any(_point_in_ring(X, h)[0] for h in rings[1:]):
             continue
         region = next((j + 1 for j, R in enumerate(regions) if _point_in_ring(X, R)[0]), 0)
-        H = _adj(np.asarray(Q_of[region](p[None]), dtype=float))[0]
+        at = Q_of[region] if region in Q_of else Q_of[0]      # {0: Q}: one Q in every region
+        H = _adj(np.asarray(at(p[None]), dtype=float))[0]
         u, v = np.array([math.cos(t0), math.sin(t0)]), np.array([math.cos(t1), math.sin(t1)])
         cross = math.sqrt(max(H[0, 0] * H[1, 1] - H[0, 1] * H[1, 0], 0.0)) * (u[0] * v[1] - u[1] * v[0])
         angle = math.degrees(math.atan2(cross, float(u @ H @ v))) % 360.0
