@@ -20,7 +20,7 @@ import numpy as np
 EPS = np.finfo(float).eps
 REL = 1e-9
 CORNER_FLOOR = 0.1
-"""Degrees in the metric: a corner this wide or wider must mesh (issue's target)."""
+"""Degrees in the metric: a corner this wide or wider must mesh, not be refused as too sharp."""
 
 
 def _adj(Q: np.ndarray) -> np.ndarray:
