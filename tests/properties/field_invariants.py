@@ -3,7 +3,8 @@
 `q_defects`: every q_ij ≥ 0 with one conductivity per triangle (the mesh's own element means,
 `Mesh.conductivity`, or each region's constant Q): interior edges by their sum, an interface
 edge (two regions) by each side's share on its own — what the guide promises (MEDIA.md §2) —
-and boundary edges. Per triangle, the share of the edge opposite corner k is
+and boundary edges; below zero by more than 1e-9 of the largest share of the triangles beside
+the edge (round-off). Per triangle, the share of the edge opposite corner k is
 q^T = ½ √det Q̄_T cot θ_k = uᵀ adj(Q̄_T) v / (2 u × v), u, v the edges from corner k.
 
 `corner_angles`: the angles, in the metric adj Q of the region on each side, of the sectors
@@ -60,7 +61,10 @@ def q_defects(P: np.ndarray, T: np.ndarray, Q: np.ndarray, regions: np.ndarray |
     E = P[T[:, [1, 2, 0]]] - P[T]
     h_min = float(np.hypot(E[..., 0], E[..., 1]).min())
     rounding = 64 * EPS * extent / max(h_min, 1e-300)   # the output's own round-off, eps·|x|/h
-    tol = (REL + rounding) * np.maximum(size, 1e-300)
+    # round-off is relative to each triangle's largest share: a share that is 0 in exact
+    # arithmetic (a right angle in the metric) comes out as ±eps times the others
+    tri_scale = np.abs(q).max(axis=1)[tri]
+    tol = (REL + rounding) * np.maximum(np.bincount(inverse, weights=tri_scale, minlength=len(count)), 1e-300)
     reg = np.zeros(len(T), np.int64) if regions is None else np.asarray(regions)
     r = reg[tri]
     lo = np.full(len(count), np.iinfo(np.int64).max)
@@ -69,7 +73,7 @@ def q_defects(P: np.ndarray, T: np.ndarray, Q: np.ndarray, regions: np.ndarray |
     np.maximum.at(hi, inverse, r)
     interface = (count == 2) & (lo != hi)
     bad_share = np.zeros(len(count), bool)
-    np.logical_or.at(bad_share, inverse, share < -tol[inverse])
+    np.logical_or.at(bad_share, inverse, share < -(REL + rounding) * np.maximum(tri_scale, 1e-300))
     kinds = {"interior": (count == 2) & ~interface, "interface": interface, "boundary": count == 1}
     failing = {"interior": kinds["interior"] & (total < -tol), "interface": interface & bad_share,
                "boundary": kinds["boundary"] & (total < -tol)}

@@ -59,3 +59,11 @@ def test_corner_angles_in_a_diagonal_metric(h1, h2):
 def test_a_corner_refusal_is_read_from_its_message():
     assert refused_corner("the corner at (0.5, -2) is 0.0371° in the metric: too sharp") == (0.5, -2.0, 0.0371)
     assert refused_corner("target_vertices = 10 is too few") is None
+
+
+@pytest.mark.parametrize("turn", np.linspace(0.1, 3.0, 12))
+def test_a_right_angle_s_round_off_is_not_a_failure(turn):
+    # the square with its centre, turned: the centre's right angles give shares of ±eps beside
+    # shares of ½, which is round-off, not an obtuse angle
+    R = np.array([[math.cos(turn), -math.sin(turn)], [math.sin(turn), math.cos(turn)]])
+    assert q_defects(POINTS @ R.T + [3.0, -7.0], TRIANGLES, I4) == []
