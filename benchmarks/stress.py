@@ -57,7 +57,8 @@ def parse_args(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--cases", type=int, default=2000,
                    help="random cases on plain domains, constant Q or varying s (default 2000)")
-    p.add_argument("--fields", type=int, default=300, help="random TensorFields on those domains (default 300)")
+    p.add_argument("--fields", type=int, default=300,
+                   help="random TensorFields on those domains (default 300)")
     p.add_argument("--field-kinds", default=",".join(field_strategies.FIELD_KINDS),
                    help="field kinds, comma-separated: " + ", ".join(field_strategies.FIELD_KINDS))
     p.add_argument("--media", type=int, default=300, help="random media of 1-3 regions (default 300)")
@@ -176,7 +177,8 @@ def report(found: dict, args) -> None:
     print("by kind: " + ", ".join(f"{k} {found['bad_by_kind'][k]}/{c}" for k, c in sorted(found["by_kind"].items())))
     print(f"time per case: median {np.median(sec):.3f} s, max {sec.max():.2f} s, total {sec.sum():.0f} s")
     print(f"refused with a reason (QmeshError naming the option or what to change): {len(found['refused'])}")
-    print("refusals by reason: " + (", ".join(f"{r} {c}" for r, c in found["reasons"].most_common()) or "none"))
+    reasons = ", ".join(f"{r} {c}" for r, c in found["reasons"].most_common())
+    print(f"refusals by reason: {reasons or 'none'}")
     for msg in sorted(set(found["refused"]))[:5]:
         print(f"    {msg[:160]}")
     if found["warned_off_target"]:

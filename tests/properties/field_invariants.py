@@ -176,5 +176,6 @@ def nearest_corner(xy, rings, regions) -> np.ndarray:
 
 def sharpest_corner(rings, regions, Q_of: dict) -> float:
     """The smallest metric angle of any sector at any input point (degrees)."""
-    points = np.unique(np.concatenate([np.asarray(R, dtype=float) for R in list(rings) + list(regions)]), axis=0)
+    every = [np.asarray(R, dtype=float) for R in list(rings) + list(regions)]
+    points = np.unique(np.concatenate(every), axis=0)
     return min((a for p in points for a, _ in corner_angles(p, rings, regions, Q_of)), default=float("nan"))

@@ -16,6 +16,7 @@ import numpy as np
 from hypothesis import strategies as st
 
 import field_strategies
+import qmesh
 from strategies import (Case, ConductivitySpec, DomainSpec, _fmt, _rotation, offsets, options,
                         sizes, star_rings)
 
@@ -85,7 +86,7 @@ def media_domains(draw):
     place = (lambda P: shift + size * (np.asarray(P) @ R.T))
     outline, regions = place(outline), tuple(place(r) for r in regions)
     code = (f"qmesh.Domain({_fmt(outline)}, [], regions=[{', '.join(_fmt(r) for r in regions)}])")
-    build = (lambda: __import__("qmesh").Domain(outline, [], regions=list(regions)))
+    build = (lambda: qmesh.Domain(outline, [], regions=list(regions)))
     return DomainSpec(f"media-{kind}", code, build, len(outline) + sum(map(len, regions)),
                       (outline,), tuple(map(float, shift)), float(size), regions)
 

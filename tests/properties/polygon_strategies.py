@@ -67,7 +67,8 @@ def far_enough(P: np.ndarray, share: float = 1e-3) -> bool:
     X = P[:, None, :] - A[None]
     t = np.clip(np.einsum("nsi,si->ns", X, AB) / np.einsum("si,si->s", AB, AB), 0, 1)
     d = np.hypot(*(X - t[..., None] * AB[None]).transpose(2, 0, 1))
-    own = (np.arange(n)[:, None] == np.arange(n)[None]) | (np.arange(n)[:, None] == (np.arange(n)[None] + 1) % n)
+    k = np.arange(n)
+    own = (k[:, None] == k[None]) | (k[:, None] == (k[None] + 1) % n)      # a segment's own ends
     return bool(d[~own].min() > share * np.ptp(P, axis=0).max())
 
 
@@ -99,5 +100,6 @@ def polygon_cases(draw, max_target: int = 2000, field_share: float = 0.3):
         cond = ConductivitySpec(code, build, Q)
     opts = draw(options(spec.n_points, None, max_target))
     # a target the boundary can meet: a refusal for too few vertices says nothing of the corners
-    opts["target_vertices"] = int(round(10.0 ** draw(st.floats(math.log10(200), math.log10(max(max_target, 200))))))
+    high = math.log10(max(max_target, 200))
+    opts["target_vertices"] = int(round(10.0 ** draw(st.floats(math.log10(200), high))))
     return Case(spec, cond, opts)

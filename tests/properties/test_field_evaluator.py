@@ -57,7 +57,8 @@ def test_corner_angles_in_a_diagonal_metric(h1, h2):
 
 
 def test_a_corner_refusal_is_read_from_its_message():
-    assert refused_corner("the corner at (0.5, -2) is 0.0371° in the metric: too sharp") == (0.5, -2.0, 0.0371)
+    text = "the corner at (0.5, -2) is 0.0371° in the metric: too sharp"
+    assert refused_corner(text) == (0.5, -2.0, 0.0371)
     assert refused_corner("target_vertices = 10 is too few") is None
 
 
