@@ -59,6 +59,7 @@ def _uv(P, c, L):
 
 
 def bounds(domain: DomainSpec) -> tuple[np.ndarray, np.ndarray]:
+    """The domain's bounding box (lo, hi): a raster must cover it."""
     rings = domain.rings if domain.rings is not None else domain.build().rings
     P = np.concatenate([np.asarray(R, dtype=float) for R in rings])
     return P.min(axis=0), P.max(axis=0)
