@@ -209,7 +209,7 @@ def _check_growth(plan: MediaPlan, faces: list, dom: Any, k: int, e: QmeshError)
     need = plan.counter(faces, plan.thin)(plan.h_rest / 2**k) + len(dom.seeds)
     if need > MAX_GROWTH * plan.target:
         raise QmeshError(f"{plan.face_name(faces[0])}: target_vertices = {plan.target} cannot be met: "
-                         f"its run at {2**(k - 1)}× finer than the target's size failed "
+                         f"its run at {'the' if k == 1 else f'{2**(k - 1)}× finer than the'} target's size failed "
                          f"({_as_asked(plan, e)}), and the next finer size would put about "
                          f"{need:.3g} vertices in it alone, more than {MAX_GROWTH}× the target") from None
 
