@@ -13,6 +13,7 @@ after the text has passed every check that does not need it.
 from __future__ import annotations
 
 import ast
+import functools
 import math
 from dataclasses import dataclass
 from typing import Callable
@@ -219,12 +220,34 @@ def _to_sympy(form: tuple, jumps: bool = False):
         if kind == "call":
             name = FUNCTIONS[f[1]][0]
             arg = to_sympy(f[2])
+            if name == "exp":
+                return _whole_exp()(arg)
             return sp.log(1 + arg) if name == "log1p" else getattr(sp, name)(arg)
         a, b = to_sympy(f[1]), to_sympy(f[2])
         return {"+": lambda: a + b, "-": lambda: a - b, "*": lambda: a * b,
                 "/": lambda: a / b, "**": lambda: a ** b}[kind]()
 
     return to_sympy(form), x, y
+
+
+@functools.cache
+def _whole_exp():
+    """eᵘ that SymPy keeps whole: its own exp splits exp(c + u) into exp(c)·exp(u), a constant
+    that underflows or overflows (exp(298.9·y − 4020188) → 2.5e-1745946·exp(298.9·y), 0·∞ = NaN
+    in floats) for a text written about a far-off point, (y − 13448.13)/0.00042."""
+    import sympy as sp  # lazily: `import qmesh` stays fast
+
+    class qmesh_exp(sp.Function):        # lambdified by its name (`_portable_namespace`)
+        def fdiff(self, argindex=1):
+            return self
+
+        def _eval_is_extended_real(self):
+            return self.args[0].is_extended_real
+
+        def _eval_is_positive(self):
+            return self.args[0].is_extended_real
+
+    return qmesh_exp
 
 
 def parse_function(text, name: str) -> Callable[[np.ndarray], np.ndarray]:
@@ -247,9 +270,9 @@ def _portable_namespace() -> dict:
     """The names a lambdified formula calls, bound to `geometry.portable`'s functions where
     NumPy's give different last bits on different CPUs (sin, cos, sqrt, abs are the same)."""
     from qmesh.geometry import portable
-    return {"exp": portable.exp, "log": portable.log, "tan": portable.tan, "sinh": portable.sinh,
-            "cosh": portable.cosh, "tanh": portable.tanh, "arctan": portable.arctan,
-            "qmesh_power": portable.power}
+    return {"exp": portable.exp, "qmesh_exp": portable.exp, "log": portable.log,
+            "tan": portable.tan, "sinh": portable.sinh, "cosh": portable.cosh,
+            "tanh": portable.tanh, "arctan": portable.arctan, "qmesh_power": portable.power}
 
 
 def _lambdify(x, y, e, cse: bool = False):

@@ -42,6 +42,7 @@ from qmesh.triangle_mesh import Mesh
 
 FLOOR = 0.3            # a hand-over leaving a face's worst quality below this meshes it again
 FINER = 12             # halvings of the size for a face too thin for it (6 beyond plan.COARSER)
+MAX_GROWTH = 10        # ... while the face alone stays under this many times target_vertices
 MAX_HANDOVERS = 1000   # rounds of interface points handed between finished faces
 MAX_NOTES = 3          # the faces' warnings shown one by one; beyond, one line counts them
 TURNING = 1.5          # a field face whose run at the plan's size took this many times the plan's
@@ -194,7 +195,33 @@ def _face_steps(plan: MediaPlan, faces: list, dom: Any, options: dict, said: lis
             break
         except QmeshError as e:          # a group's: meshed one by one instead (`_run`)
             if len(faces) > 1 or k == FINER or ("too large" not in str(e) and "target_vertices" not in str(e)):
-                raise plan.too_small(i) or QmeshError(f"{plan.face_name(i)}: {e}") from None
+                raise plan.too_small(i) or QmeshError(f"{plan.face_name(i)}: {_as_asked(plan, e)}") from None
+            _check_growth(plan, faces, dom, k + 1, e)
+
+
+def _check_growth(plan: MediaPlan, faces: list, dom: Any, k: int, e: QmeshError) -> None:
+    """Before a face's k-th halving of its size (its run refused the last one, `e`): QmeshError
+    when the face alone would then take more than MAX_GROWTH times target_vertices (each
+    halving quadruples it: twelve of them made a 1e6-vertex mesh of a target of 3 000, in six
+    minutes), with the run's reason and the count the next size would need."""
+    if plan.target is None:
+        return
+    need = plan.counter(faces, plan.thin)(plan.h_rest / 2**k) + len(dom.seeds)
+    if need > MAX_GROWTH * plan.target:
+        raise QmeshError(f"{plan.face_name(faces[0])}: target_vertices = {plan.target} cannot be met: "
+                         f"its run at {'the' if k == 1 else f'{2**(k - 1)}× finer than the'} target's size failed "
+                         f"({_as_asked(plan, e)}), and the next finer size would put about "
+                         f"{need:.3g} vertices in it alone, more than {MAX_GROWTH}× the target") from None
+
+
+def _as_asked(plan: MediaPlan, e: QmeshError) -> str:
+    """A face run's refusal in the terms the user asked in: its run was sized by the medium's
+    plan (`size = …`), which a user who gave target_vertices never gave."""
+    text = str(e)
+    if plan.target is None or not text.startswith("size = ") or ": " not in text:
+        return text
+    why = text.split(": ", 1)[1].replace("ask for more vertices (a smaller size)", "ask for more vertices")
+    return f"target_vertices = {plan.target} is too few for it: {why}"
 
 
 def _share(plan: MediaPlan, meshes: FaceMeshes, mesh: Mesh, extra: dict, options: dict, redone: set) -> list:

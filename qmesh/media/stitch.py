@@ -1,7 +1,11 @@
 """The face meshes glued into one `qmesh.Mesh` with `region_tags`. Interface vertices are the same
 floating-point numbers on both sides (an input point of a face mesh comes back bit-exactly,
 `Normalisation.to_user`), so they merge by exact coordinates; a KD-tree then checks that no two
-distinct vertices are closer than round-off, which would mean a crack in the mesh."""
+distinct vertices of one face are closer than round-off, which would mean a crack in the mesh.
+Two faces can each compute a point of their interface on their own (each splits beside the
+same sharp corner) and land a few ulps apart: the hand-over finds the other's point already
+there within round-off (`insert_shared`), so both keep their own; such pairs, from different
+faces, are one vertex (the first in coordinate order)."""
 
 from __future__ import annotations
 
@@ -25,8 +29,7 @@ def stitch(part, face_meshes: dict, domain) -> Mesh:
     vid[o] = np.cumsum(new) - 1
     pairs = cKDTree(U).query_pairs(1e-12 * domain.diameter, output_type="ndarray")
     if len(pairs):
-        raise QmeshError(f"two face meshes put vertices {U[pairs[0, 0]].tolist()} and "
-                         f"{U[pairs[0, 1]].tolist()} a round-off apart: the interface does not match")
+        U, vid = _merged(U, vid, pairs, np.repeat(np.arange(len(meshes)), np.diff(offs)))
     T = np.concatenate([vid[m.triangles + o] for m, o in zip(meshes, offs)])
     regions = np.repeat(face_regions, [m.n_triangles for m in meshes])
     # fixed: the input points of the user's domain and regions (the partition's vertices)
@@ -36,3 +39,30 @@ def stitch(part, face_meshes: dict, domain) -> Mesh:
     be = np.concatenate([vid[m.boundary_edges + off] for m, off in zip(meshes, offs)])
     on = (part.edge_tag[e] > 0) & (part.edge_faces[e] < 0).any(axis=1)
     return Mesh(U, T, fixed, be[on], part.edge_tag[e[on]], domain.tag_names, regions, domain.region_names)
+
+
+def _merged(U, vid, pairs, face_of):
+    """U and vid with each pair of vertices a round-off apart made one (the lower index: the
+    first in coordinate order), when the two come from different faces; QmeshError when one face
+    holds both (a crack no merge mends). The pairs are few: a loop over them."""
+    at = np.isin(vid, pairs)
+    held = {}
+    for v, f in zip(vid[at].tolist(), face_of[at].tolist()):
+        held.setdefault(v, set()).add(f)
+    rep = np.arange(len(U))
+
+    def root(v: int) -> int:
+        while rep[v] != v:
+            v = int(rep[v])
+        return v
+
+    for a, b in sorted(map(tuple, np.sort(pairs, axis=1).tolist())):
+        if held[a] & held[b]:
+            raise QmeshError(f"two face meshes put vertices {U[a].tolist()} and {U[b].tolist()} a "
+                             "round-off apart: the interface does not match")
+        ra, rb = root(a), root(b)
+        rep[max(ra, rb)] = min(ra, rb)
+    for v in np.unique(pairs).tolist():            # each merged vertex to its root
+        rep[v] = root(v)
+    keep = rep == np.arange(len(U))
+    return U[keep], (np.cumsum(keep) - 1)[rep[vid]]

@@ -17,8 +17,13 @@ side of a sharp corner is split at c's own metric distance from the apex (its *m
 its midpoint: the one split matches c and ends the exchange. A mirror within MARGIN of an end of
 its subsegment is not made (the trapezoid it leaves would be short against its width, and
 round-off could tip its q_ij = 0 diagonal below zero): the ordinary split halves towards it.
-Only for a constant Q, where the metric is affine and a mirror exact; corners of SHARP degrees
+For a constant Q, where the metric is affine and a mirror exact; corners of SHARP degrees
 or more keep the ordinary splits (the meshes of domains without such corners are unchanged).
+A field's metric (its shape, no s) is taken at the apex, where a smooth field is nearly
+constant over the small subsegments beside a sharp corner, for corners under SHARP_SHARED
+degrees: their ordinary splits crowd past any target (a random polygon's 0.12° corner in
+1 : 900 was refused at 6 000 vertices, asking for 13 500). A varying s keeps the ordinary
+splits (its encroachment is the lifted test, not the metric's ellipse).
 
 A medium's faces (MEDIA.md §2) take the same matching in their own region's metric for corners
 under SHARP_SHARED degrees (between it and SHARP their ordinary splits stop within a few dozen
@@ -79,16 +84,20 @@ def corner_angles(domain, anisotropy) -> np.ndarray:
 
 def sharp_seeds(domain, anisotropy) -> np.ndarray:
     """Mask of the seeds that are convex corners below SHARP degrees in the metric of a constant
-    Q (where the metric is affine and a mirror exact; decided on the cosine, so that no
-    CPU-dispatched function reads the decision's last bits). A reflex corner (a slit's tip) has
-    Ω on the far side of its small angle: it is not one."""
-    if not anisotropy.is_constant or not len(domain.segments):
+    Q (where the metric is affine and a mirror exact), or below SHARP_SHARED in a field's metric
+    at the apex (decided on the cosine, so that no CPU-dispatched function reads the decision's
+    last bits). A reflex corner (a slit's tip) has Ω on the far side of its small angle: it is
+    not one."""
+    if (anisotropy.potential and not anisotropy.is_constant) or not len(domain.segments):
         return np.zeros(len(domain.seeds), bool)
     a, b = _sides(domain)
     convex = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0] < 0          # Ω on the left: a left turn
     # a medium's face: only under SHARP_SHARED (a star's tips of 2–3° keep their ordinary
     # splits: matched, their small triangles raised κ2 of the inclusion preset by half)
-    limit = COS_SHARP_SHARED if getattr(domain, "media_face", False) else COS_SHARP
+    # a field's metric (no s: its shape, smooth near the apex): only under SHARP_SHARED too, the
+    # corners whose ordinary splits crowd past any target (0.12° in 1 : 900 needed 13 500 vertices)
+    shared = getattr(domain, "media_face", False) or not anisotropy.is_constant
+    limit = COS_SHARP_SHARED if shared else COS_SHARP
     return convex & (corner_cosines(domain, anisotropy) > limit)
 
 

@@ -92,6 +92,19 @@ def test_derivatives_match_finite_differences(text, P):
         np.testing.assert_allclose(A.hessian(P)[:, :, k], fd_hess, rtol=1e-6, atol=1e-6)
 
 
+@pytest.mark.parametrize("c", [1000.0, -1000.0, 13448.1345])
+def test_exp_of_a_far_off_frame_stays_whole(c):
+    """exp(x − c) is one exponential: split into exp(−c)·exp(x) its factors underflow and
+    overflow (0·∞) at x near c, and s's derivatives hold a number beyond any float."""
+    A = qmesh.Anisotropy.from_expression(f"exp(x - ({c!r})) + exp(({c!r}) - x) + y**2")
+    P = np.array([[c, 0.0], [c + 0.5, 1.0]])
+    t = P[:, 0] - c
+    np.testing.assert_allclose(A.s(P), np.exp(t) + np.exp(-t) + P[:, 1] ** 2, rtol=1e-13)
+    np.testing.assert_allclose(A.hessian(P)[:, 0, 0], np.exp(t) + np.exp(-t), rtol=1e-13)
+    F = qmesh.TensorField.principal(1, f"exp(1000*(y - ({c!r})))", 0)
+    np.testing.assert_allclose(F([[0.0, c]])[0], np.eye(2), rtol=1e-13)
+
+
 def test_constant_parts_broadcast_to_the_number_of_points():
     A = qmesh.Anisotropy.from_expression("exp(x) + 3*y**2 + 7")
     for n in (0, 1, 5):

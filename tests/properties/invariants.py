@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 import resource
+import signal
 import time
 import warnings
 from dataclasses import dataclass, field
@@ -23,6 +24,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 import qmesh
+
+if __package__:                 # imported as tests.properties.invariants (tests/fields)
+    from . import field_invariants
+else:                           # from this folder, on sys.path (the suite, benchmarks/stress.py)
+    import field_invariants
 
 EPS = np.finfo(float).eps
 REL = 1e-9
@@ -93,11 +99,12 @@ def _metric_cotangents(P: np.ndarray, T: np.ndarray, Q: np.ndarray) -> np.ndarra
 
 # --------------------------------------------------------------------------- the invariants
 
-def defects(mesh, rings, *, Q=None, target=None, n_holes=None) -> list[str]:
+def defects(mesh, rings, *, Q=None, target=None, n_holes=None, regions=()) -> list[str]:
     """Every broken invariant of `mesh` made for the domain given by `rings` (outline first).
 
     Q: the constant conductivity (then every interior and boundary q_ij must be ≥ 0);
-    target: the requested vertex count (N must land within 10%).
+    target: the requested vertex count (N must land within 10%); regions: a medium's region
+    rings, whose points are input points too.
     """
     rings = [np.asarray(R, dtype=float) for R in rings]
     n_holes = len(rings) - 1 if n_holes is None else n_holes
@@ -146,7 +153,7 @@ def defects(mesh, rings, *, Q=None, target=None, n_holes=None) -> list[str]:
         out.append(f"euler: V - E + F = {n} - {len(E)} + {len(T)} = {euler}, expected {1 - n_holes}")
 
     # every input point kept bit-exactly and flagged fixed
-    inputs = np.concatenate(rings)
+    inputs = np.unique(np.concatenate(rings + [np.asarray(R, dtype=float) for R in regions]), axis=0)
     key_in = np.ascontiguousarray(inputs + 0.0).view(np.dtype((np.void, 16))).ravel()   # -0.0 → 0.0
     key_mesh = np.ascontiguousarray(P + 0.0).view(np.dtype((np.void, 16))).ravel()
     order = np.argsort(key_mesh)
@@ -246,6 +253,14 @@ class Outcome:
     defects: list = field(default_factory=list)
     seconds: float = 0.0
     error: str | None = None
+    warned: list = field(default_factory=list)
+    """The QmeshWarnings' texts."""
+    corner: tuple | None = None
+    """A corner refusal: (the angle qmesh states, the smallest metric angle at that corner
+    measured here), degrees."""
+    sharpest: float | None = None
+    """The smallest corner angle of the domain and its regions in the metric, degrees (None for
+    a varying s)."""
 
 
 def _with_memory_cap(f):
@@ -266,19 +281,59 @@ def _with_memory_cap(f):
         resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
 
 
+ADVICE = ("vertices would follow it", "blunt the corner", "bound or smooth Q")
+"""What a refusal of a field or a corner tells the user to change: the vertex count a field
+needs, the corner, or a field too strong to follow."""
+
+
 def says_why(error: qmesh.QmeshError, options: dict) -> bool:
     """A QmeshError on valid input is acceptable only when it explains that the request cannot
-    be met: it names the option it cannot honour (target_vertices or size)."""
-    return any(name in str(error) for name in ("target_vertices", "size") if name in options)
+    be met: it names the option it cannot honour (target_vertices or size) or says what to
+    change (`ADVICE`)."""
+    text = str(error)
+    return (any(name in text for name in ("target_vertices", "size") if name in options)
+            or any(a in text for a in ADVICE))
 
 
-def run(case) -> Outcome:
+def refusal_reason(message: str) -> str:
+    """A refusal's class, for the stress summary."""
+    for words, reason in (("° in the metric", "sharp corner"), ("can follow", "field varies too fast"),
+                          ("not integrable", "field not integrable"),
+                          ("still failing", "repair: edges still failing"),
+                          ("target_vertices", "target too small"), ("size", "size")):
+        if words in message:
+            return reason
+    return "other"
+
+
+class TooSlow(Exception):
+    """A case ran past its time limit."""
+
+
+def _alarm(signum, frame):
+    raise TooSlow
+
+
+def run(case, time_limit: float | None = None) -> Outcome:
     """Build the case's domain and anisotropy, mesh it, and return the defects found.
 
     A QmeshError while building a valid domain or anisotropy is a defect; while meshing it is
     one unless it says why the request cannot be met (`says_why`); any other exception, and any
-    warning other than a QmeshWarning, is a defect.
+    warning other than a QmeshWarning, is a defect; so is a run past `time_limit` seconds (a
+    small mesh that takes minutes; main thread only).
     """
+    if time_limit is not None:
+        old = signal.signal(signal.SIGALRM, _alarm)
+        signal.setitimer(signal.ITIMER_REAL, time_limit)
+        try:
+            return _run(case, time_limit)
+        finally:
+            signal.setitimer(signal.ITIMER_REAL, 0)
+            signal.signal(signal.SIGALRM, old)
+    return _run(case, None)
+
+
+def _run(case, time_limit) -> Outcome:
     res = Outcome()
     t0 = time.perf_counter()
     with warnings.catch_warnings(record=True) as caught:
@@ -298,6 +353,9 @@ def run(case) -> Outcome:
         except MemoryError:
             res.defects.append(f"memory: more than {MEMORY_CAP >> 20} MiB for N = "
                                f"{case.options.get('target_vertices')}")
+        except TooSlow:
+            res.defects.append(f"slow: unfinished after {time_limit:g} s for N = "
+                               f"{case.options.get('target_vertices')}")
         except Exception as e:       # noqa: BLE001 - any other exception is the defect we record
             res.defects.append(f"exception: {type(e).__name__}: {e}")
     res.seconds = time.perf_counter() - t0
@@ -305,12 +363,47 @@ def run(case) -> Outcome:
         if w.category.__name__ != "QmeshWarning":
             res.defects.append(f"warning: {w.category.__name__}: {w.message} "
                                f"({w.filename.rsplit('/', 1)[-1]}:{w.lineno})")
+        else:
+            res.warned.append(str(w.message))
+    rings = case.domain.rings if case.domain.rings is not None else _rings_of(domain)
+    Q_of, Q = case.conductivity.Q_of, case.conductivity.Q
+    at = Q_of if Q is None else {0: lambda X: np.broadcast_to(np.asarray(Q, float), (len(X), 2, 2))}
+    if at is not None:
+        res.sharpest = field_invariants.sharpest_corner(rings, case.domain.regions, at)
+        if res.error is not None and field_invariants.refused_corner(res.error):
+            _judge_corner(res, rings, case.domain.regions, at)
     if res.mesh is not None:
-        rings = case.domain.rings if case.domain.rings is not None else _rings_of(domain)
-        res.defects += defects(res.mesh, rings, Q=case.conductivity.Q,
-                               target=case.options.get("target_vertices"))
+        target = case.options.get("target_vertices")
+        res.defects += defects(res.mesh, rings, Q=Q, target=target if Q_of is None else None,
+                               regions=case.domain.regions)
         res.defects += tag_defects(res.mesh, domain)
+        if Q_of is not None and not any(category(d) in STRUCTURAL for d in res.defects):
+            means = field_invariants.triangle_conductivity(res.mesh, Q_of)
+            res.defects += field_invariants.q_defects(res.mesh.points, res.mesh.triangles, means,
+                                                      res.mesh.region_tags)
+        n = res.mesh.n_vertices
+        if Q_of is not None and target is not None and not abs(n - target) <= 0.1 * target \
+                and not res.warned:
+            res.defects.append(f"count: N = {n} for target_vertices = {target} (off by "
+                               f"{100 * (n - target) / target:+.0f}%) with no warning")
     return res
+
+
+STRUCTURAL = ("finite", "triangles", "indices", "repeated", "orientation", "manifold")
+"""Defects after which no q_ij can be computed."""
+
+
+def _judge_corner(res: Outcome, rings, regions, Q_of: dict) -> None:
+    """A corner refusal: the smallest metric angle at that corner, a defect from 0.1° up."""
+    x, y, stated = field_invariants.refused_corner(res.error)
+    p = field_invariants.nearest_corner((x, y), rings, regions)
+    angles = [a for a, _ in field_invariants.corner_angles(p, rings, regions, Q_of)]
+    measured = min(angles) if angles else float("nan")
+    res.corner = (stated, measured)
+    if not measured < field_invariants.CORNER_FLOOR:
+        res.defects.append(f"corner-refusal: the corner at {p.tolist()} is {measured:.3g}° in the "
+                           f"metric (qmesh says {stated:.3g}°), at least "
+                           f"{field_invariants.CORNER_FLOOR}°, and refused: {res.error}")
 
 
 def _rings_of(domain) -> list[np.ndarray]:

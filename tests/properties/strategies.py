@@ -52,6 +52,8 @@ class DomainSpec:
     rings: tuple | None = field(default=None, repr=False, compare=False)
     center: tuple = (0.0, 0.0)
     size: float = 1.0
+    regions: tuple = field(default=(), repr=False, compare=False)
+    """A medium's region rings (region k + 1 is regions[k]; the rest of Ω is region 0)."""
 
     @property
     def n_holes(self) -> int:
@@ -60,11 +62,15 @@ class DomainSpec:
 
 @dataclass(frozen=True)
 class ConductivitySpec:
-    """An anisotropy: `build` makes it; `Q` is the constant conductivity, None for a varying s."""
+    """An anisotropy: `build` makes it; `Q` is the constant conductivity, None for a varying s.
+
+    `Q_of`, for a field or a medium: region tag → Q_at(P) (n, 2) → (n, 2, 2), the conductivity
+    computed by the strategy itself (tag 0 alone for a field on a plain domain)."""
 
     code: str
     build: Callable = field(repr=False, compare=False)
     Q: np.ndarray | None = field(default=None, repr=False, compare=False)
+    Q_of: dict | None = field(default=None, repr=False, compare=False)
 
 
 @dataclass(frozen=True)

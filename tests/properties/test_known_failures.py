@@ -1,4 +1,4 @@
-"""K1–K22: every minimal reproducer the property suite has found, kept as regression tests.
+"""K1–K26: every minimal reproducer the property suite has found, kept as regression tests.
 
 Each entry is meshed and checked with the property suite's evaluator (`invariants.run`: no
 broken invariant, no exception, no warning other than a QmeshWarning, a QmeshError only when it
@@ -44,9 +44,81 @@ def constant(Q) -> ConductivitySpec:
     return ConductivitySpec(f"qmesh.Anisotropy.constant({Q.tolist()})", lambda: qmesh.Anisotropy.constant(Q), Q)
 
 
+def medium(outline, regions) -> DomainSpec:
+    outline, regions = np.asarray(outline, dtype=float), tuple(np.asarray(r, dtype=float) for r in regions)
+    return DomainSpec("media", f"qmesh.Domain({outline.tolist()}, [], regions={[r.tolist() for r in regions]})",
+                      lambda: qmesh.Domain(outline, [], regions=list(regions)),
+                      len(outline) + sum(map(len, regions)), (outline,), regions=regions)
+
+
+def text_field(k1, k2, angle) -> ConductivitySpec:
+    """TensorField.principal of texts; its Q at points (the evaluator's corner angles) is the
+    field's own."""
+    build = (lambda: qmesh.TensorField.principal(k1, k2, angle))
+    return ConductivitySpec(f"qmesh.TensorField.principal({k1!r}, {k2!r}, {angle!r})", build, None,
+                            {0: lambda P: np.asarray(build()(P))})
+
+
 def expression(text: str) -> ConductivitySpec:
     return ConductivitySpec(f"qmesh.Anisotropy.from_expression({text!r})",
                             lambda: qmesh.Anisotropy.from_expression(text))
+
+
+def expressions_per_region(texts: dict) -> ConductivitySpec:
+    """{tag: TensorField.from_expressions(*texts[tag])}."""
+    def build():
+        return {t: qmesh.TensorField.from_expressions(*q) for t, q in texts.items()}
+    fields = build()
+    code = "{" + ", ".join(f"{t}: qmesh.TensorField.from_expressions{q!r}" for t, q in texts.items()) + "}"
+    return ConductivitySpec(code, build, None, {t: (lambda P, f=f: np.asarray(f(P))) for t, f in fields.items()})
+
+
+K25_OUTLINE = [[-1.423318954422863, -1.43109811878279], [1.9345389743169232, -0.37427395804549785],
+               [1.4102470015998292, 1.2915641472590862], [-1.947610927139957, 0.2347399865217939]]
+K25_TRIANGLE = [[0.18084398751203734, -0.9262172718934535], [0.6697458211582702, -0.7723443919232112],
+                [-0.4290760390192471, -0.681522370322582]]
+_U, _V = "((x + 0.0065359764115169175)/1.760119823784643)", "((y + 0.06976698576185199)/1.760119823784643)"
+K25_FIELDS = {0: (f"1 + 0.9696634117474656*{_U}**2", f"14.58790843420034*tanh({_U}*{_V})",
+                  f"951.2486812167652*(1 + 0.6931471803691238*{_V}**2)"),
+              1: (f"1 + 0.9696634117474656*{_U}**2", f"0.015335536040418572*tanh({_U}*{_V})",
+                  f"0.0010512498148442905*(1 + 0.6931471803691238*{_V}**2)")}
+
+K26_OUTLINE = [[-55912.05489183997, 104645.39405162391], [-55891.58903199436, 104645.39405162391],
+               [-55891.58903199436, 104654.05372109576], [-55912.05489183997, 104654.05372109576]]
+K26_REGIONS = [[[-55911.648618373845, 104645.39405162391], [-55910.914794339405, 104645.39405162391],
+                [-55910.914794339405, 104654.05372109576], [-55911.648618373845, 104654.05372109576]],
+               [[-55903.01328412957, 104645.39405162391], [-55901.81799348269, 104645.39405162391],
+                [-55901.81799348269, 104654.05372109576], [-55903.01328412957, 104654.05372109576]],
+               [[-55894.76970372113, 104651.62876178634], [-55895.3781886836, 104651.58913876356],
+                [-55895.885340607536, 104651.25058173803], [-55896.15526854447, 104650.70380679132],
+                [-55896.1156455217, 104650.09532182886], [-55895.777088496165, 104649.58816990492],
+                [-55895.23031354945, 104649.318241968], [-55894.62182858698, 104649.35786499076],
+                [-55894.11467666305, 104649.69642201629], [-55893.844748726115, 104650.24319696301],
+                [-55893.88437174889, 104650.85168192547], [-55894.22292877443, 104651.35883384942]]]
+
+
+def k26_fields() -> ConductivitySpec:
+    """K26's four fields: field_strategies' swirl and raster, and principal texts."""
+    from field_strategies import raster, swirl
+    c, L = (-55901.821961917165, 104649.72388635983), 10.232929922807541
+    U, V = f"((x - ({c[0]!r}))/{L!r})", f"((y - ({c[1]!r}))/{L!r})"
+    texts = (f"2.5008737469550963*(1 + 0.13332876556647819*sin(1.840406430346063*{U} + 1.0))",
+             f"2.5008737469550963*exp(-0.9436029379727513*{V})",
+             f"62.50456522995921 + -1.4365592223320023e-43*{U}")
+
+    def build():
+        return {0: qmesh.TensorField(swirl(c, L, 1.0, 29.496761512082745, 2.9569675875193363e-151, 34.18773467110063, 1.9,
+                                           5.420985129522903), resolution=0.3685197155455158),
+                1: qmesh.TensorField.from_raster(*raster((-55912.05489183997, 104645.39405162391),
+                                                         (-55891.58903199436, 104654.05372109576), 5, 8,
+                                                         1.0, 127.43170017505719, 0.3825196080902461,
+                                                         True, 4246)),
+                2: qmesh.TensorField.principal(*texts),
+                3: qmesh.TensorField(swirl(c, L, 1.0, 424.5864563992726, 78.5066688743445,
+                                           45.47847177375497, 1.3057579498604184, 0.697843403554332))}
+    fields = build()
+    return ConductivitySpec("K26's fields (test_known_failures.k26_fields)", build, None,
+                            {t: (lambda P, f=f: np.asarray(f(P))) for t, f in fields.items()})
 
 
 # --------------------------------------------------------------------------- the entries
@@ -134,6 +206,26 @@ MESHED = {
                           [0.7305775823153211, -0.42120340792655375]]), principal(1.0, 100.0, 0.0),
                  dict(target_vertices=1000, alpha=0.5, quality_threshold=0.5, seed=0,
                       boundary_refinement=False))),
+    "K23": ("a field text exp(1000·(y − 13448.1345)) on a disk there: SymPy split it into "
+            "exp(−13448134.5)·exp(1000·y), 0·∞, refused as 'nan at (x, y) = …: not finite'",
+            Case(disk(8, 1e-3, (0.0, 13448.1345)), text_field(1.0, "exp(1000*(y - 13448.1345))", 30.0),
+                 dict(target_vertices=100))),
+    "K24": ("a rectangle with a triangle standing on its side, one field in both regions, target 8: "
+            "refused as 'region 1: size = 0.303 is too large', an option the user never gave",
+            Case(medium([[-6.32, -2.59], [8.32, -2.59], [8.32, 2.59], [-6.32, 2.59]],
+                        [[[-2.18, -2.59], [3.42, -2.59], [3.55, -1.47]]]),
+                 text_field(863.0, 1.6, "91.5 + 0.6*sin(y/15)"), dict(target_vertices=8))),
+    "K25": ("a quadrilateral with a triangle standing on its side, a from_expressions field in "
+            "each region, target 946: both faces split beside the triangle's corner and put their "
+            "own point a few ulps apart ('two face meshes put vertices … a round-off apart')",
+            Case(medium(K25_OUTLINE, [K25_TRIANGLE]), expressions_per_region(K25_FIELDS),
+                 dict(target_vertices=946, alpha=0.4826270115570559, quality_threshold=0.4826270115570559,
+                      seed=84384492))),
+    "K26": ("a rectangle 1e5 from the origin with two strips and a disk, four fields (callables, a "
+            "raster, texts), target 3000: a strip's run halved its size again and again "
+            "(each quadrupling it): 1 142 505 vertices after six minutes",
+            Case(medium(K26_OUTLINE, K26_REGIONS), k26_fields(),
+                 dict(target_vertices=3000, quality_threshold=0.8560538344042152, seed=137494))),
 }
 
 STIFF = Case(disk(32), principal(1, 1000, 0), dict(target_vertices=200))
@@ -154,10 +246,12 @@ K12 = ("invalid calls that raised something else than a QmeshError naming the ar
        "io.write to a path that is neither str nor Path, iterate() checking nothing before the "
        "first next(), ...)")
 
-ORDER = [f"K{k}" for k in range(1, 23)]
+ORDER = [f"K{k}" for k in range(1, 27)]
+LIMIT = 60
+"""Seconds an entry may take (each takes a few): K26 ran for six minutes."""
 
 
-def test_the_entries_are_k1_to_k22():
+def test_the_entries_are_k1_to_k26():
     assert sorted([*MESHED, *INVARIANT, "K12"], key=ORDER.index) == ORDER
 
 
@@ -176,7 +270,7 @@ def twin_difference(case: Case, shift, scale: float, c: float) -> str | None:
 def test_known_failure_stays_fixed(key):
     if key in MESHED:
         did, case = MESHED[key]
-        defects = invariants.run(case).defects
+        defects = invariants.run(case, time_limit=LIMIT).defects
         assert not defects, (f"{key} ({did}) is back:\n" + "\n".join(defects)
                              + f"\nreproducer: {case.reproducer()}")
     elif key in INVARIANT:
