@@ -43,6 +43,7 @@ from qmesh.triangle_mesh import Mesh
 FLOOR = 0.3            # a hand-over leaving a face's worst quality below this meshes it again
 FINER = 12             # halvings of the size for a face too thin for it (6 beyond plan.COARSER)
 MAX_GROWTH = 10        # ... while the face alone stays under this many times target_vertices
+MIN_GROWTH = 30_000    # ... or this many vertices (a thin region of a small target meshes, warned)
 MAX_HANDOVERS = 1000   # rounds of interface points handed between finished faces
 MAX_NOTES = 3          # the faces' warnings shown one by one; beyond, one line counts them
 TURNING = 1.5          # a field face whose run at the plan's size took this many times the plan's
@@ -201,13 +202,14 @@ def _face_steps(plan: MediaPlan, faces: list, dom: Any, options: dict, said: lis
 
 def _check_growth(plan: MediaPlan, faces: list, dom: Any, k: int, e: QmeshError) -> None:
     """Before a face's k-th halving of its size (its run refused the last one, `e`): QmeshError
-    when the face alone would then take more than MAX_GROWTH times target_vertices (each
+    when the face alone would then take more than MAX_GROWTH times target_vertices and more than
+    MIN_GROWTH vertices (a strip 0.002 wide of a target of 100 needs ~6 600: warned, meshed; each
     halving quadruples it: twelve of them made a 1e6-vertex mesh of a target of 3 000, in six
     minutes), with the run's reason and the count the next size would need."""
     if plan.target is None:
         return
     need = plan.counter(faces, plan.thin)(plan.h_rest / 2**k) + len(dom.seeds)
-    if need > MAX_GROWTH * plan.target:
+    if need > max(MAX_GROWTH * plan.target, MIN_GROWTH):
         raise QmeshError(f"{plan.face_name(faces[0])}: target_vertices = {plan.target} cannot be met: "
                          f"its run at {'the' if k == 1 else f'{2**(k - 1)}× finer than the'} target's size failed "
                          f"({_as_asked(plan, e)}), and the next finer size would put about "

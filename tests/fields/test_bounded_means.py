@@ -52,7 +52,8 @@ def _derivatives(form):
     # abs'' is a Dirac mass at the kink, sign' too: 0 at every point a random draw can hit
     parts = [p.replace(sp.DiracDelta, lambda *a: sp.Integer(0))
              .replace(lambda e: isinstance(e, sp.Derivative), lambda e: sp.Integer(0)) for p in parts]
-    return [sp.lambdify((x, y), p, "numpy") for p in parts]
+    exp = {"qmesh_exp": np.exp}          # the parser's whole eᵘ (`expression._whole_exp`)
+    return [sp.lambdify((x, y), p, [exp, "numpy"]) for p in parts]
 
 
 @settings(max_examples=50, deadline=None)
