@@ -10,6 +10,8 @@ faces, are one vertex (the first in coordinate order)."""
 from __future__ import annotations
 
 import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from qmesh.errors import QmeshError
@@ -42,27 +44,20 @@ def stitch(part, face_meshes: dict, domain) -> Mesh:
 
 
 def _merged(U, vid, pairs, face_of):
-    """U and vid with each pair of vertices a round-off apart made one (the lower index: the
-    first in coordinate order), when the two come from different faces; QmeshError when one face
-    holds both (a crack no merge mends). The pairs are few: a loop over them."""
-    at = np.isin(vid, pairs)
-    held = {}
-    for v, f in zip(vid[at].tolist(), face_of[at].tolist()):
-        held.setdefault(v, set()).add(f)
-    rep = np.arange(len(U))
-
-    def root(v: int) -> int:
-        while rep[v] != v:
-            v = int(rep[v])
-        return v
-
-    for a, b in sorted(map(tuple, np.sort(pairs, axis=1).tolist())):
-        if held[a] & held[b]:
-            raise QmeshError(f"two face meshes put vertices {U[a].tolist()} and {U[b].tolist()} a "
-                             "round-off apart: the interface does not match")
-        ra, rb = root(a), root(b)
-        rep[max(ra, rb)] = min(ra, rb)
-    for v in np.unique(pairs).tolist():            # each merged vertex to its root
-        rep[v] = root(v)
-    keep = rep == np.arange(len(U))
+    """U and vid with each group of vertices a round-off apart made one (the lowest index: the
+    first in coordinate order), when no face holds two of them; QmeshError when one face does
+    (a crack no merge mends)."""
+    n, faces = len(U), int(face_of.max()) + 1
+    holds = coo_matrix((np.ones(len(vid), bool), (vid, face_of)), shape=(n, faces)).tocsr()
+    shared = holds[pairs[:, 0]].multiply(holds[pairs[:, 1]]).getnnz(axis=1)
+    if shared.any():
+        a, b = pairs[np.flatnonzero(shared)[0]]
+        raise QmeshError(f"two face meshes put vertices {U[a].tolist()} and {U[b].tolist()} a "
+                         "round-off apart: the interface does not match")
+    near = coo_matrix((np.ones(len(pairs), bool), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    _, group = connected_components(near, directed=False)
+    first = np.full(group.max() + 1, n)
+    np.minimum.at(first, group, np.arange(n))
+    rep = first[group]
+    keep = rep == np.arange(n)
     return U[keep], (np.cumsum(keep) - 1)[rep[vid]]
