@@ -328,7 +328,8 @@ class TensorField:
         field._cache = PointCache(components, capacity=0)       # counted, not kept
         field._components = field._cache
         field._forms = forms
-        field._line = sides.step_line(forms)
+        field._line = sides.step_line(forms, lambda X, Y, q: _check_components(
+            X, Y, q[:, 0], q[:, 1], q[:, 1], q[:, 2], label))
         if constant is not None:
             field._constant = np.array(constant, dtype=float)
         return field

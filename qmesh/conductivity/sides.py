@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass
+from typing import Callable
 import numpy as np
 from numpy.typing import NDArray
 
@@ -113,11 +114,19 @@ class StepLine:
     line: Line
     below: tuple[tuple, ...]
     above: tuple[tuple, ...]
+    check: Callable[[Array, Array, Array], Array] | None = None
+    """The field's check of components at points (X, Y, q (n, 3)) → q, refusing a point where Q
+    is not finite or not positive definite (as its own evaluation does)."""
 
     @functools.cached_property
     def values(self) -> tuple[_m.Evaluate, _m.Evaluate]:
-        """Each side's components at points (n, 2) → (n, 3)."""
-        return form_values(list(self.below)), form_values(list(self.above))
+        """Each side's components at points (n, 2) → (n, 3), checked."""
+        def checked(forms: tuple[tuple, ...]) -> _m.Evaluate:
+            raw = form_values(list(forms))
+            if self.check is None:
+                return raw
+            return lambda P: self.check(P[:, 0], P[:, 1], raw(P))
+        return checked(self.below), checked(self.above)
 
     @functools.cached_property
     def bounds(self) -> tuple[_m.Bound, _m.Bound]:
@@ -248,9 +257,10 @@ def _area(A: Array, B: Array, C: Array) -> Array:
     return 0.5 * ((B[:, 0] - A[:, 0]) * (C[:, 1] - A[:, 1]) - (B[:, 1] - A[:, 1]) * (C[:, 0] - A[:, 0]))
 
 
-def step_line(forms: list[tuple] | None) -> StepLine | None:
+def step_line(forms: list[tuple] | None,
+              check: Callable[[Array, Array, Array], Array] | None = None) -> StepLine | None:
     """The forms' `StepLine` when their recognised jumps all lie across one affine line, else
-    None (no jump, a curved jump line, or two lines)."""
+    None (no jump, a curved jump line, or two lines); `check` its values (`StepLine.check`)."""
     if not forms:
         return None
     lines: set = set()
@@ -260,7 +270,7 @@ def step_line(forms: list[tuple] | None) -> StepLine | None:
         return None
     line = lines.pop()
     return StepLine(line, tuple(_side(f, line, False) for f in forms),
-                    tuple(_side(f, line, True) for f in forms))
+                    tuple(_side(f, line, True) for f in forms), check)
 
 
 def side_means(line: StepLine, A: Array, B: Array, C: Array, *, rtol: float, max_depth: int,

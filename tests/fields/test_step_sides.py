@@ -93,3 +93,12 @@ def test_a_mean_across_a_random_line_is_within_its_bound(phi, offset, seed, size
     assert np.all(_norms(np.asarray(Q) - exact) <= F.enclosure_errors(P, T) + room)
     Q, err = F.means_with_error(P, T)
     assert np.all(_norms(np.asarray(Q) - exact) <= err + room)
+
+
+def test_a_side_s_values_are_checked_as_the_field_s_own():
+    """The sides are evaluated from their own forms: a side where Q is not positive definite is
+    refused, naming the point, as the field's evaluation refuses it."""
+    F = qmesh.TensorField.from_expressions("1 + 2*abs(x - 0.5)/(x - 0.5)", 0, 1)
+    P = np.array([[0.45, 0.1], [0.55, 0.1], [0.5, 0.2]])
+    with pytest.raises(qmesh.QmeshError, match="not positive definite at"):
+        F.means_with_error(P, [[0, 1, 2]])
