@@ -160,7 +160,8 @@ class StepLine:
         U = np.stack([self.u(A), self.u(B), self.u(C)], axis=1)
         far = np.max(np.abs(V), axis=1)
         slop = self._slop(far)
-        crossed = (U.min(axis=1) < 0) & (U.max(axis=1) > 0)
+        whole = np.abs(_area(A, B, C))
+        crossed = (U.min(axis=1) < 0) & (U.max(axis=1) > 0) & (whole > 0)   # a flat one: whole
         pos = U > 0
         lone = np.where(pos.sum(axis=1) == 1, np.argmax(pos, axis=1), np.argmin(pos, axis=1))
         r = np.arange(k)[:, None]
@@ -199,9 +200,9 @@ class StepLine:
         gradient = float(np.hypot(self.line[0], self.line[1])) * (1.0 - 1e-15)
         strip = 2.0 * eta / gradient * edges.max(axis=1)
         sliver = np.where(crossed, 16.0 * EPS * far.max(axis=1) * edges.sum(axis=1), 0.0)
-        whole = np.abs(_area(A, B, C)) * (1.0 - 1e-14)
-        with np.errstate(all="ignore"):
-            share = np.where(strip + sliver > 0, (strip + sliver) / whole * (1.0 + 1e-10), 0.0)
+        with np.errstate(all="ignore"):      # a flat triangle weighs nothing in the stiffness
+            share = np.where((strip + sliver > 0) & (whole > 0),
+                             (strip + sliver) / (whole * (1.0 - 1e-14)) * (1.0 + 1e-10), 0.0)
         return Pieces(SA, SB, SC, owner, side, weight, share)
 
     def stray(self, A: Array, B: Array, C: Array, share: Array) -> Array:

@@ -102,3 +102,14 @@ def test_a_side_s_values_are_checked_as_the_field_s_own():
     P = np.array([[0.45, 0.1], [0.55, 0.1], [0.5, 0.2]])
     with pytest.raises(qmesh.QmeshError, match="not positive definite at"):
         F.means_with_error(P, [[0, 1, 2]])
+
+
+def test_a_flat_triangle_on_the_line_keeps_a_finite_mean_and_bound():
+    """A triangle of no area across the line (a repair's candidate can be one): its mean is a
+    side's, its bound finite, where a cut would leave it no piece."""
+    F = qmesh.TensorField.from_expressions("2 + abs(x - 0.5)/(x - 0.5)", 0, 1)
+    P = np.array([[0.4, 0.1], [0.6, 0.1], [0.5, 0.1]])
+    Q, err = F.means_with_error(P, [[0, 1, 2]])
+    assert np.isfinite(err[0]) and np.all(np.isfinite(Q))
+    assert np.asarray(Q)[0, 0, 0] in (1.0, 3.0)
+    assert np.isfinite(F.enclosure_errors(P, [[0, 1, 2]])[0])
