@@ -83,8 +83,7 @@ def main(argv=None) -> None:
     report_page.add_option(ap)
     args = ap.parse_args(argv)
     rng = np.random.default_rng(args.seed)
-    cases = [hf.fooled_jump(), hf.diagonal_jump()] + [hf.draw(kind, rng, f"{kind} {d + 1}")
-                                                      for kind in hf.KINDS for d in range(args.draws)]
+    cases = [hf.fooled_jump(), hf.diagonal_jump()] + hf.drawn(rng, args.draws)
     with report_page.capture() as out:
         rows, verdicts, refused = [], [], 0
         for case in cases:

@@ -365,3 +365,52 @@ def _build(text: str, form: tuple) -> Expression:
         return np.stack([np.column_stack([hxx, hxy]), np.column_stack([hxy, hyy])], axis=1)
 
     return Expression(text, s_fn, grad_fn, hess_fn, H)
+
+
+# --------------------------------------------------------------------------- checked forms
+
+_POINT_OPS = {"+": np.add, "-": np.subtract, "*": np.multiply, "/": np.divide}
+
+
+def form_values(forms: list[tuple]) -> Callable[[np.ndarray], np.ndarray]:
+    """The checked forms' values at points (n, 2) → (n, len(forms)), by a walk of the forms
+    themselves (no SymPy: `sides.StepLine` evaluates forms it made, a jump replaced by one
+    side's value), with `geometry.portable`'s functions and powers, so the same bits on every
+    CPU; a subexpression the forms share is evaluated once. The values are not checked (NaN or
+    inf where a form is undefined)."""
+    from qmesh.geometry import portable
+
+    calls = {"exp": portable.exp, "log": portable.log, "log1p": portable.log1p, "sqrt": np.sqrt,
+             "sin": np.sin, "cos": np.cos, "tan": portable.tan, "sinh": portable.sinh,
+             "cosh": portable.cosh, "tanh": portable.tanh, "arctan": portable.arctan,
+             "atan": portable.arctan, "abs": np.abs}
+
+    def values(P: np.ndarray) -> np.ndarray:
+        X, Y = P[:, 0], P[:, 1]
+        seen: dict[tuple, np.ndarray] = {}
+
+        def walk(f: tuple) -> np.ndarray:
+            if f not in seen:
+                kind = f[0]
+                if kind == "num":
+                    v = np.full(X.shape, f[1])
+                elif kind == "var":
+                    v = X if f[1] == "x" else Y
+                elif kind == "neg":
+                    v = -walk(f[1])
+                elif kind == "call":
+                    v = calls[f[1]](walk(f[2]))
+                elif kind == "direction":         # atan(u/v): a polar angle mod π
+                    v = portable.arctan(walk(f[1]) / walk(f[2]))
+                elif kind == "**":
+                    e = f[2][1] if f[2][0] == "num" else walk(f[2])
+                    v = portable.power(walk(f[1]), e)
+                else:
+                    v = _POINT_OPS[kind](walk(f[1]), walk(f[2]))
+                seen[f] = v
+            return seen[f]
+
+        with np.errstate(all="ignore"):
+            return np.stack([walk(f) for f in forms], axis=1)
+
+    return values

@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from qmesh.conductivity import means as _m
+from qmesh.conductivity import sides
 from qmesh.conductivity.expression import check, function_of_xy
 from qmesh.conductivity.intervals import principal_forms
 from qmesh.conductivity.point_cache import Evaluations, PointCache
@@ -198,6 +199,7 @@ class TensorField:
         self.resolution = resolution
         self._forms: list[tuple] | None = None
         self._bound: _m.Bound | None = None
+        self._line: sides.StepLine | None = None
         self._f = f
         self.label = label if label is not None else f"Q = {getattr(f, '__name__', type(f).__name__)}(x, y)"
         self.is_raster = False
@@ -298,7 +300,7 @@ class TensorField:
         field.is_raster = True
         field.bounds = (np.array([X[0], Y[0]]), np.array([X[-1], Y[-1]]))
         field.resolution = None
-        field._forms, field._bound = None, None
+        field._forms, field._bound, field._line = None, None, None
         field._cache = None
         field._components = field._raster_components
         field._constant = None
@@ -326,6 +328,8 @@ class TensorField:
         field._cache = PointCache(components, capacity=0)       # counted, not kept
         field._components = field._cache
         field._forms = forms
+        field._line = sides.step_line(forms, lambda X, Y, q: _check_components(
+            X, Y, q[:, 0], q[:, 1], q[:, 1], q[:, 2], label))
         if constant is not None:
             field._constant = np.array(constant, dtype=float)
         return field
@@ -468,10 +472,36 @@ class TensorField:
         if bound is not None and bound_rtol is not None:
             btol = np.asarray(bound_rtol, dtype=float)
             btol = btol.reshape(M) if btol.ndim else float(btol)
-        q, err = _m.adaptive_means(self._evaluate, P[T[:, 0]], P[T[:, 1]], P[T[:, 2]],
-                                   rtol=rtol, max_depth=max_depth, bound=bound, bound_rtol=btol,
-                                   resolution=self.resolution)
+        A, B, C = P[T[:, 0]], P[T[:, 1]], P[T[:, 2]]
+        near = self._near_line(A, B, C)
+        if near is None:
+            q, err = _m.adaptive_means(self._evaluate, A, B, C, rtol=rtol, max_depth=max_depth,
+                                       bound=bound, bound_rtol=btol, resolution=self.resolution)
+            return _m.full_tensors(q), err
+        q, err = np.empty((M, 3)), np.empty(M)
+        for at, by_sides in ((np.flatnonzero(~near), False), (np.flatnonzero(near), True)):
+            if not len(at):
+                continue
+            b = btol if np.ndim(btol) == 0 else btol[at]
+            if by_sides:
+                assert self._line is not None
+                q[at], err[at] = sides.side_means(self._line, A[at], B[at], C[at], rtol=rtol,
+                                                  max_depth=max_depth,
+                                                  bound_rtol=None if bound is None else b)
+            else:
+                q[at], err[at] = _m.adaptive_means(self._evaluate, A[at], B[at], C[at], rtol=rtol,
+                                                   max_depth=max_depth, bound=bound, bound_rtol=b,
+                                                   resolution=self.resolution)
         return _m.full_tensors(q), err
+
+    def _near_line(self, A: Array, B: Array, C: Array) -> NDArray[np.bool_] | None:
+        """Which triangles a text's straight jump line meets the box of (`sides.StepLine.near`:
+        their means are taken side by side); None when it meets none or the text has no such
+        line."""
+        if self._line is None or not len(A):
+            return None
+        near = self._line.near(A, B, C)
+        return near if near.any() else None
 
     def rule_means(self, points: ArrayLike, triangles: ArrayLike) -> Array:
         """The degree-5 rule's average of Q over each triangle (M, 3) of points (n, 2) →
@@ -482,7 +512,13 @@ class TensorField:
         T = _triangles(triangles, len(P))
         if self.means_exact or not len(T):
             return self.means_with_error(P, T)[0]
-        return _m.full_tensors(_m.rule_averages(self._evaluate, P[T[:, 0]], P[T[:, 1]], P[T[:, 2]]))
+        A, B, C = P[T[:, 0]], P[T[:, 1]], P[T[:, 2]]
+        q = _m.rule_averages(self._evaluate, A, B, C)
+        near = self._near_line(A, B, C)
+        if near is not None:
+            assert self._line is not None
+            q[near] = sides.side_rule(self._line, A[near], B[near], C[near])
+        return _m.full_tensors(q)
 
     def _enclosure(self) -> _m.Bound | None:
         """A text's `means.enclosure_bound`, built once; None for other fields."""
@@ -505,11 +541,17 @@ class TensorField:
         P = _points(points)
         T = _triangles(triangles, len(P))
         out = np.empty(len(T))
+        A, B, C = P[T[:, 0]], P[T[:, 1]], P[T[:, 2]]
+        near = self._near_line(A, B, C)
+        rest = np.arange(len(T))
+        if near is not None:             # side by side, as `means_with_error` took them
+            assert self._line is not None
+            out[near] = sides.side_errors(self._line, A[near], B[near], C[near])
+            rest = np.flatnonzero(~near)
         step = _m.CHUNK // 4
-        for s in range(0, len(T), step):
-            t = T[s:s + step]
-            out[s:s + step] = _m.children_bound(bound, *_m._children(P[t[:, 0]], P[t[:, 1]],
-                                                                      P[t[:, 2]]))
+        for s in range(0, len(rest), step):
+            t = rest[s:s + step]
+            out[t] = _m.children_bound(bound, *_m._children(A[t], B[t], C[t]))
         return out
 
     @property

@@ -27,7 +27,8 @@ valid for the mean-value inequality since `abs` is Lipschitz; `c·abs(u)/u` and 
 sign, a jump) are recognised: their value lies in c·[−1, 1] and their derivatives are unbounded
 across u = 0; so are steps spelled (α·abs(u) + β·u)/(m·u) for numbers α, β, m (a Heaviside
 (u + abs(u))/(2*u); abs(u) also as sqrt(u**2)), whose value lies between the two sides'
-(`_step_of`). A principal field's angle matters modulo 180° only: an arctangent of a quotient
+(`_step_of`); where u is affine the jump's triangles are not enclosed across it but cut along
+it (`sides`). A principal field's angle matters modulo 180° only: an arctangent of a quotient
 that it holds as a whole number of half turns (`180/pi*atan(y/x)`, a polar angle as a direction)
 is enclosed on each box by the branch whose quotient is bounded there (`principal_forms`).
 """

@@ -140,8 +140,8 @@ tolerance: it proves each to what its edges need (`fields.certify`), most with t
 its 4 children alone."""
 BOUND_DEPTH = 8
 """At most this many levels of subdivision for the bound (those of the rule, `MAX_DEPTH`): a jump
-line crossing a triangle keeps about 2^L of its 4^L pieces at level L, so what the line's pieces
-leave unresolved falls 2× a level (1/256 of the triangle at 8; each level more doubles the work
+line crossing a triangle (a curved one: a straight one is cut along, `sides`) keeps about 2^L of
+its 4^L pieces at level L, so what the line's pieces leave unresolved falls 2× a level (1/256 of the triangle at 8; each level more doubles the work
 along the line, which the repair pays on every triangle it tries there). A piece still unbounded
 there touches a point where the text divides by zero (FVCA5 test 5's rotation centre, where Q has
 no limit but stays bounded): it adds the rule's estimate instead, the only part of a text's bound

@@ -175,6 +175,12 @@ def draw(kind: str, rng: np.random.Generator, name: str | None = None) -> Case:
     raise ValueError(kind)
 
 
+def drawn(rng: np.random.Generator, draws: int = 2) -> list[Case]:
+    """`draws` cases of each kind, named "<kind> 1", "<kind> 2", …, drawn in KINDS' order (the
+    cases of benchmarks/cert_truth.py for a seed's `rng`)."""
+    return [draw(kind, rng, f"{kind} {d + 1}") for kind in KINDS for d in range(draws)]
+
+
 def fooled_jump() -> Case:
     """The jump a sampled rule certified falsely: 0° above x + 0.3 y = 0.537, 90° below."""
     line = (1.0, 0.3, 0.537)
