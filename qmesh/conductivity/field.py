@@ -482,7 +482,7 @@ class TensorField:
         for at, by_sides in ((np.flatnonzero(~near), False), (np.flatnonzero(near), True)):
             if not len(at):
                 continue
-            b = btol if np.ndim(btol) == 0 else btol[at]
+            b = btol[at] if isinstance(btol, np.ndarray) else btol
             if by_sides:
                 assert self._line is not None
                 q[at], err[at] = sides.side_means(self._line, A[at], B[at], C[at], rtol=rtol,
