@@ -20,7 +20,7 @@ from typing import Callable
 
 import numpy as np
 
-from qmesh.conductivity.intervals import _sign_of, _step_of
+from qmesh.conductivity.intervals import sign_of, step_of
 from qmesh.errors import QmeshError
 
 MAX_LENGTH = 500    # characters
@@ -190,7 +190,7 @@ _FLOAT_OPS = {"+": lambda a, b: a + b, "-": lambda a, b: a - b, "*": lambda a, b
 def _to_sympy(form: tuple, jumps: bool = False):
     """The checked form as a SymPy expression in the real symbols x, y: (expression, x, y).
 
-    `jumps`: a jump the enclosures take as one (`intervals._sign_of`, `intervals._step_of`:
+    `jumps`: a jump the enclosures take as one (`intervals.sign_of`, `intervals.step_of`:
     c·abs(u)/u, a step (α·abs(u) + β·u)/(m·u)) made c·sign(u) and a Piecewise of its two sides,
     the mean of the two on u = 0: a field's value there, where the quotient is 0/0, is then
     finite (a sample on the jump line does not refuse the field; a line has no area, so no
@@ -208,11 +208,11 @@ def _to_sympy(form: tuple, jumps: bool = False):
             return symbols[f[1]]
         if kind == "neg":
             return -to_sympy(f[1])
-        sign = _sign_of(f) if jumps else None
+        sign = sign_of(f) if jumps else None
         if sign is not None:
             s = sp.sign(to_sympy(sign[0]))
             return s if sign[1] is None else to_sympy(sign[1]) * s
-        step = _step_of(f) if jumps else None
+        step = step_of(f) if jumps else None
         if step is not None:
             u, below, above = to_sympy(step[0]), step[1], step[2]
             return sp.Piecewise((sp.Float(below), u < 0), (sp.Float(above), u > 0),

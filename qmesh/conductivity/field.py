@@ -108,6 +108,11 @@ def _check_components(X: Array, Y: Array, q11: Array, q12: Array, q21: Array, q2
     return q
 
 
+def _at(tol: float | Array, k: NDArray) -> float | Array:
+    """A tolerance given per triangle (an array) taken at the triangles k; one number as is."""
+    return tol[k] if isinstance(tol, np.ndarray) else tol
+
+
 def _points(P: ArrayLike, name: str = "points") -> Array:
     return checks.real_array(P, name, (None, 2))
 
@@ -473,35 +478,34 @@ class TensorField:
             btol = np.asarray(bound_rtol, dtype=float)
             btol = btol.reshape(M) if btol.ndim else float(btol)
         A, B, C = P[T[:, 0]], P[T[:, 1]], P[T[:, 2]]
-        near = self._near_line(A, B, C)
-        if near is None:
+        hit = self._near_line(A, B, C)
+        if hit is None:
             q, err = _m.adaptive_means(self._evaluate, A, B, C, rtol=rtol, max_depth=max_depth,
                                        bound=bound, bound_rtol=btol, resolution=self.resolution)
             return _m.full_tensors(q), err
+        line, near = hit
+        far = np.flatnonzero(~near)
         q, err = np.empty((M, 3)), np.empty(M)
-        for at, by_sides in ((np.flatnonzero(~near), False), (np.flatnonzero(near), True)):
-            if not len(at):
-                continue
-            b = btol[at] if isinstance(btol, np.ndarray) else btol
-            if by_sides:
-                assert self._line is not None
-                q[at], err[at] = sides.side_means(self._line, A[at], B[at], C[at], rtol=rtol,
-                                                  max_depth=max_depth,
-                                                  bound_rtol=None if bound is None else b)
-            else:
-                q[at], err[at] = _m.adaptive_means(self._evaluate, A[at], B[at], C[at], rtol=rtol,
-                                                   max_depth=max_depth, bound=bound, bound_rtol=b,
-                                                   resolution=self.resolution)
+        q[near], err[near] = sides.side_means(line, A[near], B[near], C[near], rtol=rtol,
+                                              max_depth=max_depth,
+                                              bound_rtol=None if bound is None else _at(btol, near))
+        if len(far):
+            q[far], err[far] = _m.adaptive_means(self._evaluate, A[far], B[far], C[far], rtol=rtol,
+                                                 max_depth=max_depth, bound=bound,
+                                                 bound_rtol=_at(btol, far),
+                                                 resolution=self.resolution)
         return _m.full_tensors(q), err
 
-    def _near_line(self, A: Array, B: Array, C: Array) -> NDArray[np.bool_] | None:
-        """Which triangles a text's straight jump line meets the box of (`sides.StepLine.near`:
-        their means are taken side by side); None when it meets none or the text has no such
-        line."""
-        if self._line is None or not len(A):
+    def _near_line(self, A: Array, B: Array,
+                   C: Array) -> tuple[sides.StepLine, NDArray[np.bool_]] | None:
+        """A text's straight jump line and which triangles it meets the box of
+        (`sides.StepLine.near`: their means are taken side by side); None when it meets none or
+        the text has no such line."""
+        line = self._line
+        if line is None or not len(A):
             return None
-        near = self._line.near(A, B, C)
-        return near if near.any() else None
+        near = line.near(A, B, C)
+        return (line, near) if near.any() else None
 
     def rule_means(self, points: ArrayLike, triangles: ArrayLike) -> Array:
         """The degree-5 rule's average of Q over each triangle (M, 3) of points (n, 2) →
@@ -514,10 +518,10 @@ class TensorField:
             return self.means_with_error(P, T)[0]
         A, B, C = P[T[:, 0]], P[T[:, 1]], P[T[:, 2]]
         q = _m.rule_averages(self._evaluate, A, B, C)
-        near = self._near_line(A, B, C)
-        if near is not None:
-            assert self._line is not None
-            q[near] = sides.side_rule(self._line, A[near], B[near], C[near])
+        hit = self._near_line(A, B, C)
+        if hit is not None:
+            line, near = hit
+            q[near] = sides.side_rule(line, A[near], B[near], C[near])
         return _m.full_tensors(q)
 
     def _enclosure(self) -> _m.Bound | None:
@@ -541,17 +545,18 @@ class TensorField:
         P = _points(points)
         T = _triangles(triangles, len(P))
         out = np.empty(len(T))
-        A, B, C = P[T[:, 0]], P[T[:, 1]], P[T[:, 2]]
-        near = self._near_line(A, B, C)
+        hit = self._near_line(P[T[:, 0]], P[T[:, 1]], P[T[:, 2]])
         rest = np.arange(len(T))
-        if near is not None:             # side by side, as `means_with_error` took them
-            assert self._line is not None
-            out[near] = sides.side_errors(self._line, A[near], B[near], C[near])
+        if hit is not None:              # side by side, as `means_with_error` took them
+            line, near = hit
+            t = T[near]
+            out[near] = sides.side_errors(line, P[t[:, 0]], P[t[:, 1]], P[t[:, 2]])
             rest = np.flatnonzero(~near)
         step = _m.CHUNK // 4
         for s in range(0, len(rest), step):
-            t = rest[s:s + step]
-            out[t] = _m.children_bound(bound, *_m._children(A[t], B[t], C[t]))
+            k = rest[s:s + step]
+            t = T[k]
+            out[k] = _m.children_bound(bound, *_m._children(P[t[:, 0]], P[t[:, 1]], P[t[:, 2]]))
         return out
 
     @property

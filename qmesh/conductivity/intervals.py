@@ -27,7 +27,7 @@ valid for the mean-value inequality since `abs` is Lipschitz; `c·abs(u)/u` and 
 sign, a jump) are recognised: their value lies in c·[−1, 1] and their derivatives are unbounded
 across u = 0; so are steps spelled (α·abs(u) + β·u)/(m·u) for numbers α, β, m (a Heaviside
 (u + abs(u))/(2*u); abs(u) also as sqrt(u**2)), whose value lies between the two sides'
-(`_step_of`); where u is affine the jump's triangles are not enclosed across it but cut along
+(`step_of`); where u is affine the jump's triangles are not enclosed across it but cut along
 it (`sides`). A principal field's angle matters modulo 180° only: an arctangent of a quotient
 that it holds as a whole number of half turns (`180/pi*atan(y/x)`, a polar angle as a direction)
 is enclosed on each box by the branch whose quotient is bounded there (`principal_forms`).
@@ -344,7 +344,7 @@ def _slopes(name: str, u: Interval, value: Interval, order: int = ORDER,
     return [d1, d2, d3][:order]
 
 
-def _sign_of(f: tuple) -> tuple | None:
+def sign_of(f: tuple) -> tuple | None:
     """(u, c) when f is c·abs(u)/u or c·u/abs(u) (c·sign(u): a jump across u = 0; c = None for
     1), else None."""
     if f[0] != "/":
@@ -361,10 +361,10 @@ def _sign_of(f: tuple) -> tuple | None:
     return None
 
 
-def _step_of(f: tuple) -> tuple | None:
+def step_of(f: tuple) -> tuple | None:
     """(u, a, b) when f is (α·abs(u) + β·u) / (m·u) for numbers α ≠ 0, β, m (in any order of
     sums and factors): a step, a = (β − α)/m where u < 0 and b = (α + β)/m where u > 0 — the
-    Heaviside (u + abs(u))/(2*u), abs(u)/(2*u); else None (`_sign_of` takes c·abs(u)/u)."""
+    Heaviside (u + abs(u))/(2*u), abs(u)/(2*u); else None (`sign_of` takes c·abs(u)/u)."""
     if f[0] != "/":
         return None
     u, m = f[2], 1.0
@@ -535,7 +535,7 @@ def evaluate_all(forms: list[tuple], X: Interval, Y: Interval, order: int = ORDE
             return ((X, one, None) if f[1] == "x" else (Y, None, one)) + zeros
         if kind == "neg":
             return tuple(neg(a) for a in walk(f[1]))
-        sign = _sign_of(f)
+        sign = sign_of(f)
         if sign is not None:
             v = walk(sign[0])[0]
             z = _contains_zero(v)
@@ -543,7 +543,7 @@ def evaluate_all(forms: list[tuple], X: Interval, Y: Interval, order: int = ORDE
             jump = (np.where(z, -INF, 0.0), np.where(z, INF, 0.0))
             s = (val,) + (jump,) * (size - 1)
             return s if sign[1] is None else _times(walk(sign[1]), s)
-        step = _step_of(f)
+        step = step_of(f)
         if step is not None:                         # a where u < 0, b where u > 0
             v = walk(step[0])[0]
             z = _contains_zero(v)

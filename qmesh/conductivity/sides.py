@@ -1,6 +1,6 @@
 """A text's jump across one straight line, integrated side by side.
 
-The enclosures take a jump they recognise (`intervals._sign_of`: c·abs(u)/u; `_step_of`: a step
+The enclosures take a jump they recognise (`intervals.sign_of`: c·abs(u)/u; `step_of`: a step
 (α·abs(u) + β·u)/(m·u)) as the hull of its two sides with unbounded derivatives on every piece
 the line u = 0 crosses: the refinement keeps about 2^-L of the jump in the bound at level L,
 whatever the triangle's size, so the pieces along a strong step are never proven tight. Where u
@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 
 from qmesh.conductivity import means as _m
 from qmesh.conductivity.expression import form_values
-from qmesh.conductivity.intervals import _sign_of, _step_of
+from qmesh.conductivity.intervals import sign_of, step_of
 
 Array = NDArray[np.float64]
 Line = tuple[float, float, float]
@@ -69,10 +69,10 @@ def affine(f: tuple) -> Line | None:
 
 def _jump_argument(f: tuple) -> tuple | None:
     """u when f is a jump the enclosures recognise (as `intervals.evaluate_all` tries them)."""
-    sign = _sign_of(f)
+    sign = sign_of(f)
     if sign is not None:
         return sign[0]
-    step = _step_of(f)
+    step = step_of(f)
     return None if step is None else step[0]
 
 
@@ -93,11 +93,11 @@ def _side(f: tuple, line: Line, above: bool) -> tuple:
     kind = f[0]
     if kind in ("num", "var"):
         return f
-    sign = _sign_of(f)
+    sign = sign_of(f)
     if sign is not None and affine(sign[0]) == line:
         v = ("num", 1.0 if above else -1.0)
         return v if sign[1] is None else ("*", _side(sign[1], line, above), v)
-    step = _step_of(f)
+    step = step_of(f)
     if step is not None and affine(step[0]) == line:
         return ("num", step[2] if above else step[1])
     if kind == "call" and f[1] == "abs" and affine(f[2]) == line:

@@ -1,5 +1,5 @@
 """A step spelled as a quotient — the Heaviside (u + abs(u))/(2*u), abs(u)/(2*u),
-sqrt(u**2)/u — is enclosed as the step it is (`intervals._step_of`): its value between the two
+sqrt(u**2)/u — is enclosed as the step it is (`intervals.step_of`): its value between the two
 sides' across u = 0, its own side's elsewhere. Enclosed as a quotient by an interval holding 0,
 its value was unbounded on every piece the jump crosses: the proof fell back on the rule's
 samples there, and took several times as long."""
